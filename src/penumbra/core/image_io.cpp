@@ -1,0 +1,162 @@
+#include "penumbra/core/image_io.h"
+
+#include <png.h>
+
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <vector>
+
+#include "penumbra/core/error.h"
+
+namespace penumbra {
+namespace {
+
+std::string extension_of(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+struct FileCloser {
+  void operator()(FILE* f) const { if (f) std::fclose(f); }
+};
+
+void write_png_file(const std::string& path, const Image& image) {
+  std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "wb"));
+  if (!file) throw Error("cannot open for writing: " + std::string(std::strerror(errno)));
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!png || !info) {
+    png_destroy_write_struct(&png, &info);
+    throw Error("libpng could not start");
+  }
+  std::vector<unsigned char> row(static_cast<std::size_t>(image.width()) * 3);
+  if (setjmp(png_jmpbuf(png))) {
+    png_destroy_write_struct(&png, &info);
+    throw Error("libpng failed while writing");
+  }
+  png_init_io(png, file.get());
+  png_set_IHDR(png, info, static_cast<png_uint_32>(image.width()), static_cast<png_uint_32>(image.height()), 8,
+               PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+  png_write_info(png, info);
+  for (int y = 0; y < image.height(); ++y) {
+    for (int x = 0; x < image.width(); ++x)
+      for (int c = 0; c < 3; ++c)
+        row[static_cast<std::size_t>(x) * 3 + c] =
+            static_cast<unsigned char>(std::lround(linear_to_srgb(image.at(x, y)[c]) * 255.0f));
+    png_write_row(png, row.data());
+  }
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+  if (std::fflush(file.get()) != 0) throw Error("write failed: " + std::string(std::strerror(errno)));
+}
+
+Image read_png_file(const std::string& path) {
+  std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
+  if (!file) throw Error("cannot open: " + std::string(std::strerror(errno)));
+  png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!png || !info) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    throw Error("libpng could not start");
+  }
+  std::vector<unsigned char> data;
+  if (setjmp(png_jmpbuf(png))) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    throw Error("not a valid PNG file");
+  }
+  png_set_user_limits(png, 1u << 16, 1u << 16);
+  png_init_io(png, file.get());
+  png_read_info(png, info);
+  png_set_strip_16(png);
+  png_set_palette_to_rgb(png);
+  png_set_expand_gray_1_2_4_to_8(png);
+  png_set_gray_to_rgb(png);
+  png_set_strip_alpha(png);
+  png_read_update_info(png, info);
+  const int w = static_cast<int>(png_get_image_width(png, info));
+  const int h = static_cast<int>(png_get_image_height(png, info));
+  const std::size_t rowbytes = png_get_rowbytes(png, info);
+  if (rowbytes != static_cast<std::size_t>(w) * 3) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    throw Error("unsupported PNG layout");
+  }
+  data.resize(rowbytes * static_cast<std::size_t>(h));
+  std::vector<png_bytep> rows(static_cast<std::size_t>(h));
+  for (int y = 0; y < h; ++y) rows[static_cast<std::size_t>(y)] = data.data() + rowbytes * static_cast<std::size_t>(y);
+  png_read_image(png, rows.data());
+  png_destroy_read_struct(&png, &info, nullptr);
+  Image img(w, h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c)
+        img.at(x, y)[c] = srgb_to_linear(static_cast<float>(data[rowbytes * y + static_cast<std::size_t>(x) * 3 + c]) / 255.0f);
+  return img;
+}
+
+// PFM: "PF\n<w> <h>\n<scale>\n" then float RGB rows bottom-to-top; negative scale = little-endian.
+void write_pfm_file(const std::string& path, const Image& image) {
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw Error("cannot open for writing: " + std::string(std::strerror(errno)));
+  out << "PF\n" << image.width() << " " << image.height() << "\n-1.0\n";
+  for (int y = image.height() - 1; y >= 0; --y)
+    out.write(reinterpret_cast<const char*>(&image.at(0, y)), static_cast<std::streamsize>(sizeof(Rgb)) * image.width());
+  out.flush();
+  if (!out) throw Error("write failed");
+}
+
+Image read_pfm_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot open: " + std::string(std::strerror(errno)));
+  std::string magic;
+  long long w = 0, h = 0;
+  double scale = 0;
+  in >> magic >> w >> h >> scale;
+  if (!in || magic != "PF") throw Error("not a colour PFM file (expected magic 'PF')");
+  if (w <= 0 || h <= 0 || w > 65536 || h > 65536) throw Error("PFM size out of range: " + std::to_string(w) + "x" + std::to_string(h));
+  if (scale >= 0) throw Error("big-endian PFM is not supported (scale must be negative)");
+  in.get();
+  Image img(static_cast<int>(w), static_cast<int>(h));
+  for (int y = img.height() - 1; y >= 0; --y)
+    in.read(reinterpret_cast<char*>(&img.at(0, y)), static_cast<std::streamsize>(sizeof(Rgb)) * img.width());
+  if (!in) throw Error("PFM file is truncated");
+  return img;
+}
+
+}  // namespace
+
+void write_image(const std::string& path, const Image& image) {
+  with_context(path, [&] {
+    const std::string ext = extension_of(path);
+    if (ext != ".png" && ext != ".pfm")
+      throw Error("unknown image extension '" + ext + "' (expected .png or .pfm)");
+    if (image.width() <= 0 || image.height() <= 0) throw Error("image is empty");
+    const std::filesystem::path target(path);
+    const std::filesystem::path tmp = target.parent_path() / ("." + target.filename().string() + ".partial");
+    try {
+      if (ext == ".png") write_png_file(tmp.string(), image);
+      else write_pfm_file(tmp.string(), image);
+      std::filesystem::rename(tmp, target);
+    } catch (...) {
+      std::error_code ec;
+      std::filesystem::remove(tmp, ec);
+      throw;
+    }
+  });
+}
+
+Image read_image(const std::string& path) {
+  return with_context(path, [&] {
+    const std::string ext = extension_of(path);
+    if (ext == ".png") return read_png_file(path);
+    if (ext == ".pfm") return read_pfm_file(path);
+    throw Error("unknown image extension '" + ext + "' (expected .png or .pfm)");
+  });
+}
+
+}  // namespace penumbra

@@ -1,0 +1,14 @@
+// Image files: 8-bit sRGB PNG, or linear float PFM, chosen by the file extension.
+// Writes go to a temporary file that is renamed into place, so a failure never leaves a partial image.
+#pragma once
+
+#include <string>
+
+#include "penumbra/core/image.h"
+
+namespace penumbra {
+
+void write_image(const std::string& path, const Image& image);  // .png or .pfm
+Image read_image(const std::string& path);                      // .png (8/16-bit, gray/RGB/A) or .pfm
+
+}  // namespace penumbra

@@ -1,0 +1,136 @@
+#include "penumbra/data/volume.h"
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "penumbra/core/error.h"
+
+namespace penumbra {
+
+std::string to_string(ScalarType type) {
+  switch (type) {
+    case ScalarType::UInt8: return "uint8";
+    case ScalarType::Int16: return "int16";
+    case ScalarType::UInt16: return "uint16";
+    case ScalarType::Float32: return "float32";
+  }
+  return "?";
+}
+
+ScalarType scalar_type_from_string(const std::string& name) {
+  if (name == "uint8") return ScalarType::UInt8;
+  if (name == "int16") return ScalarType::Int16;
+  if (name == "uint16") return ScalarType::UInt16;
+  if (name == "float32") return ScalarType::Float32;
+  throw Error("unknown voxel type '" + name + "' (expected uint8, int16, uint16 or float32)");
+}
+
+std::size_t scalar_size(ScalarType type) {
+  switch (type) {
+    case ScalarType::UInt8: return 1;
+    case ScalarType::Int16:
+    case ScalarType::UInt16: return 2;
+    case ScalarType::Float32: return 4;
+  }
+  return 0;
+}
+
+std::size_t checked_voxel_count(const std::array<std::int64_t, 3>& dims) {
+  std::uint64_t count = 1;
+  for (int a = 0; a < 3; ++a) {
+    if (dims[a] <= 0)
+      throw Error("dimension " + std::to_string(a) + " is " + std::to_string(dims[a]) + " (expected a positive size)");
+    if (static_cast<std::uint64_t>(dims[a]) > kMaxVoxels || count > kMaxVoxels / static_cast<std::uint64_t>(dims[a]))
+      throw Error("dimensions " + std::to_string(dims[0]) + "x" + std::to_string(dims[1]) + "x" +
+                  std::to_string(dims[2]) + " are absurd (more than 2^34 voxels)");
+    count *= static_cast<std::uint64_t>(dims[a]);
+  }
+  return static_cast<std::size_t>(count);
+}
+
+Volume::Volume(ScalarType type, std::array<int, 3> dims, Vec3 spacing, Vec3 origin)
+    : type_(type), dims_(dims), spacing_(spacing), origin_(origin) {
+  const std::size_t count = checked_voxel_count({dims[0], dims[1], dims[2]});
+  for (int a = 0; a < 3; ++a)
+    if (!(spacing[a] > 0) || !std::isfinite(spacing[a]))
+      throw Error("spacing " + std::to_string(spacing[a]) + " on axis " + std::to_string(a) + " (expected a positive number)");
+  if (!is_finite(origin)) throw Error("origin is not finite");
+  inv_spacing_ = {1.0f / spacing.x, 1.0f / spacing.y, 1.0f / spacing.z};
+  bytes_.assign(count * scalar_size(type), std::byte{0});
+}
+
+Box3 Volume::bounds() const {
+  Box3 b;
+  b.extend(origin_);
+  b.extend(origin_ + Vec3{static_cast<float>(dims_[0] - 1) * spacing_.x, static_cast<float>(dims_[1] - 1) * spacing_.y,
+                          static_cast<float>(dims_[2] - 1) * spacing_.z});
+  return b;
+}
+
+void Volume::set_value(std::size_t idx, float v) {
+  switch (type_) {
+    case ScalarType::UInt8: data_as<std::uint8_t>()[idx] = static_cast<std::uint8_t>(std::lround(clamp(v, 0, 255))); break;
+    case ScalarType::Int16: data_as<std::int16_t>()[idx] = static_cast<std::int16_t>(std::lround(clamp(v, -32768, 32767))); break;
+    case ScalarType::UInt16: data_as<std::uint16_t>()[idx] = static_cast<std::uint16_t>(std::lround(clamp(v, 0, 65535))); break;
+    case ScalarType::Float32: data_as<float>()[idx] = v; break;
+  }
+}
+
+template <class T>
+float Volume::sample_typed(const Vec3& v) const {
+  const T* d = data_as<T>();
+  const float fx = clamp(v.x, 0.0f, static_cast<float>(dims_[0] - 1));
+  const float fy = clamp(v.y, 0.0f, static_cast<float>(dims_[1] - 1));
+  const float fz = clamp(v.z, 0.0f, static_cast<float>(dims_[2] - 1));
+  const int i = std::min(static_cast<int>(fx), std::max(dims_[0] - 2, 0));
+  const int j = std::min(static_cast<int>(fy), std::max(dims_[1] - 2, 0));
+  const int k = std::min(static_cast<int>(fz), std::max(dims_[2] - 2, 0));
+  const float tx = fx - static_cast<float>(i), ty = fy - static_cast<float>(j), tz = fz - static_cast<float>(k);
+  const std::size_t sx = dims_[0] > 1 ? 1 : 0;
+  const std::size_t sy = dims_[1] > 1 ? static_cast<std::size_t>(dims_[0]) : 0;
+  const std::size_t sz = dims_[2] > 1 ? static_cast<std::size_t>(dims_[0]) * dims_[1] : 0;
+  const std::size_t base = index(i, j, k);
+  const float c000 = static_cast<float>(d[base]), c100 = static_cast<float>(d[base + sx]);
+  const float c010 = static_cast<float>(d[base + sy]), c110 = static_cast<float>(d[base + sy + sx]);
+  const float c001 = static_cast<float>(d[base + sz]), c101 = static_cast<float>(d[base + sz + sx]);
+  const float c011 = static_cast<float>(d[base + sz + sy]), c111 = static_cast<float>(d[base + sz + sy + sx]);
+  const float c00 = c000 + (c100 - c000) * tx, c10 = c010 + (c110 - c010) * tx;
+  const float c01 = c001 + (c101 - c001) * tx, c11 = c011 + (c111 - c011) * tx;
+  const float c0 = c00 + (c10 - c00) * ty, c1 = c01 + (c11 - c01) * ty;
+  return c0 + (c1 - c0) * tz;
+}
+
+float Volume::sample_voxel(const Vec3& v) const {
+  switch (type_) {
+    case ScalarType::UInt8: return sample_typed<std::uint8_t>(v);
+    case ScalarType::Int16: return sample_typed<std::int16_t>(v);
+    case ScalarType::UInt16: return sample_typed<std::uint16_t>(v);
+    case ScalarType::Float32: return sample_typed<float>(v);
+  }
+  return 0;
+}
+
+Vec3 Volume::gradient(const Vec3& p) const {
+  const Vec3 v = to_voxel(p);
+  const float gx = sample_voxel({v.x + 1, v.y, v.z}) - sample_voxel({v.x - 1, v.y, v.z});
+  const float gy = sample_voxel({v.x, v.y + 1, v.z}) - sample_voxel({v.x, v.y - 1, v.z});
+  const float gz = sample_voxel({v.x, v.y, v.z + 1}) - sample_voxel({v.x, v.y, v.z - 1});
+  return {gx * 0.5f * inv_spacing_.x, gy * 0.5f * inv_spacing_.y, gz * 0.5f * inv_spacing_.z};
+}
+
+void Volume::recompute_range() {
+  float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
+  const std::size_t n = voxel_count();
+  for (std::size_t i = 0; i < n; ++i) {
+    const float v = value(i);
+    if (!std::isfinite(v))
+      throw Error("voxel " + std::to_string(i) + " is " + (std::isnan(v) ? "NaN" : "infinite") +
+                  " (expected finite values)");
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  range_ = {n ? lo : 0.0f, n ? hi : 0.0f};
+}
+
+}  // namespace penumbra

@@ -1,0 +1,89 @@
+// A scalar volume on a regular grid: voxels of uint8, int16, uint16 or float32 kept in their own type
+// (a CT stays 2 bytes a voxel), with dimensions, spacing and origin. World position of voxel (i, j, k)
+// is origin + (i, j, k) * spacing; the volume's box spans the voxel centres.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "penumbra/core/math.h"
+
+namespace penumbra {
+
+enum class ScalarType { UInt8, Int16, UInt16, Float32 };
+
+std::string to_string(ScalarType type);
+ScalarType scalar_type_from_string(const std::string& name);  // "uint8", "int16", "uint16", "float32"
+std::size_t scalar_size(ScalarType type);
+
+// Largest voxel count a volume may have (2^34 voxels); larger products are taken as lying headers.
+constexpr std::uint64_t kMaxVoxels = 1ull << 34;
+
+// Checks dims > 0 and that their product (times the voxel size) neither overflows nor exceeds kMaxVoxels.
+std::size_t checked_voxel_count(const std::array<std::int64_t, 3>& dims);
+
+class Volume {
+public:
+  Volume() = default;
+  // Allocates zero-filled voxels. Throws Error on zero, negative or absurd dimensions or bad spacing.
+  Volume(ScalarType type, std::array<int, 3> dims, Vec3 spacing = {1, 1, 1}, Vec3 origin = {0, 0, 0});
+
+  ScalarType type() const { return type_; }
+  const std::array<int, 3>& dims() const { return dims_; }
+  const Vec3& spacing() const { return spacing_; }
+  const Vec3& origin() const { return origin_; }
+  void set_origin(const Vec3& o) { origin_ = o; }
+  std::size_t voxel_count() const { return static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2]; }
+  std::size_t memory_bytes() const { return bytes_.size(); }
+  Box3 bounds() const;  // world box through the first and last voxel centres
+
+  // Raw storage in the volume's own type, x fastest.
+  std::byte* data() { return bytes_.data(); }
+  const std::byte* data() const { return bytes_.data(); }
+  template <class T> T* data_as() { return reinterpret_cast<T*>(bytes_.data()); }
+  template <class T> const T* data_as() const { return reinterpret_cast<const T*>(bytes_.data()); }
+
+  std::size_t index(int i, int j, int k) const {
+    return (static_cast<std::size_t>(k) * dims_[1] + j) * dims_[0] + i;
+  }
+  float value(std::size_t idx) const {
+    switch (type_) {
+      case ScalarType::UInt8: return data_as<std::uint8_t>()[idx];
+      case ScalarType::Int16: return data_as<std::int16_t>()[idx];
+      case ScalarType::UInt16: return data_as<std::uint16_t>()[idx];
+      case ScalarType::Float32: return data_as<float>()[idx];
+    }
+    return 0;
+  }
+  float value(int i, int j, int k) const { return value(index(i, j, k)); }
+  void set_value(std::size_t idx, float v);
+
+  // Continuous voxel coordinates of a world point.
+  Vec3 to_voxel(const Vec3& p) const {
+    return {(p.x - origin_.x) * inv_spacing_.x, (p.y - origin_.y) * inv_spacing_.y, (p.z - origin_.z) * inv_spacing_.z};
+  }
+  // Trilinear interpolation at a world point; positions outside are clamped to the border voxels.
+  float sample(const Vec3& p) const { return sample_voxel(to_voxel(p)); }
+  float sample_voxel(const Vec3& v) const;
+  // World-space gradient by central differences of the trilinear interpolant, one voxel apart per axis.
+  Vec3 gradient(const Vec3& p) const;
+
+  // Smallest and largest voxel value (computed once, on first call or after recompute_range()).
+  float min_value() const { return range_[0]; }
+  float max_value() const { return range_[1]; }
+  void recompute_range();  // also rejects NaN or infinite voxels with an Error
+
+private:
+  template <class T> float sample_typed(const Vec3& v) const;
+
+  ScalarType type_ = ScalarType::Float32;
+  std::array<int, 3> dims_{0, 0, 0};
+  Vec3 spacing_{1, 1, 1}, inv_spacing_{1, 1, 1}, origin_{0, 0, 0};
+  std::vector<std::byte> bytes_;
+  std::array<float, 2> range_{0, 0};
+};
+
+}  // namespace penumbra
