@@ -1,2 +1,29 @@
+// penumbra: direct volume rendering with shadow maps, deep shadow maps, colored stochastic shadow
+// maps and exact ray-traced shadows. `penumbra --help` lists the commands.
 #include <cstdio>
-int main() { std::puts("penumbra"); return 0; }
+#include <exception>
+
+#include "commands.h"
+#include "penumbra/core/error.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"penumbra: shadowed volume rendering, every technique measured against an exact reference"};
+  app.require_subcommand(1);
+  penumbra::cli::add_render_command(app);
+  penumbra::cli::add_demo_command(app);
+  penumbra::cli::add_compare_command(app);
+  penumbra::cli::add_info_command(app);
+  penumbra::cli::add_bench_command(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const penumbra::Error& e) {
+    std::fprintf(stderr, "penumbra: error: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "penumbra: error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

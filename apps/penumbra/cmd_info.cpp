@@ -1,0 +1,42 @@
+// `penumbra info FILE [--bins N]`: dimensions, type, spacing, bounds, value range and a histogram.
+#include <cstdio>
+
+#include "commands.h"
+#include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/volume_stats.h"
+
+namespace penumbra::cli {
+
+void add_info_command(CLI::App& app) {
+  struct Options {
+    std::string file;
+    int bins = 16;
+  };
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand("info", "Describe a volume file (.nrrd, .nhdr, .nii, .nii.gz)");
+  cmd->add_option("file", o->file, "Volume file")->required();
+  cmd->add_option("--bins", o->bins, "Histogram bins")->check(CLI::Range(1, 1024));
+  cmd->callback([o] {
+    const Volume v = load_volume(o->file);
+    const Box3 b = v.bounds();
+    std::printf("file        %s\n", o->file.c_str());
+    std::printf("dimensions  %d x %d x %d (%zu voxels)\n", v.dims()[0], v.dims()[1], v.dims()[2], v.voxel_count());
+    std::printf("type        %s (%zu bytes in memory)\n", to_string(v.type()).c_str(), v.memory_bytes());
+    std::printf("spacing     %g %g %g\n", v.spacing().x, v.spacing().y, v.spacing().z);
+    std::printf("origin      %g %g %g\n", v.origin().x, v.origin().y, v.origin().z);
+    std::printf("bounds      [%g %g %g] .. [%g %g %g]\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
+    const VolumeHistogram h = compute_histogram(v, o->bins);
+    std::printf("range       %g .. %g (mean %g)\n", h.lo, h.hi, h.mean);
+    std::printf("histogram\n");
+    std::uint64_t peak = 1;
+    for (auto c : h.counts) peak = std::max(peak, c);
+    const double width = (static_cast<double>(h.hi) - h.lo) / static_cast<double>(h.counts.size());
+    for (std::size_t i = 0; i < h.counts.size(); ++i) {
+      const int bar = static_cast<int>(40.0 * static_cast<double>(h.counts[i]) / static_cast<double>(peak));
+      std::printf("  %10.4g .. %-10.4g %12llu %s\n", h.lo + width * static_cast<double>(i), h.lo + width * static_cast<double>(i + 1),
+                  static_cast<unsigned long long>(h.counts[i]), std::string(static_cast<std::size_t>(bar), '#').c_str());
+    }
+  });
+}
+
+}  // namespace penumbra::cli

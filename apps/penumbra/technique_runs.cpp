@@ -1,0 +1,42 @@
+#include "technique_runs.h"
+
+#include <limits>
+
+#include "penumbra/render/renderer.h"
+#include "penumbra/scene/scene_file.h"
+
+namespace penumbra::cli {
+
+TechniqueRun run_technique(const nlohmann::json& scene_json, const std::string& technique, int resolution,
+                           const std::vector<std::string>& extra_sets, int repeats) {
+  nlohmann::json j = scene_json;
+  apply_override(j, "shadows.technique", technique);
+  apply_override(j, "shadows.resolution", std::to_string(resolution));
+  for (const auto& s : extra_sets) apply_override(j, s);
+  const Scene scene = build_scene(j, "");
+  TechniqueRun run;
+  run.technique = technique;
+  run.resolution = resolution;
+  run.build_ms = run.render_ms = std::numeric_limits<double>::infinity();
+  for (int r = 0; r < std::max(1, repeats); ++r) {
+    Renderer renderer(scene);  // fresh, so every repeat builds its shadow structure again
+    FrameResult f = renderer.render();
+    run.build_ms = std::min(run.build_ms, f.build_ms);
+    run.render_ms = std::min(run.render_ms, f.render_ms);
+    run.memory_bytes = renderer.shadow_memory_bytes();
+    run.image = std::move(f.image);
+  }
+  return run;
+}
+
+Image montage(const std::vector<const Image*>& images) {
+  if (images.empty()) return {};
+  const int w = images[0]->width(), h = images[0]->height(), gap = 4;
+  Image out(static_cast<int>(images.size()) * (w + gap) - gap, h, Rgb(1.0f));
+  for (std::size_t i = 0; i < images.size(); ++i)
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) out.at(static_cast<int>(i) * (w + gap) + x, y) = images[i]->at(x, y);
+  return out;
+}
+
+}  // namespace penumbra::cli

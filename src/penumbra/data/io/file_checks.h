@@ -1,0 +1,38 @@
+// Small checks shared by the volume loaders: the path must name an existing regular file (a directory,
+// FIFO or device would make the libraries block or fail obscurely), and compressed data can only
+// expand by a bounded factor, so a header asking for far more data than the file could hold is a lie
+// we can reject before any library allocates for it.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <system_error>
+
+#include "penumbra/core/error.h"
+
+namespace penumbra::io_detail {
+
+// Deflate (gzip, zlib) cannot expand data by more than about 1032:1, so a compressed stream of n bytes
+// holds at most this many times n bytes (plus a little for tiny streams).
+constexpr std::uint64_t kMaxDeflateRatio = 1032;
+
+inline bool deflate_could_hold(std::uint64_t compressed_bytes, std::uint64_t needed_bytes) {
+  return needed_bytes / kMaxDeflateRatio <= compressed_bytes + 1;
+}
+
+// Size in bytes of the regular file at `path`; Error when it is missing or not a regular file.
+inline std::uint64_t regular_file_size(const std::string& path) {
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (status.type() == std::filesystem::file_type::not_found) throw Error("file not found");
+  if (ec) throw Error("cannot access the file (" + ec.message() + ")");
+  if (status.type() != std::filesystem::file_type::regular) throw Error("not a regular file");
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec) throw Error("cannot read the file size (" + ec.message() + ")");
+  return static_cast<std::uint64_t>(size);
+}
+
+inline std::string bytes_str(std::uint64_t n) { return std::to_string(n) + " bytes"; }
+
+}  // namespace penumbra::io_detail

@@ -1,0 +1,433 @@
+// NRRD volumes (.nrrd with attached data, .nhdr with a detached "data file") read through teem.
+// teem trusts its header: it allocates whatever `sizes` asks for before reading a byte, and a detached
+// "data file" in its printf-template form is handed to sprintf. So the header is first parsed here,
+// with teem's own tables for the names of fields, types and encodings, and rejected unless it is a
+// 3-D volume of a supported type whose voxel count is sane and which the data on disk could hold.
+// Only then does nrrdLoad run; its result is checked against the pre-parse again.
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string_view>
+#include <vector>
+
+#include <teem/nrrd.h>
+#include <zlib.h>
+
+#include "penumbra/data/io/file_checks.h"
+#include "penumbra/data/io/volume_io.h"
+
+namespace penumbra {
+
+namespace {
+
+using io_detail::bytes_str;
+
+// teem keeps errors (biff) and settings in globals, so calls into it are serialised.
+std::mutex teem_mutex;
+
+// A header longer than this is not a volume header (teem would read lines of any length).
+constexpr std::uint64_t kMaxHeaderBytes = 1u << 20;
+
+struct NrrdHeader {
+  std::optional<unsigned> dimension;
+  std::vector<std::int64_t> sizes;
+  int type = nrrdTypeUnknown;
+  std::string type_name;
+  int encoding = nrrdEncodingTypeUnknown;
+  std::string encoding_name;
+  std::optional<std::string> data_file;
+  std::int64_t byte_skip = 0;
+  std::int64_t line_skip = 0;
+  std::uint64_t header_end = 0;  // offset of the first data byte when the data is attached
+  bool complete = false;         // saw the blank line that ends an attached header
+};
+
+std::string_view trim(std::string_view s) {
+  const auto b = s.find_first_not_of(" \t\r");
+  if (b == std::string_view::npos) return {};
+  return s.substr(b, s.find_last_not_of(" \t\r") - b + 1);
+}
+
+// Header text quoted in an Error: control and non-ASCII bytes (garbage files have plenty) become '?'.
+std::string printable(std::string_view s, std::size_t max_chars = 200) {
+  std::string out(s.substr(0, max_chars));
+  for (auto& ch : out)
+    if (static_cast<unsigned char>(ch) < 0x20 || static_cast<unsigned char>(ch) > 0x7e) ch = '?';
+  return out;
+}
+
+// Whole-token integer parse; anything teem might read differently (signs, hex, trailing junk) fails.
+std::optional<std::int64_t> parse_int(std::string_view s, bool allow_negative) {
+  if (s.empty() || s.size() > 18) return std::nullopt;
+  std::size_t i = 0;
+  bool negative = false;
+  if (allow_negative && s[0] == '-') negative = true, i = 1;
+  if (i == s.size()) return std::nullopt;
+  std::int64_t v = 0;
+  for (; i < s.size(); ++i) {
+    if (s[i] < '0' || s[i] > '9') return std::nullopt;
+    v = v * 10 + (s[i] - '0');
+  }
+  return negative ? -v : v;
+}
+
+std::vector<std::string_view> split_ws(std::string_view s) {
+  std::vector<std::string_view> out;
+  std::size_t i = 0;
+  while (i < s.size()) {
+    while (i < s.size() && (s[i] == ' ' || s[i] == '\t')) ++i;
+    const std::size_t b = i;
+    while (i < s.size() && s[i] != ' ' && s[i] != '\t') ++i;
+    if (i > b) out.push_back(s.substr(b, i - b));
+  }
+  return out;
+}
+
+NrrdHeader parse_header(const std::string& path, std::uint64_t file_bytes) {
+  const std::uint64_t prefix_bytes = std::min(file_bytes, kMaxHeaderBytes);
+  std::string text(static_cast<std::size_t>(prefix_bytes), '\0');
+  std::ifstream in(path, std::ios::binary);
+  if (!in || !in.read(text.data(), static_cast<std::streamsize>(prefix_bytes)))
+    throw Error("cannot read the file");
+  if (file_bytes == 0) throw Error("empty file (expected a NRRD header starting with NRRD000x)");
+
+  NrrdHeader h;
+  std::size_t pos = 0;
+  bool first = true;
+  std::vector<int> seen;
+  while (pos < text.size()) {
+    const std::size_t nl = text.find('\n', pos);
+    if (nl == std::string::npos && prefix_bytes < file_bytes)
+      throw Error("NRRD header line longer than " + bytes_str(kMaxHeaderBytes));
+    const std::size_t end = nl == std::string::npos ? text.size() : nl;
+    std::string_view line(text.data() + pos, end - pos);
+    pos = nl == std::string::npos ? text.size() : nl + 1;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    if (first) {
+      if (line.substr(0, 7) != "NRRD000" && line != "NRRD00.01")
+        throw Error("not a NRRD file (it does not start with a NRRD000x magic line)");
+      first = false;
+      continue;
+    }
+    if (line.empty()) {
+      h.complete = true;
+      break;
+    }
+    if (line[0] == '#') continue;
+    const std::size_t colon = line.find(": ");
+    if (colon == std::string_view::npos) continue;  // key:=value, or a line teem itself will reject
+    const std::string key(line.substr(0, colon));
+    const int field = airEnumVal(nrrdField, key.c_str());
+    const std::string_view value = trim(line.substr(colon + 2));
+    if (field == nrrdField_unknown || field == nrrdField_comment || field == nrrdField_keyvalue) continue;
+    if (std::find(seen.begin(), seen.end(), field) != seen.end())
+      throw Error("NRRD field '" + printable(key) + "' appears twice");
+    seen.push_back(field);
+    switch (field) {
+      case nrrdField_dimension: {
+        const auto d = parse_int(value, false);
+        if (!d || *d > 1000) throw Error("NRRD dimension '" + printable(value) + "' is not a small number");
+        h.dimension = static_cast<unsigned>(*d);
+        break;
+      }
+      case nrrdField_sizes:
+        for (const auto token : split_ws(value)) {
+          const auto v = parse_int(token, true);
+          if (!v) throw Error("NRRD sizes '" + printable(value) + "' are not whole numbers (or absurdly large)");
+          h.sizes.push_back(*v);
+        }
+        break;
+      case nrrdField_type:
+        h.type_name = value;
+        h.type = airEnumVal(nrrdType, h.type_name.c_str());
+        break;
+      case nrrdField_encoding:
+        h.encoding_name = value;
+        h.encoding = airEnumVal(nrrdEncodingType, h.encoding_name.c_str());
+        break;
+      case nrrdField_data_file: h.data_file = std::string(value); break;
+      case nrrdField_line_skip: {
+        const auto v = parse_int(value, false);
+        if (!v) throw Error("NRRD line skip '" + printable(value) + "' is not a line count");
+        h.line_skip = *v;
+        break;
+      }
+      case nrrdField_byte_skip: {
+        const auto v = parse_int(value, true);
+        if (!v || *v < -1) throw Error("NRRD byte skip '" + printable(value) + "' is not -1 or a byte count");
+        h.byte_skip = *v;
+        break;
+      }
+      default: break;
+    }
+  }
+  if (first) throw Error("not a NRRD file (no magic line)");
+  if (!h.complete && prefix_bytes < file_bytes)
+    throw Error("NRRD header is longer than " + bytes_str(kMaxHeaderBytes) + " or lacks the blank line before the data");
+  h.header_end = pos;
+  return h;
+}
+
+struct Checked {
+  std::array<std::int64_t, 3> dims{};
+  std::uint64_t needed_bytes = 0;
+  std::filesystem::path data_path;  // the file holding the data, and where in it the data starts
+  std::uint64_t data_start = 0;
+};
+
+// Rejects every header teem should not be allowed to act on.
+Checked check_header(const NrrdHeader& h, const std::filesystem::path& header_path, std::uint64_t file_bytes) {
+  if (!h.dimension) throw Error("NRRD header has no 'dimension' field");
+  if (*h.dimension != 3)
+    throw Error("NRRD dimension is " + std::to_string(*h.dimension) + " (expected 3: a scalar volume)");
+  if (h.sizes.size() != 3)
+    throw Error("NRRD 'sizes' has " + std::to_string(h.sizes.size()) + " values (expected 3)");
+  Checked c;
+  c.dims = {h.sizes[0], h.sizes[1], h.sizes[2]};
+  const std::size_t count = with_context("NRRD sizes", [&] { return checked_voxel_count(c.dims); });
+  for (const auto s : c.dims)
+    if (s > std::numeric_limits<int>::max()) throw Error("NRRD size " + std::to_string(s) + " is too large");
+
+  switch (h.type) {
+    case nrrdTypeChar: case nrrdTypeUChar: case nrrdTypeShort: case nrrdTypeUShort:
+    case nrrdTypeInt: case nrrdTypeUInt: case nrrdTypeFloat: case nrrdTypeDouble: break;
+    case nrrdTypeUnknown:
+      throw Error(h.type_name.empty() ? "NRRD header has no 'type' field"
+                                      : "unknown NRRD type '" + printable(h.type_name) + "'");
+    default:
+      throw Error("NRRD type '" + h.type_name +
+                  "' is not supported (expected (u)char, (u)short, (u)int, float or double)");
+  }
+  c.needed_bytes = static_cast<std::uint64_t>(count) * nrrdTypeSize[h.type];
+
+  // How many bytes the data can come from: the detached file, or what follows the attached header.
+  std::uint64_t available = 0;
+  if (h.data_file) {
+    const std::string& name = *h.data_file;
+    // teem treats "LIST"/"SKIPLIST", "-" (stdin) and names with %d (a sprintf template) specially;
+    // one plain file is all a volume needs, and the rest is unsafe to hand to teem unchecked.
+    if (name.empty() || name == "-" || name.find('%') != std::string::npos || name.rfind("LIST", 0) == 0 ||
+        name.rfind("SKIPLIST", 0) == 0)
+      throw Error("NRRD 'data file: " + printable(name) + "' is not supported (expected one plain file name)");
+    c.data_path = name;
+    if (c.data_path.is_relative()) c.data_path = header_path.parent_path() / c.data_path;
+    available = with_context("data file " + c.data_path.string(), [&] { return io_detail::regular_file_size(c.data_path); });
+  } else {
+    if (!h.complete) throw Error("NRRD header has neither a blank line followed by data nor a 'data file' field");
+    c.data_path = header_path;
+    c.data_start = h.header_end;
+    available = file_bytes - h.header_end;
+  }
+
+  const bool compressed = h.encoding == nrrdEncodingTypeGzip;
+  if (!compressed && h.byte_skip > 0) available -= std::min<std::uint64_t>(available, static_cast<std::uint64_t>(h.byte_skip));
+  bool could_hold = true;
+  switch (h.encoding) {
+    case nrrdEncodingTypeRaw: could_hold = available >= c.needed_bytes; break;
+    case nrrdEncodingTypeGzip: could_hold = io_detail::deflate_could_hold(available, c.needed_bytes); break;
+    case nrrdEncodingTypeAscii: could_hold = available >= count; break;  // at least a digit per value
+    case nrrdEncodingTypeHex: could_hold = available / 2 >= c.needed_bytes; break;
+    case nrrdEncodingTypeUnknown:
+      throw Error(h.encoding_name.empty() ? "NRRD header has no 'encoding' field"
+                                          : "unknown NRRD encoding '" + printable(h.encoding_name) + "'");
+    default:
+      // bzip2 can expand almost without bound and zrl is rare; neither is needed for volumes here.
+      throw Error("NRRD encoding '" + printable(h.encoding_name) + "' is not supported (expected raw, gzip, ascii or hex)");
+  }
+  if (!could_hold)
+    throw Error("NRRD sizes " + std::to_string(c.dims[0]) + "x" + std::to_string(c.dims[1]) + "x" +
+                std::to_string(c.dims[2]) + " of type " + printable(h.type_name) + " need " + bytes_str(c.needed_bytes) +
+                " but the " + printable(h.encoding_name) + " data has only " + bytes_str(available) +
+                " (truncated data or lying sizes)");
+  return c;
+}
+
+struct InflateEnd {
+  void operator()(z_stream* zs) const { inflateEnd(zs); }
+};
+
+// teem's gzip reader leaks its stream state (about 50 KB) on every truncated or corrupt stream, as it
+// returns without closing it, and it never checks the gzip checksum (it stops once it has the bytes
+// it wants). So the stream is decompressed here first, to its end marker and checksum, and a bad one
+// is refused before teem gets to it. Several gzip members are allowed, as in gzip; whatever follows
+// the member that completes the data is ignored, as teem ignores it.
+void verify_gzip(const Checked& c, const NrrdHeader& h) {
+  std::ifstream in(c.data_path, std::ios::binary);
+  in.seekg(static_cast<std::streamoff>(c.data_start));
+  for (std::int64_t line = 0; line < h.line_skip && in; ++line) in.ignore(std::numeric_limits<std::streamsize>::max(), '\n');
+  if (!in) throw Error("NRRD line skip " + std::to_string(h.line_skip) + " runs past the end of the data");
+  const std::uint64_t want = c.needed_bytes + static_cast<std::uint64_t>(std::max<std::int64_t>(h.byte_skip, 0));
+
+  z_stream zs{};
+  if (inflateInit2(&zs, 15 + 16) != Z_OK) throw Error("zlib could not start decompressing");
+  const std::unique_ptr<z_stream, InflateEnd> guard(&zs);
+  std::vector<unsigned char> input(1u << 16), output(1u << 18);
+  std::uint64_t total = 0;
+  for (;;) {
+    if (zs.avail_in == 0) {
+      in.read(reinterpret_cast<char*>(input.data()), static_cast<std::streamsize>(input.size()));
+      if (in.gcount() <= 0) break;
+      zs.next_in = input.data();
+      zs.avail_in = static_cast<uInt>(in.gcount());
+    }
+    zs.next_out = output.data();
+    zs.avail_out = static_cast<uInt>(output.size());
+    const int rc = inflate(&zs, Z_NO_FLUSH);
+    total += output.size() - zs.avail_out;
+    if (rc == Z_STREAM_END) {
+      if (total >= want) return;  // complete and checksummed
+      inflateReset(&zs);          // another gzip member may hold the rest
+    } else if (rc != Z_OK && rc != Z_BUF_ERROR) {
+      throw Error("NRRD gzip data is corrupt after " + bytes_str(total) + " (zlib: " + (zs.msg ? zs.msg : "error") + ")");
+    }
+  }
+  if (total < want)
+    throw Error("NRRD gzip data decompresses to only " + bytes_str(total) + " but sizes " + std::to_string(c.dims[0]) +
+                "x" + std::to_string(c.dims[1]) + "x" + std::to_string(c.dims[2]) + " of type " +
+                printable(h.type_name) + " need " + bytes_str(want) + " (truncated data or lying sizes)");
+  throw Error("NRRD gzip data is truncated: the stream ends without its end marker and checksum");
+}
+
+// teem's error (biff) text, one line per call level from nrrdLoad down. The outer levels only say
+// "trouble"; the detail is in the rest, which is joined into one line.
+std::string take_biff_message() {
+  char* raw = biffGetDone(NRRD);
+  const std::string msg = raw ? raw : "";
+  std::free(raw);
+  std::string out;
+  std::size_t pos = 0;
+  while (pos < msg.size()) {
+    const std::size_t nl = std::min(msg.find('\n', pos), msg.size());
+    std::string_view line(msg.data() + pos, nl - pos);
+    pos = nl + 1;
+    if (line.rfind("[nrrd] ", 0) == 0) line.remove_prefix(7);
+    const std::size_t colon = line.find(": ");
+    const std::string_view detail = trim(colon == std::string_view::npos ? std::string_view{} : line.substr(colon + 2));
+    if (detail.empty() || detail == "trouble" || detail.rfind("trouble reading", 0) == 0) continue;
+    if (!out.empty()) out += "; ";
+    out += line;
+  }
+  return out.empty() ? "unknown teem error" : printable(out, 2000);
+}
+
+struct NrrdNuker {
+  void operator()(Nrrd* n) const { nrrdNuke(n); }
+};
+
+template <class T>
+void copy_as(const void* src, Volume& volume) {
+  std::memcpy(volume.data(), src, volume.voxel_count() * sizeof(T));
+}
+
+// Types penumbra does not store natively are widened or converted to float32 (int and uint above 2^24
+// lose precision, which a renderer does not see; double outside float range is an error).
+template <class Src>
+void convert_to(const void* src, Volume& volume) {
+  const Src* in = static_cast<const Src*>(src);
+  const std::size_t n = volume.voxel_count();
+  if (volume.type() == ScalarType::Int16) {
+    auto* out = volume.data_as<std::int16_t>();
+    for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<std::int16_t>(in[i]);
+    return;
+  }
+  auto* out = volume.data_as<float>();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double v = static_cast<double>(in[i]);
+    if (std::abs(v) > std::numeric_limits<float>::max())
+      throw Error("voxel " + std::to_string(i) + " value " + std::to_string(v) + " is outside the float32 range");
+    out[i] = static_cast<float>(v);  // NaN passes through and is rejected by recompute_range
+  }
+}
+
+Vec3 axis_spacing(const Nrrd& nrrd) {
+  Vec3 spacing{1, 1, 1};
+  for (unsigned a = 0; a < 3; ++a) {
+    const NrrdAxisInfo& axis = nrrd.axis[a];
+    double s = 1;
+    if (std::isfinite(axis.spacing)) {
+      s = std::abs(axis.spacing);  // a negative spacing only says the axis runs backwards
+    } else if (nrrd.spaceDim > 0) {
+      double len2 = 0;
+      bool exists = true;
+      for (unsigned d = 0; d < nrrd.spaceDim && d < NRRD_SPACE_DIM_MAX; ++d) {
+        exists = exists && std::isfinite(axis.spaceDirection[d]);
+        len2 += axis.spaceDirection[d] * axis.spaceDirection[d];
+      }
+      if (exists) s = std::sqrt(len2);
+    }
+    spacing[static_cast<int>(a)] = static_cast<float>(s);
+  }
+  return spacing;
+}
+
+Vec3 space_origin(const Nrrd& nrrd) {
+  Vec3 origin{0, 0, 0};
+  if (nrrd.spaceDim == 0) return origin;
+  for (unsigned d = 0; d < 3 && d < nrrd.spaceDim; ++d)
+    if (!std::isfinite(nrrd.spaceOrigin[d])) return {0, 0, 0};  // "none" or unset origin
+  for (unsigned d = 0; d < 3 && d < nrrd.spaceDim; ++d) origin[static_cast<int>(d)] = static_cast<float>(nrrd.spaceOrigin[d]);
+  return origin;
+}
+
+}  // namespace
+
+Volume load_nrrd_volume(const std::string& path) {
+  const std::uint64_t file_bytes = io_detail::regular_file_size(path);
+  const NrrdHeader header = parse_header(path, file_bytes);
+  // teem resolves a relative data file against the header's directory, which it needs spelled out.
+  const std::filesystem::path abs_path = std::filesystem::absolute(path);
+  const Checked checked = check_header(header, abs_path, file_bytes);
+  if (header.encoding == nrrdEncodingTypeGzip) verify_gzip(checked, header);
+
+  std::unique_ptr<Nrrd, NrrdNuker> nrrd;
+  {
+    std::lock_guard lock(teem_mutex);
+    nrrdStateVerboseIO = 0;
+    nrrd.reset(nrrdNew());
+    if (!nrrd) throw Error("teem could not allocate a Nrrd");
+    if (nrrdLoad(nrrd.get(), abs_path.c_str(), nullptr)) throw Error("teem could not read the NRRD: " + take_biff_message());
+  }
+  // teem parsed the header itself; it must agree with what was checked above.
+  const Nrrd& n = *nrrd;
+  if (n.dim != 3 || n.type != header.type || !n.data)
+    throw Error("teem read the NRRD differently from its header (dimension " + std::to_string(n.dim) + ")");
+  for (unsigned a = 0; a < 3; ++a)
+    if (n.axis[a].size != static_cast<std::size_t>(checked.dims[a]))
+      throw Error("teem read NRRD size " + std::to_string(n.axis[a].size) + " on axis " + std::to_string(a) +
+                  " but the header says " + std::to_string(checked.dims[a]));
+
+  ScalarType type = ScalarType::Float32;
+  switch (n.type) {
+    case nrrdTypeUChar: type = ScalarType::UInt8; break;
+    case nrrdTypeChar:
+    case nrrdTypeShort: type = ScalarType::Int16; break;  // int8 fits int16 exactly
+    case nrrdTypeUShort: type = ScalarType::UInt16; break;
+    default: type = ScalarType::Float32; break;
+  }
+  Volume volume(type,
+                {static_cast<int>(checked.dims[0]), static_cast<int>(checked.dims[1]), static_cast<int>(checked.dims[2])},
+                axis_spacing(n), space_origin(n));
+  switch (n.type) {
+    case nrrdTypeUChar: copy_as<std::uint8_t>(n.data, volume); break;
+    case nrrdTypeShort: copy_as<std::int16_t>(n.data, volume); break;
+    case nrrdTypeUShort: copy_as<std::uint16_t>(n.data, volume); break;
+    case nrrdTypeFloat: copy_as<float>(n.data, volume); break;
+    case nrrdTypeChar: convert_to<signed char>(n.data, volume); break;
+    case nrrdTypeInt: convert_to<std::int32_t>(n.data, volume); break;
+    case nrrdTypeUInt: convert_to<std::uint32_t>(n.data, volume); break;
+    case nrrdTypeDouble: convert_to<double>(n.data, volume); break;
+    default: throw Error("unsupported NRRD type");
+  }
+  nrrd.reset();  // free teem's copy before the range pass
+  volume.recompute_range();  // rejects NaN/inf voxels and gives the volume its range
+  return volume;
+}
+
+}  // namespace penumbra

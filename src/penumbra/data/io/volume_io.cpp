@@ -1,0 +1,35 @@
+// Chooses a volume loader by file extension and puts the path in front of any error it raises.
+#include "penumbra/data/io/volume_io.h"
+
+#include <algorithm>
+#include <cctype>
+
+#include "penumbra/core/error.h"
+
+namespace penumbra {
+
+namespace {
+
+bool ends_with_ci(const std::string& s, const std::string& suffix) {
+  if (s.size() < suffix.size()) return false;
+  return std::equal(suffix.begin(), suffix.end(), s.end() - static_cast<std::ptrdiff_t>(suffix.size()),
+                    [](char lower, char c) { return std::tolower(static_cast<unsigned char>(c)) == lower; });
+}
+
+}  // namespace
+
+Volume load_volume(const std::string& path, const std::optional<RawVolumeOptions>& raw) {
+  return with_context(path, [&] {
+    // Each loader already ran recompute_range(), which rejects NaN/inf voxels and sets the range,
+    // so the volume is returned as is rather than scanned twice.
+    if (ends_with_ci(path, ".raw")) {
+      if (!raw) throw Error("raw files need the 'raw' block: dims, type, endian");
+      return load_raw_volume(path, *raw);
+    }
+    if (ends_with_ci(path, ".nrrd") || ends_with_ci(path, ".nhdr")) return load_nrrd_volume(path);
+    if (ends_with_ci(path, ".nii") || ends_with_ci(path, ".nii.gz")) return load_nifti_volume(path);
+    throw Error("unknown volume file extension (supported: .raw, .nrrd, .nhdr, .nii, .nii.gz)");
+  });
+}
+
+}  // namespace penumbra

@@ -1,0 +1,22 @@
+// Summary statistics of a volume's voxel values: a histogram over the value range and the mean, used
+// to place transfer-function control points and to sanity-check loaded data.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "penumbra/data/volume.h"
+
+namespace penumbra {
+
+struct VolumeHistogram {
+  float lo = 0, hi = 0;                // smallest and largest voxel value
+  std::vector<std::uint64_t> counts;   // bins of equal width spanning [lo, hi]; hi falls in the last bin
+  double mean = 0;                     // mean voxel value
+};
+
+// Scans the voxels themselves (not the cached range). bins must be positive; non-finite voxels are an
+// Error. When all voxels are equal (lo == hi) every voxel is counted in bin 0.
+VolumeHistogram compute_histogram(const Volume& volume, int bins);
+
+}  // namespace penumbra

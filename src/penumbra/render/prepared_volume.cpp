@@ -1,0 +1,74 @@
+#include "penumbra/render/prepared_volume.h"
+
+#include <cmath>
+
+#include "penumbra/core/parallel.h"
+
+namespace penumbra {
+namespace {
+
+std::vector<std::array<std::int8_t, 4>> gradient_volume(const Volume& vol, float weight_scale) {
+  const auto& d = vol.dims();
+  std::vector<std::array<std::int8_t, 4>> g(vol.voxel_count());
+  const Vec3 inv2{0.5f / vol.spacing().x, 0.5f / vol.spacing().y, 0.5f / vol.spacing().z};
+  parallel_for(static_cast<std::size_t>(d[2]), [&](std::size_t k0, std::size_t k1) {
+    for (int k = static_cast<int>(k0); k < static_cast<int>(k1); ++k)
+      for (int j = 0; j < d[1]; ++j)
+        for (int i = 0; i < d[0]; ++i) {
+          // central differences, one-sided (and halved accordingly) at the border
+          auto diff = [&](int a, int lo_i, int hi_i, int lo_j, int hi_j, int lo_k, int hi_k) {
+            const float span = (a == 0 ? (hi_i - lo_i) : a == 1 ? (hi_j - lo_j) : (hi_k - lo_k)) * 0.5f;
+            return span > 0 ? (vol.value(hi_i, hi_j, hi_k) - vol.value(lo_i, lo_j, lo_k)) / span : 0.0f;
+          };
+          const Vec3 grad{diff(0, std::max(i - 1, 0), std::min(i + 1, d[0] - 1), j, j, k, k) * inv2.x,
+                          diff(1, i, i, std::max(j - 1, 0), std::min(j + 1, d[1] - 1), k, k) * inv2.y,
+                          diff(2, i, i, j, j, std::max(k - 1, 0), std::min(k + 1, d[2] - 1)) * inv2.z};
+          const float len = length(grad);
+          const Vec3 n = len > 0 ? grad / len : Vec3{0, 0, 0};
+          const float w = std::min(1.0f, len * weight_scale);
+          g[vol.index(i, j, k)] = {static_cast<std::int8_t>(std::lround(n.x * 127)), static_cast<std::int8_t>(std::lround(n.y * 127)),
+                                   static_cast<std::int8_t>(std::lround(n.z * 127)), static_cast<std::int8_t>(std::lround(w * 127))};
+        }
+  });
+  return g;
+}
+
+}  // namespace
+
+PreparedVolume::PreparedVolume(const VolumeObject& o)
+    : object(&o),
+      volume(o.volume.get()),
+      step(o.step_world()),
+      lut(o.transfer_function, o.volume->min_value(), o.volume->max_value(), o.step),
+      grid(*o.volume),
+      empty(grid.empty_cells(lut)),
+      gradients(gradient_volume(*o.volume, o.reference_step() /
+                                               std::max(o.volume->max_value() - o.volume->min_value(), 1e-20f) /
+                                               kFullShadingGradient)) {}
+
+void PreparedVolume::normal_at(const Vec3& v, Vec3& direction, float& weight) const {
+  const auto& d = volume->dims();
+  const float fx = clamp(v.x, 0.0f, static_cast<float>(d[0] - 1));
+  const float fy = clamp(v.y, 0.0f, static_cast<float>(d[1] - 1));
+  const float fz = clamp(v.z, 0.0f, static_cast<float>(d[2] - 1));
+  const int i = std::min(static_cast<int>(fx), std::max(d[0] - 2, 0));
+  const int j = std::min(static_cast<int>(fy), std::max(d[1] - 2, 0));
+  const int k = std::min(static_cast<int>(fz), std::max(d[2] - 2, 0));
+  const float tx = fx - static_cast<float>(i), ty = fy - static_cast<float>(j), tz = fz - static_cast<float>(k);
+  const std::size_t sx = d[0] > 1 ? 1 : 0;
+  const std::size_t sy = d[1] > 1 ? static_cast<std::size_t>(d[0]) : 0;
+  const std::size_t sz = d[2] > 1 ? static_cast<std::size_t>(d[0]) * d[1] : 0;
+  const std::size_t base = volume->index(i, j, k);
+  float acc[4] = {0, 0, 0, 0};
+  const std::size_t offs[8] = {0, sx, sy, sx + sy, sz, sz + sx, sz + sy, sz + sx + sy};
+  const float wx[2] = {1 - tx, tx}, wy[2] = {1 - ty, ty}, wz[2] = {1 - tz, tz};
+  for (int c = 0; c < 8; ++c) {
+    const float w = wx[c & 1] * wy[(c >> 1) & 1] * wz[(c >> 2) & 1];
+    const auto& g = gradients[base + offs[c]];
+    for (int a = 0; a < 4; ++a) acc[a] += w * static_cast<float>(g[a]);
+  }
+  direction = {acc[0], acc[1], acc[2]};
+  weight = acc[3] * (1.0f / 127.0f);
+}
+
+}  // namespace penumbra

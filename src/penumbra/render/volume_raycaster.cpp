@@ -1,0 +1,155 @@
+#include "penumbra/render/volume_raycaster.h"
+
+#include <array>
+#include <cmath>
+
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
+#include "penumbra/core/rng.h"
+
+namespace penumbra {
+namespace {
+
+constexpr int kTileSize = 16;
+constexpr std::size_t kBatch = 32;  // samples whose shadow queries are issued together
+
+// Samples of one ray waiting for their lights' transmittance; their compositing weights are already
+// known (opacity does not depend on light), so shading them later gives the same sum.
+struct SampleBatch {
+  std::array<Vec3, kBatch> position;
+  std::array<Vec3, kBatch> normal;    // unit, facing the viewer
+  std::array<float, kBatch> shaded;   // 0..1: how much of Blinn–Phong applies (gradient strength)
+  std::array<Rgb, kBatch> color;      // transfer-function colour
+  std::array<float, kBatch> weight;   // (1 − A)·α
+  std::size_t size = 0;
+};
+
+struct Shader {
+  const RayCastInputs& in;
+  const ShadingParams& k;
+  Vec3 view;  // towards the eye
+
+  // Adds the shaded batch to `accum` and empties it.
+  void flush(SampleBatch& b, Rgb& accum) const {
+    if (b.size == 0) return;
+    std::array<Rgb, kBatch> lit;
+    for (std::size_t i = 0; i < b.size; ++i) lit[i] = b.color[i] * k.ambient;
+    std::array<Rgb, kBatch> T;
+    for (std::size_t l = 0; l < in.lights.size(); ++l) {
+      in.shadows[l]->transmittance(std::span<const Vec3>(b.position.data(), b.size), std::span<Rgb>(T.data(), b.size));
+      const Light& light = in.lights[l];
+      for (std::size_t i = 0; i < b.size; ++i) {
+        Vec3 to_light;
+        float distance;
+        light.towards(b.position[i], to_light, distance);
+        const Rgb e = light.emitted(to_light) * T[i];
+        const float ndotl = dot(b.normal[i], to_light);
+        const float diffuse = (1 - b.shaded[i]) + b.shaded[i] * std::max(ndotl, 0.0f);
+        float spec = 0;
+        if (ndotl > 0 && b.shaded[i] > 0) {
+          const float ndoth = std::max(dot(b.normal[i], normalize(to_light + view)), 0.0f);
+          spec = b.shaded[i] * std::pow(ndoth, k.shininess);
+        }
+        lit[i] += e * (b.color[i] * (k.diffuse * diffuse) + Rgb(k.specular * spec));
+      }
+    }
+    for (std::size_t i = 0; i < b.size; ++i) accum += lit[i] * b.weight[i];
+    b.size = 0;
+  }
+
+  Rgb shade_plane(const Plane& plane, const Vec3& p) const {
+    const Vec3 n = dot(plane.normal, view) >= 0 ? plane.normal : -plane.normal;
+    Rgb lit = plane.color * k.ambient;
+    for (std::size_t l = 0; l < in.lights.size(); ++l) {
+      Vec3 to_light;
+      float distance;
+      in.lights[l].towards(p, to_light, distance);
+      const float ndotl = dot(n, to_light);
+      if (ndotl <= 0) continue;
+      const Rgb T = in.shadows[l]->transmittance(in.shadows[l]->surface_receiver(p, n));
+      lit += in.lights[l].emitted(to_light) * T * plane.color * (k.diffuse * ndotl);
+    }
+    return lit;
+  }
+};
+
+Rgb trace(const RayCastInputs& in, const Shader& shader, const Ray& ray, float jitter, SampleBatch& batch) {
+  float t_surface = kInfinity;
+  const Plane* plane = nullptr;
+  for (const auto& p : in.scene->planes) {
+    const float t = p.intersect(ray, 0, t_surface);
+    if (t < t_surface) { t_surface = t; plane = &p; }
+  }
+  Rgb color(0.0f);
+  float opacity = 0;
+  if (const PreparedVolume* pv = in.volume) {
+    float t0, t1;
+    if (pv->volume->bounds().clip(ray, t0, t1, 0, t_surface)) {
+      const Volume& vol = *pv->volume;
+      const auto& cells = pv->grid.cells();
+      const float dt = pv->step;
+      const EmptySpaceSkipper skipper(vol, pv->grid, pv->empty);
+      std::size_t last_cell = SIZE_MAX;
+      for (float t = (std::ceil(t0 / dt - jitter) + jitter) * dt; t <= t1; t += dt) {
+        const Vec3 p = ray.at(t);
+        const Vec3 v = vol.to_voxel(p);
+        const std::size_t cell = pv->grid.cell_index(
+            std::clamp(static_cast<int>(v.x) / MacrocellGrid::kCellSize, 0, cells[0] - 1),
+            std::clamp(static_cast<int>(v.y) / MacrocellGrid::kCellSize, 0, cells[1] - 1),
+            std::clamp(static_cast<int>(v.z) / MacrocellGrid::kCellSize, 0, cells[2] - 1));
+        if (cell != last_cell) {
+          last_cell = cell;
+          if (pv->empty[cell]) {  // jump to the first lattice sample past the cell
+            const float exit = skipper.skip(ray, t, p);
+            t = std::max(t, (std::ceil(exit / dt - jitter) + jitter) * dt - dt);  // the loop adds Δ: always progress
+            last_cell = SIZE_MAX;
+            continue;
+          }
+        }
+        const Rgba s = pv->lut.lookup(vol.sample_voxel(v));
+        if (s.a <= 0) continue;
+        const float w = (1 - opacity) * s.a;
+        opacity += w;
+        Vec3 g;
+        float shaded;
+        pv->normal_at(v, g, shaded);
+        const float g_len = length(g);
+        const std::size_t i = batch.size++;
+        batch.position[i] = p;
+        batch.normal[i] = g_len > 0 ? (dot(g, shader.view) >= 0 ? g / g_len : -g / g_len) : shader.view;
+        batch.shaded[i] = g_len > 0 ? shaded : 0.0f;
+        batch.color[i] = s.rgb;
+        batch.weight[i] = w;
+        if (batch.size == kBatch) shader.flush(batch, color);
+        if (opacity >= kEarlyTermination) break;
+      }
+      shader.flush(batch, color);
+    }
+  }
+  const Rgb behind = plane ? shader.shade_plane(*plane, ray.at(t_surface)) : in.scene->background;
+  return color + behind * (1 - opacity);
+}
+
+}  // namespace
+
+Image render_volume_frame(const RayCastInputs& in) {
+  const Camera& cam = *in.camera;
+  Image image(cam.width, cam.height);
+  Progress progress("render", static_cast<std::size_t>(cam.height));
+  const bool jittered = in.volume && in.volume->object->jitter;
+  parallel_for_tiles(cam.width, cam.height, kTileSize, [&](const Tile& tile) {
+    SampleBatch batch;
+    for (int y = tile.y0; y < tile.y1; ++y) {
+      for (int x = tile.x0; x < tile.x1; ++x) {
+        const Ray ray = cam.primary_ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f);
+        const Shader shader{in, in.scene->shading, -ray.direction};
+        const float jitter = jittered ? uniform_float(0x6a177e5, static_cast<std::uint64_t>(x), static_cast<std::uint64_t>(y)) : 0.0f;
+        image.at(x, y) = trace(in, shader, ray, jitter, batch);
+      }
+    }
+    if (tile.x1 == cam.width) progress.advance(static_cast<std::size_t>(tile.y1 - tile.y0));
+  });
+  return image;
+}
+
+}  // namespace penumbra

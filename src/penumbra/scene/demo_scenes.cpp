@@ -1,0 +1,32 @@
+#include "penumbra/scene/demo_scenes.h"
+
+namespace penumbra {
+
+nlohmann::json test_spheres_scene(int size) {
+  return nlohmann::json::parse(R"({
+    "volumes": [ { "procedural": { "name": "test-spheres", "size": 128 },
+                   "transfer_function": { "preset": "test-spheres" }, "step": 0.5 } ],
+    "planes": [ { "point": [0, -0.52, 0], "normal": [0, 1, 0], "color": [0.9, 0.9, 0.9], "size": 4 } ],
+    "lights": [ { "type": "point", "position": [0.7, 1.6, 0.9], "intensity": 1.0 } ],
+    "camera": { "direction": [1.0, 0.7, 1.6], "fov_deg": 35, "width": 512, "height": 512 },
+    "shadows": { "technique": "cssm", "resolution": 1024, "offsets": 13, "seed": 1 },
+    "background": [0.08, 0.08, 0.1]
+  })")
+      .patch(nlohmann::json::parse(R"([{"op": "replace", "path": "/volumes/0/procedural/size", "value": )" +
+                                   std::to_string(size) + "}]"));
+}
+
+nlohmann::json cranium_scene(const std::string& path) {
+  nlohmann::json j = nlohmann::json::parse(R"({
+    "volumes": [ { "file": "", "transfer_function": { "preset": "ct-soft-tissue" }, "step": 0.5 } ],
+    "planes": [ { "point": [122, 122, -8], "normal": [0, 0, 1], "color": [0.9, 0.9, 0.9], "size": 1200 } ],
+    "lights": [ { "type": "directional", "direction": [0.6, -0.45, -1.0], "intensity": 1.0 } ],
+    "camera": { "direction": [0.35, 1.0, 0.45], "up": [0, 0, 1], "fov_deg": 35, "width": 512, "height": 512 },
+    "shadows": { "technique": "cssm", "resolution": 1024, "offsets": 13, "seed": 1 },
+    "background": [0.08, 0.08, 0.1]
+  })");
+  j["volumes"][0]["file"] = path;
+  return j;
+}
+
+}  // namespace penumbra

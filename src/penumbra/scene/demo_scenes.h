@@ -1,0 +1,19 @@
+// Built-in scenes for `penumbra demo`, `penumbra bench` and the tests: procedural data, so they need
+// no files (the CT scene reads ../shared/data/cranium_ct.nrrd and is used only where it exists).
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+
+namespace penumbra {
+
+// The CSSM paper's synthetic scene: test-spheres (size³ voxels, coloured by the "test-spheres" preset)
+// over a white floor, lit by a point light from above.
+nlohmann::json test_spheres_scene(int size = 128);
+
+// The paper's Figure 3 kind of scene: a head CT with semi-transparent soft tissue and bone over a
+// floor, lit from above. `path` is the cranium_ct.nrrd file.
+nlohmann::json cranium_scene(const std::string& path);
+
+}  // namespace penumbra

@@ -1,0 +1,48 @@
+// Strict reading of one JSON object of the scene file: every key read is remembered, and finish()
+// rejects the keys nobody asked for, naming their dotted path. Type and range errors name the path,
+// the value and what was expected.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <set>
+#include <string>
+
+#include "penumbra/core/color.h"
+#include "penumbra/core/error.h"
+#include "penumbra/core/math.h"
+
+namespace penumbra {
+
+class JsonReader {
+public:
+  JsonReader(const nlohmann::json& object, std::string path);
+
+  const std::string& path() const { return path_; }
+  std::string key_path(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+  bool has(const std::string& key) const;          // present and not null
+  const nlohmann::json& raw(const std::string& key);  // marks the key used; throws if absent
+
+  std::string string(const std::string& key, const std::string& fallback);
+  std::string required_string(const std::string& key);
+  bool boolean(const std::string& key, bool fallback);
+  float number(const std::string& key, float fallback, float lo = -kInfinity, float hi = kInfinity);
+  std::int64_t integer(const std::string& key, std::int64_t fallback, std::int64_t lo, std::int64_t hi);
+  Vec3 vec3(const std::string& key, const Vec3& fallback);
+  Rgb color(const std::string& key, const Rgb& fallback);  // components in [0, 1]
+
+  // Throws for every key of the object that was not read: "<path>.<key>: unknown key (expected one of ...)".
+  void finish() const;
+
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const;
+
+private:
+  const nlohmann::json& object_;
+  std::string path_;
+  mutable std::set<std::string> used_;
+};
+
+std::string json_brief(const nlohmann::json& value);  // the value as compact JSON, shortened for messages
+
+}  // namespace penumbra

@@ -1,0 +1,41 @@
+#include "penumbra/scene/scene.h"
+
+namespace penumbra {
+
+std::string to_string(LightType type) {
+  switch (type) {
+    case LightType::Directional: return "directional";
+    case LightType::Point: return "point";
+    case LightType::Spot: return "spot";
+  }
+  return "?";
+}
+
+Box3 Plane::bounds() const {
+  Box3 b;
+  if (size <= 0) return b;
+  const Frame f = Frame::from_w(normal);
+  for (int i = 0; i < 4; ++i)
+    b.extend(point + f.u * ((i & 1) ? 0.5f * size : -0.5f * size) + f.v * ((i & 2) ? 0.5f * size : -0.5f * size));
+  return b;
+}
+
+Box3 Scene::caster_bounds() const {
+  Box3 b;
+  for (const auto& v : volumes)
+    if (v.visible) b.extend(v.volume->bounds());
+  // Planes join only when there is no volume: a light frustum fitted to the volumes already covers
+  // every receiver the volumes can shadow (their shadow lies inside the frustum), and a large floor
+  // would spread the shadow map's texels thin.
+  if (b.empty())
+    for (const auto& p : planes) b.extend(p.bounds());
+  return b;
+}
+
+const VolumeObject* Scene::visible_volume() const {
+  for (const auto& v : volumes)
+    if (v.visible) return &v;
+  return nullptr;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,106 @@
+// The scene a frame is rendered from: camera, volumes with their transfer functions, opaque planes,
+// lights, and the shadow and ambient settings (docs/scene-file.md lists every key).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "penumbra/core/color.h"
+#include "penumbra/core/math.h"
+#include "penumbra/data/transfer_function.h"
+#include "penumbra/data/volume.h"
+#include "penumbra/scene/camera.h"
+#include "penumbra/scene/light.h"
+
+namespace penumbra {
+
+enum class Compositing { Alpha, Extinction };
+
+struct VolumeObject {
+  std::shared_ptr<const Volume> volume;
+  std::string source;                   // file path or "procedural:<name>", for messages and stats
+  TransferFunction transfer_function;
+  bool has_shadow_transfer_function = false;
+  TransferFunction shadow_transfer_function;  // used only for the shadow pass (CSSM paper §4)
+  float step = 0.5f;                    // sampling step in voxels (of the smallest spacing)
+  Compositing compositing = Compositing::Alpha;
+  bool visible = true;
+  bool jitter = true;                   // per-pixel offset of the sample lattice (against wood-grain rings)
+
+  float step_world() const {
+    const Vec3& s = volume->spacing();
+    return step * std::min(s.x, std::min(s.y, s.z));
+  }
+  float reference_step() const {  // the length a transfer-function opacity refers to: one voxel
+    const Vec3& s = volume->spacing();
+    return std::min(s.x, std::min(s.y, s.z));
+  }
+  const TransferFunction& shadow_tf() const {
+    return has_shadow_transfer_function ? shadow_transfer_function : transfer_function;
+  }
+};
+
+// An opaque plane: a square of edge `size` centred at `point`, or infinite when size is 0.
+struct Plane {
+  Vec3 point{0, -0.6f, 0};
+  Vec3 normal{0, 1, 0};
+  Rgb color{0.8f, 0.8f, 0.8f};
+  float size = 0;
+
+  // Ray parameter of the hit in (tmin, tmax), or infinity.
+  float intersect(const Ray& r, float tmin, float tmax) const {
+    const float denom = dot(normal, r.direction);
+    if (std::abs(denom) < 1e-12f) return kInfinity;
+    const float t = dot(point - r.origin, normal) / denom;
+    if (!(t > tmin && t < tmax)) return kInfinity;
+    if (size > 0) {
+      const Frame f = Frame::from_w(normal);
+      const Vec3 d = r.at(t) - point;
+      if (std::abs(dot(d, f.u)) > size * 0.5f || std::abs(dot(d, f.v)) > size * 0.5f) return kInfinity;
+    }
+    return t;
+  }
+  Box3 bounds() const;  // empty for infinite planes
+};
+
+struct ShadingParams {
+  float ambient = 0.2f;
+  float diffuse = 0.8f;
+  float specular = 0.25f;
+  float shininess = 32;
+};
+
+struct ShadowSettings {
+  std::string technique = "none";
+  int resolution = 1024;          // shadow map texels per side
+  int offsets = 13;               // cssm: 7, 13 or 21 look-up offsets (paper Table 2)
+  std::uint64_t seed = 1;         // cssm: random numbers of the generation pass
+  int nodes = 3;                  // deep_shadow_map: nodes per colour channel
+  int pcf = 0;                    // shadow_map: percentage-closer filter radius in texels (0 = off)
+  float bias = -1;                // world units subtracted from a receiver's light depth; < 0: one shadow step
+  float step = -1;                // shadow-ray sampling step in voxels; < 0: the volume's step
+};
+
+struct AmbientSettings {
+  std::string technique = "none";
+};
+
+struct Scene {
+  Camera camera;
+  std::vector<VolumeObject> volumes;
+  std::vector<Plane> planes;
+  std::vector<Light> lights;
+  ShadowSettings shadows;
+  AmbientSettings ambient;
+  ShadingParams shading;
+  Rgb background{0.1f, 0.1f, 0.12f};
+
+  // The box light frusta are fitted to: the visible volumes (finite planes when there is no volume).
+  Box3 caster_bounds() const;
+  // The volume the ray caster draws (the first visible one), or nullptr.
+  const VolumeObject* visible_volume() const;
+};
+
+}  // namespace penumbra

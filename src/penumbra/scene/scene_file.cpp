@@ -1,0 +1,305 @@
+#include "penumbra/scene/scene_file.h"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/procedural.h"
+#include "penumbra/scene/json_reader.h"
+#include "penumbra/shadows/registry.h"
+
+namespace penumbra {
+namespace {
+
+std::string join(const std::vector<std::string>& names) {
+  std::string s;
+  for (const auto& n : names) s += (s.empty() ? "" : ", ") + n;
+  return s;
+}
+
+std::string resolve(const std::string& base_dir, const std::string& file) {
+  const std::filesystem::path p(file);
+  return p.is_absolute() || base_dir.empty() ? file : (std::filesystem::path(base_dir) / p).string();
+}
+
+Camera read_camera(const nlohmann::json& j, const Box3& bounds) {
+  JsonReader r(j, "camera");
+  Camera c;
+  c.fov_deg = r.number("fov_deg", c.fov_deg, 1, 170);
+  c.width = static_cast<int>(r.integer("width", c.width, 1, 16384));
+  c.height = static_cast<int>(r.integer("height", c.height, 1, 16384));
+  c.up = r.vec3("up", c.up);
+  if (length(c.up) == 0) r.fail("up", "must not be the zero vector");
+  // Without an eye, frame the scene: look at the bounds' centre from `direction`, far enough back that
+  // the bounding sphere fills the view, as ParaView's "reset camera" does.
+  const Vec3 centre = bounds.empty() ? Vec3{0, 0, 0} : bounds.center();
+  c.target = r.vec3("target", centre);
+  const Vec3 dir = normalize(r.vec3("direction", {1.0f, 0.55f, 1.3f}));
+  if (length(dir) == 0) r.fail("direction", "must not be the zero vector");
+  const float radius = bounds.empty() ? 1.0f : bounds.radius();
+  const float dist = r.number("distance", radius / std::sin(radians(c.fov_deg) * 0.5f) * 1.05f, 1e-6f);
+  c.eye = r.vec3("eye", c.target + dir * dist);
+  if (length(c.eye - c.target) == 0) r.fail("eye", "must differ from target");
+  r.finish();
+  return c;
+}
+
+Light read_light(const nlohmann::json& j, const std::string& path, const Box3& bounds) {
+  JsonReader r(j, path);
+  Light l;
+  const std::string type = r.string("type", "directional");
+  if (type == "directional") l.type = LightType::Directional;
+  else if (type == "point") l.type = LightType::Point;
+  else if (type == "spot") l.type = LightType::Spot;
+  else r.fail("type", "unknown light type '" + type + "' (expected directional, point or spot)");
+  l.color = r.color("color", l.color);
+  l.intensity = r.number("intensity", l.intensity, 0, 1e6f);
+  const Vec3 centre = bounds.empty() ? Vec3{0, 0, 0} : bounds.center();
+  if (l.type == LightType::Directional) {
+    l.direction = normalize(r.vec3("direction", {-0.4f, -1.0f, -0.3f}));
+    if (length(l.direction) == 0) r.fail("direction", "must not be the zero vector");
+  } else {
+    if (!r.has("position")) r.fail("position", "missing (a " + type + " light needs a position)");
+    l.position = r.vec3("position", {});
+    if (l.type == LightType::Spot) {
+      l.direction = normalize(r.vec3("direction", centre - l.position));
+      if (length(l.direction) == 0) r.fail("direction", "must not be the zero vector");
+      l.angle_deg = r.number("angle_deg", l.angle_deg, 0.1f, 89.0f);
+      l.softness = r.number("softness", l.softness, 0, 1);
+    }
+  }
+  r.finish();
+  return l;
+}
+
+Plane read_plane(const nlohmann::json& j, const std::string& path) {
+  JsonReader r(j, path);
+  Plane p;
+  p.point = r.vec3("point", p.point);
+  p.normal = normalize(r.vec3("normal", p.normal));
+  if (length(p.normal) == 0) r.fail("normal", "must not be the zero vector");
+  p.color = r.color("color", p.color);
+  p.size = r.number("size", p.size, 0);
+  r.finish();
+  return p;
+}
+
+RawVolumeOptions read_raw_options(const nlohmann::json& j, const std::string& path) {
+  JsonReader r(j, path);
+  RawVolumeOptions o;
+  const auto& dims = r.raw("dims");
+  if (!dims.is_array() || dims.size() != 3) r.fail("dims", "expected [x, y, z], got " + json_brief(dims));
+  for (int a = 0; a < 3; ++a) {
+    if (!dims[a].is_number_integer()) r.fail("dims", "expected three integers, got " + json_brief(dims));
+    o.dims[a] = dims[a].get<std::int64_t>();
+  }
+  o.type = with_context(r.key_path("type"), [&] { return scalar_type_from_string(r.required_string("type")); });
+  const std::string endian = r.string("endian", "little");
+  if (endian != "little" && endian != "big") r.fail("endian", "expected \"little\" or \"big\", got \"" + endian + "\"");
+  o.big_endian = endian == "big";
+  o.spacing = r.vec3("spacing", o.spacing);
+  o.header_bytes = static_cast<std::uint64_t>(r.integer("header_bytes", 0, 0, INT64_MAX));
+  r.finish();
+  return o;
+}
+
+VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const std::string& base_dir) {
+  JsonReader r(j, path);
+  VolumeObject v;
+  const bool has_file = r.has("file"), has_proc = r.has("procedural");
+  if (has_file == has_proc) r.fail(has_file ? "procedural" : "file", "give exactly one of 'file' and 'procedural'");
+  std::shared_ptr<Volume> volume;
+  if (has_file) {
+    const std::string file = resolve(base_dir, r.required_string("file"));
+    std::optional<RawVolumeOptions> raw;
+    if (r.has("raw")) raw = read_raw_options(r.raw("raw"), r.key_path("raw"));
+    volume = std::make_shared<Volume>(with_context(r.key_path("file"), [&] { return load_volume(file, raw); }));
+    v.source = file;
+  } else {
+    const auto& spec = r.raw("procedural");
+    volume = std::make_shared<Volume>(with_context(r.key_path("procedural"), [&] { return make_procedural_volume(spec); }));
+    v.source = "procedural:" + (spec.contains("name") && spec["name"].is_string() ? spec["name"].get<std::string>() : "?");
+  }
+  if (r.has("origin")) volume->set_origin(r.vec3("origin", {}));
+  if (!r.has("transfer_function")) r.fail("transfer_function", "missing (e.g. {\"preset\": \"ct-bone\"})");
+  v.transfer_function = with_context(r.key_path("transfer_function"), [&] {
+    return parse_transfer_function(r.raw("transfer_function"), volume->min_value(), volume->max_value(), base_dir);
+  });
+  if (r.has("shadow_transfer_function")) {
+    v.has_shadow_transfer_function = true;
+    v.shadow_transfer_function = with_context(r.key_path("shadow_transfer_function"), [&] {
+      return parse_transfer_function(r.raw("shadow_transfer_function"), volume->min_value(), volume->max_value(), base_dir);
+    });
+  }
+  v.step = r.number("step", v.step, 0.05f, 8.0f);
+  const std::string comp = r.string("compositing", "alpha");
+  if (comp == "alpha") v.compositing = Compositing::Alpha;
+  else if (comp == "extinction")
+    r.fail("compositing", "'extinction' compositing (paper 001, Eq. 2) is not available in this build (available: alpha)");
+  else r.fail("compositing", "unknown value '" + comp + "' (expected alpha or extinction)");
+  v.visible = r.boolean("visible", true);
+  v.jitter = r.boolean("jitter", true);
+  r.finish();
+  v.volume = std::move(volume);
+  return v;
+}
+
+ShadowSettings read_shadows(const nlohmann::json& j) {
+  JsonReader r(j, "shadows");
+  ShadowSettings s;
+  s.technique = r.string("technique", s.technique);
+  const auto names = shadow_technique_names();
+  if (std::find(names.begin(), names.end(), s.technique) == names.end()) {
+    const auto planned = planned_shadow_technique_names();
+    if (std::find(planned.begin(), planned.end(), s.technique) != planned.end())
+      r.fail("technique", "'" + s.technique + "' is not available in this build (available: " + join(names) + ")");
+    r.fail("technique", "unknown technique '" + s.technique + "' (expected one of: " + join(names) + ")");
+  }
+  s.resolution = static_cast<int>(r.integer("resolution", s.resolution, 16, 16384));
+  s.offsets = static_cast<int>(r.integer("offsets", s.offsets, 1, 21));
+  if (s.offsets != 7 && s.offsets != 13 && s.offsets != 21)
+    r.fail("offsets", "value " + std::to_string(s.offsets) + " is not supported (expected 7, 13 or 21, paper §4)");
+  s.seed = static_cast<std::uint64_t>(r.integer("seed", static_cast<std::int64_t>(s.seed), 0, INT64_MAX));
+  s.nodes = static_cast<int>(r.integer("nodes", s.nodes, 2, 64));
+  s.pcf = static_cast<int>(r.integer("pcf", s.pcf, 0, 16));
+  s.bias = r.number("bias", s.bias, -1, 1e6f);
+  s.step = r.number("step", s.step, -1, 8);
+  if (s.step >= 0 && s.step < 0.05f) r.fail("step", "must be at least 0.05 voxels (or -1 for the volume's step)");
+  r.finish();
+  return s;
+}
+
+AmbientSettings read_ambient(const nlohmann::json& j) {
+  JsonReader r(j, "ambient");
+  AmbientSettings a;
+  a.technique = r.string("technique", a.technique);
+  const auto names = ambient_technique_names();
+  if (a.technique != "none") {
+    if (std::find(names.begin(), names.end(), a.technique) != names.end())
+      r.fail("technique", "'" + a.technique + "' is not available in this build (available: none)");
+    r.fail("technique", "unknown technique '" + a.technique + "' (expected one of: " + join(names) + ")");
+  }
+  r.finish();
+  return a;
+}
+
+ShadingParams read_shading(const nlohmann::json& j) {
+  JsonReader r(j, "shading");
+  ShadingParams s;
+  s.ambient = r.number("ambient", s.ambient, 0, 1);
+  s.diffuse = r.number("diffuse", s.diffuse, 0, 1);
+  s.specular = r.number("specular", s.specular, 0, 1);
+  s.shininess = r.number("shininess", s.shininess, 1, 1000);
+  r.finish();
+  return s;
+}
+
+const nlohmann::json& array_at(JsonReader& r, const std::string& key) {
+  const auto& a = r.raw(key);
+  if (!a.is_array()) r.fail(key, "expected an array, got " + json_brief(a));
+  return a;
+}
+
+}  // namespace
+
+std::vector<std::string> ambient_technique_names() {
+  return {"none", "sat_shells", "sampled_ao", "particle_ao", "ray_traced_ao"};
+}
+
+nlohmann::json read_json_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(path + ": cannot open the file");
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw Error(path + ": not valid JSON: " + e.what());
+  }
+}
+
+void apply_override(nlohmann::json& scene, const std::string& path, const std::string& value) {
+  if (path.empty()) throw Error("--set: empty key");
+  nlohmann::json parsed = nlohmann::json::parse(value, nullptr, /*allow_exceptions=*/false);
+  if (parsed.is_discarded()) parsed = value;
+  nlohmann::json* node = &scene;
+  std::string walked;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t dot = path.find('.', start);
+    const std::string part = path.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
+    if (part.empty()) throw Error("--set " + path + ": empty path component");
+    walked += (walked.empty() ? "" : ".") + part;
+    nlohmann::json* next = nullptr;
+    if (node->is_array()) {
+      std::size_t idx = 0;
+      try {
+        std::size_t used = 0;
+        idx = std::stoul(part, &used);
+        if (used != part.size()) throw std::invalid_argument(part);
+      } catch (const std::exception&) {
+        throw Error("--set " + path + ": '" + walked + "' indexes an array (expected a number)");
+      }
+      if (idx >= node->size())
+        throw Error("--set " + path + ": '" + walked + "' is past the end of an array of " + std::to_string(node->size()));
+      next = &(*node)[idx];
+    } else {
+      if (node->is_null()) *node = nlohmann::json::object();
+      if (!node->is_object()) throw Error("--set " + path + ": '" + walked + "' is inside a value that is not an object");
+      next = &(*node)[part];
+    }
+    if (dot == std::string::npos) {
+      *next = parsed;
+      return;
+    }
+    node = next;
+    start = dot + 1;
+  }
+}
+
+void apply_override(nlohmann::json& scene, const std::string& assignment) {
+  const std::size_t eq = assignment.find('=');
+  if (eq == std::string::npos) throw Error("--set '" + assignment + "': expected key=value");
+  apply_override(scene, assignment.substr(0, eq), assignment.substr(eq + 1));
+}
+
+Scene build_scene(const nlohmann::json& j, const std::string& base_dir) {
+  JsonReader r(j, "");
+  Scene s;
+  if (r.has("volumes")) {
+    const auto& vols = array_at(r, "volumes");
+    for (std::size_t i = 0; i < vols.size(); ++i)
+      s.volumes.push_back(read_volume(vols[i], "volumes." + std::to_string(i), base_dir));
+  }
+  int visible = 0;
+  for (const auto& v : s.volumes) visible += v.visible ? 1 : 0;
+  if (visible > 1) r.fail("volumes", "more than one visible volume; the ray caster draws one (set 'visible': false on the others)");
+  for (const char* key : {"particles", "isosurfaces"})
+    if (r.has(key) && !r.raw(key).empty())
+      r.fail(key, "is not available in this build (volumes and planes are)");
+  if (r.has("planes")) {
+    const auto& planes = array_at(r, "planes");
+    for (std::size_t i = 0; i < planes.size(); ++i) s.planes.push_back(read_plane(planes[i], "planes." + std::to_string(i)));
+  }
+  const Box3 bounds = s.caster_bounds();
+  if (r.has("lights")) {
+    const auto& lights = array_at(r, "lights");
+    for (std::size_t i = 0; i < lights.size(); ++i)
+      s.lights.push_back(read_light(lights[i], "lights." + std::to_string(i), bounds));
+  }
+  s.camera = read_camera(r.has("camera") ? r.raw("camera") : nlohmann::json::object(), bounds);
+  if (r.has("shadows")) s.shadows = read_shadows(r.raw("shadows"));
+  if (r.has("ambient")) s.ambient = read_ambient(r.raw("ambient"));
+  if (r.has("shading")) s.shading = read_shading(r.raw("shading"));
+  s.background = r.color("background", s.background);
+  r.finish();
+  return s;
+}
+
+Scene load_scene(const std::string& path, const std::vector<std::string>& overrides) {
+  nlohmann::json j = read_json_file(path);
+  for (const auto& o : overrides) apply_override(j, o);
+  const std::string base = std::filesystem::path(path).parent_path().string();
+  return with_context(path, [&] { return build_scene(j, base); });
+}
+
+}  // namespace penumbra

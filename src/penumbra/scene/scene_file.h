@@ -1,0 +1,32 @@
+// Reading the scene file (JSON, docs/scene-file.md) and the command line's `--set key=value` overrides.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "penumbra/scene/scene.h"
+
+namespace penumbra {
+
+// Parses a JSON file; syntax errors name the file, line and column.
+nlohmann::json read_json_file(const std::string& path);
+
+// Applies `--set path=value`: path is dotted (array elements by index, "lights.0.intensity"); value is
+// parsed as JSON when it is valid JSON, else taken as a string. Missing object keys are created (the
+// scene reader then rejects names it does not know); an index past an array's end is an error.
+void apply_override(nlohmann::json& scene, const std::string& path, const std::string& value);
+void apply_override(nlohmann::json& scene, const std::string& assignment);  // "path=value"
+
+// Builds the scene; relative file paths are resolved against base_dir. Every error names the key.
+Scene build_scene(const nlohmann::json& scene, const std::string& base_dir);
+
+// read_json_file + overrides + build_scene, with the file name prepended to errors.
+Scene load_scene(const std::string& path, const std::vector<std::string>& overrides = {});
+
+// The technique names the scene file accepts (DESIGN.md "The names users and scripts rely on").
+std::vector<std::string> ambient_technique_names();
+
+}  // namespace penumbra

@@ -1,0 +1,72 @@
+#include "penumbra/shadows/cssm.h"
+
+#include <array>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/rng.h"
+
+namespace penumbra {
+namespace {
+// Ordered so that the first 7 are the paper's centre, its four axis offsets at 4 and two opposite
+// diagonals (a centrally symmetric subset of the 13), and the last 8 extend the 13 with larger rings.
+constexpr std::array<std::pair<int, int>, 21> kOffsets{{
+    {0, 0}, {4, 0}, {-4, 0}, {0, 4}, {0, -4}, {3, 3}, {-3, -3},          // 7
+    {3, -3}, {-3, 3}, {7, 0}, {-7, 0}, {0, 7}, {0, -7},                  // 13: the paper's set
+    {5, 5}, {-5, -5}, {5, -5}, {-5, 5}, {10, 0}, {-10, 0}, {0, 10}, {0, -10}  // 21
+}};
+}  // namespace
+
+std::span<const std::pair<int, int>> cssm_offsets(int count) {
+  if (count != 7 && count != 13 && count != 21)
+    throw Error("cssm offsets " + std::to_string(count) + " (expected 7, 13 or 21)");
+  return std::span<const std::pair<int, int>>(kOffsets.data(), static_cast<std::size_t>(count));
+}
+
+ColoredStochasticShadowMap::ColoredStochasticShadowMap(const ShadowSettings& s)
+    : LightSpaceMap(s), seed_(s.seed), offsets_(cssm_offsets(s.offsets)) {
+  for (const auto& o : offsets_) filter_radius_ = std::max(filter_radius_, std::max(std::abs(o.first), std::abs(o.second)));
+}
+
+void ColoredStochasticShadowMap::build_map(const ShadowMedium& medium) {
+  depth_.assign(static_cast<std::size_t>(resolution_) * resolution_ * 3, kInfinity);
+  for_each_texel([&](int ix, int iy, const Ray& ray) {
+    const std::size_t texel = texel_index(ix, iy);
+    // Surfaces first (§4): an opaque plane stops every photon.
+    const float surface = medium.surface_hit(ray, 0, kInfinity);
+    float c[3] = {surface, surface, surface};
+    // Table 1. Segments beyond the surface cannot lower a stored minimum, so the walk ends there.
+    medium.march(ray, 0, surface, [&](const MediumSegment& s) {
+      const float r = uniform_float(seed_, texel, static_cast<std::uint64_t>(s.index));
+      bool all_stopped = true;
+      for (int l = 0; l < 3; ++l) {
+        const float rho = s.alpha * (1.0f - s.transmission[l]);
+        if (rho > r) c[l] = std::min(c[l], s.t);
+        all_stopped = all_stopped && c[l] <= s.t;
+      }
+      return !all_stopped;  // early exit once every channel's photon is stopped (nothing deeper can lower c)
+    });
+    for (int l = 0; l < 3; ++l) depth_[texel * 3 + l] = c[l];
+  });
+}
+
+void ColoredStochasticShadowMap::transmittance(std::span<const Vec3> points, std::span<Rgb> out) const {
+  const float weight = 1.0f / static_cast<float>(offsets_.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    int ix, iy;
+    float depth;
+    if (!locate(points[i], ix, iy, depth)) {
+      out[i] = Rgb(1.0f);
+      continue;
+    }
+    Rgb l(0.0f);  // Table 2
+    for (const auto& [dx, dy] : offsets_) {
+      const int x = std::clamp(ix + dx, 0, resolution_ - 1), y = std::clamp(iy + dy, 0, resolution_ - 1);
+      const float* c = &depth_[texel_index(x, y) * 3];
+      for (int lambda = 0; lambda < 3; ++lambda)
+        if (c[lambda] > depth) l[lambda] += weight;
+    }
+    out[i] = l;
+  }
+}
+
+}  // namespace penumbra

@@ -1,0 +1,50 @@
+// Shared machinery of the shadow maps (classic, deep, CSSM): the fitted light projection, the n x n
+// texel grid, a parallel loop over texel rays for build(), receiver depth with bias, and the
+// slope-scaled offset for surface receivers.
+#pragma once
+
+#include <functional>
+
+#include "penumbra/scene/scene.h"
+#include "penumbra/shadows/light_projection.h"
+#include "penumbra/shadows/shadow_technique.h"
+
+namespace penumbra {
+
+class LightSpaceMap : public ShadowTechnique {
+public:
+  explicit LightSpaceMap(const ShadowSettings& settings) : resolution_(settings.resolution), bias_setting_(settings.bias) {}
+
+  void build(const ShadowMedium& medium, const Light& light) final;
+  Vec3 surface_receiver(const Vec3& p, const Vec3& n) const final;
+
+  int resolution() const { return resolution_; }
+  const LightProjection& projection() const { return projection_; }
+
+protected:
+  // Fills the map: called once per build after the projection is fitted.
+  virtual void build_map(const ShadowMedium& medium) = 0;
+  // Calls texel(ix, iy, ray) for every texel, rows in parallel; `ray` goes from the light through the
+  // texel centre with t = light depth.
+  void for_each_texel(const std::function<void(int ix, int iy, const Ray& ray)>& texel) const;
+  // Texel of p and its biased depth; false when p is outside the map (then it is lit: nothing that
+  // casts a shadow lies outside the frustum).
+  bool locate(const Vec3& p, int& ix, int& iy, float& depth) const {
+    float u, v;
+    if (!projection_.project(p, u, v, depth)) return false;
+    ix = std::min(static_cast<int>(u * static_cast<float>(resolution_)), resolution_ - 1);
+    iy = std::min(static_cast<int>(v * static_cast<float>(resolution_)), resolution_ - 1);
+    depth -= bias_;
+    return true;
+  }
+  std::size_t texel_index(int ix, int iy) const { return static_cast<std::size_t>(iy) * resolution_ + ix; }
+
+  int resolution_;
+  int filter_radius_ = 0;  // texels a query reads away from its own (PCF, CSSM offsets)
+  float bias_setting_;
+  float bias_ = 0;
+  LightProjection projection_;
+  Light light_;
+};
+
+}  // namespace penumbra
