@@ -7,6 +7,9 @@
 namespace penumbra {
 namespace {
 
+// [-1, 1] -> [-127, 127], rounded to nearest
+std::int8_t quantise(float x) { return static_cast<std::int8_t>(x * 127.0f + (x >= 0 ? 0.5f : -0.5f)); }
+
 std::vector<std::array<std::int8_t, 4>> gradient_volume(const Volume& vol, float weight_scale) {
   const auto& d = vol.dims();
   std::vector<std::array<std::int8_t, 4>> g(vol.voxel_count());
@@ -26,8 +29,7 @@ std::vector<std::array<std::int8_t, 4>> gradient_volume(const Volume& vol, float
           const float len = length(grad);
           const Vec3 n = len > 0 ? grad / len : Vec3{0, 0, 0};
           const float w = std::min(1.0f, len * weight_scale);
-          g[vol.index(i, j, k)] = {static_cast<std::int8_t>(std::lround(n.x * 127)), static_cast<std::int8_t>(std::lround(n.y * 127)),
-                                   static_cast<std::int8_t>(std::lround(n.z * 127)), static_cast<std::int8_t>(std::lround(w * 127))};
+          g[vol.index(i, j, k)] = {quantise(n.x), quantise(n.y), quantise(n.z), quantise(w)};
         }
   });
   return g;

@@ -28,6 +28,7 @@ struct Shader {
   const RayCastInputs& in;
   const ShadingParams& k;
   Vec3 view;  // towards the eye
+  float kSpecularCutoff;  // cos below which (cos)^shininess < 1e-4
 
   // Adds the shaded batch to `accum` and empties it.
   void flush(SampleBatch& b, Rgb& accum) const {
@@ -47,8 +48,9 @@ struct Shader {
         const float diffuse = (1 - b.shaded[i]) + b.shaded[i] * std::max(ndotl, 0.0f);
         float spec = 0;
         if (ndotl > 0 && b.shaded[i] > 0) {
-          const float ndoth = std::max(dot(b.normal[i], normalize(to_light + view)), 0.0f);
-          spec = b.shaded[i] * std::pow(ndoth, k.shininess);
+          const float ndoth = dot(b.normal[i], normalize(to_light + view));
+          // below this cosine the highlight is under 1e-4 for shininess >= 8: skip the pow
+          if (ndoth > kSpecularCutoff) spec = b.shaded[i] * std::pow(ndoth, k.shininess);
         }
         lit[i] += e * (b.color[i] * (k.diffuse * diffuse) + Rgb(k.specular * spec));
       }
@@ -137,12 +139,13 @@ Image render_volume_frame(const RayCastInputs& in) {
   Image image(cam.width, cam.height);
   Progress progress("render", static_cast<std::size_t>(cam.height));
   const bool jittered = in.volume && in.volume->object->jitter;
+  const float specular_cutoff = std::pow(1e-4f, 1.0f / in.scene->shading.shininess);
   parallel_for_tiles(cam.width, cam.height, kTileSize, [&](const Tile& tile) {
     SampleBatch batch;
     for (int y = tile.y0; y < tile.y1; ++y) {
       for (int x = tile.x0; x < tile.x1; ++x) {
         const Ray ray = cam.primary_ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f);
-        const Shader shader{in, in.scene->shading, -ray.direction};
+        const Shader shader{in, in.scene->shading, -ray.direction, specular_cutoff};
         const float jitter = jittered ? uniform_float(0x6a177e5, static_cast<std::uint64_t>(x), static_cast<std::uint64_t>(y)) : 0.0f;
         image.at(x, y) = trace(in, shader, ray, jitter, batch);
       }

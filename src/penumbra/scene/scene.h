@@ -80,7 +80,7 @@ struct ShadowSettings {
   int nodes = 3;                  // deep_shadow_map: nodes per colour channel
   int pcf = 0;                    // shadow_map: percentage-closer filter radius in texels (0 = off)
   float bias = -1;                // world units subtracted from a receiver's light depth; < 0: one shadow step
-  float step = -1;                // shadow-ray sampling step in voxels; < 0: the volume's step
+  float step = -1;                // light-ray sampling step in voxels; < 0: one voxel (kDefaultShadowStepVoxels)
 };
 
 struct AmbientSettings {

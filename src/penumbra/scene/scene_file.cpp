@@ -285,6 +285,8 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir) {
     const auto& lights = array_at(r, "lights");
     for (std::size_t i = 0; i < lights.size(); ++i)
       s.lights.push_back(read_light(lights[i], "lights." + std::to_string(i), bounds));
+  } else {
+    s.lights.push_back(read_light(nlohmann::json::object(), "lights.0", bounds));  // one light from above
   }
   s.camera = read_camera(r.has("camera") ? r.raw("camera") : nlohmann::json::object(), bounds);
   if (r.has("shadows")) s.shadows = read_shadows(r.raw("shadows"));

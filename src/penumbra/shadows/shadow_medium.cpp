@@ -8,7 +8,7 @@ ShadowMedium::ShadowMedium(const Scene& scene, const MacrocellGrid& grid)
   if (!v) return;
   volume_ = v->volume.get();
   volume_box_ = volume_->bounds();
-  const float steps_in_voxels = scene.shadows.step > 0 ? scene.shadows.step : v->step;
+  const float steps_in_voxels = scene.shadows.step > 0 ? scene.shadows.step : kDefaultShadowStepVoxels;
   step_ = steps_in_voxels * v->reference_step();
   lut_ = TransferLut(v->shadow_tf(), volume_->min_value(), volume_->max_value(), step_ / v->reference_step());
   empty_ = grid_->empty_cells(lut_);

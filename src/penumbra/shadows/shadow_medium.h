@@ -15,6 +15,11 @@
 
 namespace penumbra {
 
+// Light rays sample the volume once per voxel unless shadows.step says otherwise: the light pass is
+// only integrated, never shaded, so it does not need the eye's finer step; all techniques, the
+// ray-traced reference included, use the same step, so their differences are the techniques' own.
+constexpr float kDefaultShadowStepVoxels = 1.0f;
+
 // Shadow rays stop once every channel's transmittance is below this (OSPRay's "minContribution").
 constexpr float kShadowOpaque = 1e-4f;
 
@@ -50,6 +55,8 @@ public:
     float t0, t1;
     if (!volume_box_.clip(r, t0, t1, t_begin, t_end)) return;
     const EmptySpaceSkipper skipper(*volume_, *grid_, empty_);
+    const auto& cells = grid_->cells();
+    std::size_t last_cell = SIZE_MAX;
     std::int64_t k = static_cast<std::int64_t>(std::floor(t0 / step_));
     while (true) {
       const float seg0 = std::max(t0, static_cast<float>(k) * step_);
@@ -58,13 +65,21 @@ public:
       if (seg1 <= seg0) { ++k; continue; }
       const float tm = 0.5f * (seg0 + seg1);
       const Vec3 p = r.at(tm);
-      const float t_skip = skipper.skip(r, tm, p);
-      if (t_skip > tm) {  // empty cell: continue with the segment that holds the cell's exit
-        const std::int64_t next = static_cast<std::int64_t>(std::floor(t_skip / step_));
-        k = std::max(k + 1, next);
-        continue;
+      const Vec3 v = volume_->to_voxel(p);
+      const std::size_t cell = grid_->cell_index(
+          std::clamp(static_cast<int>(v.x) / MacrocellGrid::kCellSize, 0, cells[0] - 1),
+          std::clamp(static_cast<int>(v.y) / MacrocellGrid::kCellSize, 0, cells[1] - 1),
+          std::clamp(static_cast<int>(v.z) / MacrocellGrid::kCellSize, 0, cells[2] - 1));
+      if (cell != last_cell) {
+        last_cell = cell;
+        if (empty_[cell]) {  // empty cell: continue with the segment that holds the cell's exit
+          const float t_skip = skipper.skip(r, tm, p);
+          k = std::max(k + 1, static_cast<std::int64_t>(std::floor(t_skip / step_)));
+          last_cell = SIZE_MAX;
+          continue;
+        }
       }
-      const Rgba s = lut_.lookup(volume_->sample(p));
+      const Rgba s = lut_.lookup(volume_->sample_voxel(v));
       if (s.a > 0) {
         const float len = seg1 - seg0;
         const float a = len >= step_ * 0.9999f ? s.a : 1.0f - std::pow(1.0f - s.a, len / step_);

@@ -44,7 +44,10 @@ using GzFile = std::unique_ptr<gzFile_s, GzClose>;
 std::string dims_str(const short* dim) {
   std::string s;
   const int nd = dim[0] >= 1 && dim[0] <= 7 ? dim[0] : 0;
-  for (int i = 1; i <= nd; ++i) s += (i > 1 ? "x" : "") + std::to_string(dim[i]);
+  for (int i = 1; i <= nd; ++i) {
+    if (i > 1) s += 'x';
+    s += std::to_string(dim[i]);
+  }
   return s.empty() ? "none" : s;
 }
 
@@ -181,11 +184,11 @@ Volume load_nifti_volume(const std::string& path) {
       static_cast<std::uint64_t>(nim->iname_offset) != raw.offset)
     throw Error("niftilib read the NIfTI header differently from its raw fields (dims " + dims_str(raw.h.dim) + ")");
 
-  // Slope 0 means "no scaling" in NIfTI (niftilib also turns a non-finite slope into 0); (1, 0) is the
-  // identity, so the stored type is kept.
+  // Slope 0 means "no scaling" in NIfTI (niftilib already turns non-finite slopes and intercepts into
+  // 0, so the check below is only a guard); (1, 0) is the identity, so the stored type is kept.
   const float slope = nim->scl_slope, inter = nim->scl_inter;
   const bool scale = slope != 0 && !(slope == 1 && inter == 0);
-  if (scale && !std::isfinite(inter)) throw Error("NIfTI scaling intercept is not finite");
+  if (scale && !(std::isfinite(slope) && std::isfinite(inter))) throw Error("NIfTI scaling is not finite");
   const Vec3 spacing{std::abs(raw.h.pixdim[1]), std::abs(raw.h.pixdim[2]), std::abs(raw.h.pixdim[3])};
   const Vec3 origin{nim->qoffset_x, nim->qoffset_y, nim->qoffset_z};
   const ScalarType stored = storage_type(nim->datatype);

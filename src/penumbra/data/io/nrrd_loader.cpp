@@ -2,8 +2,9 @@
 // teem trusts its header: it allocates whatever `sizes` asks for before reading a byte, and a detached
 // "data file" in its printf-template form is handed to sprintf. So the header is first parsed here,
 // with teem's own tables for the names of fields, types and encodings, and rejected unless it is a
-// 3-D volume of a supported type whose voxel count is sane and which the data on disk could hold.
-// Only then does nrrdLoad run; its result is checked against the pre-parse again.
+// 3-D volume of a supported type whose voxel count is sane and which the data on disk could hold;
+// gzip data is also decompressed once here (see verify_gzip). Only then does nrrdLoad run, and its
+// result is checked against the pre-parse again.
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
