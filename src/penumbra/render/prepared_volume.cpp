@@ -20,7 +20,7 @@ std::vector<std::array<std::int8_t, 4>> gradient_volume(const Volume& vol, float
         for (int i = 0; i < d[0]; ++i) {
           // central differences, one-sided (and halved accordingly) at the border
           auto diff = [&](int a, int lo_i, int hi_i, int lo_j, int hi_j, int lo_k, int hi_k) {
-            const float span = (a == 0 ? (hi_i - lo_i) : a == 1 ? (hi_j - lo_j) : (hi_k - lo_k)) * 0.5f;
+            const float span = static_cast<float>(a == 0 ? (hi_i - lo_i) : a == 1 ? (hi_j - lo_j) : (hi_k - lo_k)) * 0.5f;
             return span > 0 ? (vol.value(hi_i, hi_j, hi_k) - vol.value(lo_i, lo_j, lo_k)) / span : 0.0f;
           };
           const Vec3 grad{diff(0, std::max(i - 1, 0), std::min(i + 1, d[0] - 1), j, j, k, k) * inv2.x,
