@@ -1,5 +1,5 @@
 // `penumbra compare A B [--diff D.png] [--scale S]`: RMSE and PSNR between two images, and a false-colour
-// difference image.
+// difference image. `penumbra montage OUT IN...`: images side by side.
 #include <cstdio>
 
 #include "commands.h"
@@ -24,6 +24,24 @@ void add_compare_command(CLI::App& app) {
     const ImageDifference d = compare_images(a, b);
     std::printf("rmse %.6f\npsnr %.2f dB\nmax_abs %.6f\n", d.rmse, d.psnr, d.max_abs);
     if (!o->diff.empty()) write_image(o->diff, difference_image(a, b, o->scale));
+  });
+}
+
+void add_montage_command(CLI::App& app) {
+  struct Options {
+    std::string output;
+    std::vector<std::string> inputs;
+  };
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand("montage", "Put images side by side (for comparisons)");
+  cmd->add_option("output", o->output, "Output image (.png or .pfm)")->required();
+  cmd->add_option("inputs", o->inputs, "Images, left to right")->required();
+  cmd->callback([o] {
+    std::vector<Image> images;
+    for (const auto& p : o->inputs) images.push_back(read_image(p));
+    std::vector<const Image*> ptrs;
+    for (const auto& im : images) ptrs.push_back(&im);
+    write_image(o->output, montage(ptrs));
   });
 }
 

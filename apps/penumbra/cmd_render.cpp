@@ -51,6 +51,11 @@ Light orbit_light(const Light& l, const Vec3& centre, float angle) {
 void run_render(const RenderOptions& o) {
   if (o.orbit > 0 && o.light_orbit > 0) throw Error("--orbit and --light-orbit cannot be combined");
   check_output_path(o.output);
+  if (!o.stats.empty()) {
+    const auto dir = std::filesystem::path(o.stats).parent_path();
+    if (!dir.empty() && !std::filesystem::is_directory(dir))
+      throw Error("--stats " + o.stats + ": directory '" + dir.string() + "' does not exist");
+  }
   std::vector<std::string> sets;
   if (o.width > 0) sets.push_back("camera.width=" + std::to_string(o.width));
   if (o.height > 0) sets.push_back("camera.height=" + std::to_string(o.height));

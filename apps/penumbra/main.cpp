@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   penumbra::cli::add_render_command(app);
   penumbra::cli::add_demo_command(app);
   penumbra::cli::add_compare_command(app);
+  penumbra::cli::add_montage_command(app);
   penumbra::cli::add_info_command(app);
   penumbra::cli::add_bench_command(app);
   try {

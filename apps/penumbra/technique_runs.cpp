@@ -29,14 +29,4 @@ TechniqueRun run_technique(const nlohmann::json& scene_json, const std::string& 
   return run;
 }
 
-Image montage(const std::vector<const Image*>& images) {
-  if (images.empty()) return {};
-  const int w = images[0]->width(), h = images[0]->height(), gap = 4;
-  Image out(static_cast<int>(images.size()) * (w + gap) - gap, h, Rgb(1.0f));
-  for (std::size_t i = 0; i < images.size(); ++i)
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x) out.at(static_cast<int>(i) * (w + gap) + x, y) = images[i]->at(x, y);
-  return out;
-}
-
 }  // namespace penumbra::cli

@@ -24,7 +24,4 @@ struct TechniqueRun {
 TechniqueRun run_technique(const nlohmann::json& scene, const std::string& technique, int resolution,
                            const std::vector<std::string>& extra_sets, int repeats);
 
-// Side-by-side montage of images of equal size.
-Image montage(const std::vector<const Image*>& images);
-
 }  // namespace penumbra::cli

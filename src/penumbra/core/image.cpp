@@ -44,4 +44,22 @@ Image difference_image(const Image& a, const Image& b, float scale) {
   return out;
 }
 
+Image montage(const std::vector<const Image*>& images) {
+  if (images.empty()) return {};
+  constexpr int kGap = 4;
+  int width = -kGap, height = 0;
+  for (const Image* im : images) {
+    width += im->width() + kGap;
+    height = std::max(height, im->height());
+  }
+  Image out(width, height, Rgb(1.0f));
+  int x0 = 0;
+  for (const Image* im : images) {
+    for (int y = 0; y < im->height(); ++y)
+      for (int x = 0; x < im->width(); ++x) out.at(x0 + x, y) = im->at(x, y);
+    x0 += im->width() + kGap;
+  }
+  return out;
+}
+
 }  // namespace penumbra

@@ -38,4 +38,7 @@ ImageDifference compare_images(const Image& a, const Image& b);
 // False-colour map of the per-pixel difference: black = equal, through blue and yellow to red = `scale`.
 Image difference_image(const Image& a, const Image& b, float scale);
 
+// Images side by side, left to right, 4 white pixels apart; shorter images are padded with white.
+Image montage(const std::vector<const Image*>& images);
+
 }  // namespace penumbra

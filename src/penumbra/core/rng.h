@@ -22,6 +22,17 @@ constexpr std::uint64_t hash_keys(std::uint64_t seed, std::uint64_t a, std::uint
   return h;
 }
 
+// Uniform float in [0, 1) from the top 24 bits of a 64-bit hash.
+constexpr float to_unit_float(std::uint64_t h) { return static_cast<float>(h >> 40) * (1.0f / 16777216.0f); }
+
+// A stream of numbers keyed by (seed, a, b) and an index: the key is hashed once, each number costs one
+// mix. Used where one key draws many numbers (a CSSM texel's segments).
+struct RandomStream {
+  std::uint64_t key;
+  constexpr RandomStream(std::uint64_t seed, std::uint64_t a, std::uint64_t b = 0) : key(hash_keys(seed, a, b)) {}
+  constexpr float operator()(std::uint64_t index) const { return to_unit_float(mix64(key ^ (index * 0x9e3779b97f4a7c15ULL))); }
+};
+
 // Uniform float in [0, 1) from the top 24 bits of the hash.
 constexpr float uniform_float(std::uint64_t seed, std::uint64_t a, std::uint64_t b = 0,
                               std::uint64_t c = 0) {

@@ -34,9 +34,10 @@ void ColoredStochasticShadowMap::build_map(const ShadowMedium& medium) {
     // Surfaces first (§4): an opaque plane stops every photon.
     const float surface = medium.surface_hit(ray, 0, kInfinity);
     float c[3] = {surface, surface, surface};
+    const RandomStream random(seed_, texel);  // r_i keyed by (seed, texel, segment index)
     // Table 1. Segments beyond the surface cannot lower a stored minimum, so the walk ends there.
     medium.march(ray, 0, surface, [&](const MediumSegment& s) {
-      const float r = uniform_float(seed_, texel, static_cast<std::uint64_t>(s.index));
+      const float r = random(static_cast<std::uint64_t>(s.index));
       bool all_stopped = true;
       for (int l = 0; l < 3; ++l) {
         const float rho = s.alpha * (1.0f - s.transmission[l]);

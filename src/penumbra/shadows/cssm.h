@@ -32,6 +32,7 @@ std::span<const std::pair<int, int>> cssm_offsets(int count);
 
 class ColoredStochasticShadowMap final : public LightSpaceMap {
 public:
+  using ShadowTechnique::transmittance;  // keep the one-point overload visible
   explicit ColoredStochasticShadowMap(const ShadowSettings& s);
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
   std::size_t memory_bytes() const override { return depth_.size() * sizeof(float); }

@@ -27,6 +27,7 @@ namespace penumbra {
 
 class DeepShadowMap final : public LightSpaceMap {
 public:
+  using ShadowTechnique::transmittance;  // keep the one-point overload visible
   explicit DeepShadowMap(const ShadowSettings& s) : LightSpaceMap(s), nodes_(s.nodes) {}
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
   std::size_t memory_bytes() const override { return node_depth_.size() * 2 * sizeof(float) + node_count_.size() + surface_depth_.size() * sizeof(float); }

@@ -11,6 +11,7 @@ namespace penumbra {
 
 class RayTracedShadows final : public ShadowTechnique {
 public:
+  using ShadowTechnique::transmittance;  // keep the one-point overload visible
   void build(const ShadowMedium& medium, const Light& light) override {
     medium_ = &medium;
     light_ = light;
@@ -43,6 +44,7 @@ private:
 // No shadows: every point receives the full light.
 class NoShadows final : public ShadowTechnique {
 public:
+  using ShadowTechnique::transmittance;  // keep the one-point overload visible
   void build(const ShadowMedium&, const Light&) override {}
   void transmittance(std::span<const Vec3>, std::span<Rgb> out) const override {
     for (auto& o : out) o = Rgb(1.0f);

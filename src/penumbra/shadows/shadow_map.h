@@ -16,6 +16,7 @@ namespace penumbra {
 
 class ClassicShadowMap final : public LightSpaceMap {
 public:
+  using ShadowTechnique::transmittance;  // keep the one-point overload visible
   static constexpr float kOpacityThreshold = 0.5f;
   explicit ClassicShadowMap(const ShadowSettings& s) : LightSpaceMap(s), pcf_(s.pcf) { filter_radius_ = s.pcf; }
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;

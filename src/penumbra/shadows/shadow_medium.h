@@ -59,8 +59,11 @@ public:
     std::size_t last_cell = SIZE_MAX;
     std::int64_t k = static_cast<std::int64_t>(std::floor(t0 / step_));
     while (true) {
-      const float seg0 = std::max(t0, static_cast<float>(k) * step_);
-      const float seg1 = std::min(t1, static_cast<float>(k + 1) * step_);
+      // segment k is [kΔ, (k+1)Δ]; only the first and last are cut by the box
+      const float lo = static_cast<float>(k) * step_;
+      const float seg0 = lo < t0 ? t0 : lo;
+      const float hi = lo + step_;
+      const float seg1 = hi > t1 ? t1 : hi;
       if (seg0 >= t1) return;
       if (seg1 <= seg0) { ++k; continue; }
       const float tm = 0.5f * (seg0 + seg1);

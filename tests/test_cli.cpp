@@ -1,0 +1,240 @@
+// The command line end to end (DESIGN.md "The command-line contract", docs/cli.md): runs the built
+// `penumbra` binary (PENUMBRA_CLI) on small procedural scenes written to a scratch directory, and checks
+// images, --stats JSON, sequences, error messages and that failures leave no output behind.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+
+#include "penumbra/core/image_io.h"
+#include "test_scenes.h"
+
+using namespace penumbra;
+using namespace penumbra::test;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CliRun {
+  int status = -1;  // exit status
+  std::string out, err;
+};
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string quote(const std::string& s) { return "'" + s + "'"; }
+
+// Runs `penumbra ARGS` with stdout and stderr captured in files outside `dir` (so that `dir` holds only
+// what the command itself wrote).
+CliRun penumbra_cli(const std::string& args) {
+  static int counter = 0;
+  const fs::path logs = fs::temp_directory_path() / ("penumbra_cli_logs_" + std::to_string(::getpid()));
+  fs::create_directories(logs);
+  const std::string out = (logs / ("out" + std::to_string(counter) + ".txt")).string();
+  const std::string err = (logs / ("err" + std::to_string(counter) + ".txt")).string();
+  ++counter;
+  const std::string cmd = quote(PENUMBRA_CLI) + " " + args + " >" + quote(out) + " 2>" + quote(err);
+  const int raw = std::system(cmd.c_str());
+  CliRun r;
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + (WIFSIGNALED(raw) ? WTERMSIG(raw) : 0);
+  r.out = slurp(out);
+  r.err = slurp(err);
+  std::error_code ec;
+  fs::remove(out, ec);
+  fs::remove(err, ec);
+  fs::remove(logs, ec);  // only when empty
+  return r;
+}
+
+std::set<std::string> listing(const fs::path& dir) {
+  std::set<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) names.insert(e.path().filename().string());
+  return names;
+}
+
+// A small scene: test-spheres 32³ over a floor, a point light, 32² image, 64² maps.
+nlohmann::json cli_scene() {
+  return nlohmann::json::parse(R"({
+    "volumes": [ { "procedural": { "name": "test-spheres", "size": 32 }, "transfer_function": { "preset": "test-spheres" } } ],
+    "planes": [ { "point": [0, -0.52, 0], "normal": [0, 1, 0], "color": [0.9, 0.9, 0.9], "size": 4 } ],
+    "lights": [ { "type": "point", "position": [0.7, 1.6, 0.9] } ],
+    "camera": { "width": 32, "height": 32 },
+    "shadows": { "technique": "deep_shadow_map", "resolution": 64, "seed": 3 }
+  })");
+}
+
+std::string write_scene(const ScratchDir& dir, const std::string& name, const nlohmann::json& j) {
+  const std::string path = dir.file(name);
+  std::ofstream(path) << j.dump(2);
+  return path;
+}
+
+bool contains(const std::string& haystack, const std::string& needle) { return haystack.find(needle) != std::string::npos; }
+
+}  // namespace
+
+TEST(Cli, RenderWritesImageAndStats) {
+  ScratchDir dir;
+  const std::string scene = write_scene(dir, "scene.json", cli_scene());
+  const CliRun r = penumbra_cli("render " + quote(scene) + " -o " + quote(dir.file("out.png")) + " --width 40 --height 24 --stats " +
+                             quote(dir.file("stats.json")) + " --threads 1");
+  ASSERT_EQ(r.status, 0) << r.err;
+  const Image img = read_image(dir.file("out.png"));
+  EXPECT_EQ(img.width(), 40);
+  EXPECT_EQ(img.height(), 24);
+  const nlohmann::json s = nlohmann::json::parse(slurp(dir.file("stats.json")));
+  EXPECT_EQ(s.at("technique"), "deep_shadow_map");
+  EXPECT_EQ(s.at("width"), 40);
+  EXPECT_EQ(s.at("height"), 24);
+  for (const char* k : {"build", "render", "total"}) {
+    ASSERT_TRUE(s.at("timings_ms").at(k).is_number()) << k;
+    EXPECT_GE(s["timings_ms"][k].get<double>(), 0.0) << k;
+  }
+  EXPECT_GE(s["timings_ms"]["total"].get<double>(), s["timings_ms"]["render"].get<double>());
+  // 3 nodes x 3 channels x (depth, T) floats + 3 count bytes + 1 surface depth float per texel
+  EXPECT_EQ(s.at("memory_bytes").at("shadow"), 64 * 64 * (3 * 3 * 2 * 4 + 3 + 4));
+  EXPECT_EQ(s.at("memory_bytes").at("ambient"), 0);
+  EXPECT_EQ(s.at("counts").at("voxels"), 32 * 32 * 32);
+  EXPECT_EQ(s.at("threads"), 1);
+  EXPECT_EQ(s.at("seed"), 3);
+  EXPECT_FALSE(s.contains("frames")) << "a single frame has no frames list";
+  EXPECT_EQ(listing(dir.path()), (std::set<std::string>{"scene.json", "out.png", "stats.json"})) << "no temporary files left";
+}
+
+TEST(Cli, SetOverridesTheScene) {
+  ScratchDir dir;
+  const std::string scene = write_scene(dir, "scene.json", cli_scene());
+  const CliRun r = penumbra_cli("render " + quote(scene) + " -o " + quote(dir.file("out.pfm")) +
+                             " --set shadows.technique=cssm --set shadows.resolution=32 --set 'lights.0.intensity=0.5'" +
+                             " --stats " + quote(dir.file("stats.json")));
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json s = nlohmann::json::parse(slurp(dir.file("stats.json")));
+  EXPECT_EQ(s.at("technique"), "cssm");
+  EXPECT_EQ(s.at("memory_bytes").at("shadow"), 32 * 32 * 3 * 4) << "CSSM: resolution² · 3 floats";
+  const Image img = read_image(dir.file("out.pfm"));
+  EXPECT_EQ(img.width(), 32);
+}
+
+TEST(Cli, OrbitWritesNumberedFramesAndReusesShadows) {
+  ScratchDir dir;
+  const std::string scene = write_scene(dir, "scene.json", cli_scene());
+  const CliRun r = penumbra_cli("render " + quote(scene) + " -o " + quote(dir.file("name.png")) + " --orbit 3 --stats " +
+                             quote(dir.file("stats.json")));
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(listing(dir.path()), (std::set<std::string>{"scene.json", "stats.json", "name_000.png", "name_001.png", "name_002.png"}));
+  const nlohmann::json s = nlohmann::json::parse(slurp(dir.file("stats.json")));
+  ASSERT_TRUE(s.at("frames").is_array());
+  ASSERT_EQ(s["frames"].size(), 3u);
+  EXPECT_EQ(s["frames"][0].at("rebuilt"), nlohmann::json::array({"shadows"}));
+  EXPECT_EQ(s["frames"][1].at("rebuilt"), nlohmann::json::array());
+  EXPECT_EQ(s["frames"][2].at("rebuilt"), nlohmann::json::array());
+  for (const auto& f : s["frames"]) EXPECT_TRUE(f.at("timings_ms").at("render").is_number());
+  // The camera moved: the frames differ.
+  const Image a = read_image(dir.file("name_000.png")), b = read_image(dir.file("name_001.png"));
+  EXPECT_TRUE(std::isfinite(compare_images(a, b).psnr));
+}
+
+TEST(Cli, LightOrbitRebuildsShadowsEveryFrame) {
+  ScratchDir dir;
+  const std::string scene = write_scene(dir, "scene.json", cli_scene());
+  const CliRun r = penumbra_cli("render " + quote(scene) + " -o " + quote(dir.file("light.png")) + " --light-orbit 3 --stats " +
+                             quote(dir.file("stats.json")));
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (const char* f : {"light_000.png", "light_001.png", "light_002.png"}) EXPECT_TRUE(fs::exists(dir.file(f))) << f;
+  const nlohmann::json s = nlohmann::json::parse(slurp(dir.file("stats.json")));
+  ASSERT_EQ(s.at("frames").size(), 3u);
+  for (const auto& f : s["frames"]) EXPECT_EQ(f.at("rebuilt"), nlohmann::json::array({"shadows"}));
+}
+
+// Bad inputs: non-zero exit, a message naming the key or file, and nothing written (no image, no stats,
+// no .partial file).
+TEST(Cli, BadInputsFailWithAMessageAndLeaveNoOutput) {
+  ScratchDir dir;
+  const std::string scene = write_scene(dir, "scene.json", cli_scene());
+  nlohmann::json missing = cli_scene();
+  missing["volumes"][0].erase("procedural");
+  missing["volumes"][0]["file"] = "missing_volume.nrrd";
+  const std::string missing_scene = write_scene(dir, "missing.json", missing);
+  const std::string broken = dir.file("broken.json");
+  std::ofstream(broken) << "{ \"camera\": { \"width\": 16, } ";
+  const std::string out = " -o " + quote(dir.file("out.png")) + " --stats " + quote(dir.file("stats.json"));
+  struct Case { std::string args, needle; };
+  const std::vector<Case> cases{
+      {"render " + quote(scene) + out + " --set shadows.bogus=1", "shadows.bogus"},
+      {"render " + quote(scene) + out + " --set lights.3.intensity=1", "lights.3"},
+      {"render " + quote(scene) + out + " --set shadows.technique=sat_cone", "sat_cone"},
+      {"render " + quote(missing_scene) + out, "missing_volume.nrrd"},
+      {"render " + quote(scene) + " -o " + quote(dir.file("out.jpg")) + " --stats " + quote(dir.file("stats.json")), ".jpg"},
+      {"render " + quote(broken) + out, "broken.json"},
+      {"render " + quote(dir.file("nonexistent.json")) + out, "nonexistent.json"},
+      {"render " + quote(scene) + " -o " + quote(dir.file("no_such_dir/out.png")), "no_such_dir"},
+  };
+  const auto before = listing(dir.path());
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.args);
+    const CliRun r = penumbra_cli(c.args);
+    EXPECT_NE(r.status, 0);
+    EXPECT_TRUE(contains(r.err, c.needle)) << "stderr: " << r.err;
+    EXPECT_LT(r.status, 128) << "crashed";
+    EXPECT_EQ(listing(dir.path()), before) << "output left behind";
+  }
+}
+
+// An unwritable --stats path must fail before any frame is written (no output behind a failed command).
+TEST(Cli, UnwritableStatsPathFailsBeforeWritingAnything) {
+  ScratchDir dir;
+  const std::string scene = write_scene(dir, "scene.json", cli_scene());
+  const auto before = listing(dir.path());
+  const CliRun r = penumbra_cli("render " + quote(scene) + " -o " + quote(dir.file("out.png")) + " --stats " +
+                                quote(dir.file("no_such_dir/stats.json")));
+  EXPECT_NE(r.status, 0);
+  EXPECT_TRUE(contains(r.err, "no_such_dir")) << r.err;
+  EXPECT_EQ(listing(dir.path()), before) << "a failed render left its image behind";
+}
+
+TEST(Cli, CompareReportsPsnrAndWritesDiff) {
+  ScratchDir dir;
+  const std::string scene = write_scene(dir, "scene.json", cli_scene());
+  ASSERT_EQ(penumbra_cli("render " + quote(scene) + " -o " + quote(dir.file("a.png"))).status, 0);
+  ASSERT_EQ(penumbra_cli("render " + quote(scene) + " -o " + quote(dir.file("b.png")) + " --set shadows.technique=none").status, 0);
+  CliRun same = penumbra_cli("compare " + quote(dir.file("a.png")) + " " + quote(dir.file("a.png")));
+  ASSERT_EQ(same.status, 0) << same.err;
+  EXPECT_TRUE(contains(same.out, "psnr inf")) << same.out;
+  EXPECT_TRUE(contains(same.out, "rmse 0.000000")) << same.out;
+  CliRun diff = penumbra_cli("compare " + quote(dir.file("a.png")) + " " + quote(dir.file("b.png")) + " --diff " + quote(dir.file("d.png")));
+  ASSERT_EQ(diff.status, 0) << diff.err;
+  const auto at = diff.out.find("psnr ");
+  ASSERT_NE(at, std::string::npos) << diff.out;
+  const double psnr = std::strtod(diff.out.c_str() + at + 5, nullptr);
+  EXPECT_TRUE(std::isfinite(psnr)) << diff.out;
+  EXPECT_GT(psnr, 10.0);
+  const Image d = read_image(dir.file("d.png"));
+  EXPECT_EQ(d.width(), 32);
+  // Images of different sizes cannot be compared: an error, not a crash.
+  ASSERT_EQ(penumbra_cli("render " + quote(scene) + " -o " + quote(dir.file("c.png")) + " --width 16").status, 0);
+  const CliRun bad = penumbra_cli("compare " + quote(dir.file("a.png")) + " " + quote(dir.file("c.png")));
+  EXPECT_NE(bad.status, 0);
+  EXPECT_LT(bad.status, 128);
+}
+
+TEST(Cli, InfoDescribesAVolumeFile) {
+  const std::string file = std::string(PENUMBRA_SHARED_DATA_DIR) + "/neghip.nhdr";
+  if (!fs::exists(file)) GTEST_SKIP() << file << " not found";
+  const CliRun r = penumbra_cli("info " + quote(file));
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(contains(r.out, "66 x 66 x 66")) << r.out;
+  const CliRun missing = penumbra_cli("info " + quote("/nonexistent/volume.nhdr"));
+  EXPECT_NE(missing.status, 0);
+  EXPECT_TRUE(contains(missing.err, "/nonexistent/volume.nhdr")) << missing.err;
+}
