@@ -24,7 +24,10 @@ std::span<const std::pair<int, int>> cssm_offsets(int count) {
 
 ColoredStochasticShadowMap::ColoredStochasticShadowMap(const ShadowSettings& s)
     : LightSpaceMap(s), seed_(s.seed), offsets_(cssm_offsets(s.offsets)) {
-  for (const auto& o : offsets_) filter_radius_ = std::max(filter_radius_, std::max(std::abs(o.first), std::abs(o.second)));
+  for (const auto& o : offsets_) {
+    filter_radius_ = std::max(filter_radius_, std::max(std::abs(o.first), std::abs(o.second)));
+    linear_offsets_.push_back((static_cast<std::ptrdiff_t>(o.second) * resolution_ + o.first) * 3);
+  }
 }
 
 void ColoredStochasticShadowMap::build_map(const ShadowMedium& medium) {
@@ -59,14 +62,25 @@ void ColoredStochasticShadowMap::transmittance(std::span<const Vec3> points, std
       out[i] = Rgb(1.0f);
       continue;
     }
-    Rgb l(0.0f);  // Table 2
-    for (const auto& [dx, dy] : offsets_) {
-      const int x = std::clamp(ix + dx, 0, resolution_ - 1), y = std::clamp(iy + dy, 0, resolution_ - 1);
-      const float* c = &depth_[texel_index(x, y) * 3];
-      for (int lambda = 0; lambda < 3; ++lambda)
-        if (c[lambda] > depth) l[lambda] += weight;
+    int lit[3] = {0, 0, 0};  // Table 2, counted; l_λ = count / m
+    const bool interior = ix >= filter_radius_ && iy >= filter_radius_ && ix < resolution_ - filter_radius_ &&
+                          iy < resolution_ - filter_radius_;
+    if (interior) {  // the common case: every offset inside the map, no clamping
+      const float* centre = &depth_[texel_index(ix, iy) * 3];
+      for (const std::ptrdiff_t d : linear_offsets_) {
+        const float* c = centre + d;
+        lit[0] += c[0] > depth;
+        lit[1] += c[1] > depth;
+        lit[2] += c[2] > depth;
+      }
+    } else {
+      for (const auto& [dx, dy] : offsets_) {
+        const int x = std::clamp(ix + dx, 0, resolution_ - 1), y = std::clamp(iy + dy, 0, resolution_ - 1);
+        const float* c = &depth_[texel_index(x, y) * 3];
+        for (int l = 0; l < 3; ++l) lit[l] += c[l] > depth;
+      }
     }
-    out[i] = l;
+    out[i] = Rgb(static_cast<float>(lit[0]) * weight, static_cast<float>(lit[1]) * weight, static_cast<float>(lit[2]) * weight);
   }
 }
 

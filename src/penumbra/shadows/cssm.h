@@ -44,6 +44,7 @@ private:
   void build_map(const ShadowMedium& medium) override;
   std::uint64_t seed_;
   std::span<const std::pair<int, int>> offsets_;
+  std::vector<std::ptrdiff_t> linear_offsets_;  // the offsets as distances in depth_ (floats)
   std::vector<float> depth_;  // [texel][channel]
 };
 
