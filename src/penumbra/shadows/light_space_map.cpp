@@ -1,6 +1,7 @@
 #include "penumbra/shadows/light_space_map.h"
 
 #include "penumbra/core/parallel.h"
+#include "penumbra/core/progress.h"
 
 namespace penumbra {
 
@@ -14,11 +15,14 @@ void LightSpaceMap::build(const ShadowMedium& medium, const Light& light) {
 
 void LightSpaceMap::for_each_texel(const std::function<void(int, int, const Ray&)>& texel) const {
   const float inv = 1.0f / static_cast<float>(resolution_);
+  Progress progress(std::string(name()) + " build", static_cast<std::size_t>(resolution_));
   parallel_for(static_cast<std::size_t>(resolution_), [&](std::size_t y0, std::size_t y1) {
-    for (std::size_t iy = y0; iy < y1; ++iy)
+    for (std::size_t iy = y0; iy < y1; ++iy) {
       for (int ix = 0; ix < resolution_; ++ix)
         texel(ix, static_cast<int>(iy),
               projection_.texel_ray((static_cast<float>(ix) + 0.5f) * inv, (static_cast<float>(iy) + 0.5f) * inv));
+      progress.advance();
+    }
   });
 }
 
