@@ -47,7 +47,7 @@ std::string today() {
 
 struct Options {
   std::string dir = "penumbra-bench";
-  std::string data_dir = PENUMBRA_SHARED_DATA_DIR;
+  std::string data_dir = default_data_dir();
   std::vector<int> resolutions{1024, 2048, 4096};
   std::vector<std::string> datasets{"test-spheres", "cranium"};
   int repeats = 3;
@@ -127,7 +127,7 @@ void add_bench_command(CLI::App& app) {
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand("bench", "Reproduce the CSSM paper's Tables 3 and 4 on this machine, with memory and error columns");
   cmd->add_option("-o,--output", o->dir, "Directory for bench.md, bench.json and the images");
-  cmd->add_option("--data-dir", o->data_dir, "Where cranium_ct.nrrd is looked for");
+  cmd->add_option("--data-dir", o->data_dir, "Where cranium_ct.nrrd is looked for (default: $PENUMBRA_DATA_DIR or ../shared/data)");
   cmd->add_option("--resolutions", o->resolutions, "Shadow-map resolutions")->check(CLI::Range(16, 16384));
   cmd->add_option("--datasets", o->datasets, "test-spheres and/or cranium");
   cmd->add_option("--repeats", o->repeats, "Runs per measurement (the fastest is kept)")->check(CLI::Range(1, 100));

@@ -41,13 +41,13 @@ void add_demo_command(CLI::App& app) {
   struct Options {
     std::string dir = "penumbra-demo";
     int threads = 0;
-    std::string data_dir = PENUMBRA_SHARED_DATA_DIR;
+    std::string data_dir = default_data_dir();
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand("demo", "Render the built-in scenes with every shadow technique");
   cmd->add_option("-o,--output", o->dir, "Output directory (created)");
   cmd->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
-  cmd->add_option("--data-dir", o->data_dir, "Where cranium_ct.nrrd is looked for");
+  cmd->add_option("--data-dir", o->data_dir, "Where cranium_ct.nrrd is looked for (default: $PENUMBRA_DATA_DIR or ../shared/data)");
   cmd->callback([o] {
     ThreadLimit limit(o->threads);
     std::filesystem::create_directories(o->dir);

@@ -1,11 +1,17 @@
 #include "technique_runs.h"
 
+#include <cstdlib>
 #include <limits>
 
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/scene_file.h"
 
 namespace penumbra::cli {
+
+std::string default_data_dir() {
+  const char* env = std::getenv("PENUMBRA_DATA_DIR");
+  return env && *env ? std::string(env) : std::string(PENUMBRA_SHARED_DATA_DIR);
+}
 
 TechniqueRun run_technique(const nlohmann::json& scene_json, const std::string& technique, int resolution,
                            const std::vector<std::string>& extra_sets, int repeats) {

@@ -20,6 +20,9 @@ struct TechniqueRun {
   Image image;
 };
 
+// Where the shared data sets are looked for: $PENUMBRA_DATA_DIR, else ../shared/data beside the checkout.
+std::string default_data_dir();
+
 // Renders `scene` (JSON) with the given shadow settings overrides; takes the fastest of `repeats` runs.
 TechniqueRun run_technique(const nlohmann::json& scene, const std::string& technique, int resolution,
                            const std::vector<std::string>& extra_sets, int repeats);
