@@ -145,3 +145,39 @@ TEST(RayCaster, ShadowsAreRebuiltOnlyWhenTheLightChanges) {
   EXPECT_EQ(fourth.rebuilt, std::vector<std::string>{"shadows"});
   EXPECT_EQ(std::memcmp(first.image.pixels().data(), fourth.image.pixels().data(), first.image.pixels().size() * sizeof(Rgb)), 0);
 }
+
+// Several lights add up: on a Lambertian plane with no casters, the image under lights A and B together
+// minus the ambient term equals (image under A − ambient) + (image under B − ambient), per pixel, for a
+// directional, a point and a spot light. A spot light adds nothing outside its cone. Tolerance 1e-5:
+// float sums of values ≤ 1.
+TEST(RayCaster, LightsAddUpAndSpotConesClip) {
+  auto plane_scene = [](const nlohmann::json& lights) {
+    nlohmann::json j;
+    j["planes"] = {{{"point", {0, 0, 0}}, {"normal", {0, 1, 0}}, {"color", {0.6, 0.6, 0.6}}}};
+    j["lights"] = lights;
+    j["camera"] = {{"eye", {0, 4, 0.01}}, {"target", {0, 0, 0}}, {"width", 32}, {"height", 32}, {"fov_deg", 60}};
+    j["shadows"]["technique"] = "ray_traced";
+    return render(j);
+  };
+  const nlohmann::json dir = {{"type", "directional"}, {"direction", {0.2, -1, 0.1}}, {"intensity", 0.5}};
+  const nlohmann::json point = {{"type", "point"}, {"position", {1, 2, 0}}, {"color", {1, 0.5, 0.2}}};
+  const nlohmann::json spot = {{"type", "spot"}, {"position", {0, 3, 0}}, {"direction", {0, -1, 0}}, {"angle_deg", 20}, {"softness", 0}};
+  const Image none = plane_scene(nlohmann::json::array());
+  const Image a = plane_scene(nlohmann::json::array({dir})), b = plane_scene(nlohmann::json::array({point}));
+  const Image c = plane_scene(nlohmann::json::array({spot}));
+  const Image all = plane_scene(nlohmann::json::array({dir, point, spot}));
+  int inside = 0, outside = 0;
+  for (int y = 0; y < all.height(); ++y)
+    for (int x = 0; x < all.width(); ++x) {
+      for (int ch = 0; ch < 3; ++ch) {
+        const float sum = none.at(x, y)[ch] + (a.at(x, y)[ch] - none.at(x, y)[ch]) + (b.at(x, y)[ch] - none.at(x, y)[ch]) +
+                          (c.at(x, y)[ch] - none.at(x, y)[ch]);
+        ASSERT_NEAR(all.at(x, y)[ch], sum, 1e-5) << x << "," << y;
+      }
+      // the spot's cone (half-angle 20° from height 3) covers |r| < 3·tan 20° ≈ 1.09 on the plane
+      const bool lit_by_spot = c.at(x, y).r > none.at(x, y).r + 1e-6f;
+      (lit_by_spot ? inside : outside)++;
+    }
+  EXPECT_GT(inside, 20);
+  EXPECT_GT(outside, 200);
+}
