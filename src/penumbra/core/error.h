@@ -2,6 +2,7 @@
 // ("scene.json: volumes[0].file: ..."), so the user reads the file, the key, the value and what was expected.
 #pragma once
 
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -13,6 +14,13 @@ public:
   // A new error whose message is "context: original message".
   Error with_context(const std::string& context) const { return Error(context + ": " + what()); }
 };
+
+// A number as a user wrote it (shortest form: 0.5, 1e+06), for messages.
+inline std::string num(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
 
 // Runs f(); an Error escaping it gets `context` prepended.
 template <class F>

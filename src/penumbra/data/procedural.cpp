@@ -23,11 +23,6 @@ namespace {
 
 using nlohmann::json;
 
-std::string num(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
 
 std::string join(const std::vector<std::string>& names) {
   std::string s;

@@ -21,11 +21,6 @@ namespace {
 
 using nlohmann::json;
 
-std::string num(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
 
 bool in_unit(float v) { return v >= 0.0f && v <= 1.0f; }  // false for NaN
 

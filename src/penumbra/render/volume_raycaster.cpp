@@ -92,7 +92,10 @@ Rgb trace(const RayCastInputs& in, const Shader& shader, const Ray& ray, float j
       const float dt = pv->step;
       const EmptySpaceSkipper skipper(vol, pv->grid, pv->empty);
       std::size_t last_cell = SIZE_MAX;
-      for (float t = (std::ceil(t0 / dt - jitter) + jitter) * dt; t <= t1; t += dt) {
+      // sample k sits at t = (k + jitter)·Δ; integer indices, so t advances however far the volume is
+      for (auto k = static_cast<std::int64_t>(std::ceil(t0 / dt - jitter));; ++k) {
+        const float t = (static_cast<float>(k) + jitter) * dt;
+        if (t > t1) break;
         const Vec3 p = ray.at(t);
         const Vec3 v = vol.to_voxel(p);
         const std::size_t cell = pv->grid.cell_index(
@@ -101,9 +104,9 @@ Rgb trace(const RayCastInputs& in, const Shader& shader, const Ray& ray, float j
             std::clamp(static_cast<int>(v.z) / MacrocellGrid::kCellSize, 0, cells[2] - 1));
         if (cell != last_cell) {
           last_cell = cell;
-          if (pv->empty[cell]) {  // jump to the first lattice sample past the cell
+          if (pv->empty[cell]) {  // continue with the first lattice sample past the cell
             const float exit = skipper.skip(ray, t, p);
-            t = std::max(t, (std::ceil(exit / dt - jitter) + jitter) * dt - dt);  // the loop adds Δ: always progress
+            k = std::max(k, static_cast<std::int64_t>(std::ceil(exit / dt - jitter)) - 1);
             last_cell = SIZE_MAX;
             continue;
           }

@@ -55,13 +55,7 @@ void ColoredStochasticShadowMap::build_map(const ShadowMedium& medium) {
 
 void ColoredStochasticShadowMap::transmittance(std::span<const Vec3> points, std::span<Rgb> out) const {
   const float weight = 1.0f / static_cast<float>(offsets_.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    int ix, iy;
-    float depth;
-    if (!locate(points[i], ix, iy, depth)) {
-      out[i] = Rgb(1.0f);
-      continue;
-    }
+  query(points, out, [&](int ix, int iy, float depth) {
     int lit[3] = {0, 0, 0};  // Table 2, counted; l_λ = count / m
     const bool interior = ix >= filter_radius_ && iy >= filter_radius_ && ix < resolution_ - filter_radius_ &&
                           iy < resolution_ - filter_radius_;
@@ -80,8 +74,8 @@ void ColoredStochasticShadowMap::transmittance(std::span<const Vec3> points, std
         for (int l = 0; l < 3; ++l) lit[l] += c[l] > depth;
       }
     }
-    out[i] = Rgb(static_cast<float>(lit[0]) * weight, static_cast<float>(lit[1]) * weight, static_cast<float>(lit[2]) * weight);
-  }
+    return Rgb(static_cast<float>(lit[0]) * weight, static_cast<float>(lit[1]) * weight, static_cast<float>(lit[2]) * weight);
+  });
 }
 
 }  // namespace penumbra

@@ -108,17 +108,11 @@ float DeepShadowMap::evaluate(int ix, int iy, int channel, float z) const {
 }
 
 void DeepShadowMap::transmittance(std::span<const Vec3> points, std::span<Rgb> out) const {
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    int ix, iy;
-    float depth;
-    if (!locate(points[i], ix, iy, depth)) {
-      out[i] = Rgb(1.0f);
-      continue;
-    }
-    out[i] = depth > surface_depth_[texel_index(ix, iy)]
-                 ? Rgb(0.0f)
-                 : Rgb(evaluate(ix, iy, 0, depth), evaluate(ix, iy, 1, depth), evaluate(ix, iy, 2, depth));
-  }
+  query(points, out, [&](int ix, int iy, float depth) {
+    return depth > surface_depth_[texel_index(ix, iy)]
+               ? Rgb(0.0f)
+               : Rgb(evaluate(ix, iy, 0, depth), evaluate(ix, iy, 1, depth), evaluate(ix, iy, 2, depth));
+  });
 }
 
 }  // namespace penumbra

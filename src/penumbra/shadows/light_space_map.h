@@ -37,6 +37,15 @@ protected:
     depth -= bias_;
     return true;
   }
+  // out[i] = at_texel(ix, iy, biased depth) for the points inside the map, 1 (lit) for the others.
+  template <class AtTexel>
+  void query(std::span<const Vec3> points, std::span<Rgb> out, AtTexel&& at_texel) const {
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      int ix, iy;
+      float depth;
+      out[i] = locate(points[i], ix, iy, depth) ? at_texel(ix, iy, depth) : Rgb(1.0f);
+    }
+  }
   std::size_t texel_index(int ix, int iy) const { return static_cast<std::size_t>(iy) * resolution_ + ix; }
 
   int resolution_;

@@ -20,13 +20,7 @@ void ClassicShadowMap::build_map(const ShadowMedium& medium) {
 }
 
 void ClassicShadowMap::transmittance(std::span<const Vec3> points, std::span<Rgb> out) const {
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    int ix, iy;
-    float depth;
-    if (!locate(points[i], ix, iy, depth)) {
-      out[i] = Rgb(1.0f);
-      continue;
-    }
+  query(points, out, [&](int ix, int iy, float depth) {
     int lit = 0, total = 0;
     for (int dy = -pcf_; dy <= pcf_; ++dy)
       for (int dx = -pcf_; dx <= pcf_; ++dx) {
@@ -34,8 +28,8 @@ void ClassicShadowMap::transmittance(std::span<const Vec3> points, std::span<Rgb
         lit += depth <= depth_[texel_index(x, y)] ? 1 : 0;
         ++total;
       }
-    out[i] = Rgb(static_cast<float>(lit) / static_cast<float>(total));
-  }
+    return Rgb(static_cast<float>(lit) / static_cast<float>(total));
+  });
 }
 
 }  // namespace penumbra
