@@ -38,11 +38,13 @@ void check_output_path(const std::string& output) {
     throw Error("-o " + output + ": directory '" + dir.string() + "' does not exist");
 }
 
-// The first light turned by `angle` about the vertical axis through the scene's centre.
-Light orbit_light(const Light& l, const Vec3& centre, float angle) {
-  Light out = l;
+// The first light turned by `angle` about the camera's up axis through the scene's centre (the axis the
+// camera orbits about, so a light orbit of a z-up CT turns around the patient's long axis too).
+Light orbit_light(const Light& l, const Vec3& centre, const Vec3& up, float angle) {
+  const Vec3 axis = normalize(up);
   const float c = std::cos(angle), s = std::sin(angle);
-  auto rot = [&](const Vec3& v) { return Vec3{c * v.x + s * v.z, v.y, -s * v.x + c * v.z}; };
+  auto rot = [&](const Vec3& v) { return v * c + cross(axis, v) * s + axis * (dot(axis, v) * (1 - c)); };
+  Light out = l;
   out.direction = normalize(rot(l.direction));
   if (l.type != LightType::Directional) out.position = centre + rot(l.position - centre);
   return out;
@@ -72,7 +74,7 @@ void run_render(const RenderOptions& o) {
     std::vector<Light> lights = scene.lights;
     const float angle = 2.0f * kPi * static_cast<float>(f) / static_cast<float>(frames);
     if (o.orbit > 0) camera = camera.orbited(angle);
-    if (o.light_orbit > 0 && !lights.empty()) lights[0] = orbit_light(lights[0], scene.caster_bounds().center(), angle);
+    if (o.light_orbit > 0 && !lights.empty()) lights[0] = orbit_light(lights[0], scene.caster_bounds().center(), scene.camera.up, angle);
     const FrameResult frame = renderer.render(camera, lights);
     const std::string path = sequence ? frame_path(o.output, f) : o.output;
     write_image(path, frame.image);
