@@ -54,7 +54,7 @@ void DeepShadowMap::build_map(const ShadowMedium& medium) {
   node_value_.assign(texels * 3 * nodes_, 1.0f);
   node_count_.assign(texels * 3, 0);
   surface_depth_.assign(texels, kInfinity);
-  const float half = 0.5f * medium.step();
+  const float step = medium.step();
   tbb::enumerable_thread_specific<Scratch> scratch;
   for_each_texel([&](int ix, int iy, const Ray& ray) {
     Scratch& s = scratch.local();
@@ -65,8 +65,8 @@ void DeepShadowMap::build_map(const ShadowMedium& medium) {
     float last_end = -kInfinity;
     medium.march(ray, 0, surface, [&](const MediumSegment& seg) {
       // the polyline: T before the segment at its start (unless it continues the previous one), T after it at its end
-      const float start = seg.t - half, end = seg.t + half;
-      if (start > last_end + 1e-6f * half) {
+      const float start = seg.t_begin, end = seg.t_end;
+      if (start > last_end + 1e-6f * step) {
         s.z.push_back(start);
         for (int c = 0; c < 3; ++c) s.T[c].push_back(T[c]);
       }

@@ -26,6 +26,7 @@ constexpr float kShadowOpaque = 1e-4f;
 struct MediumSegment {
   std::int64_t index;  // k: the segment [k·Δ, (k+1)·Δ] of the ray's lattice
   float t;             // midpoint of the part of the segment inside the volume
+  float t_begin, t_end;  // that part's ends (a full segment is [kΔ, (k+1)Δ]; the box cuts the first and last)
   float alpha;         // opacity of that part (corrected for its length)
   Rgb transmission;    // t_λ: colour passed when the light interacts (the shadow TF's colour)
 };
@@ -86,7 +87,7 @@ public:
       if (s.a > 0) {
         const float len = seg1 - seg0;
         const float a = len >= step_ * 0.9999f ? s.a : 1.0f - std::pow(1.0f - s.a, len / step_);
-        if (!visit(MediumSegment{k, tm, a, s.rgb})) return;
+        if (!visit(MediumSegment{k, tm, seg0, seg1, a, s.rgb})) return;
       }
       ++k;
     }
