@@ -145,17 +145,20 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   return v;
 }
 
+// A technique name must be available; a reserved name (a technique of another issue) gets its own message.
+void check_technique(JsonReader& r, const std::string& name, const std::vector<std::string>& available,
+                     const std::vector<std::string>& reserved) {
+  if (std::find(available.begin(), available.end(), name) != available.end()) return;
+  if (std::find(reserved.begin(), reserved.end(), name) != reserved.end())
+    r.fail("technique", "'" + name + "' is not available in this build (available: " + join(available) + ")");
+  r.fail("technique", "unknown technique '" + name + "' (expected one of: " + join(available) + ")");
+}
+
 ShadowSettings read_shadows(const nlohmann::json& j) {
   JsonReader r(j, "shadows");
   ShadowSettings s;
   s.technique = r.string("technique", s.technique);
-  const auto names = shadow_technique_names();
-  if (std::find(names.begin(), names.end(), s.technique) == names.end()) {
-    const auto planned = planned_shadow_technique_names();
-    if (std::find(planned.begin(), planned.end(), s.technique) != planned.end())
-      r.fail("technique", "'" + s.technique + "' is not available in this build (available: " + join(names) + ")");
-    r.fail("technique", "unknown technique '" + s.technique + "' (expected one of: " + join(names) + ")");
-  }
+  check_technique(r, s.technique, shadow_technique_names(), planned_shadow_technique_names());
   s.resolution = static_cast<int>(r.integer("resolution", s.resolution, 16, 16384));
   s.offsets = static_cast<int>(r.integer("offsets", s.offsets, 1, 21));
   if (s.offsets != 7 && s.offsets != 13 && s.offsets != 21)
@@ -165,7 +168,7 @@ ShadowSettings read_shadows(const nlohmann::json& j) {
   s.pcf = static_cast<int>(r.integer("pcf", s.pcf, 0, 16));
   s.bias = r.number("bias", s.bias, -1, 1e6f);
   s.step = r.number("step", s.step, -1, 8);
-  if (s.step >= 0 && s.step < 0.05f) r.fail("step", "must be at least 0.05 voxels (or -1 for the volume's step)");
+  if (s.step >= 0 && s.step < 0.05f) r.fail("step", "must be at least 0.05 voxels (or -1 for the default, one voxel)");
   r.finish();
   return s;
 }
@@ -174,12 +177,9 @@ AmbientSettings read_ambient(const nlohmann::json& j) {
   JsonReader r(j, "ambient");
   AmbientSettings a;
   a.technique = r.string("technique", a.technique);
-  const auto names = ambient_technique_names();
-  if (a.technique != "none") {
-    if (std::find(names.begin(), names.end(), a.technique) != names.end())
-      r.fail("technique", "'" + a.technique + "' is not available in this build (available: none)");
-    r.fail("technique", "unknown technique '" + a.technique + "' (expected one of: " + join(names) + ")");
-  }
+  std::vector<std::string> reserved = ambient_technique_names();
+  reserved.erase(std::remove(reserved.begin(), reserved.end(), "none"), reserved.end());
+  check_technique(r, a.technique, {"none"}, reserved);
   r.finish();
   return a;
 }
