@@ -34,31 +34,38 @@ private:
   std::vector<std::array<float, 2>> range_;
 };
 
-// Walks a ray through a volume's samples, skipping empty macrocells. Sample k sits at t = k * step
-// along the ray (a global lattice, so positions do not depend on where the walk started).
+// The empty-space queries a ray march makes: which cell holds a sample, is it empty, and where does the
+// ray leave it. Callers check emptiness only when a sample enters a new cell.
 class EmptySpaceSkipper {
 public:
   EmptySpaceSkipper(const Volume& volume, const MacrocellGrid& grid, const std::vector<std::uint8_t>& empty)
       : volume_(&volume), grid_(&grid), empty_(&empty) {}
 
-  // If the sample at world position p lies in an empty cell, returns the ray parameter where the ray
-  // leaves that cell (> t); otherwise returns t.
-  float skip(const Ray& r, float t, const Vec3& p) const {
-    const Vec3 v = volume_->to_voxel(p);
+  // Cell of continuous voxel coordinates v (clamped to the grid).
+  std::size_t cell_of(const Vec3& v) const {
     const auto& c = grid_->cells();
-    const int cx = std::clamp(static_cast<int>(v.x) / MacrocellGrid::kCellSize, 0, c[0] - 1);
-    const int cy = std::clamp(static_cast<int>(v.y) / MacrocellGrid::kCellSize, 0, c[1] - 1);
-    const int cz = std::clamp(static_cast<int>(v.z) / MacrocellGrid::kCellSize, 0, c[2] - 1);
-    if (!(*empty_)[grid_->cell_index(cx, cy, cz)]) return t;
-    // exit of the cell box (in world units)
+    return grid_->cell_index(std::clamp(static_cast<int>(v.x) / MacrocellGrid::kCellSize, 0, c[0] - 1),
+                             std::clamp(static_cast<int>(v.y) / MacrocellGrid::kCellSize, 0, c[1] - 1),
+                             std::clamp(static_cast<int>(v.z) / MacrocellGrid::kCellSize, 0, c[2] - 1));
+  }
+  bool empty(std::size_t cell) const { return (*empty_)[cell] != 0; }
+
+  // Ray parameter (>= t) where r leaves the cell that holds voxel coordinates v.
+  float cell_exit(const Ray& r, float t, const Vec3& v) const {
+    const auto& c = grid_->cells();
+    const int cell[3] = {std::clamp(static_cast<int>(v.x) / MacrocellGrid::kCellSize, 0, c[0] - 1),
+                         std::clamp(static_cast<int>(v.y) / MacrocellGrid::kCellSize, 0, c[1] - 1),
+                         std::clamp(static_cast<int>(v.z) / MacrocellGrid::kCellSize, 0, c[2] - 1)};
     const Vec3& s = volume_->spacing();
     const Vec3& o = volume_->origin();
     const float k = static_cast<float>(MacrocellGrid::kCellSize);
-    Box3 cell{{o.x + static_cast<float>(cx) * k * s.x, o.y + static_cast<float>(cy) * k * s.y, o.z + static_cast<float>(cz) * k * s.z},
-              {o.x + static_cast<float>(cx + 1) * k * s.x, o.y + static_cast<float>(cy + 1) * k * s.y,
-               o.z + static_cast<float>(cz + 1) * k * s.z}};
+    Box3 box;
+    for (int a = 0; a < 3; ++a) {
+      box.lo[a] = o[a] + static_cast<float>(cell[a]) * k * s[a];
+      box.hi[a] = o[a] + static_cast<float>(cell[a] + 1) * k * s[a];
+    }
     float t0, t1;
-    if (!cell.clip(r, t0, t1, t, kInfinity)) return t;
+    if (!box.clip(r, t0, t1, t, kInfinity)) return t;
     return std::max(t, t1);
   }
 

@@ -88,7 +88,6 @@ Rgb trace(const RayCastInputs& in, const Shader& shader, const Ray& ray, float j
     float t0, t1;
     if (pv->volume->bounds().clip(ray, t0, t1, 0, t_surface)) {
       const Volume& vol = *pv->volume;
-      const auto& cells = pv->grid.cells();
       const float dt = pv->step;
       const EmptySpaceSkipper skipper(vol, pv->grid, pv->empty);
       std::size_t last_cell = SIZE_MAX;
@@ -98,14 +97,11 @@ Rgb trace(const RayCastInputs& in, const Shader& shader, const Ray& ray, float j
         if (t > t1) break;
         const Vec3 p = ray.at(t);
         const Vec3 v = vol.to_voxel(p);
-        const std::size_t cell = pv->grid.cell_index(
-            std::clamp(static_cast<int>(v.x) / MacrocellGrid::kCellSize, 0, cells[0] - 1),
-            std::clamp(static_cast<int>(v.y) / MacrocellGrid::kCellSize, 0, cells[1] - 1),
-            std::clamp(static_cast<int>(v.z) / MacrocellGrid::kCellSize, 0, cells[2] - 1));
+        const std::size_t cell = skipper.cell_of(v);
         if (cell != last_cell) {
           last_cell = cell;
-          if (pv->empty[cell]) {  // continue with the first lattice sample past the cell
-            const float exit = skipper.skip(ray, t, p);
+          if (skipper.empty(cell)) {  // continue with the first lattice sample past the cell
+            const float exit = skipper.cell_exit(ray, t, v);
             k = std::max(k, static_cast<std::int64_t>(std::ceil(exit / dt - jitter)) - 1);
             last_cell = SIZE_MAX;
             continue;

@@ -56,7 +56,6 @@ public:
     float t0, t1;
     if (!volume_box_.clip(r, t0, t1, t_begin, t_end)) return;
     const EmptySpaceSkipper skipper(*volume_, *grid_, empty_);
-    const auto& cells = grid_->cells();
     std::size_t last_cell = SIZE_MAX;
     std::int64_t k = static_cast<std::int64_t>(std::floor(t0 / step_));
     while (true) {
@@ -70,14 +69,11 @@ public:
       const float tm = 0.5f * (seg0 + seg1);
       const Vec3 p = r.at(tm);
       const Vec3 v = volume_->to_voxel(p);
-      const std::size_t cell = grid_->cell_index(
-          std::clamp(static_cast<int>(v.x) / MacrocellGrid::kCellSize, 0, cells[0] - 1),
-          std::clamp(static_cast<int>(v.y) / MacrocellGrid::kCellSize, 0, cells[1] - 1),
-          std::clamp(static_cast<int>(v.z) / MacrocellGrid::kCellSize, 0, cells[2] - 1));
+      const std::size_t cell = skipper.cell_of(v);
       if (cell != last_cell) {
         last_cell = cell;
-        if (empty_[cell]) {  // empty cell: continue with the segment that holds the cell's exit
-          const float t_skip = skipper.skip(r, tm, p);
+        if (skipper.empty(cell)) {  // empty cell: continue with the segment that holds the cell's exit
+          const float t_skip = skipper.cell_exit(r, tm, v);
           k = std::max(k + 1, static_cast<std::int64_t>(std::floor(t_skip / step_)));
           last_cell = SIZE_MAX;
           continue;
