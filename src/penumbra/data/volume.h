@@ -25,6 +25,15 @@ constexpr std::uint64_t kMaxVoxels = 1ull << 34;
 // Checks dims > 0 and that their product (times the voxel size) neither overflows nor exceeds kMaxVoxels.
 std::size_t checked_voxel_count(const std::array<std::int64_t, 3>& dims);
 
+// The 2x2x2 voxels around continuous voxel coordinates and the weights between them: what every
+// trilinear fetch on this grid (scalars, the ray caster's gradient volume) needs. Coordinates outside
+// the grid are clamped to the border; a dimension of size 1 has stride 0.
+struct TrilinearCell {
+  std::size_t base;              // index of the lower corner voxel
+  std::size_t sx, sy, sz;        // index strides to the upper neighbours
+  float tx, ty, tz;              // fractional position inside the cell
+};
+
 class Volume {
 public:
   Volume() = default;
@@ -68,6 +77,7 @@ public:
   // Trilinear interpolation at a world point; positions outside are clamped to the border voxels.
   float sample(const Vec3& p) const { return sample_voxel(to_voxel(p)); }
   float sample_voxel(const Vec3& v) const;
+  TrilinearCell trilinear_cell(const Vec3& v) const;
   // World-space gradient by central differences of the trilinear interpolant, one voxel apart per axis.
   Vec3 gradient(const Vec3& p) const;
 

@@ -49,24 +49,14 @@ PreparedVolume::PreparedVolume(const VolumeObject& o)
                                                kFullShadingGradient)) {}
 
 void PreparedVolume::normal_at(const Vec3& v, Vec3& direction, float& weight) const {
-  const auto& d = volume->dims();
-  const float fx = clamp(v.x, 0.0f, static_cast<float>(d[0] - 1));
-  const float fy = clamp(v.y, 0.0f, static_cast<float>(d[1] - 1));
-  const float fz = clamp(v.z, 0.0f, static_cast<float>(d[2] - 1));
-  const int i = std::min(static_cast<int>(fx), std::max(d[0] - 2, 0));
-  const int j = std::min(static_cast<int>(fy), std::max(d[1] - 2, 0));
-  const int k = std::min(static_cast<int>(fz), std::max(d[2] - 2, 0));
-  const float tx = fx - static_cast<float>(i), ty = fy - static_cast<float>(j), tz = fz - static_cast<float>(k);
-  const std::size_t sx = d[0] > 1 ? 1 : 0;
-  const std::size_t sy = d[1] > 1 ? static_cast<std::size_t>(d[0]) : 0;
-  const std::size_t sz = d[2] > 1 ? static_cast<std::size_t>(d[0]) * d[1] : 0;
-  const std::size_t base = volume->index(i, j, k);
+  const TrilinearCell cell = volume->trilinear_cell(v);
   float acc[4] = {0, 0, 0, 0};
-  const std::size_t offs[8] = {0, sx, sy, sx + sy, sz, sz + sx, sz + sy, sz + sx + sy};
-  const float wx[2] = {1 - tx, tx}, wy[2] = {1 - ty, ty}, wz[2] = {1 - tz, tz};
+  const std::size_t offs[8] = {0, cell.sx, cell.sy, cell.sx + cell.sy, cell.sz, cell.sz + cell.sx, cell.sz + cell.sy,
+                               cell.sz + cell.sx + cell.sy};
+  const float wx[2] = {1 - cell.tx, cell.tx}, wy[2] = {1 - cell.ty, cell.ty}, wz[2] = {1 - cell.tz, cell.tz};
   for (int c = 0; c < 8; ++c) {
     const float w = wx[c & 1] * wy[(c >> 1) & 1] * wz[(c >> 2) & 1];
-    const auto& g = gradients[base + offs[c]];
+    const auto& g = gradients[cell.base + offs[c]];
     for (int a = 0; a < 4; ++a) acc[a] += w * static_cast<float>(g[a]);
   }
   direction = {acc[0], acc[1], acc[2]};
