@@ -174,8 +174,7 @@ TEST(SceneFile, TechniqueNames) {
     SCOPED_TRACE(t);
     expect_error(with(base_scene(), "shadows.technique", t), {"shadows.technique", t, "not available"});
   }
-  expect_error(with(base_scene(), "shadows.technique", "sat_cone"), {"sat_cone", "not available"});
-  expect_error(with(base_scene(), "ambient.technique", "sat_shells"), {"ambient.technique", "sat_shells"});
+  expect_error(with(base_scene(), "ambient.technique", "particle_ao"), {"ambient.technique", "particle_ao", "not available"});
   expect_error(with(base_scene(), "ambient.technique", "magic"), {"ambient.technique", "magic"});
 }
 

@@ -6,6 +6,7 @@
 #include <sys/utsname.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
@@ -17,6 +18,7 @@
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/scene/demo_scenes.h"
+#include "bench_extinction.h"
 #include "stats.h"
 #include "technique_runs.h"
 
@@ -53,6 +55,9 @@ struct Options {
   int repeats = 3;
   int size = 512;
   int threads = 0;
+  std::vector<std::string> suites{"cssm", "extinction"};
+  std::vector<std::string> extinction_datasets{"procedural", "cranium", "chest"};
+  int max_sampled_size = 128;
 };
 
 void bench_dataset(const Options& o, const std::string& name, const nlohmann::json& scene_in, std::ostringstream& md,
@@ -133,6 +138,10 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--repeats", o->repeats, "Runs per measurement (the fastest is kept)")->check(CLI::Range(1, 100));
   cmd->add_option("--size", o->size, "Frame width and height")->check(CLI::Range(16, 8192));
   cmd->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
+  cmd->add_option("--suite", o->suites, "cssm (paper 000, Tables 3/4) and/or extinction (paper 001, Tables 1-3)");
+  cmd->add_option("--extinction-datasets", o->extinction_datasets, "procedural (test-spheres 256³), cranium and/or chest");
+  cmd->add_option("--max-sampled-size", o->max_sampled_size, "Largest light cache the sampled-AO reference is timed at")
+      ->check(CLI::Range(4, 512));
   cmd->callback([o] {
     ThreadLimit limit(o->threads);
     std::filesystem::create_directories(o->dir);
@@ -141,15 +150,29 @@ void add_bench_command(CLI::App& app) {
     out["date"] = today();
     out["machine"] = machine_description();
     out["threads"] = ThreadLimit::current_max();
-    md << "## CSSM paper Tables 3 and 4 on this machine (" << today() << ")\n\nMachine: " << machine_description()
-       << ", " << ThreadLimit::current_max() << " threads. Fastest of " << o->repeats << " runs.\n";
-    for (const auto& d : o->datasets) {
+    for (const auto& s : o->suites)
+      if (s != "cssm" && s != "extinction") throw Error("--suite: unknown suite '" + s + "' (expected cssm or extinction)");
+    auto runs = [&](const char* suite) { return std::find(o->suites.begin(), o->suites.end(), suite) != o->suites.end(); };
+    md << "Machine: " << machine_description() << ", " << ThreadLimit::current_max() << " threads, " << today()
+       << ". Fastest of " << o->repeats << " runs.\n";
+    if (runs("cssm")) md << "\n## CSSM paper Tables 3 and 4 on this machine\n";
+    for (const auto& d : runs("cssm") ? o->datasets : std::vector<std::string>{}) {
       if (d == "test-spheres") bench_dataset(*o, d, test_spheres_scene(128), md, out);
       else if (d == "cranium") {
         const std::string ct = o->data_dir + "/cranium_ct.nrrd";
         if (!std::filesystem::exists(ct)) throw Error("--datasets cranium: " + ct + " not found (see --data-dir)");
         bench_dataset(*o, d, cranium_scene(ct), md, out);
       } else throw Error("--datasets: unknown data set '" + d + "' (expected test-spheres or cranium)");
+    }
+    if (runs("extinction")) {
+      ExtinctionBenchOptions e;
+      e.dir = o->dir;
+      e.data_dir = o->data_dir;
+      e.datasets = o->extinction_datasets;
+      e.repeats = o->repeats;
+      e.size = o->size;
+      e.max_sampled_size = o->max_sampled_size;
+      bench_extinction(e, md, out["extinction"]);
     }
     std::printf("%s", md.str().c_str());
     std::ofstream(o->dir + "/bench.md") << md.str();

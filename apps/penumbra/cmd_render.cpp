@@ -82,8 +82,11 @@ void run_render(const RenderOptions& o) {
     nlohmann::json fs = frame_stats(frame);
     fs["file"] = path;
     frame_list.push_back(fs);
-    std::fprintf(stderr, "%s: %s, build %.1f ms, render %.1f ms%s\n", path.c_str(), scene.shadows.technique.c_str(),
-                 frame.build_ms, frame.render_ms, frame.rebuilt.empty() ? "" : " (rebuilt shadows)");
+    std::string rebuilt;
+    for (const auto& r : frame.rebuilt) rebuilt += (rebuilt.empty() ? " (rebuilt " : ", ") + r;
+    std::fprintf(stderr, "%s: %s, sat %.1f ms, ambient %.1f ms, shadows %.1f ms, render %.1f ms%s\n", path.c_str(),
+                 scene.shadows.technique.c_str(), frame.sat_ms, frame.ambient_ms, frame.build_ms, frame.render_ms,
+                 rebuilt.empty() ? "" : (rebuilt + ")").c_str());
   }
   if (!o.stats.empty()) {
     if (sequence) stats["frames"] = frame_list;

@@ -8,7 +8,9 @@
 namespace penumbra::cli {
 
 nlohmann::json frame_stats(const FrameResult& frame) {
-  return {{"timings_ms", {{"build", frame.build_ms}, {"render", frame.render_ms}, {"total", frame.total_ms}}},
+  return {{"timings_ms",
+           {{"sat", frame.sat_ms}, {"ambient", frame.ambient_ms}, {"build", frame.build_ms}, {"render", frame.render_ms},
+            {"total", frame.total_ms}}},
           {"rebuilt", frame.rebuilt}};
 }
 
@@ -18,11 +20,12 @@ nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const 
   j["ambient_technique"] = scene.ambient.technique;
   j["width"] = first.image.width();
   j["height"] = first.image.height();
-  j["timings_ms"] = {{"prepare", renderer.prepare_ms()}, {"build", first.build_ms}, {"render", first.render_ms},
-                     {"total", first.total_ms}};
+  j["timings_ms"] = {{"prepare", renderer.prepare_ms()}, {"sat", first.sat_ms}, {"ambient", first.ambient_ms},
+                     {"build", first.build_ms}, {"render", first.render_ms}, {"total", first.total_ms}};
   std::size_t volume_bytes = 0;
   for (const auto& v : scene.volumes) volume_bytes += v.volume->memory_bytes();
-  j["memory_bytes"] = {{"shadow", renderer.shadow_memory_bytes()}, {"ambient", 0}, {"volume", volume_bytes}};
+  j["memory_bytes"] = {{"shadow", renderer.shadow_memory_bytes()}, {"ambient", renderer.ambient_memory_bytes()},
+                        {"sat", renderer.sat_memory_bytes()}, {"volume", volume_bytes}};
   j["counts"] = {{"voxels", renderer.voxel_count()}, {"spheres", 0}, {"points", 0}, {"lights", scene.lights.size()}};
   j["threads"] = threads;
   j["seed"] = scene.shadows.seed;

@@ -316,7 +316,20 @@ float opacity_correct(float alpha, float step_ratio) {
   return std::clamp(static_cast<float>(r), 0.0f, 1.0f);
 }
 
-TransferLut::TransferLut(const TransferFunction& tf, float lo, float hi, float step_ratio, int size) {
+float step_opacity(float alpha, float step_ratio, Compositing compositing) {
+  if (compositing == Compositing::Alpha) return opacity_correct(alpha, step_ratio);
+  if (!(alpha > 0.0f) || !(step_ratio > 0.0f)) return 0.0f;
+  return std::clamp(static_cast<float>(-std::expm1(-static_cast<double>(alpha) * step_ratio)), 0.0f, 1.0f);
+}
+
+float extinction_coefficient(float alpha, Compositing compositing) {
+  if (!(alpha > 0.0f)) return 0.0f;
+  if (compositing == Compositing::Extinction) return alpha;
+  return std::min(kMaxExtinction, static_cast<float>(-std::log1p(-std::min(static_cast<double>(alpha), 1.0))));
+}
+
+TransferLut::TransferLut(const TransferFunction& tf, float lo, float hi, float step_ratio, int size,
+                         Compositing compositing) {
   if (size < 2) throw Error("transfer function table size " + std::to_string(size) + " (expected at least 2)");
   if (!std::isfinite(lo) || !std::isfinite(hi)) throw Error("transfer function table range is not finite");
   if (!(hi > lo)) hi = lo + 1.0f;
@@ -330,7 +343,7 @@ TransferLut::TransferLut(const TransferFunction& tf, float lo, float hi, float s
   for (int i = 0; i < size; ++i) {
     const double v = static_cast<double>(lo) + (static_cast<double>(hi) - lo) * i / (size - 1);
     Rgba e = tf.evaluate(static_cast<float>(v));
-    e.a = opacity_correct(e.a, step_ratio);
+    e.a = step_opacity(e.a, step_ratio, compositing);
     const std::size_t k = static_cast<std::size_t>(i);
     table_[k] = e;
     visible_prefix_[k + 1] = visible_prefix_[k] + (e.a > 0.0f ? 1 : 0);

@@ -56,13 +56,29 @@ TransferFunction import_paraview_colormap(const nlohmann::json& exported, const 
 // Opacity correction for a step of `step_ratio` reference steps.
 float opacity_correct(float alpha, float step_ratio);
 
+// How a volume's transfer-function opacity is read (DESIGN.md `volumes[].compositing`):
+// Alpha: the opacity of one reference step (opacity_correct() for other steps);
+// Extinction: the extinction coefficient τ in units of 1 / reference step (paper 001, Eq. 2), so a step of
+// `step_ratio` reference steps has opacity 1 − exp(−α·step_ratio).
+enum class Compositing { Alpha, Extinction };
+
+// Opacity of a step of `step_ratio` reference steps under either reading.
+float step_opacity(float alpha, float step_ratio, Compositing compositing);
+
+// Extinction coefficient τ (per reference step) of a transfer-function opacity: α itself under
+// Extinction; −ln(1 − α) under Alpha (the τ that gives opacity α over one reference step; α = 1 is
+// capped at kMaxExtinction).
+constexpr float kMaxExtinction = 16.0f;
+float extinction_coefficient(float alpha, Compositing compositing);
+
 // The transfer function tabulated over [lo, hi] with `size` entries, opacity already corrected for one
 // sampling step. lookup() is a clamped linear fetch. any_visible(a, b) says whether any value in [a, b]
 // has non-zero opacity: O(1) through a prefix count, used for empty-space skipping.
 class TransferLut {
 public:
   TransferLut() = default;
-  TransferLut(const TransferFunction& tf, float lo, float hi, float step_ratio, int size = 4096);
+  TransferLut(const TransferFunction& tf, float lo, float hi, float step_ratio, int size = 4096,
+              Compositing compositing = Compositing::Alpha);
   Rgba lookup(float value) const {
     float f = (value - lo_) * scale_;
     f = f < 0 ? 0 : (f > max_index_ ? max_index_ : f);

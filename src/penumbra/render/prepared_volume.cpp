@@ -41,7 +41,7 @@ PreparedVolume::PreparedVolume(const VolumeObject& o)
     : object(&o),
       volume(o.volume.get()),
       step(o.step_world()),
-      lut(o.transfer_function, o.volume->min_value(), o.volume->max_value(), o.step),
+      lut(o.transfer_function, o.volume->min_value(), o.volume->max_value(), o.step, 4096, o.compositing),
       grid(*o.volume),
       empty(grid.empty_cells(lut)),
       gradients(gradient_volume(*o.volume, o.reference_step() /

@@ -1,15 +1,19 @@
-// Renders frames of a scene and keeps what can be reused between frames: the prepared volume (transfer
-// function table, macrocells) lives as long as the renderer; each light's shadow structure is rebuilt
-// only when that light changed. Frames report what they rebuilt, for `--stats` and `--orbit`.
+// Renders frames of a scene and keeps what can be reused between frames (paper 001, Algorithm 1): the
+// prepared volume (transfer-function table, macrocells) and the extinction SAT live until the transfer
+// function changes; the ambient cache too; each light's shadow structure is rebuilt only when that
+// light or the transfer function changed. Moving the camera rebuilds nothing. Frames report what they
+// rebuilt and how long it took, for `--stats`, `--orbit` and `--light-orbit`.
 #pragma once
 
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "penumbra/accel/extinction_sat.h"
 #include "penumbra/core/image.h"
 #include "penumbra/render/prepared_volume.h"
 #include "penumbra/scene/scene.h"
+#include "penumbra/shadows/ambient_technique.h"
 #include "penumbra/shadows/shadow_medium.h"
 #include "penumbra/shadows/shadow_technique.h"
 
@@ -17,31 +21,45 @@ namespace penumbra {
 
 struct FrameResult {
   Image image;
-  double build_ms = 0;   // shadow generation (all lights) this frame
-  double render_ms = 0;  // ray casting
+  double sat_ms = 0;      // extinction volume + summed area table, when rebuilt this frame
+  double ambient_ms = 0;  // ambient-occlusion cache, when rebuilt this frame
+  double build_ms = 0;    // shadow structures of the lights rebuilt this frame
+  double render_ms = 0;   // ray casting
   double total_ms = 0;
-  std::vector<std::string> rebuilt;  // "shadows" when any light's structure was rebuilt
+  std::vector<std::string> rebuilt;  // "sat", "ambient", "shadows": what this frame had to rebuild
 };
 
 class Renderer {
 public:
-  explicit Renderer(const Scene& scene);  // the scene must outlive the renderer
+  explicit Renderer(Scene scene);  // keeps its own copy (volumes are shared, not copied)
 
   // Renders with the given camera and lights (the scene's by default).
   FrameResult render(const Camera& camera, const std::vector<Light>& lights);
   FrameResult render() { return render(scene_.camera, scene_.lights); }
 
+  // Replaces the visible volume's transfer function (its shadow transfer function too, unless it has a
+  // separate one): the next frame rebuilds the SAT, the ambient cache and every light's shadows.
+  void set_transfer_function(const TransferFunction& tf);
+
+  const Scene& scene() const { return scene_; }
   std::size_t shadow_memory_bytes() const;
+  std::size_t ambient_memory_bytes() const { return ambient_ ? ambient_->memory_bytes() : 0; }
+  std::size_t sat_memory_bytes() const { return sat_ ? sat_->memory_bytes() : 0; }
   std::size_t voxel_count() const { return volume_ ? volume_->volume->voxel_count() : 0; }
   double prepare_ms() const { return prepare_ms_; }
 
 private:
-  const Scene& scene_;
+  void prepare();  // prepared volume and shadow medium for the current transfer function
+
+  Scene scene_;
   std::unique_ptr<PreparedVolume> volume_;
   std::unique_ptr<MacrocellGrid> planes_only_grid_;
   std::unique_ptr<ShadowMedium> medium_;
+  std::unique_ptr<ExtinctionSat> sat_;
+  std::unique_ptr<AmbientTechnique> ambient_;
   std::vector<std::unique_ptr<ShadowTechnique>> shadows_;
   std::vector<Light> built_for_;
+  bool transfer_function_changed_ = true;  // the SAT and ambient cache are stale
   double prepare_ms_ = 0;
 };
 

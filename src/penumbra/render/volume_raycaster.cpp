@@ -34,8 +34,13 @@ struct Shader {
   void flush(SampleBatch& b, Rgb& accum) const {
     if (b.size == 0) return;
     std::array<Rgb, kBatch> lit;
-    for (std::size_t i = 0; i < b.size; ++i) lit[i] = b.color[i] * k.ambient;
     std::array<Rgb, kBatch> T;
+    if (in.ambient) {
+      in.ambient->ambient(std::span<const Vec3>(b.position.data(), b.size), std::span<Rgb>(T.data(), b.size));
+      for (std::size_t i = 0; i < b.size; ++i) lit[i] = b.color[i] * T[i] * k.ambient;
+    } else {
+      for (std::size_t i = 0; i < b.size; ++i) lit[i] = b.color[i] * k.ambient;
+    }
     for (std::size_t l = 0; l < in.lights.size(); ++l) {
       in.shadows[l]->transmittance(std::span<const Vec3>(b.position.data(), b.size), std::span<Rgb>(T.data(), b.size));
       const Light& light = in.lights[l];
@@ -62,6 +67,7 @@ struct Shader {
   Rgb shade_plane(const Plane& plane, const Vec3& p) const {
     const Vec3 n = dot(plane.normal, view) >= 0 ? plane.normal : -plane.normal;
     Rgb lit = plane.color * k.ambient;
+    if (in.ambient) lit *= in.ambient->ambient(p);
     for (std::size_t l = 0; l < in.lights.size(); ++l) {
       Vec3 to_light;
       float distance;

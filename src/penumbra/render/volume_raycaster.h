@@ -5,7 +5,8 @@
 // Each ray's samples sit on the lattice t = (k + j)·Δ with a per-pixel offset j (hashed, so
 // deterministic) when the volume asks for jitter: this trades the wood-grain rings of thin opaque
 // structures for fine noise, as VTK's UseJittering does. Empty macrocells are skipped and a ray stops once its opacity reaches kEarlyTermination. Planes are
-// shaded as Lambertian receivers of the same lights and shadows.
+// shaded as Lambertian receivers of the same lights and shadows. An ambient technique, when given,
+// scales every sample's ambient term (ambient occlusion and colour bleeding).
 #pragma once
 
 #include <span>
@@ -13,6 +14,7 @@
 #include "penumbra/core/image.h"
 #include "penumbra/render/prepared_volume.h"
 #include "penumbra/scene/scene.h"
+#include "penumbra/shadows/ambient_technique.h"
 #include "penumbra/shadows/shadow_technique.h"
 
 namespace penumbra {
@@ -26,6 +28,7 @@ struct RayCastInputs {
   const PreparedVolume* volume;                       // may be null (planes only)
   std::span<const Light> lights;
   std::span<const ShadowTechnique* const> shadows;    // one per light
+  const AmbientTechnique* ambient = nullptr;          // scales the ambient term; null: unoccluded
 };
 
 Image render_volume_frame(const RayCastInputs& in);

@@ -29,4 +29,18 @@ nlohmann::json cranium_scene(const std::string& path) {
   return j;
 }
 
+nlohmann::json chest_scene(const std::string& path) {
+  nlohmann::json j = nlohmann::json::parse(R"({
+    "volumes": [ { "file": "", "step": 0.5,
+                   "transfer_function": { "points": [[0, 0, 0, 0, 0], [60, 0.6, 0.25, 0.2, 0], [90, 0.85, 0.5, 0.4, 0.04],
+                                                     [140, 0.95, 0.9, 0.8, 0.3], [255, 1, 1, 1, 0.6]] } } ],
+    "lights": [ { "type": "spot", "position": [180, 600, 400], "angle_deg": 35 } ],
+    "camera": { "direction": [0.3, 1.0, 0.4], "up": [0, 0, 1], "fov_deg": 35, "width": 512, "height": 512 },
+    "shadows": { "technique": "deep_shadow_map", "resolution": 1024, "nodes": 4 },
+    "background": [0.08, 0.08, 0.1]
+  })");
+  j["volumes"][0]["file"] = path;
+  return j;
+}
+
 }  // namespace penumbra

@@ -16,4 +16,7 @@ nlohmann::json test_spheres_scene(int size = 128);
 // floor, lit from above. `path` is the cranium_ct.nrrd file.
 nlohmann::json cranium_scene(const std::string& path);
 
+// The chest CT (chest_ct.nrrd, uint8) with lungs, ribs and spine under a spot light (scenes/chest.json).
+nlohmann::json chest_scene(const std::string& path);
+
 }  // namespace penumbra

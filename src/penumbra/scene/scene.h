@@ -16,8 +16,6 @@
 
 namespace penumbra {
 
-enum class Compositing { Alpha, Extinction };
-
 struct VolumeObject {
   std::shared_ptr<const Volume> volume;
   std::string source;                   // file path or "procedural:<name>", for messages and stats
@@ -25,7 +23,7 @@ struct VolumeObject {
   bool has_shadow_transfer_function = false;
   TransferFunction shadow_transfer_function;  // used only for the shadow pass (CSSM paper §4)
   float step = 0.5f;                    // sampling step in voxels (of the smallest spacing)
-  Compositing compositing = Compositing::Alpha;
+  Compositing compositing = Compositing::Alpha;  // how the transfer function's opacity is read
   bool visible = true;
   bool jitter = true;                   // per-pixel offset of the sample lattice (against wood-grain rings)
 
@@ -81,10 +79,21 @@ struct ShadowSettings {
   int pcf = 0;                    // shadow_map: percentage-closer filter radius in texels (0 = off)
   float bias = -1;                // world units subtracted from a receiver's light depth; < 0: one shadow step
   float step = -1;                // light-ray sampling step in voxels; < 0: one voxel (kDefaultShadowStepVoxels)
+  float cone_angle = 5;           // sat_cone: half-angle of the cone towards the light, degrees (paper 001 §3.3)
+  float cone_samples = 50;        // sat_cone: cuboids per longest side of the light cache (before growth)
+  float cone_growth = 0;          // sat_cone: relative growth of each cuboid's thickness over the previous one
 };
 
 struct AmbientSettings {
   std::string technique = "none";
+  int shells = 3;          // sat_shells: number of cuboid shells (paper 001 §3.2)
+  float radius = 0.05f;    // neighbourhood radius, a fraction of the volume's longest side
+  float bleeding = 0;      // colour bleeding β in [0, 1]: 0 grey occlusion (Eq. 4), 1 full colour (Eq. 5)
+};
+
+// The extinction SAT and the light cache of paper 001 (Algorithm 1) share one grid.
+struct LightCacheSettings {
+  int resolution = 128;    // cells along the volume's longest side (64 … 256 in the paper)
 };
 
 struct Scene {
@@ -94,6 +103,7 @@ struct Scene {
   std::vector<Light> lights;
   ShadowSettings shadows;
   AmbientSettings ambient;
+  LightCacheSettings light_cache;
   ShadingParams shading;
   Rgb background{0.1f, 0.1f, 0.12f};
 

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "penumbra/accel/extinction_sat.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/procedural.h"
 #include "penumbra/scene/json_reader.h"
@@ -135,8 +136,7 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   v.step = r.number("step", v.step, 0.05f, 8.0f);
   const std::string comp = r.string("compositing", "alpha");
   if (comp == "alpha") v.compositing = Compositing::Alpha;
-  else if (comp == "extinction")
-    r.fail("compositing", "'extinction' compositing (paper 001, Eq. 2) is not available in this build (available: alpha)");
+  else if (comp == "extinction") v.compositing = Compositing::Extinction;
   else r.fail("compositing", "unknown value '" + comp + "' (expected alpha or extinction)");
   v.visible = r.boolean("visible", true);
   v.jitter = r.boolean("jitter", true);
@@ -168,6 +168,10 @@ ShadowSettings read_shadows(const nlohmann::json& j) {
   s.pcf = static_cast<int>(r.integer("pcf", s.pcf, 0, 16));
   s.bias = r.number("bias", s.bias, -1, 1e6f);
   s.step = r.number("step", s.step, -1, 8);
+  s.cone_angle = r.number("cone_angle", s.cone_angle, 0, 90);
+  if (s.cone_angle >= 90) r.fail("cone_angle", "must be below 90 degrees (the cone's half-angle)");
+  s.cone_samples = r.number("cone_samples", s.cone_samples, 1, 4096);
+  s.cone_growth = r.number("cone_growth", s.cone_growth, 0, 1);
   if (s.step >= 0 && s.step < 0.05f) r.fail("step", "must be at least 0.05 voxels (or -1 for the default, one voxel)");
   r.finish();
   return s;
@@ -177,9 +181,11 @@ AmbientSettings read_ambient(const nlohmann::json& j) {
   JsonReader r(j, "ambient");
   AmbientSettings a;
   a.technique = r.string("technique", a.technique);
-  std::vector<std::string> reserved = ambient_technique_names();
-  reserved.erase(std::remove(reserved.begin(), reserved.end(), "none"), reserved.end());
-  check_technique(r, a.technique, {"none"}, reserved);
+  check_technique(r, a.technique, ambient_technique_names(), planned_ambient_technique_names());
+  a.shells = static_cast<int>(r.integer("shells", a.shells, 1, 64));
+  a.radius = r.number("radius", a.radius, 0, 1);
+  if (!(a.radius > 0)) r.fail("radius", "must be positive (a fraction of the volume's longest side, e.g. 0.05)");
+  a.bleeding = r.number("bleeding", a.bleeding, 0, 1);
   r.finish();
   return a;
 }
@@ -203,9 +209,6 @@ const nlohmann::json& array_at(JsonReader& r, const std::string& key) {
 
 }  // namespace
 
-std::vector<std::string> ambient_technique_names() {
-  return {"none", "sat_shells", "sampled_ao", "particle_ao", "ray_traced_ao"};
-}
 
 nlohmann::json read_json_file(const std::string& path) {
   std::ifstream in(path);
@@ -292,6 +295,11 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir) {
   if (r.has("shadows")) s.shadows = read_shadows(r.raw("shadows"));
   if (r.has("ambient")) s.ambient = read_ambient(r.raw("ambient"));
   if (r.has("shading")) s.shading = read_shading(r.raw("shading"));
+  if (r.has("light_cache")) {
+    JsonReader lc(r.raw("light_cache"), "light_cache");
+    s.light_cache.resolution = static_cast<int>(lc.integer("resolution", s.light_cache.resolution, kMinSatResolution, kMaxSatResolution));
+    lc.finish();
+  }
   s.background = r.color("background", s.background);
   r.finish();
   return s;

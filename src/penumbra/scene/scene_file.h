@@ -26,7 +26,4 @@ Scene build_scene(const nlohmann::json& scene, const std::string& base_dir);
 // read_json_file + overrides + build_scene, with the file name prepended to errors.
 Scene load_scene(const std::string& path, const std::vector<std::string>& overrides = {});
 
-// The technique names the scene file accepts (DESIGN.md "The names users and scripts rely on").
-std::vector<std::string> ambient_technique_names();
-
 }  // namespace penumbra

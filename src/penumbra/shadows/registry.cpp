@@ -4,15 +4,17 @@
 #include "penumbra/shadows/cssm.h"
 #include "penumbra/shadows/deep_shadow_map.h"
 #include "penumbra/shadows/ray_traced.h"
+#include "penumbra/shadows/sat_cone.h"
 #include "penumbra/shadows/shadow_map.h"
+#include "penumbra/shadows/volume_ambient_occlusion.h"
 
 namespace penumbra {
 
 std::vector<std::string> shadow_technique_names() {
-  return {"none", "shadow_map", "deep_shadow_map", "cssm", "ray_traced"};
+  return {"none", "shadow_map", "deep_shadow_map", "cssm", "ray_traced", "sat_cone"};
 }
 
-std::vector<std::string> planned_shadow_technique_names() { return {"sat_cone", "issm", "light_pass"}; }
+std::vector<std::string> planned_shadow_technique_names() { return {"issm", "light_pass"}; }
 
 std::unique_ptr<ShadowTechnique> make_shadow_technique(const ShadowSettings& s) {
   if (s.technique == "none") return std::make_unique<NoShadows>();
@@ -20,9 +22,32 @@ std::unique_ptr<ShadowTechnique> make_shadow_technique(const ShadowSettings& s) 
   if (s.technique == "deep_shadow_map") return std::make_unique<DeepShadowMap>(s);
   if (s.technique == "cssm") return std::make_unique<ColoredStochasticShadowMap>(s);
   if (s.technique == "ray_traced") return std::make_unique<RayTracedShadows>();
+  if (s.technique == "sat_cone") return std::make_unique<SatConeShadows>(s);
   std::string known;
   for (const auto& n : shadow_technique_names()) known += (known.empty() ? "" : ", ") + n;
   throw Error("shadows.technique: unknown technique '" + s.technique + "' (expected one of: " + known + ")");
+}
+
+std::vector<std::string> ambient_technique_names() { return {"none", "sat_shells", "sampled_ao"}; }
+
+std::vector<std::string> planned_ambient_technique_names() { return {"particle_ao", "ray_traced_ao"}; }
+
+std::unique_ptr<AmbientTechnique> make_ambient_technique(const AmbientSettings& s) {
+  if (s.technique == "none") return nullptr;
+  if (s.technique == "sat_shells") return std::make_unique<SatShellsAmbient>(s);
+  if (s.technique == "sampled_ao") return std::make_unique<SampledAmbientOcclusion>(s);
+  std::string known;
+  for (const auto& n : ambient_technique_names()) known += (known.empty() ? "" : ", ") + n;
+  throw Error("ambient.technique: unknown technique '" + s.technique + "' (expected one of: " + known + ")");
+}
+
+bool needs_extinction_sat(const Scene& scene) {
+  return scene.shadows.technique == "sat_cone" || scene.ambient.technique == "sat_shells" ||
+         scene.ambient.technique == "sampled_ao";
+}
+
+bool needs_extinction_colour(const Scene& scene) {
+  return needs_extinction_sat(scene) && scene.ambient.technique != "none" && scene.ambient.bleeding > 0;
 }
 
 }  // namespace penumbra

@@ -1,12 +1,16 @@
 // What a light sees: the absorbing volume under the shadow transfer function and the opaque planes.
 // Every shadow technique reads the scene through this one class, so they all share one colour model
 // (DESIGN.md): a segment with opacity α and transmission colour t passes light of channel λ with
-// probability 1 − α·(1 − t_λ); opaque planes pass nothing.
+// probability 1 − α·(1 − t_λ); opaque planes pass nothing. A volume with extinction compositing
+// (paper 001) attenuates every channel alike, t = 0, so a segment passes exp(−τ·Δs) (paper 001, Eq. 7).
+// The extinction techniques (sat_cone, sat_shells) also read the volume's 3D summed area table from
+// here, once the renderer has attached it.
 #pragma once
 
 #include <cmath>
 #include <vector>
 
+#include "penumbra/accel/extinction_sat.h"
 #include "penumbra/accel/macrocell_grid.h"
 #include "penumbra/core/color.h"
 #include "penumbra/core/math.h"
@@ -83,7 +87,7 @@ public:
       if (s.a > 0) {
         const float len = seg1 - seg0;
         const float a = len >= step_ * 0.9999f ? s.a : 1.0f - std::pow(1.0f - s.a, len / step_);
-        if (!visit(MediumSegment{k, tm, seg0, seg1, a, s.rgb})) return;
+        if (!visit(MediumSegment{k, tm, seg0, seg1, a, achromatic_ ? Rgb(0.0f) : s.rgb})) return;
       }
       ++k;
     }
@@ -103,6 +107,10 @@ public:
 
   std::size_t memory_bytes() const { return empty_.size(); }
 
+  // The extinction SAT of the visible volume, attached by the renderer for the techniques that need it.
+  void attach_extinction_sat(const ExtinctionSat* sat) { sat_ = sat; }
+  const ExtinctionSat& extinction_sat() const;  // throws Error when none is attached (no volume)
+
 private:
   const Volume* volume_ = nullptr;
   const std::vector<Plane>* planes_ = nullptr;
@@ -111,6 +119,8 @@ private:
   TransferLut lut_;
   const MacrocellGrid* grid_ = nullptr;
   std::vector<std::uint8_t> empty_;
+  bool achromatic_ = false;
+  const ExtinctionSat* sat_ = nullptr;
 };
 
 }  // namespace penumbra

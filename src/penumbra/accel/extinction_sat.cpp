@@ -1,0 +1,182 @@
+#include "penumbra/accel/extinction_sat.h"
+
+#include <cmath>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
+
+namespace penumbra {
+namespace {
+
+constexpr int kTableSize = 4096;
+
+// τ (per world unit) and τ·c of the transfer function, tabulated over the data range.
+struct ExtinctionTable {
+  ExtinctionTable(const TransferFunction& tf, Compositing compositing, float reference_step, float lo, float hi)
+      : lo_(lo) {
+    if (!(hi > lo)) hi = lo + 1.0f;
+    scale_ = static_cast<float>(kTableSize - 1) / (hi - lo);
+    entries_.resize(kTableSize);
+    for (int i = 0; i < kTableSize; ++i) {
+      const double v = static_cast<double>(lo) + (static_cast<double>(hi) - lo) * i / (kTableSize - 1);
+      const Rgba e = tf.evaluate(static_cast<float>(v));
+      const float tau = extinction_coefficient(e.a, compositing) / reference_step;
+      entries_[static_cast<std::size_t>(i)] = {tau, tau * e.rgb.r, tau * e.rgb.g, tau * e.rgb.b};
+    }
+  }
+  std::array<float, 4> lookup(float value) const {
+    float f = (value - lo_) * scale_;
+    f = f < 0 ? 0 : (f > kTableSize - 1 ? static_cast<float>(kTableSize - 1) : f);
+    const int i = static_cast<int>(f);
+    const int j = i + 1 < kTableSize ? i + 1 : i;
+    const float t = f - static_cast<float>(i);
+    const auto& a = entries_[static_cast<std::size_t>(i)];
+    const auto& b = entries_[static_cast<std::size_t>(j)];
+    return {a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t, a[2] + (b[2] - a[2]) * t, a[3] + (b[3] - a[3]) * t};
+  }
+
+private:
+  float lo_, scale_;
+  std::vector<std::array<float, 4>> entries_;
+};
+
+}  // namespace
+
+std::array<int, 3> sat_dims(const Vec3& extent, int resolution) {
+  const float longest = std::max(extent.x, std::max(extent.y, extent.z));
+  std::array<int, 3> d;
+  for (int a = 0; a < 3; ++a)
+    d[a] = std::max(1, static_cast<int>(std::lround(static_cast<double>(resolution) * extent[a] / longest)));
+  return d;
+}
+
+ExtinctionSat::ExtinctionSat(const Volume& volume, const TransferFunction& tf, Compositing compositing,
+                             float reference_step, int resolution, bool with_colour) {
+  if (resolution < kMinSatResolution || resolution > kMaxSatResolution)
+    throw Error("light_cache.resolution " + std::to_string(resolution) + " (expected " +
+                std::to_string(kMinSatResolution) + " to " + std::to_string(kMaxSatResolution) + ")");
+  if (!(reference_step > 0)) throw Error("extinction SAT: reference step must be positive");
+  const auto& vd = volume.dims();
+  const Vec3& sp = volume.spacing();
+  // The box through the voxel centres; an axis one voxel thick gets that voxel's width.
+  bounds_ = volume.bounds();
+  for (int a = 0; a < 3; ++a)
+    if (vd[a] == 1) {
+      bounds_.lo[a] -= 0.5f * sp[a];
+      bounds_.hi[a] += 0.5f * sp[a];
+    }
+  const Vec3 extent = bounds_.extent();
+  dims_ = sat_dims(extent, resolution);
+  for (int a = 0; a < 3; ++a) cell_[a] = extent[a] / static_cast<float>(dims_[a]);
+  const float voxel_in_cells = std::max(sp.x / cell_.x, std::max(sp.y / cell_.y, sp.z / cell_.z));
+  reach_ = 1 + static_cast<int>(std::ceil(voxel_in_cells - 1e-4f));
+
+  // Which cell each voxel centre falls in, per axis (monotone, so every cell owns a run of voxels).
+  std::array<std::vector<int>, 3> first_voxel;  // first_voxel[a][c] .. first_voxel[a][c + 1]: voxels of cell c
+  for (int a = 0; a < 3; ++a) {
+    auto& fv = first_voxel[a];
+    fv.assign(static_cast<std::size_t>(dims_[a]) + 1, vd[a]);
+    for (int i = vd[a] - 1; i >= 0; --i) {
+      const float x = vd[a] == 1 ? 0.5f * sp[a] : static_cast<float>(i) * sp[a];
+      fv[static_cast<std::size_t>(std::clamp(static_cast<int>(std::floor(x / cell_[a])), 0, dims_[a] - 1))] = i;
+    }
+    for (int c = dims_[a] - 1; c >= 0; --c)  // a cell without voxels gets the empty run [next, next)
+      fv[static_cast<std::size_t>(c)] = std::min(fv[static_cast<std::size_t>(c)], fv[static_cast<std::size_t>(c) + 1]);
+  }
+
+  const ExtinctionTable table(tf, compositing, reference_step, volume.min_value(), volume.max_value());
+  const std::size_t cells = cell_count();
+  tau_.assign(cells, 0.0f);
+  if (with_colour) tau_colour_.assign(cells * 3, 0.0f);
+  const int nx = dims_[0], ny = dims_[1];
+  parallel_for(static_cast<std::size_t>(dims_[2]), [&](std::size_t k0, std::size_t k1) {
+    std::vector<double> acc(static_cast<std::size_t>(nx) * ny * 4);
+    std::vector<int> count(static_cast<std::size_t>(nx) * ny);
+    for (int ck = static_cast<int>(k0); ck < static_cast<int>(k1); ++ck) {
+      std::fill(acc.begin(), acc.end(), 0.0);
+      std::fill(count.begin(), count.end(), 0);
+      for (int k = first_voxel[2][static_cast<std::size_t>(ck)]; k < first_voxel[2][static_cast<std::size_t>(ck) + 1]; ++k)
+        for (int cj = 0; cj < ny; ++cj)
+          for (int j = first_voxel[1][static_cast<std::size_t>(cj)]; j < first_voxel[1][static_cast<std::size_t>(cj) + 1]; ++j)
+            for (int ci = 0; ci < nx; ++ci) {
+              const std::size_t c = static_cast<std::size_t>(cj) * nx + ci;
+              for (int i = first_voxel[0][static_cast<std::size_t>(ci)]; i < first_voxel[0][static_cast<std::size_t>(ci) + 1]; ++i) {
+                const auto e = table.lookup(volume.value(i, j, k));
+                for (int q = 0; q < 4; ++q) acc[c * 4 + q] += e[q];
+                ++count[c];
+              }
+            }
+      for (int cj = 0; cj < ny; ++cj)
+        for (int ci = 0; ci < nx; ++ci) {
+          const std::size_t c = static_cast<std::size_t>(cj) * nx + ci;
+          std::array<float, 4> mean;
+          if (count[c] > 0) {
+            for (int q = 0; q < 4; ++q) mean[q] = static_cast<float>(acc[c * 4 + q] / count[c]);
+          } else {  // a cell finer than the data: the trilinear sample at its centre
+            mean = table.lookup(volume.sample(cell_center(ci, cj, ck)));
+          }
+          const std::size_t idx = cell_index(ci, cj, ck);
+          tau_[idx] = mean[0];
+          if (with_colour)
+            for (int q = 0; q < 3; ++q) tau_colour_[idx * 3 + q] = mean[q + 1];
+        }
+    }
+  });
+
+  // Prefix sums along x, then y, then z (each pass parallel over the lines it does not run along).
+  auto build_table = [&](const std::vector<float>& source, std::size_t stride, std::vector<double>& sat) {
+    const std::size_t sx = static_cast<std::size_t>(nx) + 1, sy = static_cast<std::size_t>(ny) + 1;
+    const std::size_t sz = static_cast<std::size_t>(dims_[2]) + 1;
+    sat.assign(sx * sy * sz * stride, 0.0);
+    parallel_for(static_cast<std::size_t>(dims_[2]), [&](std::size_t k0, std::size_t k1) {
+      for (std::size_t k = k0; k < k1; ++k)
+        for (int j = 0; j < ny; ++j) {
+          double* row = &sat[sat_index(0, j + 1, static_cast<int>(k) + 1) * stride];
+          const float* src = &source[cell_index(0, j, static_cast<int>(k)) * stride];
+          for (std::size_t q = 0; q < stride; ++q) {
+            double run = 0;
+            for (int i = 0; i < nx; ++i) {
+              run += src[static_cast<std::size_t>(i) * stride + q];
+              row[(static_cast<std::size_t>(i) + 1) * stride + q] = run;
+            }
+          }
+        }
+    });
+    const std::size_t row_len = sx * stride;
+    parallel_for(sz, [&](std::size_t k0, std::size_t k1) {
+      for (std::size_t k = std::max<std::size_t>(k0, 1); k < k1; ++k)
+        for (std::size_t j = 1; j < sy; ++j) {
+          double* row = &sat[(k * sy + j) * row_len];
+          const double* prev = row - row_len;
+          for (std::size_t i = 0; i < row_len; ++i) row[i] += prev[i];
+        }
+    });
+    const std::size_t plane = sy * row_len;
+    parallel_for(sy, [&](std::size_t j0, std::size_t j1) {
+      for (std::size_t k = 1; k < sz; ++k)
+        for (std::size_t j = j0; j < j1; ++j) {
+          double* row = &sat[k * plane + j * row_len];
+          const double* prev = row - plane;
+          for (std::size_t i = 0; i < row_len; ++i) row[i] += prev[i];
+        }
+    });
+  };
+  build_table(tau_, 1, sat_);
+  if (with_colour) build_table(tau_colour_, 3, sat_colour_);
+}
+
+Rgb ExtinctionSat::tau_colour(int i, int j, int k) const {
+  if (!has_colour()) throw Error("extinction SAT built without colour");
+  const std::size_t idx = cell_index(i, j, k) * 3;
+  return {tau_colour_[idx], tau_colour_[idx + 1], tau_colour_[idx + 2]};
+}
+
+std::array<double, 3> ExtinctionSat::sum_colour(const CellBox& box) const {
+  if (!has_colour()) throw Error("extinction SAT built without colour");
+  std::array<int, 3> lo, hi;
+  if (!clip(box, lo, hi)) return {0, 0, 0};
+  return {corners(sat_colour_.data(), 3, 0, lo, hi), corners(sat_colour_.data(), 3, 1, lo, hi),
+          corners(sat_colour_.data(), 3, 2, lo, hi)};
+}
+
+}  // namespace penumbra

@@ -1,0 +1,72 @@
+#include "penumbra/shadows/sat_cone.h"
+
+#include <cmath>
+#include <limits>
+
+#include "penumbra/core/parallel.h"
+
+namespace penumbra {
+namespace {
+constexpr float kNotCached = std::numeric_limits<float>::quiet_NaN();  // a cell far from any extinction
+}  // namespace
+
+SatConeShadows::SatConeShadows(const ShadowSettings& s) {
+  sampling_.half_angle = radians(s.cone_angle);
+  sampling_.samples_per_unit = s.cone_samples;
+  sampling_.growth = s.cone_growth;
+}
+
+float SatConeShadows::attenuation(const Vec3& p) const {
+  Vec3 to_light;
+  float distance;
+  light_.towards(p, to_light, distance);
+  const Ray ray{p, to_light};
+  if (medium_->surface_hit(ray, epsilon_, distance) < kInfinity) return 0.0f;
+  const Box3& box = sat_->bounds();
+  if (!box.contains(p)) {  // a receiver outside (a plane): lit unless the cone can reach the grid
+    float reach = 0;
+    for (int c = 0; c < 8; ++c) reach = std::max(reach, length(box.corner(c) - p));
+    const float grow = reach * std::tan(sampling_.half_angle) + length(sat_->cell_size());
+    Box3 wide = box;
+    wide.lo = wide.lo - Vec3{grow, grow, grow};
+    wide.hi = wide.hi + Vec3{grow, grow, grow};
+    float t0, t1;
+    if (!wide.clip(ray, t0, t1, 0, distance)) return 1.0f;
+  }
+  return static_cast<float>(std::exp(-cone_optical_depth(*sat_, p, to_light, distance, sampling_)));
+}
+
+void SatConeShadows::build(const ShadowMedium& medium, const Light& light) {
+  medium_ = &medium;
+  sat_ = &medium.extinction_sat();
+  light_ = light;
+  epsilon_ = 1e-4f * std::max(sat_->bounds().radius(), 1e-6f);
+  cache_ = CellField<float>(*sat_, 1.0f);
+  const auto& d = sat_->dims();
+  parallel_for(static_cast<std::size_t>(d[2]) * d[1], [&](std::size_t r0, std::size_t r1) {
+    for (std::size_t r = r0; r < r1; ++r) {
+      const int j = static_cast<int>(r % d[1]), k = static_cast<int>(r / d[1]);
+      for (int i = 0; i < d[0]; ++i)
+        cache_[sat_->cell_index(i, j, k)] =
+            sat_->near_extinction(i, j, k) ? attenuation(sat_->cell_center(i, j, k)) : kNotCached;
+    }
+  });
+}
+
+void SatConeShadows::transmittance(std::span<const Vec3> points, std::span<Rgb> out) const {
+  const Box3& box = sat_->bounds();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    float t = box.contains(points[i]) ? cache_.fetch(points[i]) : kNotCached;
+    if (std::isnan(t)) t = attenuation(points[i]);  // outside the cache, or next to a cell it skipped
+    out[i] = Rgb(t);
+  }
+}
+
+Vec3 SatConeShadows::surface_receiver(const Vec3& p, const Vec3& n) const {
+  Vec3 to_light;
+  float distance;
+  light_.towards(p, to_light, distance);
+  return p + (dot(n, to_light) >= 0 ? n : -n) * epsilon_;
+}
+
+}  // namespace penumbra

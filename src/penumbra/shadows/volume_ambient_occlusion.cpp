@@ -1,0 +1,135 @@
+#include "penumbra/shadows/volume_ambient_occlusion.h"
+
+#include <cmath>
+#include <limits>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
+
+
+namespace penumbra {
+namespace {
+constexpr float kNotCached = std::numeric_limits<float>::quiet_NaN();  // a cell far from any extinction
+}  // namespace
+
+std::vector<int> shell_half_sizes(int shells, float radius_cells) {
+  std::vector<int> h;
+  for (int i = 1; i <= shells; ++i) {
+    const int want = static_cast<int>(std::lround(radius_cells * static_cast<float>(i) / static_cast<float>(shells)));
+    h.push_back(std::max(h.empty() ? 1 : h.back() + 1, want));
+  }
+  return h;
+}
+
+float VolumeAmbientOcclusion::radius_cells() const {
+  const auto& d = sat_->dims();
+  return settings_.radius * static_cast<float>(std::max(d[0], std::max(d[1], d[2])));
+}
+
+void VolumeAmbientOcclusion::build(const ShadowMedium& medium) {
+  sat_ = &medium.extinction_sat();
+  if (settings_.bleeding > 0 && !sat_->has_colour())
+    throw Error("ambient.bleeding needs the colour table of the extinction SAT");
+  prepare();
+  cache_ = CellField<Rgb>(*sat_);
+  const auto& d = sat_->dims();
+  parallel_for(static_cast<std::size_t>(d[2]) * d[1], [&](std::size_t r0, std::size_t r1) {
+    for (std::size_t r = r0; r < r1; ++r) {
+      const int j = static_cast<int>(r % d[1]), k = static_cast<int>(r / d[1]);
+      for (int i = 0; i < d[0]; ++i)
+        cache_[sat_->cell_index(i, j, k)] = sat_->near_extinction(i, j, k) ? ambient_at_cell(i, j, k) : Rgb(kNotCached);
+    }
+  });
+}
+
+Rgb VolumeAmbientOcclusion::ambient_at_cell(int i, int j, int k) const {
+  const Rgb x = optical_depth(i, j, k);
+  return {std::exp(-x.r), std::exp(-x.g), std::exp(-x.b)};
+}
+
+void VolumeAmbientOcclusion::ambient(std::span<const Vec3> points, std::span<Rgb> out) const {
+  const Box3& box = sat_->bounds();
+  for (std::size_t n = 0; n < points.size(); ++n) {
+    if (box.contains(points[n])) out[n] = cache_.fetch(points[n]);
+    if (!box.contains(points[n]) || std::isnan(out[n].r)) {  // outside the cache, or next to a skipped cell
+      const Vec3 c = sat_->to_cell(points[n]);
+      out[n] = ambient_at_cell(static_cast<int>(std::floor(c.x)), static_cast<int>(std::floor(c.y)),
+                               static_cast<int>(std::floor(c.z)));
+    }
+  }
+}
+
+void SatShellsAmbient::prepare() {
+  half_sizes_ = shell_half_sizes(settings_.shells, radius_cells());
+  weights_.clear();
+  const double cell = std::cbrt(static_cast<double>(sat_->cell_volume()));
+  for (const int h : half_sizes_) {
+    const double r = (h + 0.5) * cell;  // centre to face, world units
+    weights_.push_back(sat_->cell_volume() / (4.0 * kPi * r * r));
+  }
+}
+
+Rgb SatShellsAmbient::optical_depth(int i, int j, int k) const {
+  double grey = 0, prev = 0;
+  std::array<double, 3> colour{0, 0, 0}, prev_colour{0, 0, 0};
+  const bool bleed = settings_.bleeding > 0;
+  for (std::size_t s = 0; s < half_sizes_.size(); ++s) {  // §3.2: τ_Sh(i+1) = τ_Sh(i) + (S(Sh_i+1) − S(Sh_i)) / r²
+    const int h = half_sizes_[s];
+    const CellBox box{{i - h, j - h, k - h}, {i + h + 1, j + h + 1, k + h + 1}};
+    const double sum = sat_->sum(box);
+    grey += (sum - prev) * weights_[s];
+    prev = sum;
+    if (bleed) {
+      const auto sc = sat_->sum_colour(box);
+      for (int q = 0; q < 3; ++q) {
+        colour[q] += (sc[q] - prev_colour[q]) * weights_[s];
+        prev_colour[q] = sc[q];
+      }
+    }
+  }
+  const double b = settings_.bleeding;
+  return {static_cast<float>(std::max(0.0, grey - b * colour[0])), static_cast<float>(std::max(0.0, grey - b * colour[1])),
+          static_cast<float>(std::max(0.0, grey - b * colour[2]))};
+}
+
+void SampledAmbientOcclusion::prepare() {
+  offsets_.clear();
+  const Vec3 cell = sat_->cell_size();
+  const double v = sat_->cell_volume();
+  const Vec3 e = sat_->bounds().extent();
+  const float r_world = settings_.radius * std::max(e.x, std::max(e.y, e.z));
+  const int n[3] = {static_cast<int>(std::ceil(r_world / cell.x)), static_cast<int>(std::ceil(r_world / cell.y)),
+                    static_cast<int>(std::ceil(r_world / cell.z))};
+  for (int dk = -n[2]; dk <= n[2]; ++dk)
+    for (int dj = -n[1]; dj <= n[1]; ++dj)
+      for (int di = -n[0]; di <= n[0]; ++di) {
+        const double x = di * cell.x, y = dj * cell.y, z = dk * cell.z;
+        const double d2 = x * x + y * y + z * z;
+        if (d2 > static_cast<double>(r_world) * r_world) continue;
+        const double w = d2 > 0 ? v / (4.0 * kPi * d2) : kUnitCubeInverseSquare * std::cbrt(v) / (4.0 * kPi);
+        offsets_.push_back({di, dj, dk, w});
+      }
+}
+
+Rgb SampledAmbientOcclusion::optical_depth(int i, int j, int k) const {
+  const auto& d = sat_->dims();
+  const bool bleed = settings_.bleeding > 0;
+  double grey = 0;
+  std::array<double, 3> colour{0, 0, 0};
+  for (const Offset& o : offsets_) {
+    const int a = i + o.di, b = j + o.dj, c = k + o.dk;
+    if (a < 0 || b < 0 || c < 0 || a >= d[0] || b >= d[1] || c >= d[2]) continue;
+    grey += o.weight * sat_->tau(a, b, c);
+    if (bleed) {
+      const Rgb tc = sat_->tau_colour(a, b, c);
+      colour[0] += o.weight * tc.r;
+      colour[1] += o.weight * tc.g;
+      colour[2] += o.weight * tc.b;
+    }
+  }
+  const double b = settings_.bleeding;
+  return {static_cast<float>(std::max(0.0, grey - b * colour[0])), static_cast<float>(std::max(0.0, grey - b * colour[1])),
+          static_cast<float>(std::max(0.0, grey - b * colour[2]))};
+}
+
+}  // namespace penumbra
