@@ -82,6 +82,7 @@ struct ShadowSettings {
   float cone_angle = 5;           // sat_cone: half-angle of the cone towards the light, degrees (paper 001 §3.3)
   float cone_samples = 50;        // sat_cone: cuboids per longest side of the light cache (before growth)
   float cone_growth = 0;          // sat_cone: relative growth of each cuboid's thickness over the previous one
+  int cone_rays = 64;             // sampled_cone: exact shadow rays spread over the cone
 };
 
 struct AmbientSettings {

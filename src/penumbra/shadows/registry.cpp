@@ -11,7 +11,7 @@
 namespace penumbra {
 
 std::vector<std::string> shadow_technique_names() {
-  return {"none", "shadow_map", "deep_shadow_map", "cssm", "ray_traced", "sat_cone"};
+  return {"none", "shadow_map", "deep_shadow_map", "cssm", "ray_traced", "sat_cone", "sampled_cone"};
 }
 
 std::vector<std::string> planned_shadow_technique_names() { return {"issm", "light_pass"}; }
@@ -23,6 +23,7 @@ std::unique_ptr<ShadowTechnique> make_shadow_technique(const ShadowSettings& s) 
   if (s.technique == "cssm") return std::make_unique<ColoredStochasticShadowMap>(s);
   if (s.technique == "ray_traced") return std::make_unique<RayTracedShadows>();
   if (s.technique == "sat_cone") return std::make_unique<SatConeShadows>(s);
+  if (s.technique == "sampled_cone") return std::make_unique<SampledConeShadows>(s);
   std::string known;
   for (const auto& n : shadow_technique_names()) known += (known.empty() ? "" : ", ") + n;
   throw Error("shadows.technique: unknown technique '" + s.technique + "' (expected one of: " + known + ")");

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "penumbra/core/parallel.h"
 
@@ -43,12 +44,20 @@ void SatConeShadows::build(const ShadowMedium& medium, const Light& light) {
   epsilon_ = 1e-4f * std::max(sat_->bounds().radius(), 1e-6f);
   cache_ = CellField<float>(*sat_, 1.0f);
   const auto& d = sat_->dims();
+  std::optional<ConeStencil> stencil;
+  if (light.type == LightType::Directional) stencil.emplace(*sat_, -light.direction, sampling_);
+  auto cell_value = [&](int i, int j, int k) {
+    if (!sat_->near_extinction(i, j, k)) return kNotCached;
+    if (!stencil) return attenuation(sat_->cell_center(i, j, k));
+    const Vec3 p = sat_->cell_center(i, j, k);
+    if (medium.surface_hit(Ray{p, -light.direction}, epsilon_, kInfinity) < kInfinity) return 0.0f;
+    return static_cast<float>(std::exp(-stencil->optical_depth(*sat_, i, j, k)));
+  };
   parallel_for(static_cast<std::size_t>(d[2]) * d[1], [&](std::size_t r0, std::size_t r1) {
     for (std::size_t r = r0; r < r1; ++r) {
       const int j = static_cast<int>(r % d[1]), k = static_cast<int>(r / d[1]);
       for (int i = 0; i < d[0]; ++i)
-        cache_[sat_->cell_index(i, j, k)] =
-            sat_->near_extinction(i, j, k) ? attenuation(sat_->cell_center(i, j, k)) : kNotCached;
+        cache_[sat_->cell_index(i, j, k)] = cell_value(i, j, k);
     }
   });
 }
@@ -63,6 +72,45 @@ void SatConeShadows::transmittance(std::span<const Vec3> points, std::span<Rgb> 
 }
 
 Vec3 SatConeShadows::surface_receiver(const Vec3& p, const Vec3& n) const {
+  Vec3 to_light;
+  float distance;
+  light_.towards(p, to_light, distance);
+  return p + (dot(n, to_light) >= 0 ? n : -n) * epsilon_;
+}
+
+float sampled_cone_transmittance(const ShadowMedium& medium, const Light& light, const Vec3& p, float half_angle,
+                                 int rays) {
+  Vec3 to_light;
+  float distance;
+  light.towards(p, to_light, distance);
+  const Frame frame = Frame::from_w(to_light);
+  const float cos_max = std::cos(half_angle);
+  constexpr float kGoldenAngle = 2.39996323f;
+  double depth = 0;
+  for (int i = 0; i < rays; ++i) {
+    const float u = (static_cast<float>(i) + 0.5f) / static_cast<float>(rays);
+    const float cos_t = 1 - u * (1 - cos_max), sin_t = std::sqrt(std::max(0.0f, 1 - cos_t * cos_t));
+    const float phi = kGoldenAngle * static_cast<float>(i);
+    const Vec3 d = frame.to_world({sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t});
+    const float t = medium.transmittance(Ray{p, normalize(d)}, 0, distance).g;
+    depth += std::min(kOpaqueDepth, -std::log(std::max(static_cast<double>(t), 1e-300)));
+  }
+  return static_cast<float>(std::exp(-depth / std::max(1, rays)));
+}
+
+void SampledConeShadows::build(const ShadowMedium& medium, const Light& light) {
+  medium_ = &medium;
+  light_ = light;
+  const Box3& b = medium.bounds();
+  epsilon_ = 1e-4f * (b.empty() ? 1.0f : std::max(b.radius(), 1e-6f));
+}
+
+void SampledConeShadows::transmittance(std::span<const Vec3> points, std::span<Rgb> out) const {
+  for (std::size_t i = 0; i < points.size(); ++i)
+    out[i] = Rgb(sampled_cone_transmittance(*medium_, light_, points[i], half_angle_, rays_));
+}
+
+Vec3 SampledConeShadows::surface_receiver(const Vec3& p, const Vec3& n) const {
   Vec3 to_light;
   float distance;
   light_.towards(p, to_light, distance);

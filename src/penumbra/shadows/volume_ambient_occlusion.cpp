@@ -103,7 +103,8 @@ void SampledAmbientOcclusion::prepare() {
   for (int dk = -n[2]; dk <= n[2]; ++dk)
     for (int dj = -n[1]; dj <= n[1]; ++dj)
       for (int di = -n[0]; di <= n[0]; ++di) {
-        const double x = di * cell.x, y = dj * cell.y, z = dk * cell.z;
+        const double x = di * static_cast<double>(cell.x), y = dj * static_cast<double>(cell.y),
+                     z = dk * static_cast<double>(cell.z);
         const double d2 = x * x + y * y + z * z;
         if (d2 > static_cast<double>(r_world) * r_world) continue;
         const double w = d2 > 0 ? v / (4.0 * kPi * d2) : kUnitCubeInverseSquare * std::cbrt(v) / (4.0 * kPi);
