@@ -27,10 +27,7 @@ public:
     }
   }
   Vec3 surface_receiver(const Vec3& p, const Vec3& n) const override {
-    Vec3 to_light;
-    float distance;
-    light_.towards(p, to_light, distance);
-    return p + (dot(n, to_light) >= 0 ? n : -n) * epsilon_;
+    return offset_towards_light(light_, p, n, epsilon_);
   }
   std::size_t memory_bytes() const override { return 0; }
   std::string_view name() const override { return "ray_traced"; }

@@ -72,10 +72,7 @@ void SatConeShadows::transmittance(std::span<const Vec3> points, std::span<Rgb> 
 }
 
 Vec3 SatConeShadows::surface_receiver(const Vec3& p, const Vec3& n) const {
-  Vec3 to_light;
-  float distance;
-  light_.towards(p, to_light, distance);
-  return p + (dot(n, to_light) >= 0 ? n : -n) * epsilon_;
+  return offset_towards_light(light_, p, n, epsilon_);
 }
 
 float sampled_cone_transmittance(const ShadowMedium& medium, const Light& light, const Vec3& p, float half_angle,
@@ -111,10 +108,7 @@ void SampledConeShadows::transmittance(std::span<const Vec3> points, std::span<R
 }
 
 Vec3 SampledConeShadows::surface_receiver(const Vec3& p, const Vec3& n) const {
-  Vec3 to_light;
-  float distance;
-  light_.towards(p, to_light, distance);
-  return p + (dot(n, to_light) >= 0 ? n : -n) * epsilon_;
+  return offset_towards_light(light_, p, n, epsilon_);
 }
 
 }  // namespace penumbra

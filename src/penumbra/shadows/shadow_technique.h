@@ -35,4 +35,13 @@ public:
   }
 };
 
+// p moved by `epsilon` along ±n, to the side of the light: the surface offset of the techniques that
+// query rays or caches rather than a depth map.
+inline Vec3 offset_towards_light(const Light& light, const Vec3& p, const Vec3& n, float epsilon) {
+  Vec3 to_light;
+  float distance;
+  light.towards(p, to_light, distance);
+  return p + (dot(n, to_light) >= 0 ? n : -n) * epsilon;
+}
+
 }  // namespace penumbra

@@ -10,6 +10,12 @@
 namespace penumbra {
 namespace {
 constexpr float kNotCached = std::numeric_limits<float>::quiet_NaN();  // a cell far from any extinction
+
+// Eq. 5's exponent per channel: the grey one less β times the colour-weighted one.
+Rgb bleed_exponent(double grey, const std::array<double, 3>& colour, double beta) {
+  return {static_cast<float>(std::max(0.0, grey - beta * colour[0])), static_cast<float>(std::max(0.0, grey - beta * colour[1])),
+          static_cast<float>(std::max(0.0, grey - beta * colour[2]))};
+}
 }  // namespace
 
 std::vector<int> shell_half_sizes(int shells, float radius_cells) {
@@ -87,9 +93,7 @@ Rgb SatShellsAmbient::optical_depth(int i, int j, int k) const {
       }
     }
   }
-  const double b = settings_.bleeding;
-  return {static_cast<float>(std::max(0.0, grey - b * colour[0])), static_cast<float>(std::max(0.0, grey - b * colour[1])),
-          static_cast<float>(std::max(0.0, grey - b * colour[2]))};
+  return bleed_exponent(grey, colour, settings_.bleeding);
 }
 
 void SampledAmbientOcclusion::prepare() {
@@ -128,9 +132,7 @@ Rgb SampledAmbientOcclusion::optical_depth(int i, int j, int k) const {
       colour[2] += o.weight * tc.b;
     }
   }
-  const double b = settings_.bleeding;
-  return {static_cast<float>(std::max(0.0, grey - b * colour[0])), static_cast<float>(std::max(0.0, grey - b * colour[1])),
-          static_cast<float>(std::max(0.0, grey - b * colour[2]))};
+  return bleed_exponent(grey, colour, settings_.bleeding);
 }
 
 }  // namespace penumbra
