@@ -1,8 +1,9 @@
-// `penumbra bench`: the CSSM paper's Tables 3 (generation time) and 4 (rendering time) on this machine,
-// for shadow_map, deep_shadow_map (3 nodes) and cssm (13 offsets) at several shadow-map resolutions and
-// a 512² frame, on test-spheres 128³ and cranium_ct.nrrd — plus what the paper lacks: memory per
-// technique and error (RMSE, PSNR) against the exact ray-traced image. Markdown on stdout and in
-// DIR/bench.md, JSON in DIR/bench.json.
+// `penumbra bench`: suite `cssm` — the CSSM paper's Tables 3 (generation time) and 4 (rendering time) on
+// this machine, for shadow_map, deep_shadow_map (3 nodes) and cssm (13 offsets) at several shadow-map
+// resolutions and a 512² frame, on test-spheres 128³ and cranium_ct.nrrd — plus what the paper lacks:
+// memory per technique and error (RMSE, PSNR) against the exact ray-traced image; suite `extinction` —
+// paper 001's Tables 1–3 (bench_extinction.cpp). Markdown on stdout and in DIR/bench.md, JSON in
+// DIR/bench.json.
 #include <sys/utsname.h>
 #include <unistd.h>
 
