@@ -14,7 +14,10 @@ class CellField {
 public:
   CellField() = default;
   explicit CellField(const ExtinctionSat& sat, T fill = T{})
-      : dims_(sat.dims()), origin_(sat.bounds().lo), cell_(sat.cell_size()), values_(sat.cell_count(), fill) {}
+      : dims_(sat.dims()),
+        origin_(sat.bounds().lo),
+        inv_cell_{1.0f / sat.cell_size().x, 1.0f / sat.cell_size().y, 1.0f / sat.cell_size().z},
+        values_(sat.cell_count(), fill) {}
 
   T& operator[](std::size_t index) { return values_[index]; }
   const T& operator[](std::size_t index) const { return values_[index]; }
@@ -26,7 +29,7 @@ public:
     float t[3];
     for (int a = 0; a < 3; ++a) {
       // centre of cell i sits at continuous coordinate i + 0.5
-      const float c = clamp((p[a] - origin_[a]) / cell_[a] - 0.5f, 0.0f, static_cast<float>(dims_[a] - 1));
+      const float c = clamp((p[a] - origin_[a]) * inv_cell_[a] - 0.5f, 0.0f, static_cast<float>(dims_[a] - 1));
       i0[a] = static_cast<int>(c);
       i1[a] = std::min(i0[a] + 1, dims_[a] - 1);
       t[a] = c - static_cast<float>(i0[a]);
@@ -45,7 +48,7 @@ public:
 
 private:
   std::array<int, 3> dims_{0, 0, 0};
-  Vec3 origin_, cell_{1, 1, 1};
+  Vec3 origin_, inv_cell_{1, 1, 1};
   std::vector<T> values_;
 };
 
