@@ -168,12 +168,12 @@ ShadowSettings read_shadows(const nlohmann::json& j) {
   s.pcf = static_cast<int>(r.integer("pcf", s.pcf, 0, 16));
   s.bias = r.number("bias", s.bias, -1, 1e6f);
   s.step = r.number("step", s.step, -1, 8);
+  if (s.step >= 0 && s.step < 0.05f) r.fail("step", "must be at least 0.05 voxels (or -1 for the default, one voxel)");
   s.cone_angle = r.number("cone_angle", s.cone_angle, 0, 90);
   if (s.cone_angle >= 90) r.fail("cone_angle", "must be below 90 degrees (the cone's half-angle)");
   s.cone_samples = r.number("cone_samples", s.cone_samples, 1, 4096);
   s.cone_growth = r.number("cone_growth", s.cone_growth, 0, 1);
   s.cone_rays = static_cast<int>(r.integer("cone_rays", s.cone_rays, 1, 4096));
-  if (s.step >= 0 && s.step < 0.05f) r.fail("step", "must be at least 0.05 voxels (or -1 for the default, one voxel)");
   r.finish();
   return s;
 }

@@ -1,15 +1,9 @@
 #include "penumbra/shadows/sat_cone.h"
 
 #include <cmath>
-#include <limits>
 #include <optional>
 
-#include "penumbra/core/parallel.h"
-
 namespace penumbra {
-namespace {
-constexpr float kNotCached = std::numeric_limits<float>::quiet_NaN();  // a cell far from any extinction
-}  // namespace
 
 SatConeShadows::SatConeShadows(const ShadowSettings& s) {
   sampling_.half_angle = radians(s.cone_angle);
@@ -43,30 +37,20 @@ void SatConeShadows::build(const ShadowMedium& medium, const Light& light) {
   light_ = light;
   epsilon_ = 1e-4f * std::max(sat_->bounds().radius(), 1e-6f);
   cache_ = CellField<float>(*sat_, 1.0f);
-  const auto& d = sat_->dims();
   std::optional<ConeStencil> stencil;
   if (light.type == LightType::Directional) stencil.emplace(*sat_, -light.direction, sampling_);
-  auto cell_value = [&](int i, int j, int k) {
-    if (!sat_->near_extinction(i, j, k)) return kNotCached;
+  cache_.fill_near_extinction(*sat_, [&](int i, int j, int k) {
     if (!stencil) return attenuation(sat_->cell_center(i, j, k));
     const Vec3 p = sat_->cell_center(i, j, k);
     if (medium.surface_hit(Ray{p, -light.direction}, epsilon_, kInfinity) < kInfinity) return 0.0f;
     return static_cast<float>(std::exp(-stencil->optical_depth(*sat_, i, j, k)));
-  };
-  parallel_for(static_cast<std::size_t>(d[2]) * d[1], [&](std::size_t r0, std::size_t r1) {
-    for (std::size_t r = r0; r < r1; ++r) {
-      const int j = static_cast<int>(r % d[1]), k = static_cast<int>(r / d[1]);
-      for (int i = 0; i < d[0]; ++i)
-        cache_[sat_->cell_index(i, j, k)] = cell_value(i, j, k);
-    }
   });
 }
 
 void SatConeShadows::transmittance(std::span<const Vec3> points, std::span<Rgb> out) const {
-  const Box3& box = sat_->bounds();
   for (std::size_t i = 0; i < points.size(); ++i) {
-    float t = box.contains(points[i]) ? cache_.fetch(points[i]) : kNotCached;
-    if (std::isnan(t)) t = attenuation(points[i]);  // outside the cache, or next to a cell it skipped
+    float t;
+    if (!cache_.try_fetch(points[i], t)) t = attenuation(points[i]);
     out[i] = Rgb(t);
   }
 }

@@ -1,16 +1,12 @@
 #include "penumbra/shadows/volume_ambient_occlusion.h"
 
 #include <cmath>
-#include <limits>
 
 #include "penumbra/core/error.h"
-#include "penumbra/core/parallel.h"
 
 
 namespace penumbra {
 namespace {
-constexpr float kNotCached = std::numeric_limits<float>::quiet_NaN();  // a cell far from any extinction
-
 // Eq. 5's exponent per channel: the grey one less β times the colour-weighted one.
 Rgb bleed_exponent(double grey, const std::array<double, 3>& colour, double beta) {
   return {static_cast<float>(std::max(0.0, grey - beta * colour[0])), static_cast<float>(std::max(0.0, grey - beta * colour[1])),
@@ -38,14 +34,7 @@ void VolumeAmbientOcclusion::build(const ShadowMedium& medium) {
     throw Error("ambient.bleeding needs the colour table of the extinction SAT");
   prepare();
   cache_ = CellField<Rgb>(*sat_);
-  const auto& d = sat_->dims();
-  parallel_for(static_cast<std::size_t>(d[2]) * d[1], [&](std::size_t r0, std::size_t r1) {
-    for (std::size_t r = r0; r < r1; ++r) {
-      const int j = static_cast<int>(r % d[1]), k = static_cast<int>(r / d[1]);
-      for (int i = 0; i < d[0]; ++i)
-        cache_[sat_->cell_index(i, j, k)] = sat_->near_extinction(i, j, k) ? ambient_at_cell(i, j, k) : Rgb(kNotCached);
-    }
-  });
+  cache_.fill_near_extinction(*sat_, [&](int i, int j, int k) { return ambient_at_cell(i, j, k); });
 }
 
 Rgb VolumeAmbientOcclusion::ambient_at_cell(int i, int j, int k) const {
@@ -54,10 +43,8 @@ Rgb VolumeAmbientOcclusion::ambient_at_cell(int i, int j, int k) const {
 }
 
 void VolumeAmbientOcclusion::ambient(std::span<const Vec3> points, std::span<Rgb> out) const {
-  const Box3& box = sat_->bounds();
   for (std::size_t n = 0; n < points.size(); ++n) {
-    if (box.contains(points[n])) out[n] = cache_.fetch(points[n]);
-    if (!box.contains(points[n]) || std::isnan(out[n].r)) {  // outside the cache, or next to a skipped cell
+    if (!cache_.try_fetch(points[n], out[n])) {  // outside the cache, or next to a cell it skipped
       const Vec3 c = sat_->to_cell(points[n]);
       out[n] = ambient_at_cell(static_cast<int>(std::floor(c.x)), static_cast<int>(std::floor(c.y)),
                                static_cast<int>(std::floor(c.z)));
