@@ -665,7 +665,10 @@ TEST(ExtinctionScene, BadParametersNameTheKey) {
   // and the accepted extremes are accepted
   for (const auto& [key, value] : std::vector<std::pair<std::string, std::string>>{
            {"ambient.radius", "1"}, {"shadows.cone_angle", "89.9"}, {"light_cache.resolution", "4"}, {"ambient.shells", "64"}})
-    EXPECT_EQ(error_of(j, key, value), "") << key << " = " << value;
+    EXPECT_EQ(error_of(j, key, value), "") << key << " = " << value;  // a scene without a visible volume has nothing to build the SAT from: an error naming the settings
+  const std::string msg = error_of(j, "volumes.0.visible", "false");
+  EXPECT_NE(msg.find("shadows"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("visible volume"), std::string::npos) << msg;
 }
 
 // ---------------------------------------------------------------------------------------------------

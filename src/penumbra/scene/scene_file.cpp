@@ -301,6 +301,9 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir) {
     s.light_cache.resolution = static_cast<int>(lc.integer("resolution", s.light_cache.resolution, kMinSatResolution, kMaxSatResolution));
     lc.finish();
   }
+  if (needs_extinction_sat(s) && !s.visible_volume())
+    r.fail(s.shadows.technique == "sat_cone" ? "shadows" : "ambient",
+           "the extinction techniques (sat_cone, sat_shells, sampled_ao) need a visible volume");
   s.background = r.color("background", s.background);
   r.finish();
   return s;
