@@ -642,6 +642,43 @@ TEST(ExtinctionCache, RebuildsOnlyWhatChanged) {
   EXPECT_EQ(compare_images(f5.image, f6.image).max_abs, 0.0);
 }
 
+// Proves eight point lights at once, some inside the volume, each get their own sat_cone shadow term:
+// with no ambient term the image under all eight equals the sum of the eight single-light images
+// (shading is linear in the lights), and every light really shadows (its image differs from the same
+// light without shadows).
+TEST(ExtinctionCache, EightLightsAddUp) {
+  nlohmann::json j = volume_scene({{"name", "test-spheres"}, {"size", 24}}, {{"preset", "test-spheres"}, {"opacity_scale", 4}});
+  j["volumes"][0]["compositing"] = "extinction";
+  j["volumes"][0]["jitter"] = false;
+  j["shadows"] = {{"technique", "sat_cone"}, {"cone_angle", 3}};
+  j["light_cache"] = {{"resolution", 24}};
+  j["camera"] = {{"width", 32}, {"height", 32}};
+  j["shading"] = {{"ambient", 0.0}};
+  j["background"] = {0.0, 0.0, 0.0};
+  nlohmann::json lights = nlohmann::json::array();
+  for (int i = 0; i < 8; ++i) {
+    const double a = 0.785 * i, r = i % 2 ? 0.35 : 1.2;  // odd lights inside the volume box
+    lights.push_back({{"type", "point"}, {"position", {r * std::cos(a), 0.3 + 0.1 * i, r * std::sin(a)}}, {"intensity", 0.3}});
+  }
+  j["lights"] = lights;
+  const Scene scene = build_scene(j, "");
+  Renderer all(scene);
+  const FrameResult f = all.render();
+  EXPECT_EQ(f.rebuilt, (std::vector<std::string>{"sat", "shadows"}));
+  Image sum(32, 32);
+  for (int i = 0; i < 8; ++i) {
+    const Image one = Renderer(scene).render(scene.camera, {scene.lights[static_cast<std::size_t>(i)]}).image;
+    for (int y = 0; y < 32; ++y)
+      for (int x = 0; x < 32; ++x) sum.at(x, y) += one.at(x, y);
+    nlohmann::json unshadowed = j;
+    unshadowed["shadows"] = {{"technique", "none"}};
+    unshadowed["lights"] = nlohmann::json::array({lights[static_cast<std::size_t>(i)]});
+    const Image lit = Renderer(build_scene(unshadowed, "")).render().image;
+    EXPECT_GT(compare_images(one, lit).max_abs, 1e-3) << "light " << i << " casts no shadow";
+  }
+  EXPECT_LT(compare_images(f.image, sum).max_abs, 1e-4);
+}
+
 // ---------------------------------------------------------------------------------------------------
 // 5. The scene file.
 
