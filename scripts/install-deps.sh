@@ -3,7 +3,8 @@
 set -euo pipefail
 packages=(build-essential cmake ninja-build g++ pkg-config
           libtbb-dev libpng-dev zlib1g-dev nlohmann-json3-dev libcli11-dev
-          libteem-dev libnifti2-dev libgtest-dev libbenchmark-dev)
+          libteem-dev libnifti2-dev libgtest-dev libbenchmark-dev
+          gemmi-dev tao-pegtl-dev libembree-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

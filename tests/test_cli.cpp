@@ -173,7 +173,7 @@ TEST(Cli, BadInputsFailWithAMessageAndLeaveNoOutput) {
   const std::vector<Case> cases{
       {"render " + quote(scene) + out + " --set shadows.bogus=1", "shadows.bogus"},
       {"render " + quote(scene) + out + " --set lights.3.intensity=1", "lights.3"},
-      {"render " + quote(scene) + out + " --set shadows.technique=issm", "issm"},
+      {"render " + quote(scene) + out + " --set shadows.technique=issm", "needs particles"},
       {"render " + quote(scene) + out + " --set shadows.cone_angle=95", "shadows.cone_angle"},
       {"render " + quote(missing_scene) + out, "missing_volume.nrrd"},
       {"render " + quote(scene) + " -o " + quote(dir.file("out.jpg")) + " --stats " + quote(dir.file("stats.json")), ".jpg"},

@@ -174,7 +174,15 @@ TEST(SceneFile, TechniqueNames) {
     SCOPED_TRACE(t);
     expect_error(with(base_scene(), "shadows.technique", t), {"shadows.technique", t, "not available"});
   }
-  expect_error(with(base_scene(), "ambient.technique", "particle_ao"), {"ambient.technique", "particle_ao", "not available"});
+  // Sphere techniques in a scene without particles, volume techniques in a scene with particles.
+  expect_error(with(base_scene(), "shadows.technique", "issm"), {"shadows", "issm", "needs particles"});
+  expect_error(with(base_scene(), "ambient.technique", "particle_ao"), {"ambient", "particle_ao", "needs particles"});
+  nlohmann::json spheres = base_scene();
+  spheres["particles"] = nlohmann::json::parse(R"([{"procedural": {"name": "random-spheres", "count": 10}}])");
+  EXPECT_NO_THROW(build_scene(with(spheres, "shadows.technique", "issm"), ""));
+  EXPECT_NO_THROW(build_scene(with(spheres, "ambient.technique", "ray_traced_ao"), ""));
+  expect_error(with(spheres, "shadows.technique", "cssm"), {"shadows", "cssm", "is for volumes", "issm"});
+  expect_error(with(spheres, "ambient.technique", "sat_shells"), {"ambient", "sat_shells", "particle_ao"});
   expect_error(with(base_scene(), "ambient.technique", "magic"), {"ambient.technique", "magic"});
 }
 

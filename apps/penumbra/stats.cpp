@@ -4,14 +4,17 @@
 #include <fstream>
 
 #include "penumbra/core/error.h"
+#include "penumbra/particles/sphere_hits.h"
 
 namespace penumbra::cli {
 
 nlohmann::json frame_stats(const FrameResult& frame) {
   return {{"timings_ms",
            {{"sat", frame.sat_ms}, {"ambient", frame.ambient_ms}, {"build", frame.build_ms}, {"render", frame.render_ms},
-            {"total", frame.total_ms}}},
-          {"rebuilt", frame.rebuilt}};
+            {"bvh", frame.bvh_ms}, {"hits", frame.hits_ms}, {"total", frame.total_ms}}},
+          {"rebuilt", frame.rebuilt},
+          {"issm_rings", frame.issm_rings},
+          {"sphere_pixels", frame.sphere_pixels}};
 }
 
 nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const FrameResult& first, int threads) {
@@ -21,12 +24,19 @@ nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const 
   j["width"] = first.image.width();
   j["height"] = first.image.height();
   j["timings_ms"] = {{"prepare", renderer.prepare_ms()}, {"sat", first.sat_ms}, {"ambient", first.ambient_ms},
-                     {"build", first.build_ms}, {"render", first.render_ms}, {"total", first.total_ms}};
+                     {"build", first.build_ms}, {"render", first.render_ms}, {"bvh", first.bvh_ms},
+                     {"hits", first.hits_ms}, {"total", first.total_ms}};
   std::size_t volume_bytes = 0;
   for (const auto& v : scene.volumes) volume_bytes += v.volume->memory_bytes();
   j["memory_bytes"] = {{"shadow", renderer.shadow_memory_bytes()}, {"ambient", renderer.ambient_memory_bytes()},
-                        {"sat", renderer.sat_memory_bytes()}, {"volume", volume_bytes}};
-  j["counts"] = {{"voxels", renderer.voxel_count()}, {"spheres", 0}, {"points", 0}, {"lights", scene.lights.size()}};
+                        {"sat", renderer.sat_memory_bytes()}, {"volume", volume_bytes},
+                        {"particles", renderer.particle_memory_bytes()}, {"bvh", renderer.bvh_memory_bytes()}};
+  j["counts"] = {{"voxels", renderer.voxel_count()}, {"spheres", renderer.sphere_count()}, {"points", 0},
+                 {"lights", scene.lights.size()}, {"sphere_pixels", first.sphere_pixels}};
+  if (scene.has_particles()) {
+    j["sphere_renderer"] = to_string(scene.sphere_rasterizer);
+    j["issm_rings"] = first.issm_rings;
+  }
   j["threads"] = threads;
   j["seed"] = scene.shadows.seed;
   j["rebuilt"] = first.rebuilt;

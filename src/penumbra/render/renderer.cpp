@@ -2,7 +2,12 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/particles/implicit_sphere_shadow_map.h"
+#include "penumbra/particles/particle_registry.h"
+#include "penumbra/particles/sphere_hits.h"
+#include "penumbra/render/particle_frame.h"
 #include "penumbra/render/volume_raycaster.h"
+#include "penumbra/shadows/ray_traced.h"
 #include "penumbra/shadows/registry.h"
 
 namespace penumbra {
@@ -10,6 +15,7 @@ namespace penumbra {
 Renderer::Renderer(Scene scene) : scene_(std::move(scene)) {
   Timer timer;
   prepare();
+  prepare_particles();
   prepare_ms_ = timer.elapsed_ms();
 }
 
@@ -23,6 +29,22 @@ void Renderer::prepare() {
     medium_ = std::make_unique<ShadowMedium>(scene_, *planes_only_grid_);
   }
   if (sat_) medium_->attach_extinction_sat(sat_.get());
+}
+
+void Renderer::prepare_particles() {
+  if (!scene_.has_particles()) return;
+  if (scene_.particles.size() == 1) {
+    particles_ = scene_.particles.front().set;
+  } else {  // several files: one set, so that every sphere shadows every other
+    auto merged = std::make_shared<ParticleSet>();
+    for (const auto& p : scene_.particles) {
+      merged->spheres.insert(merged->spheres.end(), p.set->spheres.begin(), p.set->spheres.end());
+      merged->colors.insert(merged->colors.end(), p.set->colors.begin(), p.set->colors.end());
+    }
+    particles_ = std::move(merged);
+  }
+  particle_scene_.particles = particles_.get();
+  particle_scene_.bounds = particles_->bounds();
 }
 
 void Renderer::set_transfer_function(const TransferFunction& tf) {
@@ -50,26 +72,76 @@ FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lig
       frame.sat_ms = t.elapsed_ms();
       frame.rebuilt.push_back("sat");
     }
-    if (auto ambient = make_ambient_technique(scene_.ambient)) {
-      Timer t;
-      ambient->build(*medium_);
-      ambient_ = std::move(ambient);
-      frame.ambient_ms = t.elapsed_ms();
-      frame.rebuilt.push_back("ambient");
+    if (!scene_.has_particles()) {
+      if (auto ambient = make_ambient_technique(scene_.ambient)) {
+        Timer t;
+        ambient->build(*medium_);
+        ambient_ = std::move(ambient);
+        frame.ambient_ms = t.elapsed_ms();
+        frame.rebuilt.push_back("ambient");
+      }
     }
     shadows_.clear();
     built_for_.clear();
     transfer_function_changed_ = false;
   }
+  if (scene_.has_particles() && !particles_built_) {
+    Timer t;
+    if (scene_.sphere_rasterizer == SphereRasterizer::Embree || needs_sphere_bvh(scene_)) {
+      bvh_ = std::make_unique<SphereBvh>(*particles_);
+      particle_scene_.bvh = bvh_.get();
+      frame.bvh_ms = t.elapsed_ms();
+      frame.rebuilt.push_back("bvh");
+    }
+    if (auto ambient = make_particle_ambient_technique(scene_.ambient)) {
+      Timer ta;
+      ambient->build(particle_scene_);
+      particle_ambient_ = std::move(ambient);
+      frame.ambient_ms = ta.elapsed_ms();
+      frame.rebuilt.push_back("ambient");
+    }
+    particles_built_ = true;
+  }
+  Timer build;
+  const bool rebuilt = scene_.has_particles() ? update_sphere_shadows(lights) : false;
+  // In a sphere scene the volume is composited by depth and lit without shadows (docs/scene-file.md).
+  const bool volume_rebuilt = update_volume_shadows(lights);
+  frame.build_ms = build.elapsed_ms();
+  if (rebuilt || volume_rebuilt) frame.rebuilt.push_back("shadows");
+
+  Timer render;
+  if (scene_.has_particles()) {
+    const Image opaque = render_particles(camera, lights, frame);
+    if (volume_) {
+      std::vector<const ShadowTechnique*> shadow_ptrs;
+      for (const auto& sh : shadows_) shadow_ptrs.push_back(sh.get());
+      const OpaqueLayer layer{&opaque_distance_, &opaque};
+      frame.image = render_volume_frame(RayCastInputs{&scene_, &camera, volume_.get(), lights, shadow_ptrs, nullptr, &layer});
+    } else {
+      frame.image = opaque;
+    }
+  } else {
+    std::vector<const ShadowTechnique*> shadow_ptrs;
+    for (const auto& sh : shadows_) shadow_ptrs.push_back(sh.get());
+    frame.image = render_volume_frame(RayCastInputs{&scene_, &camera, volume_.get(), lights, shadow_ptrs, ambient_.get()});
+  }
+  frame.render_ms = render.elapsed_ms();
+  frame.total_ms = total.elapsed_ms();
+  return frame;
+}
+
+bool Renderer::update_volume_shadows(const std::vector<Light>& lights) {
+  if (scene_.has_particles() && !volume_) return false;
   if (shadows_.size() != lights.size()) {
     shadows_.clear();
     built_for_.clear();
   }
-  Timer build;
   bool rebuilt = false;
   for (std::size_t i = 0; i < lights.size(); ++i) {
     if (i < shadows_.size() && built_for_[i] == lights[i]) continue;
-    auto technique = make_shadow_technique(scene_.shadows);
+    std::unique_ptr<ShadowTechnique> technique;
+    if (scene_.has_particles()) technique = std::make_unique<NoShadows>();
+    else technique = make_shadow_technique(scene_.shadows);
     technique->build(*medium_, lights[i]);
     if (i < shadows_.size()) {
       shadows_[i] = std::move(technique);
@@ -80,21 +152,57 @@ FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lig
     }
     rebuilt = true;
   }
-  frame.build_ms = build.elapsed_ms();
-  if (rebuilt) frame.rebuilt.push_back("shadows");
+  return rebuilt;
+}
 
-  std::vector<const ShadowTechnique*> shadow_ptrs;
-  for (const auto& s : shadows_) shadow_ptrs.push_back(s.get());
-  Timer render;
-  frame.image = render_volume_frame(RayCastInputs{&scene_, &camera, volume_.get(), lights, shadow_ptrs, ambient_.get()});
-  frame.render_ms = render.elapsed_ms();
-  frame.total_ms = total.elapsed_ms();
-  return frame;
+bool Renderer::update_sphere_shadows(const std::vector<Light>& lights) {
+  if (sphere_shadows_.size() != lights.size()) {
+    sphere_shadows_.clear();
+    sphere_shadows_for_.clear();
+  }
+  bool rebuilt = false;
+  for (std::size_t i = 0; i < lights.size(); ++i) {
+    if (i < sphere_shadows_.size() && sphere_shadows_for_[i] == lights[i]) continue;
+    auto technique = make_sphere_shadow_technique(scene_.shadows);
+    technique->build(particle_scene_, lights[i]);
+    if (i < sphere_shadows_.size()) {
+      sphere_shadows_[i] = std::move(technique);
+      sphere_shadows_for_[i] = lights[i];
+    } else {
+      sphere_shadows_.push_back(std::move(technique));
+      sphere_shadows_for_.push_back(lights[i]);
+    }
+    rebuilt = true;
+  }
+  return rebuilt;
+}
+
+Image Renderer::render_particles(const Camera& camera, const std::vector<Light>& lights, FrameResult& frame) {
+  Timer t;
+  const SphereHits hits = scene_.sphere_rasterizer == SphereRasterizer::Embree ? trace_spheres(*bvh_, camera)
+                                                                               : splat_spheres(*particles_, camera);
+  frame.hits_ms = t.elapsed_ms();
+  frame.sphere_pixels = hits.covered();
+  std::vector<const SphereShadowTechnique*> shadow_ptrs;
+  for (const auto& sh : sphere_shadows_) shadow_ptrs.push_back(sh.get());
+  const ParticleFrameInputs in{&scene_, &camera, particles_.get(), &hits, lights, shadow_ptrs, particle_ambient_.get()};
+  const VisibleSurfaces surfaces = visible_surfaces(in);
+  if (scene_.shadows.technique == "issm") {
+    for (auto& sh : sphere_shadows_) {
+      auto& map = static_cast<ImplicitSphereShadowMap&>(*sh);
+      if (scene_.shadows.rings < 0) frame.issm_rings = choose_issm_rings(map, surfaces.points);
+      else frame.issm_rings = map.rings();
+    }
+  }
+  ParticleFrame pf = shade_particle_frame(in, surfaces);
+  opaque_distance_ = std::move(pf.distance);
+  return std::move(pf.image);
 }
 
 std::size_t Renderer::shadow_memory_bytes() const {
   std::size_t bytes = 0;
   for (const auto& s : shadows_) bytes += s->memory_bytes();
+  for (const auto& s : sphere_shadows_) bytes += s->memory_bytes();
   return bytes;
 }
 

@@ -11,6 +11,8 @@
 
 #include "penumbra/accel/extinction_sat.h"
 #include "penumbra/core/image.h"
+#include "penumbra/particles/sphere_bvh.h"
+#include "penumbra/particles/sphere_shadow_technique.h"
 #include "penumbra/render/prepared_volume.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadows/ambient_technique.h"
@@ -24,7 +26,11 @@ struct FrameResult {
   double sat_ms = 0;      // extinction volume + summed area table, when rebuilt this frame
   double ambient_ms = 0;  // ambient-occlusion cache, when rebuilt this frame
   double build_ms = 0;    // shadow structures of the lights rebuilt this frame
-  double render_ms = 0;   // ray casting
+  double render_ms = 0;   // ray casting (spheres: finding and shading the visible surfaces)
+  double bvh_ms = 0;      // spheres: Embree BVH, when built this frame
+  double hits_ms = 0;     // spheres: each pixel's nearest sphere (splatting or Embree rays)
+  int issm_rings = -1;    // spheres: the rings t the ISSM used (chosen this frame when automatic)
+  std::size_t sphere_pixels = 0;  // pixels showing a sphere
   double total_ms = 0;
   std::vector<std::string> rebuilt;  // "sat", "ambient", "shadows": what this frame had to rebuild
 };
@@ -43,13 +49,23 @@ public:
 
   const Scene& scene() const { return scene_; }
   std::size_t shadow_memory_bytes() const;
-  std::size_t ambient_memory_bytes() const { return ambient_ ? ambient_->memory_bytes() : 0; }
+  std::size_t ambient_memory_bytes() const {
+    return ambient_ ? ambient_->memory_bytes() : (particle_ambient_ ? particle_ambient_->memory_bytes() : 0);
+  }
   std::size_t sat_memory_bytes() const { return sat_ ? sat_->memory_bytes() : 0; }
   std::size_t voxel_count() const { return volume_ ? volume_->volume->voxel_count() : 0; }
+  std::size_t sphere_count() const { return particles_ ? particles_->size() : 0; }
+  std::size_t particle_memory_bytes() const { return particles_ ? particles_->memory_bytes() : 0; }
+  std::size_t bvh_memory_bytes() const { return bvh_ ? bvh_->memory_bytes() : 0; }
   double prepare_ms() const { return prepare_ms_; }
 
 private:
   void prepare();  // prepared volume and shadow medium for the current transfer function
+  void prepare_particles();  // one particle set of all the scene's particle objects
+  // Rebuilds the shadow structures of the lights that changed; true when any was rebuilt.
+  bool update_volume_shadows(const std::vector<Light>& lights);
+  bool update_sphere_shadows(const std::vector<Light>& lights);
+  Image render_particles(const Camera& camera, const std::vector<Light>& lights, FrameResult& frame);
 
   Scene scene_;
   std::unique_ptr<PreparedVolume> volume_;
@@ -59,6 +75,14 @@ private:
   std::unique_ptr<AmbientTechnique> ambient_;
   std::vector<std::unique_ptr<ShadowTechnique>> shadows_;
   std::vector<Light> built_for_;
+  std::shared_ptr<const ParticleSet> particles_;
+  std::unique_ptr<SphereBvh> bvh_;
+  ParticleScene particle_scene_;
+  std::unique_ptr<ParticleAmbientTechnique> particle_ambient_;
+  std::vector<std::unique_ptr<SphereShadowTechnique>> sphere_shadows_;
+  std::vector<Light> sphere_shadows_for_;
+  bool particles_built_ = false;
+  std::vector<float> opaque_distance_;  // the last sphere frame's per-pixel surface distance
   bool transfer_function_changed_ = true;  // the SAT and ambient cache are stale
   double prepare_ms_ = 0;
 };

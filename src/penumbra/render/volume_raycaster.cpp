@@ -81,12 +81,16 @@ struct Shader {
   }
 };
 
-Rgb trace(const RayCastInputs& in, const Shader& shader, const Ray& ray, float jitter, SampleBatch& batch) {
+Rgb trace(const RayCastInputs& in, const Shader& shader, const Ray& ray, float jitter, SampleBatch& batch, int x, int y) {
   float t_surface = kInfinity;
   const Plane* plane = nullptr;
-  for (const auto& p : in.scene->planes) {
-    const float t = p.intersect(ray, 0, t_surface);
-    if (t < t_surface) { t_surface = t; plane = &p; }
+  if (in.opaque) {
+    t_surface = (*in.opaque->distance)[static_cast<std::size_t>(y) * static_cast<std::size_t>(in.camera->width) + static_cast<std::size_t>(x)];
+  } else {
+    for (const auto& p : in.scene->planes) {
+      const float t = p.intersect(ray, 0, t_surface);
+      if (t < t_surface) { t_surface = t; plane = &p; }
+    }
   }
   Rgb color(0.0f);
   float opacity = 0;
@@ -133,7 +137,9 @@ Rgb trace(const RayCastInputs& in, const Shader& shader, const Ray& ray, float j
       shader.flush(batch, color);
     }
   }
-  const Rgb behind = plane ? shader.shade_plane(*plane, ray.at(t_surface)) : in.scene->background;
+  const Rgb behind = in.opaque ? in.opaque->color->at(x, y)
+                     : plane   ? shader.shade_plane(*plane, ray.at(t_surface))
+                               : in.scene->background;
   return color + behind * (1 - opacity);
 }
 
@@ -152,7 +158,7 @@ Image render_volume_frame(const RayCastInputs& in) {
         const Ray ray = cam.primary_ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f);
         const Shader shader{in, in.scene->shading, -ray.direction, specular_cutoff};
         const float jitter = jittered ? uniform_float(0x6a177e5, static_cast<std::uint64_t>(x), static_cast<std::uint64_t>(y)) : 0.0f;
-        image.at(x, y) = trace(in, shader, ray, jitter, batch);
+        image.at(x, y) = trace(in, shader, ray, jitter, batch, x, y);
       }
     }
     if (tile.x1 == cam.width) progress.advance(static_cast<std::size_t>(tile.y1 - tile.y0));

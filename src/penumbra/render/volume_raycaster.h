@@ -10,6 +10,7 @@
 #pragma once
 
 #include <span>
+#include <vector>
 
 #include "penumbra/core/image.h"
 #include "penumbra/render/prepared_volume.h"
@@ -22,6 +23,14 @@ namespace penumbra {
 // Rays stop once their accumulated opacity reaches this.
 constexpr float kEarlyTermination = 0.99f;
 
+// Opaque surfaces drawn by another pass (spheres and planes): per pixel the distance along the primary
+// ray and the shaded colour. Rays stop there and composite over that colour; the planes are then not
+// drawn again.
+struct OpaqueLayer {
+  const std::vector<float>* distance;  // infinity: nothing opaque (the background shows)
+  const Image* color;
+};
+
 struct RayCastInputs {
   const Scene* scene;
   const Camera* camera;
@@ -29,6 +38,7 @@ struct RayCastInputs {
   std::span<const Light> lights;
   std::span<const ShadowTechnique* const> shadows;    // one per light
   const AmbientTechnique* ambient = nullptr;          // scales the ambient term; null: unoccluded
+  const OpaqueLayer* opaque = nullptr;                // null: the planes are traced here
 };
 
 Image render_volume_frame(const RayCastInputs& in);

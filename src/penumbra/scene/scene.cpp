@@ -24,6 +24,7 @@ Box3 Scene::caster_bounds() const {
   Box3 b;
   for (const auto& v : volumes)
     if (v.visible) b.extend(v.volume->bounds());
+  for (const auto& p : particles) b.extend(p.set->bounds());
   // Planes join only when there is no volume: a light frustum fitted to the volumes already covers
   // every receiver the volumes can shadow (their shadow lies inside the frustum), and a large floor
   // would spread the shadow map's texels thin.

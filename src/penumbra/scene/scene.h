@@ -9,6 +9,7 @@
 
 #include "penumbra/core/color.h"
 #include "penumbra/core/math.h"
+#include "penumbra/data/particles.h"
 #include "penumbra/data/transfer_function.h"
 #include "penumbra/data/volume.h"
 #include "penumbra/scene/camera.h"
@@ -39,6 +40,16 @@ struct VolumeObject {
     return has_shadow_transfer_function ? shadow_transfer_function : transfer_function;
   }
 };
+
+// Spheres (atoms, particles) from one file or generator; world units are the file's (ångström for
+// molecules).
+struct ParticleObject {
+  std::shared_ptr<const ParticleSet> set;
+  std::string source;  // file path or "procedural:random-spheres", for messages and stats
+};
+
+// How the sphere renderer finds each pixel's nearest sphere (particles/sphere_hits.h).
+enum class SphereRasterizer { Splat, Embree };
 
 // An opaque plane: a square of edge `size` centred at `point`, or infinite when size is 0.
 struct Plane {
@@ -83,6 +94,12 @@ struct ShadowSettings {
   float cone_samples = 50;        // sat_cone: cuboids per longest side of the light cache (before growth)
   float cone_growth = 0;          // sat_cone: relative growth of each cuboid's thickness over the previous one
   int cone_rays = 64;             // sampled_cone: exact shadow rays spread over the cone
+  int rings = 1;                  // issm: texel rings t around the receiver's texel (paper 003 §3.1); -1: automatic (§4)
+  float soft_radius = 0;          // issm: virtual radius growth s in world units (§3.2); 0: hard shadows
+  float soft_exponent = 1;        // issm: exponent x of the penumbra's falloff
+  float soft_distance = 10;       // issm: occluder distance b (world units) at which shadows are softest
+  float light_angle = 0;          // ray_traced on spheres: angular radius of the light in degrees (0: a point)
+  int area_rays = 64;             // ray_traced on spheres with light_angle > 0: shadow rays per receiver
 };
 
 struct AmbientSettings {
@@ -90,6 +107,10 @@ struct AmbientSettings {
   int shells = 3;          // sat_shells: number of cuboid shells (paper 001 §3.2)
   float radius = 0.05f;    // neighbourhood radius, a fraction of the volume's longest side
   float bleeding = 0;      // colour bleeding β in [0, 1]: 0 grey occlusion (Eq. 4), 1 full colour (Eq. 5)
+  int directions = 16;     // particle_ao: cones over the hemisphere (Staib et al. 2015)
+  float max_distance = 0.7f;  // particle_ao, ray_traced_ao: reach, a fraction of the spheres' longest side
+  int grid = 64;           // particle_ao: density-volume cells along the spheres' longest side
+  int rays = 64;           // ray_traced_ao: hemisphere rays per point
 };
 
 // The extinction SAT and the light cache of paper 001 (Algorithm 1) share one grid.
@@ -100,6 +121,8 @@ struct LightCacheSettings {
 struct Scene {
   Camera camera;
   std::vector<VolumeObject> volumes;
+  std::vector<ParticleObject> particles;
+  SphereRasterizer sphere_rasterizer = SphereRasterizer::Splat;
   std::vector<Plane> planes;
   std::vector<Light> lights;
   ShadowSettings shadows;
@@ -108,10 +131,12 @@ struct Scene {
   ShadingParams shading;
   Rgb background{0.1f, 0.1f, 0.12f};
 
-  // The box light frusta are fitted to: the visible volumes (finite planes when there is no volume).
+  // The box light frusta are fitted to: the visible volumes and the spheres (finite planes when there
+  // are neither).
   Box3 caster_bounds() const;
   // The volume the ray caster draws (the first visible one), or nullptr.
   const VolumeObject* visible_volume() const;
+  bool has_particles() const { return !particles.empty(); }
 };
 
 }  // namespace penumbra

@@ -5,9 +5,12 @@
 #include <sstream>
 
 #include "penumbra/accel/extinction_sat.h"
+#include "penumbra/data/io/particle_io.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/procedural.h"
 #include "penumbra/scene/json_reader.h"
+#include "penumbra/particles/particle_registry.h"
+#include "penumbra/particles/sphere_hits.h"
 #include "penumbra/shadows/registry.h"
 
 namespace penumbra {
@@ -145,6 +148,61 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   return v;
 }
 
+ParticleObject read_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir) {
+  JsonReader r(j, path);
+  ParticleObject p;
+  const bool has_file = r.has("file"), has_proc = r.has("procedural");
+  if (has_file == has_proc) r.fail(has_file ? "procedural" : "file", "give exactly one of 'file' and 'procedural'");
+  if (has_file) {
+    const std::string file = resolve(base_dir, r.required_string("file"));
+    ParticleLoadOptions o;
+    o.assembly = static_cast<int>(r.integer("assembly", 0, 0, 1000000));
+    const std::string color_by = r.string("color_by", "element");
+    o.coloring = with_context(r.key_path("color_by"), [&] { return particle_coloring_from_string(color_by); });
+    o.uniform_color = r.color("color", o.uniform_color);
+    if (r.has("color") && o.coloring != ParticleColoring::Uniform)
+      r.fail("color", "is used only with \"color_by\": \"uniform\"");
+    o.radius_scale = r.number("radius_scale", o.radius_scale, 0.01f, 100);
+    o.hydrogens = r.boolean("hydrogens", o.hydrogens);
+    p.set = std::make_shared<ParticleSet>(with_context(r.key_path("file"), [&] { return load_particles(file, o); }));
+    p.source = file;
+  } else {
+    JsonReader g(r.raw("procedural"), r.key_path("procedural"));
+    const std::string name = g.required_string("name");
+    if (name != "random-spheres") g.fail("name", "unknown particle generator '" + name + "' (expected random-spheres)");
+    const auto count = static_cast<std::size_t>(g.integer("count", 1000, 1, 100000000));
+    const float radius = g.number("radius", 0.02f, 1e-6f, 1);
+    const auto seed = static_cast<std::uint64_t>(g.integer("seed", 1, 0, INT64_MAX));
+    g.finish();
+    p.set = std::make_shared<ParticleSet>(random_spheres(count, radius, seed));
+    p.source = "procedural:random-spheres";
+  }
+  if (r.has("origin")) {  // moves the set so that its bounding box's centre is here
+    const Vec3 o = r.vec3("origin", {});
+    auto moved = std::make_shared<ParticleSet>(*p.set);
+    const Vec3 shift = o - p.set->bounds().center();
+    for (auto& sp : moved->spheres) sp.center = sp.center + shift;
+    p.set = std::move(moved);
+  }
+  if (p.set->size() == 0) r.fail(has_file ? "file" : "procedural", "holds no particles");
+  r.finish();
+  return p;
+}
+
+std::vector<std::string> all_shadow_technique_names() {
+  auto names = shadow_technique_names();
+  for (const auto& n : particle_shadow_technique_names())
+    if (std::find(names.begin(), names.end(), n) == names.end()) names.push_back(n);
+  return names;
+}
+
+std::vector<std::string> all_ambient_technique_names() {
+  auto names = ambient_technique_names();
+  for (const auto& n : particle_ambient_technique_names())
+    if (std::find(names.begin(), names.end(), n) == names.end()) names.push_back(n);
+  return names;
+}
+
 // A technique name must be available; a reserved name (a technique of another issue) gets its own message.
 void check_technique(JsonReader& r, const std::string& name, const std::vector<std::string>& available,
                      const std::vector<std::string>& reserved) {
@@ -158,7 +216,7 @@ ShadowSettings read_shadows(const nlohmann::json& j) {
   JsonReader r(j, "shadows");
   ShadowSettings s;
   s.technique = r.string("technique", s.technique);
-  check_technique(r, s.technique, shadow_technique_names(), planned_shadow_technique_names());
+  check_technique(r, s.technique, all_shadow_technique_names(), planned_shadow_technique_names());
   s.resolution = static_cast<int>(r.integer("resolution", s.resolution, 16, 16384));
   s.offsets = static_cast<int>(r.integer("offsets", s.offsets, 1, 21));
   if (s.offsets != 7 && s.offsets != 13 && s.offsets != 21)
@@ -174,6 +232,12 @@ ShadowSettings read_shadows(const nlohmann::json& j) {
   s.cone_samples = r.number("cone_samples", s.cone_samples, 1, 4096);
   s.cone_growth = r.number("cone_growth", s.cone_growth, 0, 1);
   s.cone_rays = static_cast<int>(r.integer("cone_rays", s.cone_rays, 1, 4096));
+  s.rings = static_cast<int>(r.integer("rings", s.rings, -1, 64));
+  s.soft_radius = r.number("soft_radius", s.soft_radius, 0, 1e6f);
+  s.soft_exponent = r.number("soft_exponent", s.soft_exponent, 0.01f, 100);
+  s.soft_distance = r.number("soft_distance", s.soft_distance, 1e-6f, 1e6f);
+  s.light_angle = r.number("light_angle", s.light_angle, 0, 45);
+  s.area_rays = static_cast<int>(r.integer("area_rays", s.area_rays, 1, 65536));
   r.finish();
   return s;
 }
@@ -182,13 +246,38 @@ AmbientSettings read_ambient(const nlohmann::json& j) {
   JsonReader r(j, "ambient");
   AmbientSettings a;
   a.technique = r.string("technique", a.technique);
-  check_technique(r, a.technique, ambient_technique_names(), planned_ambient_technique_names());
+  check_technique(r, a.technique, all_ambient_technique_names(), planned_ambient_technique_names());
   a.shells = static_cast<int>(r.integer("shells", a.shells, 1, 64));
   a.radius = r.number("radius", a.radius, 0, 1);
   if (!(a.radius > 0)) r.fail("radius", "must be positive (a fraction of the volume's longest side, e.g. 0.05)");
   a.bleeding = r.number("bleeding", a.bleeding, 0, 1);
+  a.directions = static_cast<int>(r.integer("directions", a.directions, 1, 1024));
+  a.max_distance = r.number("max_distance", a.max_distance, 0, 10);
+  if (!(a.max_distance > 0)) r.fail("max_distance", "must be positive (a fraction of the spheres' longest side, e.g. 0.7)");
+  a.grid = static_cast<int>(r.integer("grid", a.grid, 4, 512));
+  a.rays = static_cast<int>(r.integer("rays", a.rays, 1, 65536));
   r.finish();
   return a;
+}
+
+// A scene with particles takes the sphere techniques; one without, the volume techniques.
+void check_techniques_fit_objects(JsonReader& r, const Scene& s) {
+  auto has = [](const std::vector<std::string>& names, const std::string& n) {
+    return std::find(names.begin(), names.end(), n) != names.end();
+  };
+  if (s.has_particles()) {
+    if (!has(particle_shadow_technique_names(), s.shadows.technique))
+      r.fail("shadows", "technique '" + s.shadows.technique + "' is for volumes; a scene with particles uses one of: " +
+                            join(particle_shadow_technique_names()));
+    if (!has(particle_ambient_technique_names(), s.ambient.technique))
+      r.fail("ambient", "technique '" + s.ambient.technique + "' is for volumes; a scene with particles uses one of: " +
+                            join(particle_ambient_technique_names()));
+  } else {
+    if (!has(shadow_technique_names(), s.shadows.technique))
+      r.fail("shadows", "technique '" + s.shadows.technique + "' needs particles (the scene has none)");
+    if (!has(ambient_technique_names(), s.ambient.technique))
+      r.fail("ambient", "technique '" + s.ambient.technique + "' needs particles (the scene has none)");
+  }
 }
 
 ShadingParams read_shading(const nlohmann::json& j) {
@@ -277,9 +366,14 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir) {
   int visible = 0;
   for (const auto& v : s.volumes) visible += v.visible ? 1 : 0;
   if (visible > 1) r.fail("volumes", "more than one visible volume; the ray caster draws one (set 'visible': false on the others)");
-  for (const char* key : {"particles", "isosurfaces"})
-    if (r.has(key) && !r.raw(key).empty())
-      r.fail(key, "is not available in this build (volumes and planes are)");
+  if (r.has("particles")) {
+    const auto& parts = array_at(r, "particles");
+    for (std::size_t i = 0; i < parts.size(); ++i)
+      s.particles.push_back(read_particles(parts[i], "particles." + std::to_string(i), base_dir));
+  }
+  s.sphere_rasterizer = with_context("sphere_renderer", [&] { return sphere_rasterizer_from_string(r.string("sphere_renderer", "splat")); });
+  if (r.has("isosurfaces") && !r.raw("isosurfaces").empty())
+    r.fail("isosurfaces", "is not available in this build (volumes, particles and planes are)");
   if (r.has("planes")) {
     const auto& planes = array_at(r, "planes");
     for (std::size_t i = 0; i < planes.size(); ++i) s.planes.push_back(read_plane(planes[i], "planes." + std::to_string(i)));
@@ -301,6 +395,7 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir) {
     s.light_cache.resolution = static_cast<int>(lc.integer("resolution", s.light_cache.resolution, kMinSatResolution, kMaxSatResolution));
     lc.finish();
   }
+  check_techniques_fit_objects(r, s);
   if (needs_extinction_sat(s) && !s.visible_volume())
     r.fail(s.shadows.technique == "sat_cone" ? "shadows" : "ambient",
            "the extinction techniques (sat_cone, sat_shells, sampled_ao) need a visible volume");

@@ -1,0 +1,233 @@
+// PDB and mmCIF through gemmi, packed into flat per-atom arrays with the assembly operators beside
+// them. gemmi is lenient about numbers (a PDB coordinate field "1.2x" reads as 1.2, a malformed mmCIF
+// number as NaN), so PDB coordinate columns are checked here first, with line numbers, and every
+// position read is checked to be finite. PDB assemblies (REMARK 350) are read here too, by fields
+// rather than gemmi's fixed columns, which misread files with more than 999 BIOMT operators; mmCIF
+// assemblies (pdbx_struct_assembly_gen + pdbx_struct_oper_list) come from gemmi.
+#include "penumbra/data/io/molecule_gemmi.h"
+
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <exception>
+#include <string>
+#include <unordered_map>
+
+#include "penumbra/core/error.h"
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wconversion"
+#pragma GCC diagnostic ignored "-Wshadow"
+#pragma GCC diagnostic ignored "-Wpedantic"
+#pragma GCC diagnostic ignored "-Wsign-conversion"
+#include <gemmi/cif.hpp>
+#include <gemmi/mmcif.hpp>
+#include <gemmi/model.hpp>
+#include <gemmi/pdb.hpp>
+#pragma GCC diagnostic pop
+
+namespace penumbra::io_detail {
+
+namespace {
+
+bool starts_with_ci(std::string_view line, std::string_view prefix) {
+  if (line.size() < prefix.size()) return false;
+  for (std::size_t i = 0; i < prefix.size(); ++i)
+    if (std::toupper(static_cast<unsigned char>(line[i])) != prefix[i]) return false;
+  return true;
+}
+
+// A PDB coordinate field (8 columns, wwPDB format 3.3 "Real(8.3)"): blanks around one finite number.
+void check_pdb_coordinate(std::string_view field, const char* axis, int first_column, std::size_t line_no) {
+  std::string_view s = field;
+  while (!s.empty() && s.front() == ' ') s.remove_prefix(1);
+  while (!s.empty() && s.back() == ' ') s.remove_suffix(1);
+  const std::string where = "line " + std::to_string(line_no) + ": " + axis + " coordinate (columns " +
+                            std::to_string(first_column) + "-" + std::to_string(first_column + 7) + ")";
+  if (s.empty()) throw Error(where + " is blank");
+  if (s.front() == '+') s.remove_prefix(1);
+  double v = 0;
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (ec != std::errc() || end != s.data() + s.size())
+    throw Error(where + " '" + std::string(field) + "' is not a number");
+  if (!std::isfinite(v)) throw Error(where + " '" + std::string(field) + "' is not a finite number");
+}
+
+std::vector<std::string_view> tokens(std::string_view s) {
+  std::vector<std::string_view> out;
+  std::size_t i = 0;
+  while (i < s.size()) {
+    while (i < s.size() && (s[i] == ' ' || s[i] == '\t' || s[i] == ',')) ++i;
+    const std::size_t b = i;
+    while (i < s.size() && s[i] != ' ' && s[i] != '\t' && s[i] != ',') ++i;
+    if (i > b) out.push_back(s.substr(b, i - b));
+  }
+  return out;
+}
+
+// One REMARK 350 record (the text after "REMARK 350"), added to `assemblies`. BIOMT rows are read as
+// blank-separated fields rather than by the fixed columns of the format, which files with more than 999
+// operators (1M4X) overflow: "BIOMT1  1001 -0.023929 -0.217900 ..." is shifted two columns.
+void read_remark_350(std::string_view rest, std::size_t line_no, std::vector<MoleculeAssembly>& assemblies,
+                     AssemblyOperator& pending) {
+  const auto fail = [&](const std::string& what) {
+    throw Error("line " + std::to_string(line_no) + ": REMARK 350 " + what);
+  };
+  const std::size_t first = rest.find_first_not_of(' ');
+  if (first == std::string_view::npos) return;
+  rest.remove_prefix(first);
+  if (rest.substr(0, 12) == "BIOMOLECULE:") {
+    const auto t = tokens(rest.substr(12));
+    assemblies.emplace_back().name = t.empty() ? std::to_string(assemblies.size()) : std::string(t[0]);
+  } else if (rest.substr(0, 30) == "APPLY THE FOLLOWING TO CHAINS:" || rest.substr(0, 11) == "AND CHAINS:") {
+    if (assemblies.empty()) return;  // chains before any BIOMOLECULE: ignored, as gemmi does
+    std::vector<AssemblyGenerator>& gens = assemblies.back().generators;
+    const bool apply = rest[0] == 'A' && rest[1] == 'P';
+    if (apply) gens.emplace_back();
+    if (gens.empty()) return;
+    for (std::string_view chain : tokens(rest.substr(rest.find(':') + 1)))
+      gens.back().units.emplace_back(chain);
+  } else if (rest.substr(0, 5) == "BIOMT" && rest.size() > 5) {
+    const int row = rest[5] - '1';
+    if (row < 0 || row > 2) fail("BIOMT record: expected BIOMT1, BIOMT2 or BIOMT3");
+    const auto t = tokens(rest.substr(6));
+    if (t.size() < 5) fail("BIOMT" + std::to_string(row + 1) + " record: expected the operator number and four numbers");
+    for (int c = 0; c < 4; ++c) {
+      std::string_view f = t[static_cast<std::size_t>(1 + c)];
+      if (!f.empty() && f.front() == '+') f.remove_prefix(1);
+      double v = 0;
+      const auto [end, ec] = std::from_chars(f.data(), f.data() + f.size(), v);
+      if (ec != std::errc() || end != f.data() + f.size() || !std::isfinite(v))
+        fail("BIOMT" + std::to_string(row + 1) + " record: '" + std::string(t[static_cast<std::size_t>(1 + c)]) +
+             "' is not a finite number");
+      pending[static_cast<std::size_t>(4 * row + c)] = v;
+    }
+    if (row == 2 && !assemblies.empty() && !assemblies.back().generators.empty()) {
+      assemblies.back().generators.back().operators.push_back(pending);
+      pending = AssemblyOperator{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+    }
+  }
+}
+
+// Checks the ATOM/HETATM records up to the END record: each must reach column 54 and hold three finite
+// coordinates (wwPDB format 3.3: x in columns 31-38, y 39-46, z 47-54); record names are matched on
+// their first four letters, any case, as gemmi does. Returns the assemblies of the REMARK 350 records.
+std::vector<MoleculeAssembly> scan_pdb(std::string_view text) {
+  std::vector<MoleculeAssembly> assemblies;
+  AssemblyOperator pending{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  std::size_t line_no = 0;
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    std::size_t eol = text.find('\n', pos);
+    if (eol == std::string_view::npos) eol = text.size();
+    std::string_view line = text.substr(pos, eol - pos);
+    pos = eol + 1;
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    if (starts_with_ci(line, "END") && (line.size() == 3 || line[3] == ' ')) break;
+    if (line.substr(0, 10) == "REMARK 350") {
+      read_remark_350(line.substr(10), line_no, assemblies, pending);
+      continue;
+    }
+    if (!starts_with_ci(line, "ATOM") && !starts_with_ci(line, "HETA")) continue;
+    if (line.size() < 54)
+      throw Error("line " + std::to_string(line_no) + ": ATOM/HETATM record is truncated (" +
+                  std::to_string(line.size()) + " columns; the coordinates need columns 31-54)");
+    check_pdb_coordinate(line.substr(30, 8), "x", 31, line_no);
+    check_pdb_coordinate(line.substr(38, 8), "y", 39, line_no);
+    check_pdb_coordinate(line.substr(46, 8), "z", 47, line_no);
+  }
+  return assemblies;
+}
+
+gemmi::Structure parse_structure(std::string_view text, MoleculeFormat format, const std::string& name) {
+  if (format == MoleculeFormat::Pdb) return gemmi::read_pdb_from_memory(text.data(), text.size(), name);
+  const gemmi::cif::Document doc = gemmi::cif::read_memory(text.data(), text.size(), name.c_str());
+  if (doc.blocks.empty()) throw Error("no data block (expected mmCIF: data_… with _atom_site)");
+  return gemmi::make_structure(doc);
+}
+
+std::uint32_t index_of(const std::string& key, std::unordered_map<std::string, std::uint32_t>& index,
+                       std::vector<std::string>& names) {
+  const auto [it, inserted] = index.emplace(key, static_cast<std::uint32_t>(names.size()));
+  if (inserted) names.push_back(key);
+  return it->second;
+}
+
+PackedMolecule pack(const gemmi::Structure& st, MoleculeFormat format) {
+  if (st.models.empty()) throw Error("no atoms (no ATOM/HETATM records or _atom_site rows)");
+  const gemmi::Model& model = st.models.front();
+  std::size_t count = 0;
+  for (const gemmi::Chain& chain : model.chains)
+    for (const gemmi::Residue& res : chain.residues) count += res.atoms.size();
+  if (count == 0) throw Error("no atoms (no ATOM/HETATM records or _atom_site rows)");
+
+  PackedMolecule m;
+  m.reserve(count);
+  std::unordered_map<std::string, std::uint32_t> chain_index, unit_index;
+  const bool pdb = format == MoleculeFormat::Pdb;
+  for (const gemmi::Chain& chain : model.chains) {
+    const std::uint32_t c = index_of(chain.name, chain_index, m.chain_names);
+    for (const gemmi::Residue& res : chain.residues) {
+      // PDB assemblies name author chains; mmCIF ones name label_asym_ids (gemmi's "subchain").
+      const std::uint32_t u = pdb ? index_of(chain.name, unit_index, m.unit_names)
+                                  : index_of(res.subchain, unit_index, m.unit_names);
+      const ResidueColorKey key = residue_color_key(res.name);
+      for (const gemmi::Atom& atom : res.atoms) {
+        const Vec3 p{static_cast<float>(atom.pos.x), static_cast<float>(atom.pos.y), static_cast<float>(atom.pos.z)};
+        if (!is_finite(p))
+          throw Error("atom " + std::to_string(atom.serial) + " (" + atom.name + " of " + res.name + " " +
+                      res.seqid.str() + ", chain " + chain.name + "): coordinates are not finite numbers");
+        m.positions.push_back(p);
+        m.elements.push_back(static_cast<std::uint8_t>(element_from_symbol(atom.element.name())));
+        m.chains.push_back(c);
+        m.units.push_back(u);
+        m.residue_keys.push_back(key);
+      }
+    }
+  }
+
+  if (pdb) return m;  // PDB assemblies come from scan_pdb
+  for (const gemmi::Assembly& a : st.assemblies) {
+    MoleculeAssembly& out = m.assemblies.emplace_back();
+    out.name = a.name;
+    for (const gemmi::Assembly::Gen& gen : a.generators) {
+      AssemblyGenerator& g = out.generators.emplace_back();
+      g.units = gen.subchains;
+      for (const gemmi::Assembly::Operator& op : gen.operators) {
+        AssemblyOperator& r = g.operators.emplace_back();
+        for (int i = 0; i < 3; ++i) {
+          for (int j = 0; j < 3; ++j) r[static_cast<std::size_t>(4 * i + j)] = op.transform.mat[i][j];
+          r[static_cast<std::size_t>(4 * i + 3)] = op.transform.vec.at(i);
+        }
+        for (const double v : r)
+          if (!std::isfinite(v))
+            throw Error("assembly " + a.name + ", operator " + op.name + ": the matrix holds a non-finite number");
+      }
+    }
+  }
+  return m;
+}
+
+}  // namespace
+
+PackedMolecule read_molecule_gemmi(std::string_view text, MoleculeFormat format, const std::string& name) {
+  std::vector<MoleculeAssembly> pdb_assemblies;
+  if (format == MoleculeFormat::Pdb) pdb_assemblies = scan_pdb(text);
+  gemmi::Structure st;
+  try {
+    st = parse_structure(text, format, name);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception& e) {
+    // gemmi reports malformed input as std::runtime_error (PEGTL parse errors derive from it too).
+    throw Error(std::string(format == MoleculeFormat::Pdb ? "PDB" : "mmCIF") + " parse error: " + e.what());
+  }
+  PackedMolecule m = pack(st, format);
+  if (format == MoleculeFormat::Pdb) m.assemblies = std::move(pdb_assemblies);
+  return m;
+}
+
+}  // namespace penumbra::io_detail

@@ -1,0 +1,62 @@
+// Internal to the particle loaders: the packed form every particle file is read into (one entry per
+// atom in flat arrays, no per-atom objects), and the PDB / mmCIF reader that fills it through gemmi.
+// molecule_gemmi.cpp is the only translation unit that includes gemmi (its headers compile slowly).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "penumbra/core/math.h"
+#include "penumbra/data/elements.h"
+
+namespace penumbra::io_detail {
+
+// An assembly operator: x' = R x + t, row-major as [R | t] (PDB REMARK 350 BIOMT rows; mmCIF
+// pdbx_struct_oper_list matrix[i][j] and vector[i]).
+using AssemblyOperator = std::array<double, 12>;
+
+// One generator of an assembly: every operator applied to every atom of the named units. The units
+// are PDB chain identifiers ("APPLY THE FOLLOWING TO CHAINS:") or mmCIF label_asym_ids
+// (pdbx_struct_assembly_gen.asym_id_list), matching PackedMolecule::unit_names.
+struct AssemblyGenerator {
+  std::vector<std::string> units;
+  std::vector<AssemblyOperator> operators;
+};
+
+struct MoleculeAssembly {
+  std::string name;  // the file's id for it ("1", "2", …)
+  std::vector<AssemblyGenerator> generators;
+};
+
+// The atoms of one model, as structure-of-arrays (all of the same length).
+struct PackedMolecule {
+  std::vector<Vec3> positions;                // Å, finite
+  std::vector<std::uint8_t> elements;         // atomic number (elements.h); kUnknownElement if unrecognised
+  std::vector<std::uint32_t> chains;          // index into chain_names
+  std::vector<std::uint32_t> units;           // index into unit_names (what assembly generators select)
+  std::vector<ResidueColorKey> residue_keys;  // residue_color_key of the residue name
+  std::vector<std::string> chain_names;       // author chain ids in order of first appearance
+  std::vector<std::string> unit_names;        // PDB: = chain_names; mmCIF: label_asym_ids
+  std::vector<MoleculeAssembly> assemblies;   // in file order
+
+  std::size_t size() const { return positions.size(); }
+  void reserve(std::size_t n) {
+    positions.reserve(n);
+    elements.reserve(n);
+    chains.reserve(n);
+    units.reserve(n);
+    residue_keys.reserve(n);
+  }
+};
+
+enum class MoleculeFormat { Pdb, Mmcif };
+
+// Reads the first model of a PDB or mmCIF text (already decompressed) and its assemblies. Throws Error
+// (without the file name; the caller adds it) on malformed input: PDB ATOM/HETATM lines too short or
+// with coordinates that are not finite numbers (naming the line), gemmi parse errors, no atoms.
+PackedMolecule read_molecule_gemmi(std::string_view text, MoleculeFormat format, const std::string& name);
+
+}  // namespace penumbra::io_detail

@@ -1,0 +1,40 @@
+// Particle files: PDB (.pdb, .ent) and mmCIF (.cif, .mmcif) through gemmi, GROMACS .gro (nm, converted
+// to Å) and XYZ; each optionally gzip-compressed (.gz). Radii are van der Waals radii per element,
+// colours CPK per element, or per chain / residue, or one colour. Biological assemblies (PDB REMARK 350
+// BIOMT, mmCIF pdbx_struct_assembly_gen + pdbx_struct_oper_list) are built by applying the operators
+// to the packed coordinates of the chains they name. World units are ångström.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "penumbra/data/particles.h"
+
+namespace penumbra {
+
+enum class ParticleColoring { Element, Chain, Residue, Uniform };
+
+struct ParticleLoadOptions {
+  int assembly = 0;                   // 0: the deposited coordinates; n ≥ 1: biological assembly n
+  ParticleColoring coloring = ParticleColoring::Element;
+  Rgb uniform_color{0.8f, 0.8f, 0.8f};  // for ParticleColoring::Uniform
+  float radius_scale = 1;             // multiplies the van der Waals radius
+  bool hydrogens = true;              // false drops H and D atoms
+};
+
+// What a load produced besides the spheres, for `penumbra info` and --stats.
+struct ParticleFileInfo {
+  std::string format;           // "pdb", "mmcif", "gro", "xyz"
+  std::size_t atoms_in_file = 0;  // atoms of the model read (before the assembly)
+  int operators = 0;            // assembly operators applied (0: none)
+  std::size_t unknown_elements = 0;  // atoms whose element was not recognised (drawn as carbon-sized grey)
+};
+
+// Throws Error naming the file (and line where there is one) on unreadable or malformed input.
+ParticleSet load_particles(const std::string& path, const ParticleLoadOptions& options,
+                           ParticleFileInfo* info = nullptr);
+
+std::string to_string(ParticleColoring c);
+ParticleColoring particle_coloring_from_string(const std::string& s);  // Error listing the names
+
+}  // namespace penumbra

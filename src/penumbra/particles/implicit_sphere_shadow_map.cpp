@@ -1,0 +1,114 @@
+#include "penumbra/particles/implicit_sphere_shadow_map.h"
+
+#include <atomic>
+#include <bit>
+#include <cmath>
+
+#include "penumbra/core/parallel.h"
+
+namespace penumbra {
+namespace {
+
+constexpr std::uint64_t kEmptyKey = ~std::uint64_t{0};
+
+// Light-ray distances can be negative only below the map's near plane, which the fit keeps empty; the
+// id breaks ties so that the map does not depend on the order the spheres are drawn in.
+std::uint64_t depth_key(float t, std::uint32_t id) {
+  return (static_cast<std::uint64_t>(std::bit_cast<std::uint32_t>(std::max(t, 0.0f))) << 32) | id;
+}
+
+}  // namespace
+
+void ImplicitSphereShadowMap::build(const ParticleScene& scene, const Light& light) {
+  particles_ = scene.particles;
+  light_ = light;
+  projection_ = LightProjection::fit(light, scene.bounds);
+  const int n = params_.resolution;
+  const auto nn = static_cast<std::size_t>(n) * static_cast<std::size_t>(n);
+  std::vector<std::atomic<std::uint64_t>> keys(nn);
+  for (auto& k : keys) k.store(kEmptyKey, std::memory_order_relaxed);
+  const float fn = static_cast<float>(n);
+
+  // §3 generation: every sphere covers the texels whose centre ray hits it.
+  parallel_for(particles_->size(), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const Sphere& s = particles_->spheres[i];
+      float u_lo = kInfinity, u_hi = -kInfinity, v_lo = kInfinity, v_hi = -kInfinity;
+      bool behind = false;
+      for (int c = 0; c < 8; ++c) {  // the map rectangle of the sphere's bounding cube
+        const Vec3 corner = s.center + Vec3{(c & 1) ? s.radius : -s.radius, (c & 2) ? s.radius : -s.radius,
+                                            (c & 4) ? s.radius : -s.radius};
+        float u = std::nanf(""), v = std::nanf(""), depth = -1;
+        projection_.project(corner, u, v, depth);
+        if (!std::isfinite(u) || !std::isfinite(v) || (projection_.perspective() && depth <= 0)) behind = true;
+        u_lo = std::min(u_lo, u); u_hi = std::max(u_hi, u);
+        v_lo = std::min(v_lo, v); v_hi = std::max(v_hi, v);
+      }
+      if (behind) continue;
+      const int i0 = std::max(0, static_cast<int>(std::floor(u_lo * fn - 0.5f)));
+      const int i1 = std::min(n - 1, static_cast<int>(std::ceil(u_hi * fn - 0.5f)));
+      const int j0 = std::max(0, static_cast<int>(std::floor(v_lo * fn - 0.5f)));
+      const int j1 = std::min(n - 1, static_cast<int>(std::ceil(v_hi * fn - 0.5f)));
+      const auto id = static_cast<std::uint32_t>(i);
+      for (int j = j0; j <= j1; ++j)
+        for (int k = i0; k <= i1; ++k) {
+          const Ray ray = projection_.texel_ray((static_cast<float>(k) + 0.5f) / fn, (static_cast<float>(j) + 0.5f) / fn);
+          const float t = intersect_sphere(ray, s, -kInfinity, kInfinity);
+          if (t == kInfinity) continue;
+          auto& slot = keys[static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(k)];
+          const std::uint64_t key = depth_key(t, id);
+          std::uint64_t cur = slot.load(std::memory_order_relaxed);
+          while (key < cur && !slot.compare_exchange_weak(cur, key, std::memory_order_relaxed)) {
+          }
+        }
+    }
+  }, 1024);
+
+  map_.assign(nn, kNoSphere);
+  for (std::size_t i = 0; i < nn; ++i) {
+    const std::uint64_t k = keys[i].load(std::memory_order_relaxed);
+    if (k != kEmptyKey) map_[i] = static_cast<std::uint32_t>(k & 0xFFFFFFFFu);
+  }
+}
+
+float ImplicitSphereShadowMap::light_at(const SurfacePoint& p) const {
+  float u, v, depth;
+  if (!projection_.project(p.position, u, v, depth)) return 1.0f;  // outside the map: nothing casts
+  Vec3 to_light;
+  float light_distance;
+  light_.towards(p.position, to_light, light_distance);
+  const int n = params_.resolution;
+  const int ci = std::min(n - 1, static_cast<int>(u * static_cast<float>(n)));
+  const int cj = std::min(n - 1, static_cast<int>(v * static_cast<float>(n)));
+  const int t = params_.rings;
+  const bool soft = params_.soft_radius > 0;
+  float light = 1.0f;
+  for (int j = std::max(0, cj - t); j <= std::min(n - 1, cj + t); ++j) {
+    for (int i = std::max(0, ci - t); i <= std::min(n - 1, ci + t); ++i) {
+      const std::uint32_t id = texel(i, j);
+      if (id == kNoSphere || id == p.self) continue;
+      const Sphere& s = particles_->spheres[id];
+      // Fig. 4: k is the distance along the shadow ray to the plane through the centre normal to it,
+      // d the distance from that point to the centre, s' = d − r the ray's clearance of the surface.
+      const Vec3 oc = s.center - p.position;
+      const float k = dot(oc, to_light);
+      if (k <= 0 || k >= light_distance) continue;  // behind the receiver or beyond the light
+      const float d = std::sqrt(std::max(dot(oc, oc) - k * k, 0.0f));
+      const float clearance = d - s.radius;
+      if (clearance <= 0) return 0.0f;  // the shadow ray hits the sphere
+      if (!soft) continue;
+      const float kb = k / params_.soft_distance;
+      const float grown = params_.soft_radius * (1.0f - std::exp(-4.5f * kb * kb));
+      if (clearance >= grown) continue;
+      const float strength = std::pow(1.0f - clearance / grown, params_.soft_exponent);
+      light = std::min(light, 1.0f - strength);
+    }
+  }
+  return light;
+}
+
+void ImplicitSphereShadowMap::light_fraction(std::span<const SurfacePoint> points, std::span<float> out) const {
+  for (std::size_t i = 0; i < points.size(); ++i) out[i] = light_at(points[i]);
+}
+
+}  // namespace penumbra

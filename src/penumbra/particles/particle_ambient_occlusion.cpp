@@ -1,0 +1,190 @@
+#include "penumbra/particles/particle_ambient_occlusion.h"
+
+#include <cmath>
+
+#include "penumbra/core/parallel.h"
+
+namespace penumbra {
+namespace {
+
+int floor_int(float v) {
+  const int i = static_cast<int>(v);
+  return i - (static_cast<float>(i) > v ? 1 : 0);
+}
+
+}  // namespace
+
+void ParticleAmbientOcclusion::build(const ParticleScene& scene) {
+  const ParticleSet& ps = *scene.particles;
+  particles_ = scene.particles;
+  Box3 b = scene.bounds;
+  if (b.empty()) b = Box3{{-1, -1, -1}, {1, 1, 1}};
+  const Vec3 e = b.extent();
+  const float longest = std::max(e.x, std::max(e.y, e.z));
+  max_distance_ = max_distance_fraction_ * longest;
+  // cubic cells, `grid` along the longest side, one cell of margin so the splat never falls off
+  const float cell = longest / static_cast<float>(grid_);
+  origin_ = b.lo - Vec3{cell, cell, cell};
+  Level base;
+  base.cell = cell;
+  base.nx = static_cast<int>(std::ceil(e.x / cell)) + 2;
+  base.ny = static_cast<int>(std::ceil(e.y / cell)) + 2;
+  base.nz = static_cast<int>(std::ceil(e.z / cell)) + 2;
+  const std::size_t n = static_cast<std::size_t>(base.nx) * static_cast<std::size_t>(base.ny) * static_cast<std::size_t>(base.nz);
+  base.value.assign(n, 0.0f);
+
+  // The spheres' filled fraction per cell (cell centres at (i + 0.5)·cell), accumulated in a few
+  // copies, each from its own range of spheres, then added: the same sum for any thread count.
+  const float inv_cell = 1.0f / cell;
+  const float inv_cell_volume = inv_cell * inv_cell * inv_cell;
+  auto index = [&](int x, int y, int z) {
+    return (static_cast<std::size_t>(z) * static_cast<std::size_t>(base.ny) + static_cast<std::size_t>(y)) * static_cast<std::size_t>(base.nx) + static_cast<std::size_t>(x);
+  };
+  const std::size_t chunks = std::min<std::size_t>(4, std::max<std::size_t>(1, ps.size() / 65536));
+  std::vector<std::vector<float>> partial(chunks, std::vector<float>());
+  parallel_for(chunks, [&](std::size_t c0, std::size_t c1) {
+    for (std::size_t c = c0; c < c1; ++c) {
+      std::vector<float>& acc = partial[c];
+      acc.assign(n, 0.0f);
+      const std::size_t begin = ps.size() * c / chunks, end = ps.size() * (c + 1) / chunks;
+      for (std::size_t i = begin; i < end; ++i) {
+        const Sphere& s = ps.spheres[i];
+        const Vec3 g = (s.center - origin_) * inv_cell - Vec3{0.5f, 0.5f, 0.5f};
+        if (s.radius < cell) {  // small sphere: its volume spread trilinearly over the 8 cells around it
+          const int x = floor_int(g.x), y = floor_int(g.y), z = floor_int(g.z);
+          const float fx = g.x - static_cast<float>(x), fy = g.y - static_cast<float>(y), fz = g.z - static_cast<float>(z);
+          const float vol = (4.0f / 3.0f) * kPi * s.radius * s.radius * s.radius * inv_cell_volume;
+          for (int k = 0; k < 8; ++k) {
+            const int cx = x + (k & 1), cy = y + ((k >> 1) & 1), cz = z + ((k >> 2) & 1);
+            if (cx < 0 || cy < 0 || cz < 0 || cx >= base.nx || cy >= base.ny || cz >= base.nz) continue;
+            const float w = ((k & 1) ? fx : 1 - fx) * ((k & 2) ? fy : 1 - fy) * ((k & 4) ? fz : 1 - fz);
+            acc[index(cx, cy, cz)] += vol * w;
+          }
+          continue;
+        }
+        // large sphere: each cell in its box is filled by the fraction its centre is inside, a linear
+        // ramp one cell wide across the surface
+        const float r = s.radius * inv_cell;
+        const int x0 = std::max(0, floor_int(g.x - r)), x1 = std::min(base.nx - 1, floor_int(g.x + r) + 1);
+        const int y0 = std::max(0, floor_int(g.y - r)), y1 = std::min(base.ny - 1, floor_int(g.y + r) + 1);
+        const int z0 = std::max(0, floor_int(g.z - r)), z1 = std::min(base.nz - 1, floor_int(g.z + r) + 1);
+        for (int cz = z0; cz <= z1; ++cz)
+          for (int cy = y0; cy <= y1; ++cy)
+            for (int cx = x0; cx <= x1; ++cx) {
+              const Vec3 d{static_cast<float>(cx) - g.x, static_cast<float>(cy) - g.y, static_cast<float>(cz) - g.z};
+              const float inside = clamp(0.5f + r - length(d), 0, 1);
+              if (inside > 0) acc[index(cx, cy, cz)] += inside;
+            }
+      }
+    }
+  });
+  parallel_for(n, [&](std::size_t b0, std::size_t b1) {
+    for (std::size_t i = b0; i < b1; ++i) {
+      float v = 0;
+      for (const auto& acc : partial) v += acc[i];
+      base.value[i] = std::min(v, 1.0f);
+    }
+  }, 1 << 14);
+
+  pyramid_.clear();
+  pyramid_.push_back(std::move(base));
+  while (true) {  // mip levels: 2×2×2 means (cells past the edge count as empty)
+    const Level& f = pyramid_.back();
+    if (f.nx <= 1 && f.ny <= 1 && f.nz <= 1) break;
+    Level c;
+    c.cell = f.cell * 2;
+    c.nx = (f.nx + 1) / 2;
+    c.ny = (f.ny + 1) / 2;
+    c.nz = (f.nz + 1) / 2;
+    c.value.resize(static_cast<std::size_t>(c.nx) * static_cast<std::size_t>(c.ny) * static_cast<std::size_t>(c.nz));
+    for (int z = 0; z < c.nz; ++z)
+      for (int y = 0; y < c.ny; ++y)
+        for (int x = 0; x < c.nx; ++x) {
+          float sum = 0;
+          for (int k = 0; k < 8; ++k) sum += f.at(2 * x + (k & 1), 2 * y + ((k >> 1) & 1), 2 * z + ((k >> 2) & 1));
+          c.value[(static_cast<std::size_t>(z) * static_cast<std::size_t>(c.ny) + static_cast<std::size_t>(y)) * static_cast<std::size_t>(c.nx) + static_cast<std::size_t>(x)] = sum * 0.125f;
+        }
+    pyramid_.push_back(std::move(c));
+  }
+
+  // Cone directions: a Fibonacci spiral over the whole sphere, 2·directions of them, so that the
+  // hemisphere of any normal holds about `directions`, each of solid angle 2π/directions.
+  const int k = std::max(1, directions_);
+  const float cos_half = 1.0f - 1.0f / static_cast<float>(k);
+  tan_half_ = std::sqrt(std::max(0.0f, 1.0f - cos_half * cos_half)) / std::max(cos_half, 1e-3f);
+  cone_dirs_.clear();
+  for (int i = 0; i < 2 * k; ++i) {
+    const float cz = 1.0f - (static_cast<float>(i) + 0.5f) / static_cast<float>(k);  // uniform in cos
+    const float sz = std::sqrt(std::max(0.0f, 1.0f - cz * cz));
+    const float phi = static_cast<float>(i) * 2.39996323f;  // golden angle
+    cone_dirs_.push_back({sz * std::cos(phi), sz * std::sin(phi), cz});
+  }
+}
+
+float ParticleAmbientOcclusion::density(int level, const Vec3& p) const {
+  const Level& l = pyramid_[static_cast<std::size_t>(level)];
+  const Vec3 g = (p - origin_) / l.cell - Vec3{0.5f, 0.5f, 0.5f};
+  const int x = floor_int(g.x), y = floor_int(g.y), z = floor_int(g.z);
+  const float fx = g.x - static_cast<float>(x), fy = g.y - static_cast<float>(y), fz = g.z - static_cast<float>(z);
+  const float c00 = l.at(x, y, z) * (1 - fx) + l.at(x + 1, y, z) * fx;
+  const float c10 = l.at(x, y + 1, z) * (1 - fx) + l.at(x + 1, y + 1, z) * fx;
+  const float c01 = l.at(x, y, z + 1) * (1 - fx) + l.at(x + 1, y, z + 1) * fx;
+  const float c11 = l.at(x, y + 1, z + 1) * (1 - fx) + l.at(x + 1, y + 1, z + 1) * fx;
+  return ((c00 * (1 - fy) + c10 * fy) * (1 - fz)) + ((c01 * (1 - fy) + c11 * fy) * fz);
+}
+
+float ParticleAmbientOcclusion::occlusion(const Vec3& origin, const Vec3& dir) const {
+  const float cell = pyramid_[0].cell;
+  const int top = levels() - 1;
+  float alpha = 0;
+  float d = cell * 1.7320508f;  // one cell diagonal: past the receiver's own splat
+  while (d < max_distance_ && alpha < 0.99f) {
+    const float diameter = std::max(2.0f * d * tan_half_, cell);
+    const float step = 0.5f * diameter;
+    const float lod = std::min(std::log2(diameter / cell), static_cast<float>(top));
+    const int l0 = static_cast<int>(lod);
+    const float fl = lod - static_cast<float>(l0);
+    const Vec3 p = origin + dir * d;
+    float rho = density(l0, p);
+    if (fl > 0 && l0 < top) rho = rho * (1 - fl) + density(l0 + 1, p) * fl;
+    if (rho > 0) {
+      const float a = 1.0f - std::pow(1.0f - std::min(rho, 0.999f), step / diameter);
+      alpha += (1 - alpha) * a;
+    }
+    d += step;
+  }
+  return alpha;
+}
+
+void ParticleAmbientOcclusion::ambient(std::span<const SurfacePoint> points, std::span<float> out) const {
+  // A sphere's cones start on its surface in each cone direction and depend on nothing else, so the
+  // occlusion of the last sphere seen is kept: consecutive pixels mostly show the same sphere.
+  std::vector<float> occluded(cone_dirs_.size());
+  std::uint32_t cached = kNoSphere;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const SurfacePoint& p = points[i];
+    const bool sphere = p.self != kNoSphere;
+    if (sphere && p.self != cached) {
+      const Sphere& s = particles_->spheres[p.self];
+      for (std::size_t c = 0; c < cone_dirs_.size(); ++c)
+        occluded[c] = occlusion(s.center + cone_dirs_[c] * s.radius, cone_dirs_[c]);
+      cached = p.self;
+    }
+    float sum = 0, weights = 0;
+    for (std::size_t c = 0; c < cone_dirs_.size(); ++c) {
+      const float w = dot(p.normal, cone_dirs_[c]);  // cosine weight over the normal's hemisphere
+      if (w <= 0) continue;
+      sum += w * (sphere ? occluded[c] : occlusion(p.position, cone_dirs_[c]));
+      weights += w;
+    }
+    out[i] = weights > 0 ? 1.0f - sum / weights : 1.0f;
+  }
+}
+
+std::size_t ParticleAmbientOcclusion::memory_bytes() const {
+  std::size_t bytes = 0;
+  for (const auto& l : pyramid_) bytes += l.value.capacity() * sizeof(float);
+  return bytes;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,61 @@
+// Object-space ambient occlusion for particles after Staib, Grottel and Gumhold, "Visualization of
+// Particle-based Data with Transparency and Ambient Occlusion" (CGF 34(3), 2015), the AO that paper 003
+// combines with ISSM. Build: the spheres are splatted into a density volume — each cell holds the
+// fraction of its volume the spheres fill (a sphere smaller than a cell spreads its volume trilinearly
+// over the 8 cells around its centre; a larger one fills each cell by how far the cell's centre is
+// inside it, a ramp one cell wide; sums clamped to 1) — and a mip pyramid of it (2×2×2 means). Query: from a surface point,
+// `directions` cones (half-angle θ with 1 − cos θ = 1/directions, so that `directions` of them tile a hemisphere; a
+// fixed set of 2·directions covers the sphere and each point uses those in its hemisphere)
+// march outwards (from the sphere's surface point in the cone's direction, cones shared by all the
+// pixels of a sphere — our choice for speed, see docs/techniques/issm.md); each step samples the pyramid at the level whose cell matches the cone's diameter
+// (trilinear within a level, linear between levels) and composites its occlusion front to back,
+// α = 1 − (1 − density)^(Δ/cell), up to `max_distance`. The ambient factor is 1 minus the
+// cosine-weighted mean of the cones' occlusion. Cones start one cell diagonal out, so a sphere's own
+// density (spread over the cells around its centre) does not occlude it.
+#pragma once
+
+#include <vector>
+
+#include "penumbra/core/math.h"
+#include "penumbra/scene/scene.h"
+#include "penumbra/particles/sphere_shadow_technique.h"
+
+namespace penumbra {
+
+class ParticleAmbientOcclusion final : public ParticleAmbientTechnique {
+public:
+  explicit ParticleAmbientOcclusion(const AmbientSettings& s)
+      : directions_(s.directions), max_distance_fraction_(s.max_distance), grid_(s.grid) {}
+  void build(const ParticleScene& scene) override;
+  void ambient(std::span<const SurfacePoint> points, std::span<float> out) const override;
+  std::size_t memory_bytes() const override;
+  std::string_view name() const override { return "particle_ao"; }
+
+  // Density (filled fraction) of level `level` at world point p, trilinear; 0 outside the grid.
+  float density(int level, const Vec3& p) const;
+  int levels() const { return static_cast<int>(pyramid_.size()); }
+
+private:
+  struct Level {
+    int nx = 0, ny = 0, nz = 0;
+    float cell = 0;  // world edge length of a cell
+    std::vector<float> value;
+    float at(int x, int y, int z) const {
+      if (x < 0 || y < 0 || z < 0 || x >= nx || y >= ny || z >= nz) return 0;
+      return value[(static_cast<std::size_t>(z) * static_cast<std::size_t>(ny) + static_cast<std::size_t>(y)) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(x)];
+    }
+  };
+  float occlusion(const Vec3& origin, const Vec3& dir) const;
+
+  int directions_;
+  float max_distance_fraction_;
+  int grid_;
+  Vec3 origin_;  // world position of the grid's lower corner
+  std::vector<Level> pyramid_;
+  float max_distance_ = 1;
+  float tan_half_ = 0.5f;
+  std::vector<Vec3> cone_dirs_;  // world directions over the whole sphere
+  const ParticleSet* particles_ = nullptr;
+};
+
+}  // namespace penumbra

@@ -1,0 +1,38 @@
+// The sphere renderer's visibility buffer: per pixel, the nearest sphere along the primary ray (its id)
+// and the distance to it. Two ways to fill it, both pixel-exact (each covered pixel intersects its own
+// primary ray with the sphere): splatting every sphere's screen-space bounding rectangle into the
+// buffer with an atomic depth test (the CPU form of GPU sphere impostors, Falk et al. 2016), or one
+// Embree ray per pixel. `penumbra bench --suite particles` compares them.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "penumbra/data/particles.h"
+#include "penumbra/particles/sphere_bvh.h"
+#include "penumbra/scene/camera.h"
+#include "penumbra/scene/scene.h"
+
+namespace penumbra {
+
+struct SphereHits {
+  int width = 0, height = 0;
+  std::vector<float> t;           // distance along the unit primary ray; infinity where no sphere
+  std::vector<std::uint32_t> id;  // kNoSphere where no sphere
+
+  std::size_t covered() const;    // pixels showing a sphere
+};
+
+std::string to_string(SphereRasterizer r);
+SphereRasterizer sphere_rasterizer_from_string(const std::string& s);  // Error listing the names
+
+// Every sphere's projected bounding rectangle (exact per axis for a sphere in front of the camera)
+// is walked; each pixel in it intersects its primary ray with the sphere and keeps the nearest hit
+// through a 64-bit atomic minimum of (distance bits, id), so the result is the same for any order.
+SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera);
+
+// One Embree ray per pixel.
+SphereHits trace_spheres(const SphereBvh& bvh, const Camera& camera);
+
+}  // namespace penumbra

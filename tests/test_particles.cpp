@@ -1,0 +1,310 @@
+// Sphere rendering, implicit sphere shadow maps and particle ambient occlusion, each against its exact
+// counterpart: Embree rays for the visible spheres, shadow rays for ISSM, Monte-Carlo rays for AO.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+#include "penumbra/core/parallel.h"
+#include "penumbra/particles/implicit_sphere_shadow_map.h"
+#include "penumbra/particles/particle_ambient_occlusion.h"
+#include "penumbra/particles/ray_traced_spheres.h"
+#include "penumbra/particles/sphere_hits.h"
+#include "penumbra/render/particle_frame.h"
+#include "penumbra/render/renderer.h"
+#include "test_scenes.h"
+
+namespace penumbra {
+namespace {
+
+// A particle set with its BVH and the scene view the techniques take.
+struct SphereWorld {
+  explicit SphereWorld(ParticleSet set) : particles(std::move(set)) {
+    bvh = std::make_unique<SphereBvh>(particles);
+    view.particles = &particles;
+    view.bvh = bvh.get();
+    view.bounds = particles.bounds();
+  }
+  ParticleSet particles;
+  std::unique_ptr<SphereBvh> bvh;
+  ParticleScene view;
+};
+
+ParticleSet spheres(std::initializer_list<Sphere> list) {
+  ParticleSet p;
+  for (const auto& s : list) {
+    p.spheres.push_back(s);
+    p.colors.push_back(pack_rgba8(Rgb(0.8f)));
+  }
+  return p;
+}
+
+Light directional(const Vec3& dir) {
+  Light l;
+  l.direction = normalize(dir);
+  return l;
+}
+
+// Points on the surfaces of a frame of `set` seen by `camera` (spheres only, no planes).
+std::vector<SurfacePoint> frame_points(const SphereWorld& w, const Camera& camera) {
+  Scene scene;
+  const SphereHits hits = splat_spheres(w.particles, camera);
+  const ParticleFrameInputs in{&scene, &camera, &w.particles, &hits, {}, {}, nullptr};
+  return visible_surfaces(in).points;
+}
+
+Camera looking_at(const Box3& b, int size, const Vec3& dir = {1.0f, 0.8f, 1.2f}) {
+  Camera c;
+  c.target = b.center();
+  c.eye = b.center() + normalize(dir) * (2.4f * b.radius());
+  c.width = c.height = size;
+  return c;
+}
+
+std::vector<float> fractions(const SphereShadowTechnique& t, const std::vector<SurfacePoint>& pts) {
+  std::vector<float> out(pts.size());
+  t.light_fraction(pts, out);
+  return out;
+}
+
+// Points that face the light: only there does a shadow change the shading (the others get no direct
+// light at all, and the ray-traced reference finds them shadowed by their own sphere).
+std::vector<SurfacePoint> facing(const std::vector<SurfacePoint>& pts, const Light& light) {
+  std::vector<SurfacePoint> out;
+  for (const auto& p : pts) {
+    Vec3 to_light;
+    float d;
+    light.towards(p.position, to_light, d);
+    if (dot(p.normal, to_light) > 0) out.push_back(p);
+  }
+  return out;
+}
+
+double disagreement(const std::vector<float>& a, const std::vector<float>& b) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) n += (a[i] > 0.5f) != (b[i] > 0.5f);
+  return static_cast<double>(n) / static_cast<double>(a.size());
+}
+
+TEST(SphereHits, SplattingFindsTheSameSpheresAsEmbreeRays) {
+  const SphereWorld w(random_spheres(3000, 0.03f, 7));
+  const Camera cam = looking_at(w.view.bounds, 200);
+  const SphereHits a = splat_spheres(w.particles, cam);
+  const SphereHits b = trace_spheres(*w.bvh, cam);
+  std::size_t same = 0, covered = 0;
+  for (std::size_t i = 0; i < a.id.size(); ++i) {
+    covered += b.id[i] != kNoSphere;
+    if (a.id[i] != b.id[i]) continue;
+    ++same;
+    if (a.id[i] != kNoSphere) {
+      EXPECT_NEAR(a.t[i], b.t[i], 1e-4f * b.t[i]);
+    }
+  }
+  EXPECT_GT(covered, a.id.size() / 4);
+  // the two differ only on silhouettes, where rays graze a sphere and float rounding decides
+  EXPECT_GE(static_cast<double>(same) / static_cast<double>(a.id.size()), 0.999);
+}
+
+TEST(SphereHits, SplattingIsTheSameForAnyThreadCount) {
+  const ParticleSet set = random_spheres(2000, 0.04f, 3);
+  const Camera cam = looking_at(set.bounds(), 120);
+  SphereHits one, two;
+  {
+    ThreadLimit l(1);
+    one = splat_spheres(set, cam);
+  }
+  {
+    ThreadLimit l(2);
+    two = splat_spheres(set, cam);
+  }
+  EXPECT_EQ(one.id, two.id);
+  EXPECT_EQ(one.t, two.t);
+}
+
+TEST(Issm, NoSphereShadowsItself) {
+  const SphereWorld w(spheres({{{0, 0, 0}, 1.0f}}));
+  const Light light = directional({-0.3f, -1, -0.2f});
+  ImplicitSphereShadowMap map(IssmParams{64, 2, 0, 1, 1});
+  map.build(w.view, light);
+  const auto pts = frame_points(w, looking_at(w.view.bounds, 64));
+  ASSERT_GT(pts.size(), 500u);
+  for (float f : fractions(map, pts)) EXPECT_EQ(f, 1.0f);
+}
+
+TEST(Issm, ASphereBehindAnotherAlongTheLightIsFullyShadowed) {
+  const Vec3 l = normalize(Vec3{-0.3f, -1, -0.2f});
+  const SphereWorld w(spheres({{{0, 0, 0}, 1.0f}, {l * 3.0f, 0.5f}}));
+  ImplicitSphereShadowMap map(IssmParams{128, 1, 0, 1, 1});
+  map.build(w.view, directional(l));
+  // every point of the small sphere that faces the light
+  std::vector<SurfacePoint> pts;
+  for (int i = 0; i < 400; ++i) {
+    const float z = 1.0f - 2.0f * (static_cast<float>(i) + 0.5f) / 400.0f;
+    const float r = std::sqrt(1 - z * z), phi = static_cast<float>(i) * 2.39996323f;
+    const Vec3 n{r * std::cos(phi), r * std::sin(phi), z};
+    if (dot(n, -l) <= 0) continue;
+    pts.push_back({l * 3.0f + n * 0.5f, n, 1u});
+  }
+  ASSERT_GT(pts.size(), 150u);
+  for (float f : fractions(map, pts)) EXPECT_EQ(f, 0.0f);
+}
+
+// A cluster of spheres over a floor of spheres: many shadow boundaries.
+ParticleSet shadow_test_set() {
+  ParticleSet set = random_spheres(1500, 0.025f, 11);
+  for (int i = 0; i < 60; ++i)
+    for (int j = 0; j < 60; ++j) {
+      set.spheres.push_back({{-0.9f + 0.03f * static_cast<float>(i), -0.75f, -0.9f + 0.03f * static_cast<float>(j)}, 0.02f});
+      set.colors.push_back(pack_rgba8(Rgb(0.8f)));
+    }
+  return set;
+}
+
+TEST(Issm, HardShadowsAgreeWithShadowRaysAndImproveWithRingsAndResolution) {
+  const SphereWorld w(shadow_test_set());
+  const Light light = directional({-0.35f, -1, -0.25f});
+  const auto pts = facing(frame_points(w, looking_at(w.view.bounds, test::sanitize_scale() ? 96 : 192)), light);
+  RayTracedSphereShadows exact(0, 1);
+  exact.build(w.view, light);
+  const auto ref = fractions(exact, pts);
+  auto issm = [&](int res, int rings) {
+    ImplicitSphereShadowMap map(IssmParams{res, rings, 0, 1, 1});
+    map.build(w.view, light);
+    return disagreement(fractions(map, pts), ref);
+  };
+  std::size_t shadowed = 0;
+  for (float f : ref) shadowed += f < 0.5f;
+  EXPECT_GT(shadowed, pts.size() / 10);  // the test has shadows to get right
+  const double t0 = issm(512, 0), t1 = issm(512, 1), t2 = issm(512, 2), t0_hi = issm(1024, 0), t1_hi = issm(1024, 1);
+  // t = 1 with an adequate map (texel ≈ 1/6 of a sphere radius): only points at shadow boundaries
+  // differ (measured 0.03 %)
+  EXPECT_LT(t1, 0.002);
+  // t = 0 shows the paper's Fig. 3 artefacts: occluders missed between texel centres (measured 1.4 %)
+  EXPECT_GT(t0, 4 * t1);
+  EXPECT_LE(t2, t1);
+  EXPECT_LT(t0_hi, t0);  // a finer map misses fewer
+  EXPECT_LE(t1_hi, t1);
+}
+
+TEST(Issm, AutomaticRingsStopWhenTheImageStopsChanging) {
+  const SphereWorld w(shadow_test_set());
+  const Light light = directional({-0.35f, -1, -0.25f});
+  const auto pts = facing(frame_points(w, looking_at(w.view.bounds, 96)), light);
+  ImplicitSphereShadowMap coarse(IssmParams{128, 0, 0, 1, 1});
+  coarse.build(w.view, light);
+  const int t_coarse = choose_issm_rings(coarse, pts);
+  ImplicitSphereShadowMap fine(IssmParams{1024, 0, 0, 1, 1});
+  fine.build(w.view, light);
+  const int t_fine = choose_issm_rings(fine, pts);
+  EXPECT_GE(t_coarse, 1);
+  EXPECT_LE(t_fine, t_coarse);  // a finer map needs no more rings
+  EXPECT_EQ(coarse.rings(), t_coarse);
+}
+
+// Light on a line of floor points crossing the shadow of one sphere hanging `height` over the floor.
+std::vector<float> shadow_profile(float height, float soft, float distance_b, float exponent = 1) {
+  const SphereWorld w(spheres({{{0, height, 0}, 0.2f}, {{3, -0.01f, 3}, 0.01f}, {{-3, -0.01f, -3}, 0.01f}}));
+  ImplicitSphereShadowMap map(IssmParams{512, 16, soft, exponent, distance_b});
+  map.build(w.view, directional({0, -1, 0}));
+  std::vector<SurfacePoint> pts;
+  for (int i = 0; i <= 400; ++i) pts.push_back({{-0.5f + static_cast<float>(i) / 400.0f, 0, 0}, {0, 1, 0}, kNoSphere});
+  return fractions(map, pts);
+}
+
+int penumbra_samples(const std::vector<float>& f) {
+  int n = 0;
+  for (float v : f) n += v > 0.0f && v < 1.0f;
+  return n;
+}
+
+TEST(IssmSoft, PenumbraWidensWithVirtualRadiusAndOccluderDistance) {
+  const int narrow = penumbra_samples(shadow_profile(1.0f, 0.05f, 1.0f));
+  const int wide = penumbra_samples(shadow_profile(1.0f, 0.15f, 1.0f));
+  EXPECT_GT(narrow, 0);
+  EXPECT_GT(wide, narrow);
+  // Gaussian weight: an occluder close to the floor casts a sharper shadow than a distant one
+  const int close = penumbra_samples(shadow_profile(0.3f, 0.15f, 1.0f));
+  EXPECT_LT(close, wide);
+  // the umbra stays: the point under the sphere's centre is fully shadowed
+  EXPECT_EQ(shadow_profile(1.0f, 0.15f, 1.0f)[200], 0.0f);
+}
+
+TEST(IssmSoft, VanishingVirtualRadiusGivesTheHardShadow) {
+  const auto hard = shadow_profile(1.0f, 0.0f, 1.0f);
+  const auto tiny = shadow_profile(1.0f, 1e-6f, 1.0f);
+  ASSERT_EQ(hard.size(), tiny.size());
+  for (std::size_t i = 0; i < hard.size(); ++i) EXPECT_NEAR(hard[i], tiny[i], 1e-3f);
+  for (float v : hard) EXPECT_TRUE(v == 0.0f || v == 1.0f);
+}
+
+TEST(IssmPerspective, PointLightShadowsAgreeWithShadowRays) {
+  const SphereWorld w(shadow_test_set());
+  Light light;
+  light.type = LightType::Point;
+  light.position = {0.8f, 2.5f, 0.6f};
+  const auto pts = facing(frame_points(w, looking_at(w.view.bounds, test::sanitize_scale() ? 96 : 160)), light);
+  RayTracedSphereShadows exact(0, 1);
+  exact.build(w.view, light);
+  ImplicitSphereShadowMap map(IssmParams{1024, 1, 0, 1, 1});
+  map.build(w.view, light);
+  const auto ref = fractions(exact, pts);
+  std::size_t shadowed = 0;
+  for (float f : ref) shadowed += f < 0.5f;
+  EXPECT_GT(shadowed, pts.size() / 20);  // the test has shadows to get right
+  EXPECT_LT(disagreement(fractions(map, pts), ref), 0.01);
+}
+
+TEST(ParticleAo, LoneSphereIsUnoccludedAndClusterCentreIsOccluded) {
+  // a lone sphere far from a cluster: nothing within reach
+  ParticleSet set = random_spheres(4000, 0.04f, 5);
+  const std::size_t lone = set.size();
+  set.spheres.push_back({{4, 4, 4}, 0.04f});
+  set.colors.push_back(pack_rgba8(Rgb(1)));
+  const SphereWorld w(std::move(set));
+  AmbientSettings s;
+  s.max_distance = 0.1f;  // of the longest side (4.5): 0.45, less than the gap
+  ParticleAmbientOcclusion ao(s);
+  ao.build(w.view);
+  std::vector<SurfacePoint> on_lone, in_cluster;
+  for (int i = 0; i < 64; ++i) {
+    const float z = 1.0f - 2.0f * (static_cast<float>(i) + 0.5f) / 64.0f;
+    const float r = std::sqrt(1 - z * z), phi = static_cast<float>(i) * 2.39996323f;
+    const Vec3 n{r * std::cos(phi), r * std::sin(phi), z};
+    on_lone.push_back({Vec3{4, 4, 4} + n * 0.04f, n, static_cast<std::uint32_t>(lone)});
+    in_cluster.push_back({n * 0.01f, n, kNoSphere});
+  }
+  std::vector<float> a(64), b(64);
+  ao.ambient(on_lone, a);
+  ao.ambient(in_cluster, b);
+  double mean_a = 0, mean_b = 0;
+  for (int i = 0; i < 64; ++i) { mean_a += a[static_cast<std::size_t>(i)] / 64; mean_b += b[static_cast<std::size_t>(i)] / 64; }
+  EXPECT_GT(mean_a, 0.97);
+  EXPECT_LT(mean_b, 0.3);
+}
+
+TEST(ParticleAo, AgreesWithMonteCarloAmbientOcclusionOnASmallCluster) {
+  const SphereWorld w(random_spheres(800, 0.05f, 9));
+  const auto pts = frame_points(w, looking_at(w.view.bounds, 64));
+  AmbientSettings s;
+  s.max_distance = 0.3f;
+  s.rays = 256;
+  ParticleAmbientOcclusion approx(s);
+  approx.build(w.view);
+  RayTracedAmbientOcclusion exact(s.max_distance, s.rays);
+  exact.build(w.view);
+  std::vector<float> a(pts.size()), b(pts.size());
+  approx.ambient(pts, a);
+  exact.ambient(pts, b);
+  double err = 0, mean_a = 0, mean_b = 0;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    err += std::abs(a[i] - b[i]);
+    mean_a += a[i];
+    mean_b += b[i];
+  }
+  const double n = static_cast<double>(pts.size());
+  EXPECT_LT(err / n, 0.13);  // measured 0.099 (256 rays: MC noise alone ≈ 0.03)
+  EXPECT_NEAR(mean_a / n, mean_b / n, 0.05);
+}
+
+}  // namespace
+}  // namespace penumbra
