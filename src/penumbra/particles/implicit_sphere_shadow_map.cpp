@@ -34,17 +34,24 @@ void ImplicitSphereShadowMap::build(const ParticleScene& scene, const Light& lig
     for (std::size_t i = begin; i < end; ++i) {
       const Sphere& s = particles_->spheres[i];
       float u_lo = kInfinity, u_hi = -kInfinity, v_lo = kInfinity, v_hi = -kInfinity;
-      bool behind = false;
-      for (int c = 0; c < 8; ++c) {  // the map rectangle of the sphere's bounding cube
-        const Vec3 corner = s.center + Vec3{(c & 1) ? s.radius : -s.radius, (c & 2) ? s.radius : -s.radius,
-                                            (c & 4) ? s.radius : -s.radius};
-        float u = std::nanf(""), v = std::nanf(""), depth = -1;
-        projection_.project(corner, u, v, depth);
-        if (!std::isfinite(u) || !std::isfinite(v) || (projection_.perspective() && depth <= 0)) behind = true;
-        u_lo = std::min(u_lo, u); u_hi = std::max(u_hi, u);
-        v_lo = std::min(v_lo, v); v_hi = std::max(v_hi, v);
+      if (!projection_.perspective()) {  // parallel light: the disc of radius r around the centre
+        float u, v, depth;
+        projection_.project(s.center, u, v, depth);
+        const float ru = s.radius * projection_.map_scale();
+        u_lo = u - ru; u_hi = u + ru; v_lo = v - ru; v_hi = v + ru;
+      } else {  // the map rectangle of the sphere's bounding cube
+        bool behind = false;
+        for (int c = 0; c < 8; ++c) {
+          const Vec3 corner = s.center + Vec3{(c & 1) ? s.radius : -s.radius, (c & 2) ? s.radius : -s.radius,
+                                              (c & 4) ? s.radius : -s.radius};
+          float u = std::nanf(""), v = std::nanf(""), depth = -1;
+          projection_.project(corner, u, v, depth);
+          if (!std::isfinite(u) || !std::isfinite(v) || depth <= 0) behind = true;
+          u_lo = std::min(u_lo, u); u_hi = std::max(u_hi, u);
+          v_lo = std::min(v_lo, v); v_hi = std::max(v_hi, v);
+        }
+        if (behind) continue;
       }
-      if (behind) continue;
       const int i0 = std::max(0, static_cast<int>(std::floor(u_lo * fn - 0.5f)));
       const int i1 = std::min(n - 1, static_cast<int>(std::ceil(u_hi * fn - 0.5f)));
       const int j0 = std::max(0, static_cast<int>(std::floor(v_lo * fn - 0.5f)));

@@ -1,5 +1,6 @@
 #include "penumbra/particles/particle_ambient_occlusion.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "penumbra/core/parallel.h"
@@ -159,22 +160,33 @@ float ParticleAmbientOcclusion::occlusion(const Vec3& origin, const Vec3& dir) c
 void ParticleAmbientOcclusion::ambient(std::span<const SurfacePoint> points, std::span<float> out) const {
   // A sphere's cones start on its surface in each cone direction and depend on nothing else, so the
   // occlusion of the last sphere seen is kept: consecutive pixels mostly show the same sphere.
-  std::vector<float> occluded(cone_dirs_.size());
+  // Cones are traced when a point first needs them (those in its hemisphere), so a sphere that
+  // covers one pixel costs half the set.
+  constexpr float kUntraced = -1.0f;
+  std::vector<float> occluded(cone_dirs_.size(), kUntraced);
   std::uint32_t cached = kNoSphere;
   for (std::size_t i = 0; i < points.size(); ++i) {
     const SurfacePoint& p = points[i];
     const bool sphere = p.self != kNoSphere;
     if (sphere && p.self != cached) {
-      const Sphere& s = particles_->spheres[p.self];
-      for (std::size_t c = 0; c < cone_dirs_.size(); ++c)
-        occluded[c] = occlusion(s.center + cone_dirs_[c] * s.radius, cone_dirs_[c]);
+      std::fill(occluded.begin(), occluded.end(), kUntraced);
       cached = p.self;
     }
     float sum = 0, weights = 0;
     for (std::size_t c = 0; c < cone_dirs_.size(); ++c) {
       const float w = dot(p.normal, cone_dirs_[c]);  // cosine weight over the normal's hemisphere
       if (w <= 0) continue;
-      sum += w * (sphere ? occluded[c] : occlusion(p.position, cone_dirs_[c]));
+      float a;
+      if (sphere) {
+        if (occluded[c] == kUntraced) {
+          const Sphere& s = particles_->spheres[p.self];
+          occluded[c] = occlusion(s.center + cone_dirs_[c] * s.radius, cone_dirs_[c]);
+        }
+        a = occluded[c];
+      } else {
+        a = occlusion(p.position, cone_dirs_[c]);
+      }
+      sum += w * a;
       weights += w;
     }
     out[i] = weights > 0 ? 1.0f - sum / weights : 1.0f;

@@ -1,7 +1,7 @@
 // The sphere renderer's visibility buffer: per pixel, the nearest sphere along the primary ray (its id)
 // and the distance to it. Two ways to fill it, both pixel-exact (each covered pixel intersects its own
 // primary ray with the sphere): splatting every sphere's screen-space bounding rectangle into the
-// buffer with an atomic depth test (the CPU form of GPU sphere impostors, Falk et al. 2016), or one
+// buffer tile by tile (the CPU form of GPU sphere impostors, Falk et al. 2016), or one
 // Embree ray per pixel. `penumbra bench --suite particles` compares them.
 #pragma once
 
@@ -27,9 +27,10 @@ struct SphereHits {
 std::string to_string(SphereRasterizer r);
 SphereRasterizer sphere_rasterizer_from_string(const std::string& s);  // Error listing the names
 
-// Every sphere's projected bounding rectangle (exact per axis for a sphere in front of the camera)
-// is walked; each pixel in it intersects its primary ray with the sphere and keeps the nearest hit
-// through a 64-bit atomic minimum of (distance bits, id), so the result is the same for any order.
+// Tile-binned splatting: every sphere's projected bounding rectangle (exact per axis for a sphere in
+// front of the camera) is binned into 32×32-pixel screen tiles; each tile then walks its spheres, and
+// each pixel of a rectangle intersects its primary ray with the sphere, keeping the nearest hit (ties
+// to the lower id, so the result does not depend on the order of the bins).
 SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera);
 
 // One Embree ray per pixel.

@@ -49,6 +49,8 @@ public:
                         : std::max(1.0f / inv_u_, 1.0f / inv_v_) / static_cast<float>(n);
   }
   bool perspective() const { return perspective_; }
+  // Orthographic maps: map units (u, v) per world unit (the same on both axes).
+  float map_scale() const { return inv_u_; }
   // Depth range [near, far] of the casters' bounds.
   float near_depth() const { return near_; }
   float far_depth() const { return far_; }
