@@ -120,13 +120,37 @@ void ParticleAmbientOcclusion::build(const ParticleScene& scene) {
     const float phi = static_cast<float>(i) * 2.39996323f;  // golden angle
     cone_dirs_.push_back({sz * std::cos(phi), sz * std::sin(phi), cz});
   }
+
+  // The march is the same for every cone: distances from one cell diagonal out (past the receiver's
+  // own splat), each step half the cone's diameter there, sampled at the pyramid level whose cell
+  // matches that diameter.
+  const int top = levels() - 1;
+  steps_.clear();
+  for (float d = cell * 1.7320508f; d < max_distance_;) {
+    const float diameter = std::max(2.0f * d * tan_half_, cell);
+    const float lod = std::min(std::log2(diameter / cell), static_cast<float>(top));
+    const int l0 = static_cast<int>(lod);
+    steps_.push_back({d, l0, l0 < top ? lod - static_cast<float>(l0) : 0.0f});
+    d += 0.5f * diameter;
+  }
+  const Level& b0 = pyramid_[0];
+  grid_box_ = Box3{origin_, origin_ + Vec3{static_cast<float>(b0.nx), static_cast<float>(b0.ny), static_cast<float>(b0.nz)} * cell};
 }
 
 float ParticleAmbientOcclusion::density(int level, const Vec3& p) const {
   const Level& l = pyramid_[static_cast<std::size_t>(level)];
-  const Vec3 g = (p - origin_) / l.cell - Vec3{0.5f, 0.5f, 0.5f};
+  const Vec3 g = (p - origin_) * (1.0f / l.cell) - Vec3{0.5f, 0.5f, 0.5f};
   const int x = floor_int(g.x), y = floor_int(g.y), z = floor_int(g.z);
   const float fx = g.x - static_cast<float>(x), fy = g.y - static_cast<float>(y), fz = g.z - static_cast<float>(z);
+  if (x >= 0 && y >= 0 && z >= 0 && x + 1 < l.nx && y + 1 < l.ny && z + 1 < l.nz) {  // all 8 inside
+    const std::size_t sx = 1, sy = static_cast<std::size_t>(l.nx), sz = sy * static_cast<std::size_t>(l.ny);
+    const float* v = l.value.data() + static_cast<std::size_t>(z) * sz + static_cast<std::size_t>(y) * sy + static_cast<std::size_t>(x);
+    const float c00 = v[0] * (1 - fx) + v[sx] * fx;
+    const float c10 = v[sy] * (1 - fx) + v[sy + sx] * fx;
+    const float c01 = v[sz] * (1 - fx) + v[sz + sx] * fx;
+    const float c11 = v[sz + sy] * (1 - fx) + v[sz + sy + sx] * fx;
+    return ((c00 * (1 - fy) + c10 * fy) * (1 - fz)) + ((c01 * (1 - fy) + c11 * fy) * fz);
+  }
   const float c00 = l.at(x, y, z) * (1 - fx) + l.at(x + 1, y, z) * fx;
   const float c10 = l.at(x, y + 1, z) * (1 - fx) + l.at(x + 1, y + 1, z) * fx;
   const float c01 = l.at(x, y, z + 1) * (1 - fx) + l.at(x + 1, y, z + 1) * fx;
@@ -135,24 +159,18 @@ float ParticleAmbientOcclusion::density(int level, const Vec3& p) const {
 }
 
 float ParticleAmbientOcclusion::occlusion(const Vec3& origin, const Vec3& dir) const {
-  const float cell = pyramid_[0].cell;
-  const int top = levels() - 1;
   float alpha = 0;
-  float d = cell * 1.7320508f;  // one cell diagonal: past the receiver's own splat
-  while (d < max_distance_ && alpha < 0.99f) {
-    const float diameter = std::max(2.0f * d * tan_half_, cell);
-    const float step = 0.5f * diameter;
-    const float lod = std::min(std::log2(diameter / cell), static_cast<float>(top));
-    const int l0 = static_cast<int>(lod);
-    const float fl = lod - static_cast<float>(l0);
-    const Vec3 p = origin + dir * d;
-    float rho = density(l0, p);
-    if (fl > 0 && l0 < top) rho = rho * (1 - fl) + density(l0 + 1, p) * fl;
+  for (const ConeStep& st : steps_) {
+    const Vec3 p = origin + dir * st.distance;
+    if (!grid_box_.contains(p)) break;  // the box is convex: the cone does not come back
+    float rho = density(st.level, p);
+    if (st.blend > 0) rho = rho * (1 - st.blend) + density(st.level + 1, p) * st.blend;
     if (rho > 0) {
-      const float a = 1.0f - std::pow(1.0f - std::min(rho, 0.999f), step / diameter);
-      alpha += (1 - alpha) * a;
+      // opacity of a step of half the cone's diameter through a medium of filled fraction rho per
+      // diameter: 1 − (1 − rho)^(1/2)
+      alpha += (1 - alpha) * (1.0f - std::sqrt(1.0f - std::min(rho, 0.999f)));
+      if (alpha >= 0.99f) break;
     }
-    d += step;
   }
   return alpha;
 }

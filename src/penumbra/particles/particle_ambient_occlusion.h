@@ -54,6 +54,13 @@ private:
   std::vector<Level> pyramid_;
   float max_distance_ = 1;
   float tan_half_ = 0.5f;
+  struct ConeStep {
+    float distance;  // from the cone's apex
+    int level;       // pyramid level sampled
+    float blend;     // weight of level + 1
+  };
+  std::vector<ConeStep> steps_;
+  Box3 grid_box_;
   std::vector<Vec3> cone_dirs_;  // world directions over the whole sphere
   const ParticleSet* particles_ = nullptr;
 };
