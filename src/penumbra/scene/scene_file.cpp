@@ -42,7 +42,9 @@ Camera read_camera(const nlohmann::json& j, const Box3& bounds) {
   const Vec3 dir = normalize(r.vec3("direction", {1.0f, 0.55f, 1.3f}));
   if (length(dir) == 0) r.fail("direction", "must not be the zero vector");
   const float radius = bounds.empty() ? 1.0f : bounds.radius();
-  const float dist = r.number("distance", radius / std::sin(radians(c.fov_deg) * 0.5f) * 1.05f, 1e-6f);
+  // zoom > 1 moves the framed camera closer (the bounds' sphere is loose for elongated data)
+  const float zoom = r.number("zoom", 1, 0.01f, 100);
+  const float dist = r.number("distance", radius / std::sin(radians(c.fov_deg) * 0.5f) * 1.05f / zoom, 1e-6f);
   c.eye = r.vec3("eye", c.target + dir * dist);
   if (length(c.eye - c.target) == 0) r.fail("eye", "must differ from target");
   r.finish();
