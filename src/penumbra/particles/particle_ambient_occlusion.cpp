@@ -133,6 +133,16 @@ void ParticleAmbientOcclusion::build(const ParticleScene& scene) {
     steps_.push_back({d, l0, l0 < top ? lod - static_cast<float>(l0) : 0.0f});
     d += 0.5f * diameter;
   }
+  // The per-sphere cone cache: one byte per cone and a bit mask of the cones traced, kept across
+  // frames (the occlusion depends on the sphere alone) when it fits in kMaxCacheBytes.
+  cache_bits_.reset();
+  cache_values_.reset();
+  const std::size_t cones = cone_dirs_.size();
+  if (cones <= 64 && ps.size() * (cones + sizeof(std::uint64_t)) <= kMaxCacheBytes) {
+    cache_bits_ = std::make_unique<std::atomic<std::uint64_t>[]>(ps.size());
+    cache_values_ = std::make_unique<std::atomic<std::uint8_t>[]>(ps.size() * cones);
+    for (std::size_t i = 0; i < ps.size(); ++i) cache_bits_[i].store(0, std::memory_order_relaxed);
+  }
   const Level& b0 = pyramid_[0];
   grid_box_ = Box3{origin_, origin_ + Vec3{static_cast<float>(b0.nx), static_cast<float>(b0.ny), static_cast<float>(b0.nz)} * cell};
 }
@@ -175,36 +185,32 @@ float ParticleAmbientOcclusion::occlusion(const Vec3& origin, const Vec3& dir) c
   return alpha;
 }
 
+float ParticleAmbientOcclusion::sphere_cone(std::uint32_t sphere, std::size_t cone) const {
+  const std::size_t cones = cone_dirs_.size();
+  if (cache_bits_) {
+    const std::uint64_t bit = std::uint64_t{1} << cone;
+    if (cache_bits_[sphere].load(std::memory_order_acquire) & bit)
+      return static_cast<float>(cache_values_[sphere * cones + cone].load(std::memory_order_relaxed)) * (1.0f / 255.0f);
+  }
+  const Sphere& s = particles_->spheres[sphere];
+  const float a = occlusion(s.center + cone_dirs_[cone] * s.radius, cone_dirs_[cone]);
+  // quantised whether cached or not, so that a frame does not depend on what was cached before
+  const auto q = static_cast<std::uint8_t>(a * 255.0f + 0.5f);
+  if (cache_bits_) {
+    cache_values_[sphere * cones + cone].store(q, std::memory_order_relaxed);
+    cache_bits_[sphere].fetch_or(std::uint64_t{1} << cone, std::memory_order_release);
+  }
+  return static_cast<float>(q) * (1.0f / 255.0f);
+}
+
 void ParticleAmbientOcclusion::ambient(std::span<const SurfacePoint> points, std::span<float> out) const {
-  // A sphere's cones start on its surface in each cone direction and depend on nothing else, so the
-  // occlusion of the last sphere seen is kept: consecutive pixels mostly show the same sphere.
-  // Cones are traced when a point first needs them (those in its hemisphere), so a sphere that
-  // covers one pixel costs half the set.
-  constexpr float kUntraced = -1.0f;
-  std::vector<float> occluded(cone_dirs_.size(), kUntraced);
-  std::uint32_t cached = kNoSphere;
   for (std::size_t i = 0; i < points.size(); ++i) {
     const SurfacePoint& p = points[i];
-    const bool sphere = p.self != kNoSphere;
-    if (sphere && p.self != cached) {
-      std::fill(occluded.begin(), occluded.end(), kUntraced);
-      cached = p.self;
-    }
     float sum = 0, weights = 0;
     for (std::size_t c = 0; c < cone_dirs_.size(); ++c) {
       const float w = dot(p.normal, cone_dirs_[c]);  // cosine weight over the normal's hemisphere
       if (w <= 0) continue;
-      float a;
-      if (sphere) {
-        if (occluded[c] == kUntraced) {
-          const Sphere& s = particles_->spheres[p.self];
-          occluded[c] = occlusion(s.center + cone_dirs_[c] * s.radius, cone_dirs_[c]);
-        }
-        a = occluded[c];
-      } else {
-        a = occlusion(p.position, cone_dirs_[c]);
-      }
-      sum += w * a;
+      sum += w * (p.self != kNoSphere ? sphere_cone(p.self, c) : occlusion(p.position, cone_dirs_[c]));
       weights += w;
     }
     out[i] = weights > 0 ? 1.0f - sum / weights : 1.0f;
@@ -214,6 +220,7 @@ void ParticleAmbientOcclusion::ambient(std::span<const SurfacePoint> points, std
 std::size_t ParticleAmbientOcclusion::memory_bytes() const {
   std::size_t bytes = 0;
   for (const auto& l : pyramid_) bytes += l.value.capacity() * sizeof(float);
+  if (cache_bits_) bytes += particles_->size() * (cone_dirs_.size() + sizeof(std::uint64_t));
   return bytes;
 }
 

@@ -7,13 +7,16 @@
 // `directions` cones (half-angle θ with 1 − cos θ = 1/directions, so that `directions` of them tile a hemisphere; a
 // fixed set of 2·directions covers the sphere and each point uses those in its hemisphere)
 // march outwards (from the sphere's surface point in the cone's direction, cones shared by all the
-// pixels of a sphere — our choice for speed, see docs/techniques/issm.md); each step samples the pyramid at the level whose cell matches the cone's diameter
+// pixels of a sphere and kept across frames — our choice for speed, see docs/techniques/issm.md); each step samples the pyramid at the level whose cell matches the cone's diameter
 // (trilinear within a level, linear between levels) and composites its occlusion front to back,
 // α = 1 − (1 − density)^(Δ/cell), up to `max_distance`. The ambient factor is 1 minus the
 // cosine-weighted mean of the cones' occlusion. Cones start one cell diagonal out, so a sphere's own
 // density (spread over the cells around its centre) does not occlude it.
 #pragma once
 
+#include <atomic>
+#include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "penumbra/core/math.h"
@@ -46,6 +49,9 @@ private:
     }
   };
   float occlusion(const Vec3& origin, const Vec3& dir) const;
+  float sphere_cone(std::uint32_t sphere, std::size_t cone) const;  // quantised to 1/255, cached
+
+  static constexpr std::size_t kMaxCacheBytes = std::size_t{512} << 20;
 
   int directions_;
   float max_distance_fraction_;
@@ -63,6 +69,8 @@ private:
   Box3 grid_box_;
   std::vector<Vec3> cone_dirs_;  // world directions over the whole sphere
   const ParticleSet* particles_ = nullptr;
+  std::unique_ptr<std::atomic<std::uint64_t>[]> cache_bits_;    // per sphere: cones traced
+  std::unique_ptr<std::atomic<std::uint8_t>[]> cache_values_;   // per sphere and cone: occlusion × 255
 };
 
 }  // namespace penumbra

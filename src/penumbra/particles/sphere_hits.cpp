@@ -40,8 +40,14 @@ struct ScreenMapping {
 void projected_range(float a, float z, float r, float& lo, float& hi) {
   const float denom = z * z - r * r;
   const float root = r * std::sqrt(std::max(a * a + denom, 0.0f));
-  lo = (a * z - root) / denom;
-  hi = (a * z + root) / denom;
+  const float inv = 1.0f / denom;
+  lo = (a * z - root) * inv;
+  hi = (a * z + root) * inv;
+}
+
+int floor_int(float v) {
+  const int i = static_cast<int>(v);
+  return i - (static_cast<float>(i) > v ? 1 : 0);
 }
 
 // Inclusive pixel rectangle; x1 < x0 when empty.
@@ -57,11 +63,14 @@ PixelRect pixel_rect(const ScreenMapping& m, const Sphere& s) {
   float sx_lo, sx_hi, sy_lo, sy_hi;
   projected_range(l.x, z, s.radius, sx_lo, sx_hi);
   projected_range(l.y, z, s.radius, sy_lo, sy_hi);
+  // pixel centres at i + 0.5; the values are clamped to just outside the image before the integer
+  // floor (std::floor is a libm call on baseline x86-64, and a far-off value would overflow int)
+  const float w = static_cast<float>(m.width), h = static_cast<float>(m.height);
   PixelRect r;
-  r.x0 = std::max(0, static_cast<int>(std::floor(m.pixel_x(sx_lo) - 0.5f)));
-  r.x1 = std::min(m.width - 1, static_cast<int>(std::ceil(m.pixel_x(sx_hi) - 0.5f)));
-  r.y0 = std::max(0, static_cast<int>(std::floor(m.pixel_y(sy_hi) - 0.5f)));
-  r.y1 = std::min(m.height - 1, static_cast<int>(std::ceil(m.pixel_y(sy_lo) - 0.5f)));
+  r.x0 = std::max(0, floor_int(clamp(m.pixel_x(sx_lo) - 0.5f, -2.0f, w + 1)));
+  r.x1 = std::min(m.width - 1, floor_int(clamp(m.pixel_x(sx_hi) - 0.5f, -2.0f, w + 1)) + 1);
+  r.y0 = std::max(0, floor_int(clamp(m.pixel_y(sy_hi) - 0.5f, -2.0f, h + 1)));
+  r.y1 = std::min(m.height - 1, floor_int(clamp(m.pixel_y(sy_lo) - 0.5f, -2.0f, h + 1)) + 1);
   return r;
 }
 
