@@ -18,6 +18,9 @@
 #include "penumbra/data/io/particle_io.h"
 
 #include <zlib.h>
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
 
 #include <algorithm>
 #include <cctype>
@@ -311,6 +314,19 @@ PackedMolecule read_xyz(std::string_view text) {
 
 // ---------------------------------------------------------------------------------------- assembly
 
+// Reserves n elements and, on Linux, asks for transparent huge pages over them before anything touches
+// them: filling 16 M spheres (260 MB) otherwise spends most of its time in 4 KB page faults.
+template <class T>
+void reserve_huge(std::vector<T>& v, std::size_t n) {
+  v.reserve(n);
+#ifdef __linux__
+  constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
+  const auto begin = reinterpret_cast<std::uintptr_t>(v.data());
+  const std::uintptr_t lo = (begin + kHuge - 1) & ~(kHuge - 1), hi = (begin + n * sizeof(T)) & ~(kHuge - 1);
+  if (hi > lo) madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);  // advice only: failure is harmless
+#endif
+}
+
 std::uint32_t color_of(const PackedMolecule& m, std::size_t i, const ParticleLoadOptions& o) {
   switch (o.coloring) {
     case ParticleColoring::Element: return pack_rgba8(element_color(m.elements[i]));
@@ -362,6 +378,8 @@ ParticleSet expand_assembly(const PackedMolecule& m, const std::vector<std::uint
   if (total == 0) throw Error("assembly " + std::to_string(n) + " selects no atoms (its generators name no chain present)");
 
   ParticleSet out;
+  reserve_huge(out.spheres, static_cast<std::size_t>(total));
+  reserve_huge(out.colors, static_cast<std::size_t>(total));
   out.spheres.resize(static_cast<std::size_t>(total));
   out.colors.resize(static_cast<std::size_t>(total));
   std::vector<char> overflow(jobs.size(), 0);  // per job: a transformed centre was not finite
