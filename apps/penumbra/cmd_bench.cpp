@@ -2,8 +2,8 @@
 // this machine, for shadow_map, deep_shadow_map (3 nodes) and cssm (13 offsets) at several shadow-map
 // resolutions and a 512² frame, on test-spheres 128³ and cranium_ct.nrrd — plus what the paper lacks:
 // memory per technique and error (RMSE, PSNR) against the exact ray-traced image; suite `extinction` —
-// paper 001's Tables 1–3 (bench_extinction.cpp). Markdown on stdout and in DIR/bench.md, JSON in
-// DIR/bench.json.
+// paper 001's Tables 1–3 (bench_extinction.cpp); suite `particles` — paper 003's Fig. 8
+// (bench_particles.cpp). Markdown on stdout and in DIR/bench.md, JSON in DIR/bench.json.
 #include <sys/utsname.h>
 #include <unistd.h>
 
@@ -20,6 +20,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/scene/demo_scenes.h"
 #include "bench_extinction.h"
+#include "bench_particles.h"
 #include "stats.h"
 #include "technique_runs.h"
 
@@ -59,6 +60,9 @@ struct Options {
   std::vector<std::string> suites{"cssm", "extinction"};
   std::vector<std::string> extinction_datasets{"procedural", "cranium", "chest"};
   int max_sampled_size = 128;
+  std::vector<std::string> particle_datasets = ParticleBenchOptions{}.datasets;
+  int width = 1920;   // particles suite: frame width and height (paper 003's 1920×1200)
+  int height = 1200;
 };
 
 void bench_dataset(const Options& o, const std::string& name, const nlohmann::json& scene_in, std::ostringstream& md,
@@ -139,10 +143,14 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--repeats", o->repeats, "Runs per measurement (the fastest is kept)")->check(CLI::Range(1, 100));
   cmd->add_option("--size", o->size, "Frame width and height")->check(CLI::Range(16, 8192));
   cmd->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
-  cmd->add_option("--suite", o->suites, "cssm (paper 000, Tables 3/4) and/or extinction (paper 001, Tables 1-3)");
+  cmd->add_option("--suite", o->suites,
+                  "cssm (paper 000, Tables 3/4), extinction (paper 001, Tables 1-3) and/or particles (paper 003, Fig. 8)");
   cmd->add_option("--extinction-datasets", o->extinction_datasets, "procedural (test-spheres 256³), cranium and/or chest");
   cmd->add_option("--max-sampled-size", o->max_sampled_size, "Largest light cache the sampled-AO reference is timed at")
       ->check(CLI::Range(4, 512));
+  cmd->add_option("--particle-datasets", o->particle_datasets, "1tii, 1af6, 1aon, bace1, 3j6r and/or 1m4x");
+  cmd->add_option("--width", o->width, "Frame width of the particles suite")->check(CLI::Range(16, 8192));
+  cmd->add_option("--height", o->height, "Frame height of the particles suite")->check(CLI::Range(16, 8192));
   cmd->callback([o] {
     ThreadLimit limit(o->threads);
     std::filesystem::create_directories(o->dir);
@@ -152,7 +160,8 @@ void add_bench_command(CLI::App& app) {
     out["machine"] = machine_description();
     out["threads"] = ThreadLimit::current_max();
     for (const auto& s : o->suites)
-      if (s != "cssm" && s != "extinction") throw Error("--suite: unknown suite '" + s + "' (expected cssm or extinction)");
+      if (s != "cssm" && s != "extinction" && s != "particles")
+        throw Error("--suite: unknown suite '" + s + "' (expected cssm, extinction or particles)");
     auto runs = [&](const char* suite) { return std::find(o->suites.begin(), o->suites.end(), suite) != o->suites.end(); };
     md << "Machine: " << machine_description() << ", " << ThreadLimit::current_max() << " threads, " << today()
        << ". Fastest of " << o->repeats << " runs.\n";
@@ -174,6 +183,16 @@ void add_bench_command(CLI::App& app) {
       e.size = o->size;
       e.max_sampled_size = o->max_sampled_size;
       bench_extinction(e, md, out["extinction"]);
+    }
+    if (runs("particles")) {
+      ParticleBenchOptions p;
+      p.dir = o->dir;
+      p.data_dir = o->data_dir;
+      p.datasets = o->particle_datasets;
+      p.repeats = o->repeats;
+      p.width = o->width;
+      p.height = o->height;
+      bench_particles(p, md, out["particles"]);
     }
     std::printf("%s", md.str().c_str());
     std::ofstream(o->dir + "/bench.md") << md.str();
