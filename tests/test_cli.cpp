@@ -240,3 +240,15 @@ TEST(Cli, InfoDescribesAVolumeFile) {
   EXPECT_NE(missing.status, 0);
   EXPECT_TRUE(contains(missing.err, "/nonexistent/volume.nhdr")) << missing.err;
 }
+
+TEST(Cli, InfoDescribesAParticleFile) {
+  const char* env = std::getenv("PENUMBRA_DATA_DIR");
+  const std::string file = (env && *env ? std::string(env) : std::string(PENUMBRA_SHARED_DATA_DIR)) + "/1tii.pdb";
+  if (!fs::exists(file)) GTEST_SKIP() << file << " not found";
+  const CliRun r = penumbra_cli("info " + quote(file));
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(contains(r.out, "spheres     5684")) << r.out;
+  const CliRun no_assembly = penumbra_cli("info " + quote(file) + " --assembly 3");
+  EXPECT_NE(no_assembly.status, 0);
+  EXPECT_TRUE(contains(no_assembly.err, "assembly 3")) << no_assembly.err;
+}

@@ -1,7 +1,10 @@
-// `penumbra info FILE [--bins N]`: dimensions, type, spacing, bounds, value range and a histogram.
+// `penumbra info FILE [--bins N] [--assembly N]`: for a volume its dimensions, type, spacing, bounds,
+// value range and a histogram; for a molecule or particle file its atoms, assembly, spheres and bounds.
 #include <cstdio>
 
 #include "commands.h"
+#include "penumbra/core/error.h"
+#include "penumbra/data/io/particle_io.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/volume_stats.h"
 
@@ -11,12 +14,29 @@ void add_info_command(CLI::App& app) {
   struct Options {
     std::string file;
     int bins = 16;
+    int assembly = 0;
   };
   auto o = std::make_shared<Options>();
-  CLI::App* cmd = app.add_subcommand("info", "Describe a volume file (.nrrd, .nhdr, .nii, .nii.gz)");
-  cmd->add_option("file", o->file, "Volume file")->required();
-  cmd->add_option("--bins", o->bins, "Histogram bins")->check(CLI::Range(1, 1024));
+  CLI::App* cmd = app.add_subcommand("info", "Describe a volume file (.nrrd, .nhdr, .nii, .nii.gz) or a particle file (.pdb, .cif, .gro, .xyz)");
+  cmd->add_option("file", o->file, "Volume or particle file")->required();
+  cmd->add_option("--bins", o->bins, "Histogram bins (volumes)")->check(CLI::Range(1, 1024));
+  cmd->add_option("--assembly", o->assembly, "Biological assembly to build (particle files; 0 = as deposited)")->check(CLI::Range(0, 1000000));
   cmd->callback([o] {
+    if (!particle_file_format(o->file).empty()) {
+      ParticleLoadOptions lo;
+      lo.assembly = o->assembly;
+      ParticleFileInfo info;
+      const ParticleSet p = load_particles(o->file, lo, &info);
+      const Box3 b = p.bounds();
+      std::printf("file        %s\n", o->file.c_str());
+      std::printf("format      %s\n", info.format.c_str());
+      std::printf("atoms       %zu in the first model (%zu of unknown element)\n", info.atoms_in_file, info.unknown_elements);
+      std::printf("assembly    %d (%d operators)\n", o->assembly, info.operators);
+      std::printf("spheres     %zu (%zu bytes in memory)\n", p.size(), p.memory_bytes());
+      std::printf("bounds      [%g %g %g] .. [%g %g %g] (angstrom)\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
+      return;
+    }
+    if (o->assembly != 0) throw penumbra::Error("--assembly: " + o->file + " is not a particle file");
     const Volume v = load_volume(o->file);
     const Box3 b = v.bounds();
     std::printf("file        %s\n", o->file.c_str());

@@ -434,19 +434,24 @@ ParticleSet build_particles(const PackedMolecule& m, const ParticleLoadOptions& 
 
 }  // namespace
 
+std::string particle_file_format(const std::string& path) {
+  std::string name = lower(path);
+  if (ends_with(name, ".gz")) name.resize(name.size() - 3);
+  if (ends_with(name, ".pdb") || ends_with(name, ".ent")) return "pdb";
+  if (ends_with(name, ".cif") || ends_with(name, ".mmcif")) return "mmcif";
+  if (ends_with(name, ".gro")) return "gro";
+  if (ends_with(name, ".xyz")) return "xyz";
+  return "";
+}
+
 ParticleSet load_particles(const std::string& path, const ParticleLoadOptions& options, ParticleFileInfo* info) {
   return with_context(path, [&] {
-    std::string name = lower(path);
-    const bool gz = ends_with(name, ".gz");
-    if (gz) name.resize(name.size() - 3);
+    const bool gz = ends_with(lower(path), ".gz");
     ParticleFileInfo local;
     ParticleFileInfo& out_info = info ? *info : local;
     out_info = ParticleFileInfo{};
-    if (ends_with(name, ".pdb") || ends_with(name, ".ent")) out_info.format = "pdb";
-    else if (ends_with(name, ".cif") || ends_with(name, ".mmcif")) out_info.format = "mmcif";
-    else if (ends_with(name, ".gro")) out_info.format = "gro";
-    else if (ends_with(name, ".xyz")) out_info.format = "xyz";
-    else
+    out_info.format = particle_file_format(path);
+    if (out_info.format.empty())
       throw Error("unknown particle file extension (supported: .pdb, .ent, .cif, .mmcif, .gro, .xyz, each "
                   "optionally gzip-compressed with .gz)");
 

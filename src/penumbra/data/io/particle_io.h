@@ -34,6 +34,9 @@ struct ParticleFileInfo {
 ParticleSet load_particles(const std::string& path, const ParticleLoadOptions& options,
                            ParticleFileInfo* info = nullptr);
 
+// "pdb", "mmcif", "gro", "xyz" by the file name's extension (a .gz suffix ignored); "" for others.
+std::string particle_file_format(const std::string& path);
+
 std::string to_string(ParticleColoring c);
 ParticleColoring particle_coloring_from_string(const std::string& s);  // Error listing the names
 
