@@ -17,6 +17,11 @@ std::uint64_t depth_key(float t, std::uint32_t id) {
   return (static_cast<std::uint64_t>(std::bit_cast<std::uint32_t>(std::max(t, 0.0f))) << 32) | id;
 }
 
+int floor_int(float v) {
+  const int i = static_cast<int>(v);
+  return i - (static_cast<float>(i) > v ? 1 : 0);
+}
+
 }  // namespace
 
 void ImplicitSphereShadowMap::build(const ParticleScene& scene, const Light& light) {
@@ -52,21 +57,42 @@ void ImplicitSphereShadowMap::build(const ParticleScene& scene, const Light& lig
         }
         if (behind) continue;
       }
-      const int i0 = std::max(0, static_cast<int>(std::floor(u_lo * fn - 0.5f)));
-      const int i1 = std::min(n - 1, static_cast<int>(std::ceil(u_hi * fn - 0.5f)));
-      const int j0 = std::max(0, static_cast<int>(std::floor(v_lo * fn - 0.5f)));
-      const int j1 = std::min(n - 1, static_cast<int>(std::ceil(v_hi * fn - 0.5f)));
+      // texel k's centre is at u = (k + 0.5)/n; clamped before the integer floor (no libm call, no
+      // overflow for spheres far off the map)
+      const int i0 = std::max(0, floor_int(clamp(u_lo * fn - 0.5f, -2.0f, fn + 1)));
+      const int i1 = std::min(n - 1, floor_int(clamp(u_hi * fn - 0.5f, -2.0f, fn + 1)) + 1);
+      const int j0 = std::max(0, floor_int(clamp(v_lo * fn - 0.5f, -2.0f, fn + 1)));
+      const int j1 = std::min(n - 1, floor_int(clamp(v_hi * fn - 0.5f, -2.0f, fn + 1)) + 1);
       const auto id = static_cast<std::uint32_t>(i);
+      auto keep_nearest = [&](int k, int j, float t) {
+        auto& slot = keys[static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(k)];
+        const std::uint64_t key = depth_key(t, id);
+        std::uint64_t cur = slot.load(std::memory_order_relaxed);
+        while (key < cur && !slot.compare_exchange_weak(cur, key, std::memory_order_relaxed)) {
+        }
+      };
+      if (!projection_.perspective()) {
+        // parallel rays: the texel ray at map distance ρ from the centre enters the sphere at
+        // depth(centre) − sqrt(r² − ρ²)
+        float u, v, depth;
+        projection_.project(s.center, u, v, depth);
+        const float world_per_u = 1.0f / projection_.map_scale();
+        const float r2 = s.radius * s.radius;
+        for (int j = j0; j <= j1; ++j) {
+          const float dv = ((static_cast<float>(j) + 0.5f) / fn - v) * world_per_u;
+          for (int k = i0; k <= i1; ++k) {
+            const float du = ((static_cast<float>(k) + 0.5f) / fn - u) * world_per_u;
+            const float h2 = r2 - du * du - dv * dv;
+            if (h2 >= 0) keep_nearest(k, j, depth - std::sqrt(h2));
+          }
+        }
+        continue;
+      }
       for (int j = j0; j <= j1; ++j)
         for (int k = i0; k <= i1; ++k) {
           const Ray ray = projection_.texel_ray((static_cast<float>(k) + 0.5f) / fn, (static_cast<float>(j) + 0.5f) / fn);
           const float t = intersect_sphere(ray, s, -kInfinity, kInfinity);
-          if (t == kInfinity) continue;
-          auto& slot = keys[static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(k)];
-          const std::uint64_t key = depth_key(t, id);
-          std::uint64_t cur = slot.load(std::memory_order_relaxed);
-          while (key < cur && !slot.compare_exchange_weak(cur, key, std::memory_order_relaxed)) {
-          }
+          if (t != kInfinity) keep_nearest(k, j, t);
         }
     }
   }, 1024);
