@@ -17,11 +17,11 @@ $B render $A -o "$tmp/issm_ao.png" "${W[@]}"
 $B render $A -o "$tmp/rt.png" "${W[@]}" --set shadows.technique=ray_traced --set ambient.technique=ray_traced_ao
 $B montage "$out/issm_1aon.png" "$tmp/ll.png" "$tmp/issm.png" "$tmp/issm_ao.png" "$tmp/rt.png"
 
-# Hard vs soft (§3.2) on spheres over a floor: hard | soft (s, b, t = 8 on a 256² map) | area light traced
+# Hard vs soft (§3.2) on spheres over a floor: hard | soft (s, b on a 256² map; t raised to cover s) | area light traced
 F=scenes/spheres-floor.json
 G=(--width 420 --height 320 --set ambient.technique=none)
 $B render $F -o "$tmp/hard.png" "${G[@]}"
-$B render $F -o "$tmp/soft.png" "${G[@]}" --set shadows.resolution=256 --set shadows.rings=8 \
+$B render $F -o "$tmp/soft.png" "${G[@]}" --set shadows.resolution=256 \
   --set shadows.soft_radius=0.04 --set shadows.soft_distance=0.6
 $B render $F -o "$tmp/area.png" "${G[@]}" --set shadows.technique=ray_traced --set shadows.light_angle=2 --set shadows.area_rays=64
 $B montage "$out/issm_hard_soft.png" "$tmp/hard.png" "$tmp/soft.png" "$tmp/area.png"

@@ -202,9 +202,9 @@ TEST(Issm, AutomaticRingsStopWhenTheImageStopsChanging) {
 }
 
 // Light on a line of floor points crossing the shadow of one sphere hanging `height` over the floor.
-std::vector<float> shadow_profile(float height, float soft, float distance_b, float exponent = 1) {
+std::vector<float> shadow_profile(float height, float soft, float distance_b, float exponent = 1, int rings = 16) {
   const SphereWorld w(spheres({{{0, height, 0}, 0.2f}, {{3, -0.01f, 3}, 0.01f}, {{-3, -0.01f, -3}, 0.01f}}));
-  ImplicitSphereShadowMap map(IssmParams{512, 16, soft, exponent, distance_b});
+  ImplicitSphereShadowMap map(IssmParams{512, rings, soft, exponent, distance_b});
   map.build(w.view, directional({0, -1, 0}));
   std::vector<SurfacePoint> pts;
   for (int i = 0; i <= 400; ++i) pts.push_back({{-0.5f + static_cast<float>(i) / 400.0f, 0, 0}, {0, 1, 0}, kNoSphere});
@@ -227,6 +227,15 @@ TEST(IssmSoft, PenumbraWidensWithVirtualRadiusAndOccluderDistance) {
   EXPECT_LT(close, wide);
   // the umbra stays: the point under the sphere's centre is fully shadowed
   EXPECT_EQ(shadow_profile(1.0f, 0.15f, 1.0f)[200], 0.0f);
+}
+
+TEST(IssmSoft, RingsGrowToReachTheWholePenumbra) {
+  // s = 0.15 is about 10 texels of this map: asking for t = 0 must still find every occluder in reach
+  const auto asked_none = shadow_profile(1.0f, 0.15f, 1.0f, 1, 0);
+  const auto plenty = shadow_profile(1.0f, 0.15f, 1.0f, 1, 40);
+  ASSERT_EQ(asked_none.size(), plenty.size());
+  for (std::size_t i = 0; i < plenty.size(); ++i) EXPECT_EQ(asked_none[i], plenty[i]) << i;
+  EXPECT_GT(penumbra_samples(asked_none), 0);
 }
 
 TEST(IssmSoft, VanishingVirtualRadiusGivesTheHardShadow) {

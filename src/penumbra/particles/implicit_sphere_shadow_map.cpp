@@ -33,6 +33,9 @@ void ImplicitSphereShadowMap::build(const ParticleScene& scene, const Light& lig
   std::vector<std::atomic<std::uint64_t>> keys(nn);
   for (auto& k : keys) k.store(kEmptyKey, std::memory_order_relaxed);
   const float fn = static_cast<float>(n);
+  // the smallest texel of the map: at the near side for a perspective light
+  const float texel = projection_.texel_size(std::max(projection_.near_depth(), 1e-6f), n);
+  soft_rings_ = params_.soft_radius > 0 ? static_cast<int>(std::ceil(params_.soft_radius / texel)) : 0;
 
   // §3 generation: every sphere covers the texels whose centre ray hits it.
   parallel_for(particles_->size(), [&](std::size_t begin, std::size_t end) {
@@ -113,7 +116,7 @@ float ImplicitSphereShadowMap::light_at(const SurfacePoint& p) const {
   const int n = params_.resolution;
   const int ci = std::min(n - 1, static_cast<int>(u * static_cast<float>(n)));
   const int cj = std::min(n - 1, static_cast<int>(v * static_cast<float>(n)));
-  const int t = params_.rings;
+  const int t = rings();
   const bool soft = params_.soft_radius > 0;
   float light = 1.0f;
   for (int j = std::max(0, cj - t); j <= std::min(n - 1, cj + t); ++j) {

@@ -11,6 +11,7 @@
 // (the paper); point and spot lights a perspective one fitted to the spheres (the paper's future work).
 #pragma once
 
+#include <algorithm>
 #include <vector>
 
 #include "penumbra/particles/sphere_shadow_technique.h"
@@ -36,7 +37,9 @@ public:
 
   // The automatic choice of t (§4) re-queries the same map with more rings.
   void set_rings(int rings) { params_.rings = rings; }
-  int rings() const { return params_.rings; }
+  // The rings used: the asked t, raised for soft shadows to ⌈s / texel⌉ so that the patch reaches
+  // every occluder whose grown radius can cross the shadow ray (§3.2: "t must be chosen large enough").
+  int rings() const { return std::max(params_.rings, soft_rings_); }
   // The sphere stored in texel (i, j), kNoSphere where the light reaches the far side (for figures).
   std::uint32_t texel(int i, int j) const { return map_[static_cast<std::size_t>(j) * static_cast<std::size_t>(params_.resolution) + static_cast<std::size_t>(i)]; }
   int resolution() const { return params_.resolution; }
@@ -49,6 +52,7 @@ private:
   Light light_;
   LightProjection projection_;
   std::vector<std::uint32_t> map_;
+  int soft_rings_ = 0;
 };
 
 }  // namespace penumbra
