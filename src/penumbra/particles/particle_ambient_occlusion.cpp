@@ -125,13 +125,17 @@ void ParticleAmbientOcclusion::build(const ParticleScene& scene) {
   // own splat), each step half the cone's diameter there, sampled at the pyramid level whose cell
   // matches that diameter.
   const int top = levels() - 1;
+  double radius_sum = 0;
+  for (const Sphere& sp : ps.spheres) radius_sum += sp.radius;
+  const float mean_radius = ps.size() > 0 ? static_cast<float>(radius_sum / static_cast<double>(ps.size())) : cell;
   steps_.clear();
   for (float d = cell * 1.7320508f; d < max_distance_;) {
     const float diameter = std::max(2.0f * d * tan_half_, cell);
     const float lod = std::min(std::log2(diameter / cell), static_cast<float>(top));
     const int l0 = static_cast<int>(lod);
-    steps_.push_back({d, l0, l0 < top ? lod - static_cast<float>(l0) : 0.0f});
-    d += 0.5f * diameter;
+    const float step = 0.5f * diameter;
+    steps_.push_back({d, l0, l0 < top ? lod - static_cast<float>(l0) : 0.0f, step * 0.75f / mean_radius});
+    d += step;
   }
   // The per-sphere cone cache: one byte per cone and a bit mask of the cones traced, kept across
   // frames (the occlusion depends on the sphere alone) when it fits in kMaxCacheBytes.
@@ -170,15 +174,20 @@ float ParticleAmbientOcclusion::density(int level, const Vec3& p) const {
 
 float ParticleAmbientOcclusion::occlusion(const Vec3& origin, const Vec3& dir) const {
   float alpha = 0;
+  bool entered = false;
   for (const ConeStep& st : steps_) {
     const Vec3 p = origin + dir * st.distance;
-    if (!grid_box_.contains(p)) break;  // the box is convex: the cone does not come back
+    if (!grid_box_.contains(p)) {
+      if (entered) break;  // the box is convex: a cone that left it does not come back
+      continue;            // a receiver outside the box (a floor): march until the cone enters it
+    }
+    entered = true;
     float rho = density(st.level, p);
     if (st.blend > 0) rho = rho * (1 - st.blend) + density(st.level + 1, p) * st.blend;
     if (rho > 0) {
-      // opacity of a step of half the cone's diameter through a medium of filled fraction rho per
-      // diameter: 1 − (1 − rho)^(1/2)
-      alpha += (1 - alpha) * (1.0f - std::sqrt(1.0f - std::min(rho, 0.999f)));
+      // Beer–Lambert through randomly placed spheres of mean radius r̄ filling the fraction rho of
+      // space: extinction rho·3/(4 r̄) (n·πr² with n = rho / (4/3 πr³))
+      alpha += (1 - alpha) * (1.0f - std::exp(-rho * st.extinction));
       if (alpha >= 0.99f) break;
     }
   }

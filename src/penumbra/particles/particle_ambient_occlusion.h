@@ -9,7 +9,9 @@
 // march outwards (from the sphere's surface point in the cone's direction, cones shared by all the
 // pixels of a sphere and kept across frames — our choice for speed, see docs/techniques/issm.md); each step samples the pyramid at the level whose cell matches the cone's diameter
 // (trilinear within a level, linear between levels) and composites its occlusion front to back,
-// α = 1 − (1 − density)^(Δ/cell), up to `max_distance`. The ambient factor is 1 minus the
+// α = 1 − exp(−density·Δ·3/(4 r̄)) — Beer–Lambert through randomly placed spheres of the set's mean
+// radius r̄ that fill that fraction of space (our choice; see docs/techniques/issm.md) — up to
+// `max_distance`. The ambient factor is 1 minus the
 // cosine-weighted mean of the cones' occlusion. Cones start one cell diagonal out, so a sphere's own
 // density (spread over the cells around its centre) does not occlude it.
 #pragma once
@@ -64,6 +66,7 @@ private:
     float distance;  // from the cone's apex
     int level;       // pyramid level sampled
     float blend;     // weight of level + 1
+    float extinction;  // step length × 3/(4 r̄): the optical depth of the step per unit filled fraction
   };
   std::vector<ConeStep> steps_;
   Box3 grid_box_;

@@ -43,4 +43,31 @@ nlohmann::json chest_scene(const std::string& path) {
   return j;
 }
 
+nlohmann::json spheres_floor_scene() {
+  return nlohmann::json::parse(R"({
+    "particles": [ { "procedural": { "name": "random-spheres", "count": 3000, "radius": 0.025, "seed": 3 } } ],
+    "planes": [ { "point": [0, -0.6, 0], "normal": [0, 1, 0], "color": [0.85, 0.85, 0.85], "size": 4 } ],
+    "lights": [ { "type": "directional", "direction": [-0.4, -1.0, -0.3] } ],
+    "camera": { "eye": [1.6, 1.1, 2.0], "target": [0, -0.15, 0], "fov_deg": 40, "width": 512, "height": 512 },
+    "shadows": { "technique": "issm", "resolution": 1024, "rings": 1 },
+    "ambient": { "technique": "particle_ao" },
+    "shading": { "ambient": 0.3, "diffuse": 0.75, "specular": 0.3, "shininess": 40 },
+    "background": [0.08, 0.08, 0.1]
+  })");
+}
+
+nlohmann::json molecule_scene(const std::string& path) {
+  nlohmann::json j = nlohmann::json::parse(R"({
+    "particles": [ { "file": "", "color_by": "chain" } ],
+    "lights": [ { "type": "directional", "direction": [-0.45, -0.8, -0.4] } ],
+    "camera": { "direction": [0.2, 0.3, 1.0], "fov_deg": 30, "zoom": 1.45, "width": 512, "height": 512 },
+    "shadows": { "technique": "issm", "resolution": 512, "rings": 1 },
+    "ambient": { "technique": "particle_ao", "directions": 16, "max_distance": 0.7 },
+    "shading": { "ambient": 0.35, "diffuse": 0.75, "specular": 0.3, "shininess": 40 },
+    "background": [1, 1, 1]
+  })");
+  j["particles"][0]["file"] = path;
+  return j;
+}
+
 }  // namespace penumbra

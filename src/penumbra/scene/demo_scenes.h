@@ -19,4 +19,11 @@ nlohmann::json cranium_scene(const std::string& path);
 // The chest CT (chest_ct.nrrd, uint8) with lungs, ribs and spine under a spot light (scenes/chest.json).
 nlohmann::json chest_scene(const std::string& path);
 
+// Particles: 3,000 random spheres over a floor, lit from above (scenes/spheres-floor.json), with ISSM
+// and particle AO.
+nlohmann::json spheres_floor_scene();
+
+// A molecule file (e.g. 1aon.pdb.gz) coloured by chain with ISSM and particle AO, framed closely.
+nlohmann::json molecule_scene(const std::string& path);
+
 }  // namespace penumbra
