@@ -34,6 +34,11 @@ void ParticleAmbientOcclusion::build(const ParticleScene& scene) {
   const std::size_t n = static_cast<std::size_t>(base.nx) * static_cast<std::size_t>(base.ny) * static_cast<std::size_t>(base.nz);
   base.value.assign(n, 0.0f);
 
+  double radius_sum = 0;
+  for (const Sphere& sp : ps.spheres) radius_sum += sp.radius;
+  const float mean_radius = ps.size() > 0 ? static_cast<float>(radius_sum / static_cast<double>(ps.size())) : cell;
+  const float cell_exponent = 0.75f * cell / mean_radius;
+
   // The spheres' filled fraction per cell (cell centres at (i + 0.5)·cell), accumulated in a few
   // copies, each from its own range of spheres, then added: the same sum for any thread count.
   const float inv_cell = 1.0f / cell;
@@ -83,13 +88,20 @@ void ParticleAmbientOcclusion::build(const ParticleScene& scene) {
     for (std::size_t i = b0; i < b1; ++i) {
       float v = 0;
       for (const auto& acc : partial) v += acc[i];
-      base.value[i] = std::min(v, 1.0f);
+      // opacity across one cell: spheres of mean radius r̄ filling the fraction ρ block a ray over a
+      // length ℓ with probability 1 − (1 − ρ)^(3ℓ/(4r̄)) (Beer–Lambert for small ρ, opaque at ρ = 1)
+      base.value[i] = 1.0f - std::pow(1.0f - std::min(v, 1.0f), cell_exponent);
     }
   }, 1 << 14);
 
   pyramid_.clear();
   pyramid_.push_back(std::move(base));
-  while (true) {  // mip levels: 2×2×2 means (cells past the edge count as empty)
+  // Mip levels of opacity, composed rather than averaged: along each axis a ray crosses two children
+  // of a parent cell, transmitting (1 − A₁)(1 − A₂); the parent's opacity is 1 − the mean of that over
+  // the 4 columns of each of the 3 axes. A wall filling half a parent is then opaque to the rays that
+  // cross it and not to the others (2/3), where averaged density (1/2) would let light through as if
+  // the wall were mist (cells past the edge count as empty).
+  while (true) {
     const Level& f = pyramid_.back();
     if (f.nx <= 1 && f.ny <= 1 && f.nz <= 1) break;
     Level c;
@@ -101,9 +113,15 @@ void ParticleAmbientOcclusion::build(const ParticleScene& scene) {
     for (int z = 0; z < c.nz; ++z)
       for (int y = 0; y < c.ny; ++y)
         for (int x = 0; x < c.nx; ++x) {
+          float t[8];  // children's transmittance, index bit 0: x, bit 1: y, bit 2: z
+          for (int k = 0; k < 8; ++k) t[k] = 1.0f - f.at(2 * x + (k & 1), 2 * y + ((k >> 1) & 1), 2 * z + ((k >> 2) & 1));
           float sum = 0;
-          for (int k = 0; k < 8; ++k) sum += f.at(2 * x + (k & 1), 2 * y + ((k >> 1) & 1), 2 * z + ((k >> 2) & 1));
-          c.value[(static_cast<std::size_t>(z) * static_cast<std::size_t>(c.ny) + static_cast<std::size_t>(y)) * static_cast<std::size_t>(c.nx) + static_cast<std::size_t>(x)] = sum * 0.125f;
+          for (int axis = 0; axis < 3; ++axis) {
+            const int bit = 1 << axis;
+            for (int k = 0; k < 8; ++k)
+              if (!(k & bit)) sum += t[k] * t[k | bit];
+          }
+          c.value[(static_cast<std::size_t>(z) * static_cast<std::size_t>(c.ny) + static_cast<std::size_t>(y)) * static_cast<std::size_t>(c.nx) + static_cast<std::size_t>(x)] = 1.0f - sum / 12.0f;
         }
     pyramid_.push_back(std::move(c));
   }
@@ -125,16 +143,13 @@ void ParticleAmbientOcclusion::build(const ParticleScene& scene) {
   // own splat), each step half the cone's diameter there, sampled at the pyramid level whose cell
   // matches that diameter.
   const int top = levels() - 1;
-  double radius_sum = 0;
-  for (const Sphere& sp : ps.spheres) radius_sum += sp.radius;
-  const float mean_radius = ps.size() > 0 ? static_cast<float>(radius_sum / static_cast<double>(ps.size())) : cell;
   steps_.clear();
   for (float d = cell * 1.7320508f; d < max_distance_;) {
     const float diameter = std::max(2.0f * d * tan_half_, cell);
     const float lod = std::min(std::log2(diameter / cell), static_cast<float>(top));
     const int l0 = static_cast<int>(lod);
     const float step = 0.5f * diameter;
-    steps_.push_back({d, l0, l0 < top ? lod - static_cast<float>(l0) : 0.0f, step * 0.75f / mean_radius});
+    steps_.push_back({d, l0, l0 < top ? lod - static_cast<float>(l0) : 0.0f});
     d += step;
   }
   // The per-sphere cone cache: one byte per cone and a bit mask of the cones traced, kept across
@@ -172,10 +187,11 @@ float ParticleAmbientOcclusion::density(int level, const Vec3& p) const {
   return ((c00 * (1 - fy) + c10 * fy) * (1 - fz)) + ((c01 * (1 - fy) + c11 * fy) * fz);
 }
 
-float ParticleAmbientOcclusion::occlusion(const Vec3& origin, const Vec3& dir) const {
+float ParticleAmbientOcclusion::occlusion(const Vec3& origin, const Vec3& dir, float skip) const {
   float alpha = 0;
   bool entered = false;
   for (const ConeStep& st : steps_) {
+    if (st.distance < skip) continue;
     const Vec3 p = origin + dir * st.distance;
     if (!grid_box_.contains(p)) {
       if (entered) break;  // the box is convex: a cone that left it does not come back
@@ -185,9 +201,8 @@ float ParticleAmbientOcclusion::occlusion(const Vec3& origin, const Vec3& dir) c
     float rho = density(st.level, p);
     if (st.blend > 0) rho = rho * (1 - st.blend) + density(st.level + 1, p) * st.blend;
     if (rho > 0) {
-      // Beer–Lambert through randomly placed spheres of mean radius r̄ filling the fraction rho of
-      // space: extinction rho·3/(4 r̄) (n·πr² with n = rho / (4/3 πr³))
-      alpha += (1 - alpha) * (1.0f - std::exp(-rho * st.extinction));
+      // a step of half the cone's diameter through cells (as wide as the cone) of opacity rho
+      alpha += (1 - alpha) * (1.0f - std::sqrt(1.0f - std::min(rho, 0.999f)));
       if (alpha >= 0.99f) break;
     }
   }
@@ -202,7 +217,8 @@ float ParticleAmbientOcclusion::sphere_cone(std::uint32_t sphere, std::size_t co
       return static_cast<float>(cache_values_[sphere * cones + cone].load(std::memory_order_relaxed)) * (1.0f / 255.0f);
   }
   const Sphere& s = particles_->spheres[sphere];
-  const float a = occlusion(s.center + cone_dirs_[cone] * s.radius, cone_dirs_[cone]);
+  // the first radius out, the coarse cells the cone reads still hold the sphere's own fill
+  const float a = occlusion(s.center + cone_dirs_[cone] * s.radius, cone_dirs_[cone], s.radius);
   // quantised whether cached or not, so that a frame does not depend on what was cached before
   const auto q = static_cast<std::uint8_t>(a * 255.0f + 0.5f);
   if (cache_bits_) {
@@ -219,7 +235,7 @@ void ParticleAmbientOcclusion::ambient(std::span<const SurfacePoint> points, std
     for (std::size_t c = 0; c < cone_dirs_.size(); ++c) {
       const float w = dot(p.normal, cone_dirs_[c]);  // cosine weight over the normal's hemisphere
       if (w <= 0) continue;
-      sum += w * (p.self != kNoSphere ? sphere_cone(p.self, c) : occlusion(p.position, cone_dirs_[c]));
+      sum += w * (p.self != kNoSphere ? sphere_cone(p.self, c) : occlusion(p.position, cone_dirs_[c], 0));
       weights += w;
     }
     out[i] = weights > 0 ? 1.0f - sum / weights : 1.0f;

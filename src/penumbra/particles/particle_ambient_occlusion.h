@@ -1,19 +1,17 @@
 // Object-space ambient occlusion for particles after Staib, Grottel and Gumhold, "Visualization of
 // Particle-based Data with Transparency and Ambient Occlusion" (CGF 34(3), 2015), the AO that paper 003
-// combines with ISSM. Build: the spheres are splatted into a density volume — each cell holds the
-// fraction of its volume the spheres fill (a sphere smaller than a cell spreads its volume trilinearly
-// over the 8 cells around its centre; a larger one fills each cell by how far the cell's centre is
-// inside it, a ramp one cell wide; sums clamped to 1) — and a mip pyramid of it (2×2×2 means). Query: from a surface point,
-// `directions` cones (half-angle θ with 1 − cos θ = 1/directions, so that `directions` of them tile a hemisphere; a
-// fixed set of 2·directions covers the sphere and each point uses those in its hemisphere)
-// march outwards (from the sphere's surface point in the cone's direction, cones shared by all the
-// pixels of a sphere and kept across frames — our choice for speed, see docs/techniques/issm.md); each step samples the pyramid at the level whose cell matches the cone's diameter
-// (trilinear within a level, linear between levels) and composites its occlusion front to back,
-// α = 1 − exp(−density·Δ·3/(4 r̄)) — Beer–Lambert through randomly placed spheres of the set's mean
-// radius r̄ that fill that fraction of space (our choice; see docs/techniques/issm.md) — up to
-// `max_distance`. The ambient factor is 1 minus the
-// cosine-weighted mean of the cones' occlusion. Cones start one cell diagonal out, so a sphere's own
-// density (spread over the cells around its centre) does not occlude it.
+// combines with ISSM. Build: the spheres are splatted into a volume of filled fractions ρ (a sphere
+// smaller than a cell spreads its volume trilinearly over the 8 cells around its centre; a larger one
+// fills each cell by how far the cell's centre is inside it, a ramp one cell wide; sums clamped to 1),
+// turned into the opacity of one cell, and a pyramid of opacities composed 2×2×2 (a parent's opacity
+// is 1 − the mean transmittance of the two-child columns along the three axes). Query: `directions`
+// cones (half-angle θ with 1 − cos θ = 1/directions, so that `directions` of them tile a hemisphere;
+// a fixed set of 2·directions covers the sphere and each point uses those in its hemisphere) march
+// outwards — from the sphere's surface point in the cone's direction, so that all the pixels of a
+// sphere share its cones, kept across frames — each step half the cone's diameter, sampling the
+// level whose cell matches the diameter (trilinear, blended between levels) and compositing its
+// opacity front to back, up to `max_distance`. The ambient factor is 1 minus the cosine-weighted mean
+// of the cones' occlusion. Our choices are explained and measured in docs/techniques/issm.md.
 #pragma once
 
 #include <atomic>
@@ -50,7 +48,8 @@ private:
       return value[(static_cast<std::size_t>(z) * static_cast<std::size_t>(ny) + static_cast<std::size_t>(y)) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(x)];
     }
   };
-  float occlusion(const Vec3& origin, const Vec3& dir) const;
+  // Occlusion along one cone from `origin`, ignoring the steps nearer than `skip`.
+  float occlusion(const Vec3& origin, const Vec3& dir, float skip) const;
   float sphere_cone(std::uint32_t sphere, std::size_t cone) const;  // quantised to 1/255, cached
 
   static constexpr std::size_t kMaxCacheBytes = std::size_t{512} << 20;
@@ -66,7 +65,6 @@ private:
     float distance;  // from the cone's apex
     int level;       // pyramid level sampled
     float blend;     // weight of level + 1
-    float extinction;  // step length × 3/(4 r̄): the optical depth of the step per unit filled fraction
   };
   std::vector<ConeStep> steps_;
   Box3 grid_box_;
