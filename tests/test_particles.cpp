@@ -160,6 +160,33 @@ ParticleSet shadow_test_set() {
   return set;
 }
 
+TEST(Issm, TheMapIsTheSameForAnyThreadCount) {
+  const SphereWorld w(shadow_test_set());
+  for (const Light& light : {directional({-0.35f, -1, -0.25f}), [] {
+         Light l;
+         l.type = LightType::Point;
+         l.position = {0.8f, 2.5f, 0.6f};
+         return l;
+       }()}) {
+    ImplicitSphereShadowMap one(IssmParams{256, 1, 0, 1, 1}), two(IssmParams{256, 1, 0, 1, 1});
+    {
+      ThreadLimit l(1);
+      one.build(w.view, light);
+    }
+    {
+      ThreadLimit l(2);
+      two.build(w.view, light);
+    }
+    std::size_t filled = 0;
+    for (int j = 0; j < 256; ++j)
+      for (int i = 0; i < 256; ++i) {
+        ASSERT_EQ(one.texel(i, j), two.texel(i, j)) << i << ", " << j;
+        filled += one.texel(i, j) != kNoSphere;
+      }
+    EXPECT_GT(filled, 256u * 256u / 4);
+  }
+}
+
 TEST(Issm, HardShadowsAgreeWithShadowRaysAndImproveWithRingsAndResolution) {
   const SphereWorld w(shadow_test_set());
   const Light light = directional({-0.35f, -1, -0.25f});

@@ -1,0 +1,87 @@
+// Sphere footprints binned into square tiles of a raster (the screen, or a shadow map), so that each
+// tile can then be filled by one thread with a small depth buffer that stays in cache — no atomics,
+// and the nearest-hit result does not depend on the order of the bins. Used by the sphere splatting
+// (sphere_hits.cpp) and the ISSM generation (implicit_sphere_shadow_map.cpp).
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <functional>
+#include <iterator>
+#include <limits>
+#include <span>
+#include <vector>
+
+namespace penumbra {
+
+constexpr int kRasterTile = 32;  // tile edge in pixels / texels
+
+// Inclusive pixel rectangle; empty when x1 < x0 or y1 < y0.
+struct PixelRect {
+  int x0 = 0, y0 = 0, x1 = -1, y1 = -1;
+  bool empty() const { return x1 < x0 || y1 < y0; }
+};
+
+// Integer floor without libm (std::floor is a call on baseline x86-64); v must fit in an int.
+inline int floor_int(float v) {
+  const int i = static_cast<int>(v);
+  return i - (static_cast<float>(i) > v ? 1 : 0);
+}
+
+// The inclusive range of pixel indices whose centres (i + 0.5) lie in [lo, hi] — widened by one pixel
+// on each side, so that a conservative footprint stays conservative — clamped to [0, n − 1]. The
+// values are clamped before the integer floor, so far-off footprints do not overflow.
+inline void pixel_span(float lo, float hi, int n, int& i0, int& i1) {
+  const float fn = static_cast<float>(n);
+  i0 = std::max(0, floor_int(std::min(std::max(lo - 0.5f, -2.0f), fn + 1)));
+  i1 = std::min(n - 1, floor_int(std::min(std::max(hi - 0.5f, -2.0f), fn + 1)) + 1);
+}
+
+class TileBins {
+public:
+  // Bins item i into every tile its rectangle touches (empty rectangles are left out).
+  TileBins(std::span<const PixelRect> rects, int width, int height);
+
+  // Calls fill(x0, y0, x1, y1, items) for every tile with items, in parallel over tiles; the tile
+  // covers the inclusive pixel rectangle [x0, x1] × [y0, y1].
+  void for_each_tile(const std::function<void(int, int, int, int, std::span<const std::uint32_t>)>& fill) const;
+
+  // The nearest item per pixel: for every tile with items, every pixel of every item's rectangle calls
+  // hit(id, x, y, nearest_so_far) for the item's distance there (infinity: missed), and the tile's
+  // pixels are then handed to store(x, y, t, id) (t infinity, id kNone where nothing was hit). Ties go
+  // to the lower id, so the result is the same for any thread count and bin order.
+  static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+  template <class Hit, class Store>
+  void nearest_per_pixel(std::span<const PixelRect> rects, Hit&& hit, Store&& store) const {
+    for_each_tile([&](int x0, int y0, int x1, int y1, std::span<const std::uint32_t> items) {
+      float depth[kRasterTile * kRasterTile];
+      std::uint32_t ids[kRasterTile * kRasterTile];
+      std::fill(std::begin(depth), std::end(depth), std::numeric_limits<float>::infinity());
+      std::fill(std::begin(ids), std::end(ids), kNone);
+      for (const std::uint32_t id : items) {
+        const PixelRect& r = rects[id];
+        for (int y = std::max(r.y0, y0); y <= std::min(r.y1, y1); ++y)
+          for (int x = std::max(r.x0, x0); x <= std::min(r.x1, x1); ++x) {
+            const int k = (y - y0) * kRasterTile + (x - x0);
+            const float t = hit(id, x, y, depth[k]);
+            if (t < depth[k] || (t == depth[k] && t != std::numeric_limits<float>::infinity() && id < ids[k])) {
+              depth[k] = t;
+              ids[k] = id;
+            }
+          }
+      }
+      for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x) {
+          const int k = (y - y0) * kRasterTile + (x - x0);
+          store(x, y, depth[k], ids[k]);
+        }
+    });
+  }
+
+private:
+  int width_, height_, tiles_x_, tiles_y_;
+  std::vector<std::size_t> offset_;  // tile t holds items_[offset_[t], offset_[t + 1])
+  std::vector<std::uint32_t> items_;
+};
+
+}  // namespace penumbra
