@@ -183,7 +183,7 @@ TEST(Issm, TheMapIsTheSameForAnyThreadCount) {
         ASSERT_EQ(one.texel(i, j), two.texel(i, j)) << i << ", " << j;
         filled += one.texel(i, j) != kNoSphere;
       }
-    EXPECT_GT(filled, 256u * 256u / 4);
+    EXPECT_GT(filled, 256u * 256u / 10);  // the maps hold something to compare
   }
 }
 
