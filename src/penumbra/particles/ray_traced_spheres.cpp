@@ -25,6 +25,22 @@ void lattice(int i, int n, float r1, float r2, float& u1, float& u2) {
   u2 -= std::floor(u2);
 }
 
+// The share of `rays` rays from `origin` that no sphere blocks before tmax; ray i points along
+// frame.to_world(local_direction(u1, u2)) for sample i of a rotated Fibonacci lattice keyed by `key`.
+template <class Direction>
+float unblocked_fraction(const SphereBvh& bvh, const Vec3& key, const Vec3& origin, const Frame& frame, int rays,
+                         float tmax, Direction&& local_direction) {
+  float r1, r2;
+  rotation_of(key, r1, r2);
+  int unblocked = 0;
+  for (int i = 0; i < rays; ++i) {
+    float u1, u2;
+    lattice(i, rays, r1, r2, u1, u2);
+    unblocked += bvh.occluded(Ray{origin, frame.to_world(local_direction(u1, u2))}, 0, tmax) ? 0 : 1;
+  }
+  return static_cast<float>(unblocked) / static_cast<float>(rays);
+}
+
 float scene_epsilon(const Box3& bounds) { return 1e-5f * std::max(1.0f, length(bounds.extent())); }
 
 // Ray origin off a surface: Embree's sphere test loses precision for rays starting on the sphere, so
@@ -63,20 +79,12 @@ void RayTracedSphereShadows::light_fraction(std::span<const SurfacePoint> points
     if (light_.type != LightType::Directional && distance > 0)
       tan_radius = tan_light_radius_ * length(light_.position - scene_center_) / distance;
     const float cos_max = 1.0f / std::sqrt(1.0f + tan_radius * tan_radius);
-    const Frame f = Frame::from_w(to_light);
-    float r1, r2;
-    rotation_of(sp.position, r1, r2);
-    int unblocked = 0;
-    for (int i = 0; i < rays_; ++i) {
-      float u1, u2;
-      lattice(i, rays_, r1, r2, u1, u2);
+    out[k] = unblocked_fraction(*bvh_, sp.position, origin, Frame::from_w(to_light), rays_, tmax, [&](float u1, float u2) {
       const float cos_t = 1.0f - u1 * (1.0f - cos_max);  // uniform over the cone's solid angle
       const float sin_t = std::sqrt(std::max(0.0f, 1.0f - cos_t * cos_t));
       const float phi = 2.0f * kPi * u2;
-      const Vec3 d = f.to_world({sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t});
-      unblocked += bvh_->occluded(Ray{origin, d}, 0, tmax) ? 0 : 1;
-    }
-    out[k] = static_cast<float>(unblocked) / static_cast<float>(rays_);
+      return Vec3{sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t};
+    });
   }
 }
 
@@ -91,21 +99,13 @@ void RayTracedAmbientOcclusion::build(const ParticleScene& scene) {
 void RayTracedAmbientOcclusion::ambient(std::span<const SurfacePoint> points, std::span<float> out) const {
   for (std::size_t k = 0; k < points.size(); ++k) {
     const SurfacePoint& sp = points[k];
-    const Frame f = Frame::from_w(sp.normal);
     const Vec3 origin = ray_origin(sp, *particles_, epsilon_);
-    float r1, r2;
-    rotation_of(sp.position, r1, r2);
-    int unblocked = 0;
-    for (int i = 0; i < rays_; ++i) {
-      float u1, u2;
-      lattice(i, rays_, r1, r2, u1, u2);
+    out[k] = unblocked_fraction(*bvh_, sp.position, origin, Frame::from_w(sp.normal), rays_, max_distance_, [](float u1, float u2) {
       // cosine-weighted hemisphere (Malley): uniform on the disc, lifted
       const float r = std::sqrt(u1);
       const float phi = 2.0f * kPi * u2;
-      const Vec3 d = f.to_world({r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0f, 1.0f - u1))});
-      unblocked += bvh_->occluded(Ray{origin, d}, 0, max_distance_) ? 0 : 1;
-    }
-    out[k] = static_cast<float>(unblocked) / static_cast<float>(rays_);
+      return Vec3{r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0f, 1.0f - u1))};
+    });
   }
 }
 

@@ -55,6 +55,16 @@ PixelRect pixel_rect(const ScreenMapping& m, const Sphere& s) {
   return r;
 }
 
+SphereHits no_hits(const Camera& camera) {
+  SphereHits hits;
+  hits.width = camera.width;
+  hits.height = camera.height;
+  const std::size_t pixels = static_cast<std::size_t>(camera.width) * static_cast<std::size_t>(camera.height);
+  hits.t.assign(pixels, kInfinity);
+  hits.id.assign(pixels, kNoSphere);
+  return hits;
+}
+
 }  // namespace
 
 std::size_t SphereHits::covered() const {
@@ -77,12 +87,7 @@ SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera) {
   parallel_for(particles.size(), [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) rects[i] = pixel_rect(m, particles.spheres[i]);
   }, 4096);
-  SphereHits hits;
-  hits.width = camera.width;
-  hits.height = camera.height;
-  const std::size_t pixels = static_cast<std::size_t>(camera.width) * static_cast<std::size_t>(camera.height);
-  hits.t.assign(pixels, kInfinity);
-  hits.id.assign(pixels, kNoSphere);
+  SphereHits hits = no_hits(camera);
   TileBins(rects, m.width, m.height).nearest_per_pixel(
       rects,
       [&](std::uint32_t id, int x, int y, float nearest) {
@@ -97,12 +102,7 @@ SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera) {
 }
 
 SphereHits trace_spheres(const SphereBvh& bvh, const Camera& camera) {
-  SphereHits hits;
-  hits.width = camera.width;
-  hits.height = camera.height;
-  const std::size_t pixels = static_cast<std::size_t>(camera.width) * static_cast<std::size_t>(camera.height);
-  hits.t.assign(pixels, kInfinity);
-  hits.id.assign(pixels, kNoSphere);
+  SphereHits hits = no_hits(camera);
   const ScreenMapping m(camera);
   parallel_for_tiles(camera.width, camera.height, 16, [&](const Tile& tile) {
     for (int y = tile.y0; y < tile.y1; ++y)

@@ -12,6 +12,35 @@
 
 namespace penumbra {
 
+namespace {
+
+// Rebuilds the structure of every light that differs from the one it was built for (all of them when
+// the number of lights changed); true when any was rebuilt.
+template <class Technique, class Make>
+bool rebuild_changed_lights(std::vector<std::unique_ptr<Technique>>& techniques, std::vector<Light>& built_for,
+                            const std::vector<Light>& lights, Make&& make) {
+  if (techniques.size() != lights.size()) {
+    techniques.clear();
+    built_for.clear();
+  }
+  bool rebuilt = false;
+  for (std::size_t i = 0; i < lights.size(); ++i) {
+    if (i < techniques.size() && built_for[i] == lights[i]) continue;
+    auto technique = make(lights[i]);
+    if (i < techniques.size()) {
+      techniques[i] = std::move(technique);
+      built_for[i] = lights[i];
+    } else {
+      techniques.push_back(std::move(technique));
+      built_for.push_back(lights[i]);
+    }
+    rebuilt = true;
+  }
+  return rebuilt;
+}
+
+}  // namespace
+
 Renderer::Renderer(Scene scene) : scene_(std::move(scene)) {
   Timer timer;
   prepare();
@@ -132,49 +161,21 @@ FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lig
 
 bool Renderer::update_volume_shadows(const std::vector<Light>& lights) {
   if (scene_.has_particles() && !volume_) return false;
-  if (shadows_.size() != lights.size()) {
-    shadows_.clear();
-    built_for_.clear();
-  }
-  bool rebuilt = false;
-  for (std::size_t i = 0; i < lights.size(); ++i) {
-    if (i < shadows_.size() && built_for_[i] == lights[i]) continue;
+  return rebuild_changed_lights(shadows_, built_for_, lights, [&](const Light& light) {
     std::unique_ptr<ShadowTechnique> technique;
     if (scene_.has_particles()) technique = std::make_unique<NoShadows>();
     else technique = make_shadow_technique(scene_.shadows);
-    technique->build(*medium_, lights[i]);
-    if (i < shadows_.size()) {
-      shadows_[i] = std::move(technique);
-      built_for_[i] = lights[i];
-    } else {
-      shadows_.push_back(std::move(technique));
-      built_for_.push_back(lights[i]);
-    }
-    rebuilt = true;
-  }
-  return rebuilt;
+    technique->build(*medium_, light);
+    return technique;
+  });
 }
 
 bool Renderer::update_sphere_shadows(const std::vector<Light>& lights) {
-  if (sphere_shadows_.size() != lights.size()) {
-    sphere_shadows_.clear();
-    sphere_shadows_for_.clear();
-  }
-  bool rebuilt = false;
-  for (std::size_t i = 0; i < lights.size(); ++i) {
-    if (i < sphere_shadows_.size() && sphere_shadows_for_[i] == lights[i]) continue;
+  return rebuild_changed_lights(sphere_shadows_, sphere_shadows_for_, lights, [&](const Light& light) {
     auto technique = make_sphere_shadow_technique(scene_.shadows);
-    technique->build(particle_scene_, lights[i]);
-    if (i < sphere_shadows_.size()) {
-      sphere_shadows_[i] = std::move(technique);
-      sphere_shadows_for_[i] = lights[i];
-    } else {
-      sphere_shadows_.push_back(std::move(technique));
-      sphere_shadows_for_.push_back(lights[i]);
-    }
-    rebuilt = true;
-  }
-  return rebuilt;
+    technique->build(particle_scene_, light);
+    return technique;
+  });
 }
 
 Image Renderer::render_particles(const Camera& camera, const std::vector<Light>& lights, FrameResult& frame) {
