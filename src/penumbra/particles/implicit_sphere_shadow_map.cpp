@@ -58,8 +58,8 @@ void ImplicitSphereShadowMap::build(const ParticleScene& scene, const Light& lig
   map_.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(n), kNoSphere);
   const float world_per_texel = projection_.perspective() ? 0.0f : 1.0f / texels_per_world;
   TileBins(rects, n, n).nearest_per_pixel(
-      rects,
-      [&](std::uint32_t id, int k, int j, float) {
+      rects, [](int, int, int, int) { return 0; },
+      [&](int, std::uint32_t id, int k, int j, float) {
         const Sphere& s = ps.spheres[id];
         if (!projection_.perspective()) {
           // parallel rays: the texel ray at map distance ρ from the centre enters the sphere at

@@ -1,6 +1,8 @@
 #include "penumbra/particles/sphere_hits.h"
 
+#include <array>
 #include <cmath>
+#include <memory>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
@@ -88,10 +90,24 @@ SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera) {
     for (std::size_t i = begin; i < end; ++i) rects[i] = pixel_rect(m, particles.spheres[i]);
   }, 4096);
   SphereHits hits = no_hits(camera);
+  // each tile's primary-ray directions, computed once rather than once per sphere
+  struct TileRays {
+    int x0, y0;
+    std::array<Vec3, kRasterTile * kRasterTile> dir;
+  };
   TileBins(rects, m.width, m.height).nearest_per_pixel(
       rects,
-      [&](std::uint32_t id, int x, int y, float nearest) {
-        return intersect_sphere(Ray{m.eye, m.direction(x, y)}, particles.spheres[id], 0, nearest);
+      [&](int x0, int y0, int x1, int y1) {
+        auto rays = std::make_unique<TileRays>();
+        rays->x0 = x0;
+        rays->y0 = y0;
+        for (int y = y0; y <= y1; ++y)
+          for (int x = x0; x <= x1; ++x) rays->dir[static_cast<std::size_t>((y - y0) * kRasterTile + (x - x0))] = m.direction(x, y);
+        return rays;
+      },
+      [&](const std::unique_ptr<TileRays>& rays, std::uint32_t id, int x, int y, float nearest) {
+        const Vec3& d = rays->dir[static_cast<std::size_t>((y - rays->y0) * kRasterTile + (x - rays->x0))];
+        return intersect_sphere(Ray{m.eye, d}, particles.spheres[id], 0, nearest);
       },
       [&](int x, int y, float t, std::uint32_t id) {
         const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(m.width) + static_cast<std::size_t>(x);

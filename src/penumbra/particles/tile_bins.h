@@ -46,14 +46,16 @@ public:
   // covers the inclusive pixel rectangle [x0, x1] × [y0, y1].
   void for_each_tile(const std::function<void(int, int, int, int, std::span<const std::uint32_t>)>& fill) const;
 
-  // The nearest item per pixel: for every tile with items, every pixel of every item's rectangle calls
-  // hit(id, x, y, nearest_so_far) for the item's distance there (infinity: missed), and the tile's
-  // pixels are then handed to store(x, y, t, id) (t infinity, id kNone where nothing was hit). Ties go
-  // to the lower id, so the result is the same for any thread count and bin order.
+  // The nearest item per pixel: for every tile with items, begin_tile(x0, y0, x1, y1) makes the tile's
+  // state (e.g. its pixels' ray directions), every pixel of every item's rectangle calls
+  // hit(state, id, x, y, nearest_so_far) for the item's distance there (infinity: missed), and the
+  // tile's pixels are then handed to store(x, y, t, id) (t infinity, id kNone where nothing was hit).
+  // Ties go to the lower id, so the result is the same for any thread count and bin order.
   static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
-  template <class Hit, class Store>
-  void nearest_per_pixel(std::span<const PixelRect> rects, Hit&& hit, Store&& store) const {
+  template <class BeginTile, class Hit, class Store>
+  void nearest_per_pixel(std::span<const PixelRect> rects, BeginTile&& begin_tile, Hit&& hit, Store&& store) const {
     for_each_tile([&](int x0, int y0, int x1, int y1, std::span<const std::uint32_t> items) {
+      const auto state = begin_tile(x0, y0, x1, y1);
       float depth[kRasterTile * kRasterTile];
       std::uint32_t ids[kRasterTile * kRasterTile];
       std::fill(std::begin(depth), std::end(depth), std::numeric_limits<float>::infinity());
@@ -63,7 +65,7 @@ public:
         for (int y = std::max(r.y0, y0); y <= std::min(r.y1, y1); ++y)
           for (int x = std::max(r.x0, x0); x <= std::min(r.x1, x1); ++x) {
             const int k = (y - y0) * kRasterTile + (x - x0);
-            const float t = hit(id, x, y, depth[k]);
+            const float t = hit(state, id, x, y, depth[k]);
             if (t < depth[k] || (t == depth[k] && t != std::numeric_limits<float>::infinity() && id < ids[k])) {
               depth[k] = t;
               ids[k] = id;
