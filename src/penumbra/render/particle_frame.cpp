@@ -86,8 +86,8 @@ ParticleFrame shade_particle_frame(const ParticleFrameInputs& in, const VisibleS
       const auto pts = std::span<const SurfacePoint>(vs.points.data() + b0, n);
       std::array<Rgb, kBatch> lit;
       if (in.ambient) in.ambient->ambient(pts, std::span<float>(ao.data(), n));
-      for (std::size_t i = 0; i < n; ++i)
-        lit[i] = vs.albedo[b0 + i] * (k.ambient * (in.ambient ? ao[i] : 1.0f));
+      else std::fill(ao.begin(), ao.begin() + static_cast<std::ptrdiff_t>(n), 1.0f);
+      for (std::size_t i = 0; i < n; ++i) lit[i] = vs.albedo[b0 + i] * (k.ambient * ao[i]);
       for (std::size_t l = 0; l < in.lights.size(); ++l) {
         in.shadows[l]->light_fraction(pts, std::span<float>(fraction.data(), n));
         const Light& light = in.lights[l];
@@ -106,7 +106,7 @@ ParticleFrame shade_particle_frame(const ParticleFrameInputs& in, const VisibleS
             const float ndoth = dot(p.normal, normalize(to_light + view));
             if (ndoth > specular_cutoff) spec = std::pow(ndoth, k.shininess);
           }
-          lit[i] += light.emitted(to_light) * fraction[i] * (vs.albedo[b0 + i] * (k.diffuse * ndotl) + Rgb(k.specular * spec));
+          lit[i] += light.emitted(to_light) * fraction[i] * (vs.albedo[b0 + i] * (k.diffuse * ndotl * ao[i]) + Rgb(k.specular * spec));
         }
       }
       for (std::size_t i = 0; i < n; ++i) {

@@ -2,8 +2,9 @@
 // a plane becomes a SurfacePoint; the points are shaded in batches with Blinn–Phong under every light,
 // each light's direct term scaled by its SphereShadowTechnique's light fraction (paper 003 §3.2 end:
 // fully shadowed points keep only the ambient term, partly shadowed ones a weighted diffuse and
-// specular), and the ambient term by the particle ambient technique. Planes are Lambertian receivers
-// of the same shadows. The result carries each pixel's distance to its opaque surface so that a volume
+// specular), and the ambient and diffuse terms by the particle ambient technique (so that AO shows in
+// lit regions too: the paper's §4 adds it "in completely unshadowed ones"). Planes are Lambertian
+// receivers of the same shadows. The result carries each pixel's distance to its opaque surface so that a volume
 // can be composited in front of it (render_volume_frame's OpaqueLayer).
 #pragma once
 
