@@ -26,6 +26,7 @@
 #include "penumbra/particles/sphere_hits.h"
 #include "penumbra/render/particle_frame.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/scene/demo_scenes.h"
 #include "penumbra/scene/scene_file.h"
 
 namespace penumbra::cli {
@@ -87,18 +88,14 @@ std::size_t proc_status_kib(const char* key) {
   return 0;
 }
 
-// The scene of paper 003's figures (scenes/1tii.json) for one particle file.
+// The scene of paper 003's figures (scenes/1tii.json) for one particle file: the demo's molecule scene,
+// framed as the scene files frame it (no zoom).
 nlohmann::json particle_scene_json(const std::string& file, int assembly, int width, int height) {
-  nlohmann::json particle = {{"file", file}, {"color_by", "chain"}};
-  if (assembly) particle["assembly"] = assembly;
-  nlohmann::json j = nlohmann::json::object();
-  j["particles"] = nlohmann::json::array({particle});
-  j["lights"] = nlohmann::json::array({nlohmann::json{{"type", "directional"}, {"direction", {-0.45, -0.8, -0.4}}}});
-  j["camera"] = {{"direction", {0.2, 0.3, 1.0}}, {"fov_deg", 30}, {"width", width}, {"height", height}};
-  j["shadows"] = {{"technique", "issm"}, {"resolution", 512}, {"rings", 1}};
-  j["ambient"] = {{"technique", "particle_ao"}, {"directions", 16}, {"max_distance", 0.7}};
-  j["shading"] = {{"ambient", 0.35}, {"diffuse", 0.75}, {"specular", 0.3}, {"shininess", 40}};
-  j["background"] = {1, 1, 1};
+  nlohmann::json j = molecule_scene(file);
+  if (assembly) j["particles"][0]["assembly"] = assembly;
+  j["camera"].erase("zoom");
+  j["camera"]["width"] = width;
+  j["camera"]["height"] = height;
   return j;
 }
 
