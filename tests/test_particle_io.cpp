@@ -626,3 +626,55 @@ TEST(ParticleIoErrors, FuzzMutatedFiles) {
   EXPECT_GT(loaded, 0);
   EXPECT_GT(rejected, 0);
 }
+
+TEST(ParticleIoFiles, ScalarColoringMapsTheValueRangeThroughTheColourMap) {
+  TempDir dir;
+  const std::string pdb = dir.file("small.pdb");
+  write_file(pdb, small_pdb());
+  // a two-point map from black to white over [lo, hi]: the colour is the normalised value
+  ParticleLoadOptions o;
+  o.coloring = ParticleColoring::Scalar;
+  o.scalar = ParticleScalar::Index;
+  float seen_lo = -1, seen_hi = -1;
+  o.color_map = [&](float lo, float hi) {
+    seen_lo = lo;
+    seen_hi = hi;
+    return TransferFunction({{lo, Rgb(0.0f), 1}, {hi, Rgb(1.0f), 1}});
+  };
+  ParticleFileInfo info;
+  const ParticleSet set = load(pdb, o, &info);
+  ASSERT_EQ(set.size(), 5u);
+  EXPECT_EQ(seen_lo, 0.0f);
+  EXPECT_EQ(seen_hi, 4.0f);
+  EXPECT_EQ(info.scalar_max, 4.0f);
+  for (std::size_t i = 0; i < 5; ++i)
+    EXPECT_EQ(set.colors[i], pack_rgba8(Rgb(static_cast<float>(i) / 4.0f))) << i;
+  // the B-factor of a PDB file; its range is that of the atoms kept
+  o.scalar = ParticleScalar::BFactor;
+  load(pdb, o, &info);
+  EXPECT_LE(info.scalar_min, info.scalar_max);
+  // formats without B-factors say so; the index works everywhere
+  const std::string xyz = dir.file("small.xyz");
+  write_file(xyz, small_xyz());
+  EXPECT_PARTICLE_ERROR(xyz, o, "B-factors", "index");
+  o.scalar = ParticleScalar::Index;
+  EXPECT_EQ(load(xyz, o).size(), 6u);
+}
+
+TEST(ParticleIoData, BFactorColoringOf1tii) {
+  SKIP_WITHOUT_SHARED_DATA("1tii.pdb");
+  ParticleLoadOptions o;
+  o.coloring = ParticleColoring::Scalar;
+  ParticleFileInfo info;
+  const ParticleSet set = load(kData + "/1tii.pdb", o, &info);
+  EXPECT_GT(info.scalar_max, info.scalar_min + 10.0f);  // B-factors spread over tens of Å²
+  // the default map runs from blue (low) to red (high): both ends occur
+  bool blue = false, red = false;
+  for (std::uint32_t c : set.colors) {
+    const Rgb rgb = unpack_rgb8(c);
+    blue |= rgb.b > 0.4f && rgb.r < 0.1f;
+    red |= rgb.r > 0.4f && rgb.b < 0.05f;
+  }
+  EXPECT_TRUE(blue);
+  EXPECT_TRUE(red);
+}

@@ -164,6 +164,19 @@ ParticleObject read_particles(const nlohmann::json& j, const std::string& path, 
     o.uniform_color = r.color("color", o.uniform_color);
     if (r.has("color") && o.coloring != ParticleColoring::Uniform)
       r.fail("color", "is used only with \"color_by\": \"uniform\"");
+    if (o.coloring == ParticleColoring::Scalar) {
+      o.scalar = with_context(r.key_path("scalar"), [&] { return particle_scalar_from_string(r.string("scalar", "b_factor")); });
+      if (r.has("color_map")) {
+        const nlohmann::json spec = r.raw("color_map");
+        const std::string where = r.key_path("color_map");
+        o.color_map = [spec, where, base_dir](float lo, float hi) {
+          return with_context(where, [&] { return parse_transfer_function(spec, lo, hi, base_dir); });
+        };
+      }
+    } else {
+      for (const char* key : {"scalar", "color_map"})
+        if (r.has(key)) r.fail(key, "is used only with \"color_by\": \"scalar\"");
+    }
     o.radius_scale = r.number("radius_scale", o.radius_scale, 0.01f, 100);
     o.hydrogens = r.boolean("hydrogens", o.hydrogens);
     p.set = std::make_shared<ParticleSet>(with_context(r.key_path("file"), [&] { return load_particles(file, o); }));

@@ -179,6 +179,8 @@ PackedMolecule pack(const gemmi::Structure& st, MoleculeFormat format) {
           throw Error("atom " + std::to_string(atom.serial) + " (" + atom.name + " of " + res.name + " " +
                       res.seqid.str() + ", chain " + chain.name + "): coordinates are not finite numbers");
         m.positions.push_back(p);
+        m.b_factors.push_back(atom.b_iso);
+        m.occupancies.push_back(atom.occ);
         m.elements.push_back(static_cast<std::uint8_t>(element_from_symbol(atom.element.name())));
         m.chains.push_back(c);
         m.units.push_back(u);

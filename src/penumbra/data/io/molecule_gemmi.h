@@ -38,6 +38,8 @@ struct PackedMolecule {
   std::vector<std::uint32_t> chains;          // index into chain_names
   std::vector<std::uint32_t> units;           // index into unit_names (what assembly generators select)
   std::vector<ResidueColorKey> residue_keys;  // residue_color_key of the residue name
+  std::vector<float> b_factors;               // PDB/mmCIF B-factor (Å²); empty for formats without one
+  std::vector<float> occupancies;             // PDB/mmCIF occupancy; empty for formats without one
   std::vector<std::string> chain_names;       // author chain ids in order of first appearance
   std::vector<std::string> unit_names;        // PDB: = chain_names; mmCIF: label_asym_ids
   std::vector<MoleculeAssembly> assemblies;   // in file order
@@ -49,6 +51,8 @@ struct PackedMolecule {
     chains.reserve(n);
     units.reserve(n);
     residue_keys.reserve(n);
+    b_factors.reserve(n);
+    occupancies.reserve(n);
   }
 };
 

@@ -327,8 +327,30 @@ void reserve_huge(std::vector<T>& v, std::size_t n) {
 #endif
 }
 
+// The per-atom values of ParticleColoring::Scalar, or Error when the format has none.
+const std::vector<float>& scalar_values(const PackedMolecule& m, ParticleScalar which, std::vector<float>& index) {
+  if (which == ParticleScalar::Index) {
+    index.resize(m.size());
+    for (std::size_t i = 0; i < m.size(); ++i) index[i] = static_cast<float>(i);
+    return index;
+  }
+  const std::vector<float>& v = which == ParticleScalar::BFactor ? m.b_factors : m.occupancies;
+  if (v.size() != m.size())
+    throw Error(std::string("color_by scalar: the file has no ") + (which == ParticleScalar::BFactor ? "B-factors" : "occupancies") +
+                " (only PDB and mmCIF do; \"index\" works for every format)");
+  return v;
+}
+
+// ParaView's default diverging map, "Cool to Warm" (Moreland 2009), over the data range.
+TransferFunction cool_to_warm(float lo, float hi) {
+  auto c = [](float r, float g, float b) { return Rgb{srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b)}; };
+  return TransferFunction({{lo, c(0.230f, 0.299f, 0.754f), 1}, {0.5f * (lo + hi), c(0.865f, 0.865f, 0.865f), 1},
+                           {hi, c(0.706f, 0.016f, 0.150f), 1}});
+}
+
 std::uint32_t color_of(const PackedMolecule& m, std::size_t i, const ParticleLoadOptions& o) {
   switch (o.coloring) {
+    case ParticleColoring::Scalar: break;  // coloured by build_particles, which knows the range
     case ParticleColoring::Element: return pack_rgba8(element_color(m.elements[i]));
     case ParticleColoring::Chain: return pack_rgba8(chain_color(m.chains[i]));
     case ParticleColoring::Residue: return pack_rgba8(residue_color(m.residue_keys[i]));
@@ -428,6 +450,20 @@ ParticleSet build_particles(const PackedMolecule& m, const ParticleLoadOptions& 
     base.spheres[k] = Sphere{m.positions[i], element_vdw_radius(m.elements[i]) * o.radius_scale};
     base.colors[k] = color_of(m, i, o);
   }
+  if (o.coloring == ParticleColoring::Scalar) {
+    std::vector<float> index;
+    const std::vector<float>& v = scalar_values(m, o.scalar, index);
+    float lo = kInfinity, hi = -kInfinity;
+    for (const std::uint32_t i : kept) {
+      lo = std::min(lo, v[i]);
+      hi = std::max(hi, v[i]);
+    }
+    if (!(std::isfinite(lo) && std::isfinite(hi))) throw Error("color_by scalar: the values are not finite numbers");
+    info.scalar_min = lo;
+    info.scalar_max = hi;
+    const TransferFunction map = o.color_map ? o.color_map(lo, hi) : cool_to_warm(lo, hi);
+    for (std::size_t k = 0; k < kept.size(); ++k) base.colors[k] = pack_rgba8(map.evaluate(v[kept[k]]).rgb);
+  }
   if (o.assembly == 0) return base;
   return expand_assembly(m, kept, base, o.assembly, info.operators);
 }
@@ -476,15 +512,23 @@ std::string to_string(ParticleColoring c) {
     case ParticleColoring::Chain: return "chain";
     case ParticleColoring::Residue: return "residue";
     case ParticleColoring::Uniform: return "uniform";
+    case ParticleColoring::Scalar: return "scalar";
   }
   return "element";
 }
 
 ParticleColoring particle_coloring_from_string(const std::string& s) {
   for (ParticleColoring c : {ParticleColoring::Element, ParticleColoring::Chain, ParticleColoring::Residue,
-                             ParticleColoring::Uniform})
+                             ParticleColoring::Uniform, ParticleColoring::Scalar})
     if (s == to_string(c)) return c;
-  throw Error("unknown particle coloring '" + s + "' (expected element, chain, residue or uniform)");
+  throw Error("unknown particle coloring '" + s + "' (expected element, chain, residue, uniform or scalar)");
+}
+
+ParticleScalar particle_scalar_from_string(const std::string& s) {
+  if (s == "b_factor") return ParticleScalar::BFactor;
+  if (s == "occupancy") return ParticleScalar::Occupancy;
+  if (s == "index") return ParticleScalar::Index;
+  throw Error("unknown particle scalar '" + s + "' (expected b_factor, occupancy or index)");
 }
 
 }  // namespace penumbra

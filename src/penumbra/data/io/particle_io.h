@@ -5,14 +5,20 @@
 // to the packed coordinates of the chains they name. World units are ångström.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "penumbra/data/particles.h"
+#include "penumbra/data/transfer_function.h"
 
 namespace penumbra {
 
-enum class ParticleColoring { Element, Chain, Residue, Uniform };
+enum class ParticleColoring { Element, Chain, Residue, Uniform, Scalar };
+
+// The per-atom value `ParticleColoring::Scalar` maps through a colour map: the B-factor or occupancy
+// of PDB/mmCIF atoms, or the atom's index in the file (any format; a rainbow along the chain).
+enum class ParticleScalar { BFactor, Occupancy, Index };
 
 struct ParticleLoadOptions {
   int assembly = 0;                   // 0: the deposited coordinates; n ≥ 1: biological assembly n
@@ -20,6 +26,10 @@ struct ParticleLoadOptions {
   Rgb uniform_color{0.8f, 0.8f, 0.8f};  // for ParticleColoring::Uniform
   float radius_scale = 1;             // multiplies the van der Waals radius
   bool hydrogens = true;              // false drops H and D atoms
+  ParticleScalar scalar = ParticleScalar::BFactor;  // for ParticleColoring::Scalar
+  // The colour map of ParticleColoring::Scalar, made for the value range [lo, hi] of the atoms kept
+  // (a transfer function's colour is used, its opacity ignored); null: ParaView's "Cool to Warm".
+  std::function<TransferFunction(float lo, float hi)> color_map;
 };
 
 // What a load produced besides the spheres, for `penumbra info` and --stats.
@@ -28,6 +38,7 @@ struct ParticleFileInfo {
   std::size_t atoms_in_file = 0;  // atoms of the model read (before the assembly)
   int operators = 0;            // assembly operators applied (0: none)
   std::size_t unknown_elements = 0;  // atoms whose element was not recognised (drawn as carbon-sized grey)
+  float scalar_min = 0, scalar_max = 0;  // the range ParticleColoring::Scalar mapped
 };
 
 // Throws Error naming the file (and line where there is one) on unreadable or malformed input.
@@ -38,6 +49,7 @@ ParticleSet load_particles(const std::string& path, const ParticleLoadOptions& o
 std::string particle_file_format(const std::string& path);
 
 std::string to_string(ParticleColoring c);
+ParticleScalar particle_scalar_from_string(const std::string& s);  // Error listing the names
 ParticleColoring particle_coloring_from_string(const std::string& s);  // Error listing the names
 
 }  // namespace penumbra
