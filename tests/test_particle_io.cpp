@@ -300,13 +300,13 @@ TEST(ParticleElements, SymbolsRadiiAndColours) {
 
 TEST(ParticleElements, ColoringNames) {
   for (ParticleColoring c : {ParticleColoring::Element, ParticleColoring::Chain, ParticleColoring::Residue,
-                             ParticleColoring::Uniform})
+                             ParticleColoring::Uniform, ParticleColoring::Scalar})
     EXPECT_EQ(particle_coloring_from_string(to_string(c)), c);
   try {
     particle_coloring_from_string("rainbow");
     ADD_FAILURE() << "no error";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("element, chain, residue or uniform"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("element, chain, residue, uniform or scalar"), std::string::npos) << e.what();
   }
 }
 
