@@ -45,4 +45,9 @@ L='lights=[{"type": "point", "position": [1.2, 1.6, 0.4], "intensity": 0.6}, {"t
 $B render $F -o "$tmp/persp.png" "${G[@]}" --set "$L"
 $B render $F -o "$tmp/persp_rt.png" "${G[@]}" --set "$L" --set shadows.technique=ray_traced
 $B montage "$out/issm_point_spot.png" "$tmp/persp.png" "$tmp/persp_rt.png"
+# Colour by a per-atom scalar: 1AON by B-factor (Cool to Warm) | by atom index (grayscale), ISSM + AO
+$B render $A -o "$tmp/bfactor.png" "${W[@]}" --set particles.0.color_by=scalar
+$B render $A -o "$tmp/index.png" "${W[@]}" --set particles.0.color_by=scalar --set particles.0.scalar=index \
+  --set 'particles.0.color_map={"preset": "grayscale"}'
+$B montage "$out/particles_scalar.png" "$tmp/bfactor.png" "$tmp/index.png"
 echo "particle figures written to $out"
