@@ -367,3 +367,52 @@ TEST(ParticleAo, AgreesWithMonteCarloAmbientOcclusionOnASmallCluster) {
 
 }  // namespace
 }  // namespace penumbra
+
+namespace penumbra {
+namespace {
+
+// A sphere in front of a translucent slab volume and one behind it, seen along -z.
+Image composite_frame(bool with_volume) {
+  nlohmann::json j = nlohmann::json::parse(R"({
+    "particles": [ { "procedural": { "name": "random-spheres", "count": 1, "radius": 0.001, "seed": 1 } } ],
+    "camera": { "eye": [0, 0, 3], "target": [0, 0, 0], "fov_deg": 40, "width": 48, "height": 48 },
+    "lights": [ { "type": "directional", "direction": [0, 0, -1] } ],
+    "shadows": { "technique": "none" },
+    "background": [0, 0, 0]
+  })");
+  j["particles"][0]["origin"] = {-0.2, 0.0, 0.9};  // in front of the slab (the slab spans z in [-0.5, 0.5])
+  j["particles"].push_back({{"procedural", {{"name", "random-spheres"}, {"count", 1}, {"radius", 0.001}, {"seed", 2}}}, {"origin", {0.2, 0.0, -0.9}}});
+  if (with_volume)
+    j["volumes"] = nlohmann::json::array({{{"procedural", {{"name", "slab"}, {"size", 16}, {"thickness", 2.0}}},
+                                           {"transfer_function", test::constant_tf(0.05, 1, 1, 1)}, {"step", 0.5}}});
+  Scene s = build_scene(j, "");
+  // make the two spheres large enough to cover pixels
+  auto set = std::make_shared<ParticleSet>();
+  for (const auto& p : s.particles) {
+    set->spheres.push_back({p.set->spheres[0].center, 0.15f});
+    set->colors.push_back(pack_rgba8(Rgb(0.9f, 0.2f, 0.2f)));
+  }
+  s.particles = {ParticleObject{set, "test"}};
+  return Renderer(s).render().image;
+}
+
+TEST(ParticleScene, VolumesAreCompositedByDepthWithTheSpheres) {
+  const Image spheres = composite_frame(false);
+  const Image both = composite_frame(true);
+  // pixel columns of the front (x < 0) and back (x > 0) sphere, on the middle row
+  const int y = 24;
+  int front_x = -1, back_x = -1;
+  for (int x = 0; x < 48; ++x) {
+    if (spheres.at(x, y).r > 0.05f) (x < 24 ? front_x : back_x) = x;
+  }
+  ASSERT_GE(front_x, 0);
+  ASSERT_GE(back_x, 0);
+  // the sphere in front of the slab is untouched by it; the one behind is seen through the slab
+  const Rgb f0 = spheres.at(front_x, y), f1 = both.at(front_x, y);
+  EXPECT_NEAR(f0.r, f1.r, 1e-6f);
+  const Rgb b0 = spheres.at(back_x, y), b1 = both.at(back_x, y);
+  EXPECT_GT(std::abs(b0.r - b1.r) + std::abs(b0.g - b1.g), 0.02f);
+}
+
+}  // namespace
+}  // namespace penumbra
