@@ -338,6 +338,21 @@ TEST(ParticleAo, AFloorOutsideTheDensityGridIsOccludedByTheClusterAboveIt) {
   EXPECT_EQ(a[2], 1.0f);
 }
 
+TEST(ParticleAo, AFloorsOcclusionHasNoEdgeWhereItLeavesTheGridsFootprint) {
+  const SphereWorld w(random_spheres(3000, 0.025f, 3));
+  ParticleAmbientOcclusion ao(AmbientSettings{});
+  ao.build(w.view);
+  // floor points on a line from under the cluster to well outside its box (which ends near x = 0.54)
+  std::vector<SurfacePoint> pts;
+  for (int i = 0; i <= 120; ++i) pts.push_back({{0.2f + 0.006f * static_cast<float>(i), -0.6f, 0.1f}, {0, 1, 0}, kNoSphere});
+  std::vector<float> a(pts.size());
+  ao.ambient(pts, a);
+  float largest_step = 0;
+  for (std::size_t i = 1; i < a.size(); ++i) largest_step = std::max(largest_step, std::abs(a[i] - a[i - 1]));
+  EXPECT_LT(largest_step, 0.02f);
+  EXPECT_LT(a.front(), a.back());  // darker under the cluster than beside it
+}
+
 TEST(ParticleAo, AgreesWithMonteCarloAmbientOcclusionOnASmallCluster) {
   const SphereWorld w(random_spheres(800, 0.05f, 9));
   const auto pts = frame_points(w, looking_at(w.view.bounds, 64));

@@ -149,7 +149,10 @@ void ParticleAmbientOcclusion::build(const ParticleScene& scene) {
     const float lod = std::min(std::log2(diameter / cell), static_cast<float>(top));
     const int l0 = static_cast<int>(lod);
     const float step = 0.5f * diameter;
-    steps_.push_back({d, l0, l0 < top ? lod - static_cast<float>(l0) : 0.0f});
+    const float blend = l0 < top ? lod - static_cast<float>(l0) : 0.0f;
+    // a coarse level's trilinear footprint reaches one of its cells past the fine grid's box
+    const float reach = pyramid_[static_cast<std::size_t>(blend > 0 ? l0 + 1 : l0)].cell;
+    steps_.push_back({d, l0, blend, reach});
     d += step;
   }
   // The per-sphere cone cache: one byte per cone and a bit mask of the cones traced, kept across
@@ -190,11 +193,18 @@ float ParticleAmbientOcclusion::density(int level, const Vec3& p) const {
 float ParticleAmbientOcclusion::occlusion(const Vec3& origin, const Vec3& dir, float skip) const {
   float alpha = 0;
   bool entered = false;
+  const bool from_outside = !grid_box_.contains(origin);
   for (const ConeStep& st : steps_) {
     if (st.distance < skip) continue;
     const Vec3 p = origin + dir * st.distance;
-    if (!grid_box_.contains(p)) {
-      if (entered) break;  // the box is convex: a cone that left it does not come back
+    // A receiver outside the grid (a floor) counts the coarse levels' density as far as it reaches
+    // past the box, so that its AO does not jump where its cones start to meet the box; a receiver
+    // inside stops at the box (beyond it is only blur of what is inside). The reach only grows along
+    // the march, so a cone that left the (convex) box does not come back.
+    const float reach = from_outside ? st.reach : 0.0f;
+    const Vec3 r{reach, reach, reach};
+    if (!Box3{grid_box_.lo - r, grid_box_.hi + r}.contains(p)) {
+      if (entered) break;
       continue;            // a receiver outside the box (a floor): march until the cone enters it
     }
     entered = true;

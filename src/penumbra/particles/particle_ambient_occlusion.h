@@ -65,6 +65,7 @@ private:
     float distance;  // from the cone's apex
     int level;       // pyramid level sampled
     float blend;     // weight of level + 1
+    float reach;     // how far past the fine grid's box the levels sampled hold density
   };
   std::vector<ConeStep> steps_;
   Box3 grid_box_;
