@@ -7,6 +7,8 @@
 #include <cctype>
 #include <string>
 
+#include "penumbra/data/io/text_fields.h"
+
 namespace penumbra {
 
 namespace {
@@ -154,13 +156,7 @@ const std::array<Rgb, kMaxElement + 1>& element_colors() {
   return colors;
 }
 
-std::string upper_trimmed(std::string_view s) {
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
-  std::string out(s);
-  for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  return out;
-}
+std::string upper_trimmed(std::string_view s) { return io_detail::upper(io_detail::trim(s)); }
 
 }  // namespace
 

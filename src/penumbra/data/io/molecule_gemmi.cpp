@@ -7,13 +7,13 @@
 #include "penumbra/data/io/molecule_gemmi.h"
 
 #include <cctype>
-#include <charconv>
 #include <cmath>
 #include <exception>
 #include <string>
 #include <unordered_map>
 
 #include "penumbra/core/error.h"
+#include "penumbra/data/io/text_fields.h"
 
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wconversion"
@@ -39,31 +39,16 @@ bool starts_with_ci(std::string_view line, std::string_view prefix) {
 
 // A PDB coordinate field (8 columns, wwPDB format 3.3 "Real(8.3)"): blanks around one finite number.
 void check_pdb_coordinate(std::string_view field, const char* axis, int first_column, std::size_t line_no) {
-  std::string_view s = field;
-  while (!s.empty() && s.front() == ' ') s.remove_prefix(1);
-  while (!s.empty() && s.back() == ' ') s.remove_suffix(1);
   const std::string where = "line " + std::to_string(line_no) + ": " + axis + " coordinate (columns " +
                             std::to_string(first_column) + "-" + std::to_string(first_column + 7) + ")";
-  if (s.empty()) throw Error(where + " is blank");
-  if (s.front() == '+') s.remove_prefix(1);
+  if (trim(field).empty()) throw Error(where + " is blank");
   double v = 0;
-  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
-  if (ec != std::errc() || end != s.data() + s.size())
-    throw Error(where + " '" + std::string(field) + "' is not a number");
-  if (!std::isfinite(v)) throw Error(where + " '" + std::string(field) + "' is not a finite number");
+  if (!parse_number(field, v)) throw Error(where + " '" + printable(field) + "' is not a number");
+  if (!std::isfinite(v)) throw Error(where + " '" + printable(field) + "' is not a finite number");
 }
 
-std::vector<std::string_view> tokens(std::string_view s) {
-  std::vector<std::string_view> out;
-  std::size_t i = 0;
-  while (i < s.size()) {
-    while (i < s.size() && (s[i] == ' ' || s[i] == '\t' || s[i] == ',')) ++i;
-    const std::size_t b = i;
-    while (i < s.size() && s[i] != ' ' && s[i] != '\t' && s[i] != ',') ++i;
-    if (i > b) out.push_back(s.substr(b, i - b));
-  }
-  return out;
-}
+// The blank- or comma-separated fields of a REMARK 350 record.
+std::vector<std::string_view> tokens(std::string_view s) { return split_fields(s, " \t,"); }
 
 // One REMARK 350 record (the text after "REMARK 350"), added to `assemblies`. BIOMT rows are read as
 // blank-separated fields rather than by the fixed columns of the format, which files with more than 999
@@ -93,11 +78,8 @@ void read_remark_350(std::string_view rest, std::size_t line_no, std::vector<Mol
     const auto t = tokens(rest.substr(6));
     if (t.size() < 5) fail("BIOMT" + std::to_string(row + 1) + " record: expected the operator number and four numbers");
     for (int c = 0; c < 4; ++c) {
-      std::string_view f = t[static_cast<std::size_t>(1 + c)];
-      if (!f.empty() && f.front() == '+') f.remove_prefix(1);
       double v = 0;
-      const auto [end, ec] = std::from_chars(f.data(), f.data() + f.size(), v);
-      if (ec != std::errc() || end != f.data() + f.size() || !std::isfinite(v))
+      if (!parse_number(t[static_cast<std::size_t>(1 + c)], v) || !std::isfinite(v))
         fail("BIOMT" + std::to_string(row + 1) + " record: '" + std::string(t[static_cast<std::size_t>(1 + c)]) +
              "' is not a finite number");
       pending[static_cast<std::size_t>(4 * row + c)] = v;
@@ -115,15 +97,10 @@ void read_remark_350(std::string_view rest, std::size_t line_no, std::vector<Mol
 std::vector<MoleculeAssembly> scan_pdb(std::string_view text) {
   std::vector<MoleculeAssembly> assemblies;
   AssemblyOperator pending{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
-  std::size_t line_no = 0;
-  std::size_t pos = 0;
-  while (pos < text.size()) {
-    std::size_t eol = text.find('\n', pos);
-    if (eol == std::string_view::npos) eol = text.size();
-    std::string_view line = text.substr(pos, eol - pos);
-    pos = eol + 1;
-    ++line_no;
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  LineReader lines(text);
+  std::string_view line;
+  while (lines.next(line)) {
+    const std::size_t line_no = lines.line_no();
     if (starts_with_ci(line, "END") && (line.size() == 3 || line[3] == ' ')) break;
     if (line.substr(0, 10) == "REMARK 350") {
       read_remark_350(line.substr(10), line_no, assemblies, pending);

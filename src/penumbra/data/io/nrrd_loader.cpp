@@ -22,6 +22,7 @@
 #include <zlib.h>
 
 #include "penumbra/data/io/file_checks.h"
+#include "penumbra/data/io/text_fields.h"
 #include "penumbra/data/io/volume_io.h"
 
 namespace penumbra {
@@ -29,6 +30,9 @@ namespace penumbra {
 namespace {
 
 using io_detail::bytes_str;
+using io_detail::printable;
+using io_detail::split_fields;
+using io_detail::trim;
 
 // teem keeps errors (biff) and settings in globals, so calls into it are serialised.
 std::mutex teem_mutex;
@@ -50,20 +54,7 @@ struct NrrdHeader {
   bool complete = false;         // saw the blank line that ends an attached header
 };
 
-std::string_view trim(std::string_view s) {
-  const auto b = s.find_first_not_of(" \t\r");
-  if (b == std::string_view::npos) return {};
-  return s.substr(b, s.find_last_not_of(" \t\r") - b + 1);
-}
-
 // Header text quoted in an Error: control and non-ASCII bytes (garbage files have plenty) become '?'.
-std::string printable(std::string_view s, std::size_t max_chars = 200) {
-  std::string out(s.substr(0, max_chars));
-  for (auto& ch : out)
-    if (static_cast<unsigned char>(ch) < 0x20 || static_cast<unsigned char>(ch) > 0x7e) ch = '?';
-  return out;
-}
-
 // Whole-token integer parse; anything teem might read differently (signs, hex, trailing junk) fails.
 std::optional<std::int64_t> parse_int(std::string_view s, bool allow_negative) {
   if (s.empty() || s.size() > 18) return std::nullopt;
@@ -77,18 +68,6 @@ std::optional<std::int64_t> parse_int(std::string_view s, bool allow_negative) {
     v = v * 10 + (s[i] - '0');
   }
   return negative ? -v : v;
-}
-
-std::vector<std::string_view> split_ws(std::string_view s) {
-  std::vector<std::string_view> out;
-  std::size_t i = 0;
-  while (i < s.size()) {
-    while (i < s.size() && (s[i] == ' ' || s[i] == '\t')) ++i;
-    const std::size_t b = i;
-    while (i < s.size() && s[i] != ' ' && s[i] != '\t') ++i;
-    if (i > b) out.push_back(s.substr(b, i - b));
-  }
-  return out;
 }
 
 NrrdHeader parse_header(const std::string& path, std::uint64_t file_bytes) {
@@ -139,7 +118,7 @@ NrrdHeader parse_header(const std::string& path, std::uint64_t file_bytes) {
         break;
       }
       case nrrdField_sizes:
-        for (const auto token : split_ws(value)) {
+        for (const auto token : split_fields(value)) {
           const auto v = parse_int(token, true);
           if (!v) throw Error("NRRD sizes '" + printable(value) + "' are not whole numbers (or absurdly large)");
           h.sizes.push_back(*v);

@@ -37,43 +37,29 @@
 #include "penumbra/data/elements.h"
 #include "penumbra/data/io/file_checks.h"
 #include "penumbra/data/io/molecule_gemmi.h"
+#include "penumbra/data/io/text_fields.h"
 
 namespace penumbra {
 
 namespace {
 
 using io_detail::AssemblyOperator;
+using io_detail::LineReader;
 using io_detail::PackedMolecule;
+using io_detail::ends_with_ci;
+using io_detail::parse_number;
+using io_detail::printable;
+using io_detail::split_fields;
+using io_detail::trim;
+using io_detail::upper;
 
 // A file inflated past this is refused rather than exhausting memory (a deflate bomb, or a mistake).
 constexpr std::uint64_t kMaxTextBytes = 4ull << 30;
 // More spheres than this (16 bytes each, plus colours) is refused before anything is allocated.
 constexpr std::uint64_t kMaxSpheres = 1ull << 30;
 
-std::string lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-bool ends_with(const std::string& s, std::string_view suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
-  return s;
-}
-std::string upper(std::string_view s) {
-  std::string out(s);
-  for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  return out;
-}
 // For messages: the text as found, cut short and with control bytes shown as '?'.
-std::string quoted(std::string_view s) {
-  std::string out(s.substr(0, 60));
-  for (char& c : out)
-    if (!std::isprint(static_cast<unsigned char>(c))) c = '?';
-  return "'" + out + (s.size() > 60 ? "…'" : "'");
-}
+std::string quoted(std::string_view s) { return "'" + printable(s, 60) + (s.size() > 60 ? "…'" : "'"); }
 
 // ------------------------------------------------------------------------------------------ reading
 
@@ -124,40 +110,9 @@ std::string read_gzip(const std::string& path, std::uint64_t size) {
 
 // ------------------------------------------------------------------------------------- text helpers
 
-class LineReader {
-public:
-  explicit LineReader(std::string_view text) : text_(text) {}
-  // The next line without its line break; false at the end of the text.
-  bool next(std::string_view& line) {
-    if (pos_ >= text_.size()) return false;
-    std::size_t eol = text_.find('\n', pos_);
-    if (eol == std::string_view::npos) eol = text_.size();
-    line = text_.substr(pos_, eol - pos_);
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-    pos_ = eol + 1;
-    ++line_no_;
-    return true;
-  }
-  std::size_t line_no() const { return line_no_; }  // of the line last returned
-  std::string where() const { return "line " + std::to_string(line_no_); }
-
-private:
-  std::string_view text_;
-  std::size_t pos_ = 0;
-  std::size_t line_no_ = 0;
-};
-
-// A whole token (blanks around it allowed, and a leading '+') as a number; false if it is not one.
-bool parse_float(std::string_view s, double& v) {
-  s = trim(s);
-  if (!s.empty() && s.front() == '+') s.remove_prefix(1);
-  if (s.empty()) return false;
-  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
-  return ec == std::errc() && end == s.data() + s.size();
-}
 float finite_coordinate(std::string_view token, const char* axis, const LineReader& r) {
   double v = 0;
-  if (!parse_float(token, v)) throw Error(r.where() + ": " + axis + " coordinate " + quoted(token) + " is not a number");
+  if (!parse_number(token, v)) throw Error(r.where() + ": " + axis + " coordinate " + quoted(token) + " is not a number");
   if (!std::isfinite(v) || std::abs(v) > 1e30)
     throw Error(r.where() + ": " + axis + " coordinate " + quoted(token) + " is not a finite number");
   return static_cast<float>(v);
@@ -168,18 +123,6 @@ bool parse_count(std::string_view s, std::uint64_t& n) {
   const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), n);
   return ec == std::errc() && end == s.data() + s.size();
 }
-std::vector<std::string_view> split_ws(std::string_view s) {
-  std::vector<std::string_view> out;
-  std::size_t i = 0;
-  while (i < s.size()) {
-    while (i < s.size() && std::isspace(static_cast<unsigned char>(s[i]))) ++i;
-    const std::size_t start = i;
-    while (i < s.size() && !std::isspace(static_cast<unsigned char>(s[i]))) ++i;
-    if (i > start) out.push_back(s.substr(start, i - start));
-  }
-  return out;
-}
-
 void push_atom(PackedMolecule& m, Vec3 p, int element, ResidueColorKey key) {
   m.positions.push_back(p);
   m.elements.push_back(static_cast<std::uint8_t>(element));
@@ -260,10 +203,10 @@ PackedMolecule read_gro(std::string_view text) {
   }
   if (!r.next(line))
     throw Error("line " + std::to_string(r.line_no() + 1) + ": missing the box line after the " + std::to_string(count) + " atoms");
-  const auto box = split_ws(line);
+  const auto box = split_fields(line);
   double v = 0;
   if ((box.size() != 3 && box.size() != 9) ||
-      !std::all_of(box.begin(), box.end(), [&](std::string_view t) { return parse_float(t, v); }))
+      !std::all_of(box.begin(), box.end(), [&](std::string_view t) { return parse_number(t, v); }))
     throw Error(r.where() + ": expected the box line (3 or 9 numbers) after " + std::to_string(count) +
                 " atoms, found " + quoted(line) + "; is the atom count on line 2 right?");
   return m;
@@ -290,7 +233,7 @@ PackedMolecule read_xyz(std::string_view text) {
     if (!r.next(line))
       throw Error("line " + std::to_string(r.line_no() + 1) + ": the file ends after " + std::to_string(i) +
                   " atom lines, but line 1 says " + std::to_string(count) + " atoms");
-    const auto tokens = split_ws(line);
+    const auto tokens = split_fields(line);
     if (tokens.size() < 4) throw Error(r.where() + ": expected 'symbol x y z', found " + quoted(line));
     int z = kUnknownElement;
     std::uint64_t number = 0;
@@ -471,18 +414,18 @@ ParticleSet build_particles(const PackedMolecule& m, const ParticleLoadOptions& 
 }  // namespace
 
 std::string particle_file_format(const std::string& path) {
-  std::string name = lower(path);
-  if (ends_with(name, ".gz")) name.resize(name.size() - 3);
-  if (ends_with(name, ".pdb") || ends_with(name, ".ent")) return "pdb";
-  if (ends_with(name, ".cif") || ends_with(name, ".mmcif")) return "mmcif";
-  if (ends_with(name, ".gro")) return "gro";
-  if (ends_with(name, ".xyz")) return "xyz";
+  std::string_view name = path;
+  if (ends_with_ci(name, ".gz")) name.remove_suffix(3);
+  if (ends_with_ci(name, ".pdb") || ends_with_ci(name, ".ent")) return "pdb";
+  if (ends_with_ci(name, ".cif") || ends_with_ci(name, ".mmcif")) return "mmcif";
+  if (ends_with_ci(name, ".gro")) return "gro";
+  if (ends_with_ci(name, ".xyz")) return "xyz";
   return "";
 }
 
 ParticleSet load_particles(const std::string& path, const ParticleLoadOptions& options, ParticleFileInfo* info) {
   return with_context(path, [&] {
-    const bool gz = ends_with(lower(path), ".gz");
+    const bool gz = ends_with_ci(path, ".gz");
     ParticleFileInfo local;
     ParticleFileInfo& out_info = info ? *info : local;
     out_info = ParticleFileInfo{};

@@ -1,22 +1,12 @@
 // Chooses a volume loader by file extension and puts the path in front of any error it raises.
 #include "penumbra/data/io/volume_io.h"
 
-#include <algorithm>
-#include <cctype>
-
 #include "penumbra/core/error.h"
+#include "penumbra/data/io/text_fields.h"
 
 namespace penumbra {
 
-namespace {
-
-bool ends_with_ci(const std::string& s, const std::string& suffix) {
-  if (s.size() < suffix.size()) return false;
-  return std::equal(suffix.begin(), suffix.end(), s.end() - static_cast<std::ptrdiff_t>(suffix.size()),
-                    [](char lower, char c) { return std::tolower(static_cast<unsigned char>(c)) == lower; });
-}
-
-}  // namespace
+using io_detail::ends_with_ci;
 
 Volume load_volume(const std::string& path, const std::optional<RawVolumeOptions>& raw) {
   return with_context(path, [&] {
