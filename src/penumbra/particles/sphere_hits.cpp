@@ -11,29 +11,6 @@
 namespace penumbra {
 namespace {
 
-// The camera's primary-ray geometry, precomputed for the splatting loop.
-struct ScreenMapping {
-  Frame frame;
-  Vec3 eye;
-  float sx_scale, sy_scale;  // image-plane units per pixel
-  int width, height;
-
-  explicit ScreenMapping(const Camera& c)
-      : frame(Frame::from_w(c.eye - c.target, c.up)), eye(c.eye), width(c.width), height(c.height) {
-    const float tan_half = std::tan(radians(c.fov_deg) * 0.5f);
-    const float aspect = static_cast<float>(c.width) / static_cast<float>(c.height);
-    sx_scale = 2.0f * tan_half * aspect / static_cast<float>(c.width);
-    sy_scale = 2.0f * tan_half / static_cast<float>(c.height);
-  }
-  float pixel_x(float sx) const { return sx / sx_scale + 0.5f * static_cast<float>(width); }
-  float pixel_y(float sy) const { return 0.5f * static_cast<float>(height) - sy / sy_scale; }
-  Vec3 direction(int x, int y) const {
-    const float sx = (static_cast<float>(x) + 0.5f - 0.5f * static_cast<float>(width)) * sx_scale;
-    const float sy = (0.5f * static_cast<float>(height) - static_cast<float>(y) - 0.5f) * sy_scale;
-    return normalize(frame.u * sx + frame.v * sy - frame.w);
-  }
-};
-
 // Range of a/z over a sphere of radius r centred at (a, z) in one view-space axis (z > r): the two
 // tangent lines through the eye (closed form of the projected sphere's extent).
 void projected_range(float a, float z, float r, float& lo, float& hi) {
@@ -44,7 +21,7 @@ void projected_range(float a, float z, float r, float& lo, float& hi) {
   hi = (a * z + root) * inv;
 }
 
-PixelRect pixel_rect(const ScreenMapping& m, const Sphere& s) {
+PixelRect pixel_rect(const PrimaryRays& m, const Sphere& s) {
   const Vec3 l = m.frame.to_local(s.center - m.eye);
   const float z = -l.z;  // distance in front of the eye
   if (z <= s.radius) return {};  // behind the eye or containing it
@@ -84,7 +61,7 @@ SphereRasterizer sphere_rasterizer_from_string(const std::string& s) {
 }
 
 SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera) {
-  const ScreenMapping m(camera);
+  const PrimaryRays m(camera);
   std::vector<PixelRect> rects(particles.size());
   parallel_for(particles.size(), [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) rects[i] = pixel_rect(m, particles.spheres[i]);
@@ -119,7 +96,7 @@ SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera) {
 
 SphereHits trace_spheres(const SphereBvh& bvh, const Camera& camera) {
   SphereHits hits = no_hits(camera);
-  const ScreenMapping m(camera);
+  const PrimaryRays m(camera);
   parallel_for_tiles(camera.width, camera.height, 16, [&](const Tile& tile) {
     for (int y = tile.y0; y < tile.y1; ++y)
       for (int x = tile.x0; x < tile.x1; ++x) {

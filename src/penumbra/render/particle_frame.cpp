@@ -10,10 +10,6 @@ namespace {
 
 constexpr std::size_t kBatch = 64;  // points whose shadow and ambient queries are issued together
 
-Vec3 primary_direction(const Camera& c, int x, int y) {
-  return c.primary_ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f).direction;
-}
-
 }  // namespace
 
 VisibleSurfaces visible_surfaces(const ParticleFrameInputs& in) {
@@ -27,12 +23,13 @@ VisibleSurfaces visible_surfaces(const ParticleFrameInputs& in) {
   std::vector<std::vector<std::uint32_t>> row_pixels(static_cast<std::size_t>(h));
   std::vector<std::vector<Rgb>> row_albedo(static_cast<std::size_t>(h));
   const bool no_planes = in.scene->planes.empty();
+  const PrimaryRays rays(cam);
   parallel_for(static_cast<std::size_t>(h), [&](std::size_t y0, std::size_t y1) {
     for (std::size_t y = y0; y < y1; ++y) {
       for (int x = 0; x < w; ++x) {
         const std::size_t i = y * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
         if (no_planes && in.hits->id[i] == kNoSphere) continue;  // background
-        const Vec3 dir = primary_direction(cam, x, static_cast<int>(y));
+        const Vec3 dir = rays.direction(x, static_cast<int>(y));
         const Ray ray{cam.eye, dir};
         float t = in.hits->t[i];
         const Plane* plane = nullptr;

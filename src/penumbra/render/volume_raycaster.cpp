@@ -151,11 +151,12 @@ Image render_volume_frame(const RayCastInputs& in) {
   Progress progress("render", static_cast<std::size_t>(cam.height));
   const bool jittered = in.volume && in.volume->object->jitter;
   const float specular_cutoff = std::pow(1e-4f, 1.0f / in.scene->shading.shininess);
+  const PrimaryRays rays(cam);
   parallel_for_tiles(cam.width, cam.height, kTileSize, [&](const Tile& tile) {
     SampleBatch batch;
     for (int y = tile.y0; y < tile.y1; ++y) {
       for (int x = tile.x0; x < tile.x1; ++x) {
-        const Ray ray = cam.primary_ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f);
+        const Ray ray = rays.ray(x, y);
         const Shader shader{in, in.scene->shading, -ray.direction, specular_cutoff};
         const float jitter = jittered ? uniform_float(0x6a177e5, static_cast<std::uint64_t>(x), static_cast<std::uint64_t>(y)) : 0.0f;
         image.at(x, y) = trace(in, shader, ray, jitter, batch, x, y);

@@ -13,15 +13,9 @@ struct Camera {
   int width = 512;
   int height = 512;
 
-  // Ray through the image point (px, py) in pixel units (pixel centres at +0.5).
-  Ray primary_ray(float px, float py) const {
-    const Frame f = Frame::from_w(eye - target, up);  // w points backwards, as in a right-handed camera
-    const float tan_half = std::tan(radians(fov_deg) * 0.5f);
-    const float aspect = static_cast<float>(width) / static_cast<float>(height);
-    const float sx = (2.0f * px / static_cast<float>(width) - 1.0f) * tan_half * aspect;
-    const float sy = (1.0f - 2.0f * py / static_cast<float>(height)) * tan_half;
-    return Ray{eye, normalize(f.u * sx + f.v * sy - f.w)};
-  }
+  // Ray through the image point (px, py) in pixel units (pixel centres at +0.5). Loops over pixels use
+  // PrimaryRays, which sets the camera frame up once.
+  Ray primary_ray(float px, float py) const;
 
   // The camera turned by `angle` radians about the vertical axis (`up`) through the target.
   Camera orbited(float angle) const {
@@ -34,5 +28,38 @@ struct Camera {
     return c;
   }
 };
+
+// The camera's primary rays with its frame and image-plane scales computed once, for loops over pixels;
+// also maps image-plane coordinates (x/z, y/z in the camera frame) to pixel coordinates and back.
+class PrimaryRays {
+public:
+  explicit PrimaryRays(const Camera& c)
+      : frame(Frame::from_w(c.eye - c.target, c.up)), eye(c.eye), width(c.width), height(c.height) {
+    const float tan_half = std::tan(radians(c.fov_deg) * 0.5f);
+    const float aspect = static_cast<float>(c.width) / static_cast<float>(c.height);
+    sx_scale_ = 2.0f * tan_half * aspect / static_cast<float>(c.width);
+    sy_scale_ = 2.0f * tan_half / static_cast<float>(c.height);
+  }
+  // Unit direction through the image point (px, py) in pixel units; pixel (x, y) is at (x + ½, y + ½).
+  Vec3 direction(float px, float py) const {
+    const float sx = (px - 0.5f * static_cast<float>(width)) * sx_scale_;
+    const float sy = (0.5f * static_cast<float>(height) - py) * sy_scale_;
+    return normalize(frame.u * sx + frame.v * sy - frame.w);
+  }
+  Vec3 direction(int x, int y) const { return direction(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f); }
+  Ray ray(int x, int y) const { return Ray{eye, direction(x, y)}; }
+  // Pixel coordinates of the image-plane point (sx, sy).
+  float pixel_x(float sx) const { return sx / sx_scale_ + 0.5f * static_cast<float>(width); }
+  float pixel_y(float sy) const { return 0.5f * static_cast<float>(height) - sy / sy_scale_; }
+
+  Frame frame;  // w points backwards, as in a right-handed camera
+  Vec3 eye;
+  int width, height;
+
+private:
+  float sx_scale_, sy_scale_;  // image-plane units per pixel
+};
+
+inline Ray Camera::primary_ray(float px, float py) const { return Ray{eye, PrimaryRays(*this).direction(px, py)}; }
 
 }  // namespace penumbra
