@@ -68,12 +68,10 @@ VisibleSurfaces visible_surfaces(const ParticleFrameInputs& in) {
   return vs;
 }
 
-ParticleFrame shade_particle_frame(const ParticleFrameInputs& in, const VisibleSurfaces& vs) {
+Image shade_particle_frame(const ParticleFrameInputs& in, const VisibleSurfaces& vs) {
   const Camera& cam = *in.camera;
   const ShadingParams& k = in.scene->shading;
-  ParticleFrame frame;
-  frame.image = Image(cam.width, cam.height, in.scene->background);
-  frame.distance = vs.distance;
+  Image image(cam.width, cam.height, in.scene->background);
   const float specular_cutoff = std::pow(1e-4f, 1.0f / k.shininess);
   parallel_for(vs.points.size(), [&](std::size_t begin, std::size_t end) {
     std::array<float, kBatch> fraction;
@@ -108,12 +106,12 @@ ParticleFrame shade_particle_frame(const ParticleFrameInputs& in, const VisibleS
       }
       for (std::size_t i = 0; i < n; ++i) {
         const std::uint32_t px = vs.pixel[b0 + i];
-        frame.image.at(static_cast<int>(px % static_cast<std::uint32_t>(cam.width)),
+        image.at(static_cast<int>(px % static_cast<std::uint32_t>(cam.width)),
                        static_cast<int>(px / static_cast<std::uint32_t>(cam.width))) = lit[i];
       }
     }
   }, 1024);
-  return frame;
+  return image;
 }
 
 int choose_issm_rings(ImplicitSphereShadowMap& map, std::span<const SurfacePoint> points, int max_rings,

@@ -39,12 +39,8 @@ struct VisibleSurfaces {
 
 VisibleSurfaces visible_surfaces(const ParticleFrameInputs& in);
 
-struct ParticleFrame {
-  Image image;                  // shaded spheres and planes over the background
-  std::vector<float> distance;  // per pixel, as VisibleSurfaces::distance
-};
-
-ParticleFrame shade_particle_frame(const ParticleFrameInputs& in, const VisibleSurfaces& surfaces);
+// The shaded spheres and planes over the background (each pixel's distance is surfaces.distance).
+Image shade_particle_frame(const ParticleFrameInputs& in, const VisibleSurfaces& surfaces);
 
 // The automatic choice of t (paper 003 §4): t grows from 0 until the frame's light fractions stop
 // changing — at most `max_changed` of the points change by more than 1/255 — or t reaches max_rings.

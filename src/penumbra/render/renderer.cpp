@@ -187,7 +187,7 @@ Image Renderer::render_particles(const Camera& camera, const std::vector<Light>&
   std::vector<const SphereShadowTechnique*> shadow_ptrs;
   for (const auto& sh : sphere_shadows_) shadow_ptrs.push_back(sh.get());
   const ParticleFrameInputs in{&scene_, &camera, particles_.get(), &hits, lights, shadow_ptrs, particle_ambient_.get()};
-  const VisibleSurfaces surfaces = visible_surfaces(in);
+  VisibleSurfaces surfaces = visible_surfaces(in);
   if (scene_.shadows.technique == "issm") {
     for (auto& sh : sphere_shadows_) {
       auto& map = static_cast<ImplicitSphereShadowMap&>(*sh);
@@ -195,9 +195,9 @@ Image Renderer::render_particles(const Camera& camera, const std::vector<Light>&
       else frame.issm_rings = map.rings();
     }
   }
-  ParticleFrame pf = shade_particle_frame(in, surfaces);
-  opaque_distance_ = std::move(pf.distance);
-  return std::move(pf.image);
+  Image image = shade_particle_frame(in, surfaces);
+  opaque_distance_ = std::move(surfaces.distance);
+  return image;
 }
 
 std::size_t Renderer::shadow_memory_bytes() const {
