@@ -169,11 +169,7 @@ TEST(SceneFile, TechniqueNames) {
   } catch (const Error& e) {
     for (const auto& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << n << " in " << e.what();
   }
-  // Planned but not available: a clear error, not "unknown".
-  for (const auto& t : planned_shadow_technique_names()) {
-    SCOPED_TRACE(t);
-    expect_error(with(base_scene(), "shadows.technique", t), {"shadows.technique", t, "not available"});
-  }
+  expect_error(with(base_scene(), "shadows.technique", "light_pass"), {"shadows", "light_pass", "needs isosurfaces"});
   // Sphere techniques in a scene without particles, volume techniques in a scene with particles.
   expect_error(with(base_scene(), "shadows.technique", "issm"), {"shadows", "issm", "needs particles"});
   expect_error(with(base_scene(), "ambient.technique", "particle_ao"), {"ambient", "particle_ao", "needs particles"});

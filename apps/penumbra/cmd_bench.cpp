@@ -3,7 +3,7 @@
 // resolutions and a 512² frame, on test-spheres 128³ and cranium_ct.nrrd — plus what the paper lacks:
 // memory per technique and error (RMSE, PSNR) against the exact ray-traced image; suite `extinction` —
 // paper 001's Tables 1–3 (bench_extinction.cpp); suite `particles` — paper 003's Fig. 8
-// (bench_particles.cpp). Markdown on stdout and in DIR/bench.md, JSON in DIR/bench.json.
+// (bench_particles.cpp); suite `isosurface` — paper 002's Table 1 (bench_isosurface.cpp). Markdown on stdout and in DIR/bench.md, JSON in DIR/bench.json.
 #include <sys/utsname.h>
 #include <unistd.h>
 
@@ -20,6 +20,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/scene/demo_scenes.h"
 #include "bench_extinction.h"
+#include "bench_isosurface.h"
 #include "bench_particles.h"
 #include "stats.h"
 #include "technique_runs.h"
@@ -63,6 +64,9 @@ struct Options {
   std::vector<std::string> particle_datasets = ParticleBenchOptions{}.datasets;
   int width = 1920;   // particles suite: frame width and height (paper 003's 1920×1200)
   int height = 1200;
+  std::vector<std::string> isosurface_datasets = IsosurfaceBenchOptions{}.datasets;
+  std::vector<int> body_dims{512, 512, 1734};
+  bool no_mesh = false;
 };
 
 void bench_dataset(const Options& o, const std::string& name, const nlohmann::json& scene_in, std::ostringstream& md,
@@ -144,13 +148,19 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--size", o->size, "Frame width and height")->check(CLI::Range(16, 8192));
   cmd->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
   cmd->add_option("--suite", o->suites,
-                  "cssm (paper 000, Tables 3/4), extinction (paper 001, Tables 1-3) and/or particles (paper 003, Fig. 8)");
+                  "cssm (paper 000, Tables 3/4), extinction (paper 001, Tables 1-3), particles (paper 003, Fig. 8) "
+                  "and/or isosurface (paper 002, Table 1)");
   cmd->add_option("--extinction-datasets", o->extinction_datasets, "procedural (test-spheres 256³), cranium and/or chest");
   cmd->add_option("--max-sampled-size", o->max_sampled_size, "Largest light cache the sampled-AO reference is timed at")
       ->check(CLI::Range(4, 512));
   cmd->add_option("--particle-datasets", o->particle_datasets, "1tii, 1af6, 1aon, bace1, 3j6r and/or 1m4x");
   cmd->add_option("--width", o->width, "Frame width of the particles suite")->check(CLI::Range(16, 8192));
   cmd->add_option("--height", o->height, "Frame height of the particles suite")->check(CLI::Range(16, 8192));
+  cmd->add_option("--isosurface-datasets", o->isosurface_datasets, "ct-body, cranium and/or chest");
+  cmd->add_option("--body-dims", o->body_dims, "Dimensions of the procedural ct-body volume (default 512 512 1734)")
+      ->expected(3)
+      ->check(CLI::Range(8, 2048));
+  cmd->add_flag("--no-mesh", o->no_mesh, "Isosurface suite: skip the marching-cubes baseline");
   cmd->callback([o] {
     ThreadLimit limit(o->threads);
     std::filesystem::create_directories(o->dir);
@@ -160,8 +170,8 @@ void add_bench_command(CLI::App& app) {
     out["machine"] = machine_description();
     out["threads"] = ThreadLimit::current_max();
     for (const auto& s : o->suites)
-      if (s != "cssm" && s != "extinction" && s != "particles")
-        throw Error("--suite: unknown suite '" + s + "' (expected cssm, extinction or particles)");
+      if (s != "cssm" && s != "extinction" && s != "particles" && s != "isosurface")
+        throw Error("--suite: unknown suite '" + s + "' (expected cssm, extinction, particles or isosurface)");
     auto runs = [&](const char* suite) { return std::find(o->suites.begin(), o->suites.end(), suite) != o->suites.end(); };
     md << "Machine: " << machine_description() << ", " << ThreadLimit::current_max() << " threads, " << today()
        << ". Fastest of " << o->repeats << " runs.\n";
@@ -193,6 +203,17 @@ void add_bench_command(CLI::App& app) {
       p.width = o->width;
       p.height = o->height;
       bench_particles(p, md, out["particles"]);
+    }
+    if (runs("isosurface")) {
+      IsosurfaceBenchOptions b;
+      b.dir = o->dir;
+      b.data_dir = o->data_dir;
+      b.datasets = o->isosurface_datasets;
+      b.body_dims = {o->body_dims[0], o->body_dims[1], o->body_dims[2]};
+      b.repeats = o->repeats;
+      b.size = o->size;
+      b.mesh = !o->no_mesh;
+      bench_isosurface(b, md, out["isosurface"]);
     }
     std::printf("%s", md.str().c_str());
     std::ofstream(o->dir + "/bench.md") << md.str();

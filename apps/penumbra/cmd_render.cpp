@@ -9,6 +9,8 @@
 #include "penumbra/core/error.h"
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/isosurface/light_pass.h"
+#include "penumbra/render/isosurface_buffers.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/scene_file.h"
 #include "stats.h"
@@ -17,7 +19,7 @@ namespace penumbra::cli {
 namespace {
 
 struct RenderOptions {
-  std::string scene, output, stats;
+  std::string scene, output, stats, buffers;
   int width = 0, height = 0, threads = 0, orbit = 0, light_orbit = 0;
   std::vector<std::string> sets;
 };
@@ -27,6 +29,20 @@ std::string frame_path(const std::string& output, int frame) {
   char suffix[16];
   std::snprintf(suffix, sizeof suffix, "_%03d", frame);
   return (p.parent_path() / (p.stem().string() + suffix + p.extension().string())).string();
+}
+
+// paper 002 Fig. 2 (the eye pass's final visibility mask) and Fig. 6 (the view from the light).
+void write_isosurface_buffers(const std::string& dir, const Renderer& renderer, const Camera& camera) {
+  write_image(dir + "/eye_visibility.png", coverage_image(renderer.isosurface_eye_points(), camera.width, camera.height));
+  const auto& shadows = renderer.isosurface_shadows();
+  for (std::size_t l = 0; l < shadows.size(); ++l) {
+    const auto* pass = dynamic_cast<const LightPass*>(shadows[l].get());
+    if (!pass) continue;
+    const std::string stem = dir + "/light" + std::to_string(l);
+    write_image(stem + "_holes.png", visibility_image(pass->holes()));
+    write_image(stem + "_points.png",
+                distance_image(pass->light_points().points, pass->light_view().width, pass->light_view().height));
+  }
 }
 
 void check_output_path(const std::string& output) {
@@ -53,6 +69,8 @@ Light orbit_light(const Light& l, const Vec3& centre, const Vec3& up, float angl
 void run_render(const RenderOptions& o) {
   if (o.orbit > 0 && o.light_orbit > 0) throw Error("--orbit and --light-orbit cannot be combined");
   check_output_path(o.output);
+  if (!o.buffers.empty() && !std::filesystem::is_directory(o.buffers))
+    throw Error("--buffers " + o.buffers + ": not a directory");
   if (!o.stats.empty()) {
     const auto dir = std::filesystem::path(o.stats).parent_path();
     if (!dir.empty() && !std::filesystem::is_directory(dir))
@@ -64,6 +82,7 @@ void run_render(const RenderOptions& o) {
   sets.insert(sets.end(), o.sets.begin(), o.sets.end());
   ThreadLimit limit(o.threads);
   const Scene scene = load_scene(o.scene, sets);
+  if (!o.buffers.empty() && !scene.has_isosurfaces()) throw Error("--buffers: " + o.scene + " has no isosurface");
   Renderer renderer(scene);
   const int frames = std::max({1, o.orbit, o.light_orbit});
   const bool sequence = o.orbit > 0 || o.light_orbit > 0;
@@ -79,6 +98,7 @@ void run_render(const RenderOptions& o) {
     const std::string path = sequence ? frame_path(o.output, f) : o.output;
     write_image(path, frame.image);
     if (f == 0) stats = render_stats(scene, renderer, frame, ThreadLimit::current_max());
+    if (f == 0 && !o.buffers.empty()) write_isosurface_buffers(o.buffers, renderer, camera);
     nlohmann::json fs = frame_stats(frame);
     fs["file"] = path;
     frame_list.push_back(fs);
@@ -105,6 +125,9 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--height", o->height, "Image height (overrides camera.height)")->check(CLI::Range(1, 16384));
   cmd->add_option("--set", o->sets, "Override a scene value by dotted path: key=value (value parsed as JSON if valid)");
   cmd->add_option("--stats", o->stats, "Write timings, memory and counts as JSON");
+  cmd->add_option("--buffers", o->buffers,
+                  "Isosurface scenes: write the eye pass's final visibility mask and each light pass's holes and "
+                  "points (light view) as PNGs into this directory");
   cmd->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
   cmd->add_option("--orbit", o->orbit, "Render N frames with the camera turning once around its target")->check(CLI::Range(1, 100000));
   cmd->add_option("--light-orbit", o->light_orbit, "Render N frames with the first light turning once around the scene")->check(CLI::Range(1, 100000));

@@ -9,12 +9,16 @@
 namespace penumbra::cli {
 
 nlohmann::json frame_stats(const FrameResult& frame) {
+  const IsosurfaceFrameStats& iso = frame.isosurface;
   return {{"timings_ms",
            {{"sat", frame.sat_ms}, {"ambient", frame.ambient_ms}, {"build", frame.build_ms}, {"render", frame.render_ms},
-            {"bvh", frame.bvh_ms}, {"hits", frame.hits_ms}, {"total", frame.total_ms}}},
+            {"bvh", frame.bvh_ms}, {"hits", frame.hits_ms}, {"extract", iso.extract_ms}, {"mesh", iso.mesh_ms},
+            {"shadow_pass", iso.shadow_ms}, {"shade", iso.shade_ms}, {"total", frame.total_ms}}},
           {"rebuilt", frame.rebuilt},
           {"issm_rings", frame.issm_rings},
-          {"sphere_pixels", frame.sphere_pixels}};
+          {"sphere_pixels", frame.sphere_pixels},
+          {"points", iso.points},
+          {"light_points", iso.light_points}};
 }
 
 nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const FrameResult& first, int threads) {
@@ -25,14 +29,27 @@ nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const 
   j["height"] = first.image.height();
   j["timings_ms"] = {{"prepare", renderer.prepare_ms()}, {"sat", first.sat_ms}, {"ambient", first.ambient_ms},
                      {"build", first.build_ms}, {"render", first.render_ms}, {"bvh", first.bvh_ms},
-                     {"hits", first.hits_ms}, {"total", first.total_ms}};
+                     {"hits", first.hits_ms}, {"extract", first.isosurface.extract_ms},
+                     {"mesh", first.isosurface.mesh_ms}, {"shadow_pass", first.isosurface.shadow_ms},
+                     {"shade", first.isosurface.shade_ms}, {"total", first.total_ms}};
   std::size_t volume_bytes = 0;
   for (const auto& v : scene.volumes) volume_bytes += v.volume->memory_bytes();
   j["memory_bytes"] = {{"shadow", renderer.shadow_memory_bytes()}, {"ambient", renderer.ambient_memory_bytes()},
                         {"sat", renderer.sat_memory_bytes()}, {"volume", volume_bytes},
                         {"particles", renderer.particle_memory_bytes()}, {"bvh", renderer.bvh_memory_bytes()}};
-  j["counts"] = {{"voxels", renderer.voxel_count()}, {"spheres", renderer.sphere_count()}, {"points", 0},
+  const IsosurfaceFrameStats& iso = first.isosurface;
+  j["counts"] = {{"voxels", renderer.voxel_count()}, {"spheres", renderer.sphere_count()}, {"points", iso.points},
                  {"lights", scene.lights.size()}, {"sphere_pixels", first.sphere_pixels}};
+  if (const PreparedIsosurface* p = renderer.isosurface()) {
+    j["isosurface"] = {{"method", to_string(p->object->method)}, {"value", p->object->value},
+                       {"grid_tree_ms", p->tree->build_ms()}, {"grid_tree_bytes", p->tree->memory_bytes()},
+                       {"light_points", iso.light_points}, {"holes", iso.holes}, {"triangles", iso.triangles},
+                       {"nodes_visited", iso.extraction.nodes_visited}, {"value_pruned", iso.extraction.value_pruned},
+                       {"visibility_pruned", iso.extraction.visibility_pruned},
+                       {"cells_visited", iso.extraction.cells_visited}, {"collapsed", iso.extraction.collapsed}};
+    j["memory_bytes"]["grid_tree"] = p->tree->memory_bytes();
+    if (p->mesh) j["memory_bytes"]["mesh"] = p->mesh->memory_bytes();
+  }
   if (scene.has_particles()) {
     j["sphere_renderer"] = to_string(scene.sphere_rasterizer);
     j["issm_rings"] = first.issm_rings;

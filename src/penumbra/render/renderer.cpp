@@ -1,5 +1,7 @@
 #include "penumbra/render/renderer.h"
 
+#include <algorithm>
+
 #include "penumbra/core/error.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/particles/implicit_sphere_shadow_map.h"
@@ -45,6 +47,7 @@ Renderer::Renderer(Scene scene) : scene_(std::move(scene)) {
   Timer timer;
   prepare();
   prepare_particles();
+  if (scene_.has_isosurfaces()) isosurface_ = std::make_unique<PreparedIsosurface>(scene_, scene_.isosurfaces.front());
   prepare_ms_ = timer.elapsed_ms();
 }
 
@@ -101,7 +104,7 @@ FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lig
       frame.sat_ms = t.elapsed_ms();
       frame.rebuilt.push_back("sat");
     }
-    if (!scene_.has_particles()) {
+    if (!has_surfaces()) {
       if (auto ambient = make_ambient_technique(scene_.ambient)) {
         Timer t;
         ambient->build(*medium_);
@@ -133,14 +136,26 @@ FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lig
   }
   Timer build;
   const bool rebuilt = scene_.has_particles() ? update_sphere_shadows(lights) : false;
-  // In a sphere scene the volume is composited by depth and lit without shadows (docs/scene-file.md).
+  // In a sphere or isosurface scene the volume is composited by depth and lit without shadows
+  // (docs/scene-file.md).
   const bool volume_rebuilt = update_volume_shadows(lights);
   frame.build_ms = build.elapsed_ms();
   if (rebuilt || volume_rebuilt) frame.rebuilt.push_back("shadows");
 
   Timer render;
-  if (scene_.has_particles()) {
-    const Image opaque = render_particles(camera, lights, frame);
+  if (has_surfaces()) {
+    Image opaque;
+    if (scene_.has_particles()) {
+      opaque = render_particles(camera, lights, frame);
+    } else {
+      SurfaceLayer layer = render_isosurface_frame(scene_, camera, *isosurface_, lights, isosurface_shadows_, frame.isosurface);
+      opaque = std::move(layer.image);
+      opaque_distance_ = std::move(layer.distance);
+      isosurface_eye_points_ = std::move(layer.eye_points);
+      // view-dependent shadows are built for every frame (paper 002 §4)
+      const bool listed = std::find(frame.rebuilt.begin(), frame.rebuilt.end(), "shadows") != frame.rebuilt.end();
+      if (scene_.shadows.technique != "none" && !listed) frame.rebuilt.push_back("shadows");
+    }
     if (volume_) {
       std::vector<const ShadowTechnique*> shadow_ptrs;
       for (const auto& sh : shadows_) shadow_ptrs.push_back(sh.get());
@@ -160,10 +175,10 @@ FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lig
 }
 
 bool Renderer::update_volume_shadows(const std::vector<Light>& lights) {
-  if (scene_.has_particles() && !volume_) return false;
+  if (has_surfaces() && !volume_) return false;
   return rebuild_changed_lights(shadows_, built_for_, lights, [&](const Light& light) {
     std::unique_ptr<ShadowTechnique> technique;
-    if (scene_.has_particles()) technique = std::make_unique<NoShadows>();
+    if (has_surfaces()) technique = std::make_unique<NoShadows>();
     else technique = make_shadow_technique(scene_.shadows);
     technique->build(*medium_, light);
     return technique;
@@ -204,6 +219,7 @@ std::size_t Renderer::shadow_memory_bytes() const {
   std::size_t bytes = 0;
   for (const auto& s : shadows_) bytes += s->memory_bytes();
   for (const auto& s : sphere_shadows_) bytes += s->memory_bytes();
+  for (const auto& s : isosurface_shadows_) bytes += s->memory_bytes();
   return bytes;
 }
 

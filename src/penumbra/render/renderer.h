@@ -13,6 +13,7 @@
 #include "penumbra/core/image.h"
 #include "penumbra/particles/sphere_bvh.h"
 #include "penumbra/particles/sphere_shadow_technique.h"
+#include "penumbra/render/isosurface_frame.h"
 #include "penumbra/render/prepared_volume.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadows/ambient_technique.h"
@@ -31,6 +32,7 @@ struct FrameResult {
   double hits_ms = 0;     // spheres: each pixel's nearest sphere (splatting or Embree rays)
   int issm_rings = -1;    // spheres: the rings t the ISSM used (chosen this frame when automatic)
   std::size_t sphere_pixels = 0;  // pixels showing a sphere
+  IsosurfaceFrameStats isosurface;  // isosurface scenes: eye pass, shadow passes, counts
   double total_ms = 0;
   std::vector<std::string> rebuilt;  // "sat", "ambient", "shadows": what this frame had to rebuild
 };
@@ -53,11 +55,18 @@ public:
     return ambient_ ? ambient_->memory_bytes() : (particle_ambient_ ? particle_ambient_->memory_bytes() : 0);
   }
   std::size_t sat_memory_bytes() const { return sat_ ? sat_->memory_bytes() : 0; }
-  std::size_t voxel_count() const { return volume_ ? volume_->volume->voxel_count() : 0; }
+  std::size_t voxel_count() const {
+    if (volume_) return volume_->volume->voxel_count();
+    return isosurface_ ? isosurface_->tree->volume().voxel_count() : 0;
+  }
   std::size_t sphere_count() const { return particles_ ? particles_->size() : 0; }
   std::size_t particle_memory_bytes() const { return particles_ ? particles_->memory_bytes() : 0; }
   std::size_t bvh_memory_bytes() const { return bvh_ ? bvh_->memory_bytes() : 0; }
   double prepare_ms() const { return prepare_ms_; }
+  // Isosurface scenes: the min/max hierarchy, and the shadow techniques of the last frame.
+  const PreparedIsosurface* isosurface() const { return isosurface_.get(); }
+  const std::vector<std::unique_ptr<IsoShadowTechnique>>& isosurface_shadows() const { return isosurface_shadows_; }
+  const IsoPoints& isosurface_eye_points() const { return isosurface_eye_points_; }
 
 private:
   void prepare();  // prepared volume and shadow medium for the current transfer function
@@ -66,6 +75,7 @@ private:
   bool update_volume_shadows(const std::vector<Light>& lights);
   bool update_sphere_shadows(const std::vector<Light>& lights);
   Image render_particles(const Camera& camera, const std::vector<Light>& lights, FrameResult& frame);
+  bool has_surfaces() const { return scene_.has_particles() || scene_.has_isosurfaces(); }
 
   Scene scene_;
   std::unique_ptr<PreparedVolume> volume_;
@@ -82,6 +92,9 @@ private:
   std::vector<std::unique_ptr<SphereShadowTechnique>> sphere_shadows_;
   std::vector<Light> sphere_shadows_for_;
   bool particles_built_ = false;
+  std::unique_ptr<PreparedIsosurface> isosurface_;
+  std::vector<std::unique_ptr<IsoShadowTechnique>> isosurface_shadows_;
+  IsoPoints isosurface_eye_points_;  // the last frame's eye pass
   std::vector<float> opaque_distance_;  // the last sphere frame's per-pixel surface distance
   bool transfer_function_changed_ = true;  // the SAT and ambient cache are stale
   double prepare_ms_ = 0;

@@ -1,5 +1,7 @@
 #include "penumbra/scene/scene.h"
 
+#include "penumbra/core/error.h"
+
 namespace penumbra {
 
 std::string to_string(LightType type) {
@@ -9,6 +11,22 @@ std::string to_string(LightType type) {
     case LightType::Spot: return "spot";
   }
   return "?";
+}
+
+std::string to_string(IsosurfaceMethod method) {
+  switch (method) {
+    case IsosurfaceMethod::Points: return "points";
+    case IsosurfaceMethod::Raycast: return "raycast";
+    case IsosurfaceMethod::Mesh: return "mesh";
+  }
+  return "?";
+}
+
+IsosurfaceMethod isosurface_method_from_string(const std::string& name) {
+  if (name == "points") return IsosurfaceMethod::Points;
+  if (name == "raycast") return IsosurfaceMethod::Raycast;
+  if (name == "mesh") return IsosurfaceMethod::Mesh;
+  throw Error("unknown isosurface method '" + name + "' (expected points, raycast or mesh)");
 }
 
 Box3 Plane::bounds() const {
@@ -24,6 +42,7 @@ Box3 Scene::caster_bounds() const {
   Box3 b;
   for (const auto& v : volumes)
     if (v.visible) b.extend(v.volume->bounds());
+  for (const auto& i : isosurfaces) b.extend(volumes[i.volume].volume->bounds());
   for (const auto& p : particles) b.extend(p.set->bounds());
   // Planes join only when there is no volume: a light frustum fitted to the volumes already covers
   // every receiver the volumes can shadow (their shadow lies inside the frustum), and a large floor

@@ -48,6 +48,21 @@ struct ParticleObject {
   std::string source;  // file path or "procedural:random-spheres", for messages and stats
 };
 
+// How an isosurface is drawn (paper 002): view-dependent points, the exact ray-cast reference, or the
+// full marching-cubes mesh the paper argues against.
+enum class IsosurfaceMethod { Points, Raycast, Mesh };
+std::string to_string(IsosurfaceMethod method);
+IsosurfaceMethod isosurface_method_from_string(const std::string& name);  // "points", "raycast", "mesh"
+
+// The surface {x : f(x) = value} of one of the scene's volumes; inside is f >= value.
+struct IsosurfaceObject {
+  std::size_t volume = 0;   // index into Scene::volumes
+  float value = 0;          // isovalue in the volume's data units
+  IsosurfaceMethod method = IsosurfaceMethod::Points;
+  Rgb color{0.92f, 0.88f, 0.80f};
+  bool collapse = true;     // points: a node that projects into one pixel becomes one point (§4.3)
+};
+
 // How the sphere renderer finds each pixel's nearest sphere (particles/sphere_hits.h).
 enum class SphereRasterizer { Splat, Embree };
 
@@ -100,6 +115,7 @@ struct ShadowSettings {
   float soft_distance = 10;       // issm: occluder distance b (world units) at which shadows are softest
   float light_angle = 0;          // ray_traced on spheres: angular radius of the light in degrees (0: a point)
   int area_rays = 64;             // ray_traced on spheres with light_angle > 0: shadow rays per receiver
+  std::string light_frustum = "tight";  // light_pass: "tight" (fitted to the eye points, paper 002 §4.3) or "volume"
 };
 
 struct AmbientSettings {
@@ -122,6 +138,7 @@ struct Scene {
   Camera camera;
   std::vector<VolumeObject> volumes;
   std::vector<ParticleObject> particles;
+  std::vector<IsosurfaceObject> isosurfaces;
   SphereRasterizer sphere_rasterizer = SphereRasterizer::Splat;
   std::vector<Plane> planes;
   std::vector<Light> lights;
@@ -131,12 +148,13 @@ struct Scene {
   ShadingParams shading;
   Rgb background{0.1f, 0.1f, 0.12f};
 
-  // The box light frusta are fitted to: the visible volumes and the spheres (finite planes when there
-  // are neither).
+  // The box light frusta are fitted to: the visible volumes, the volumes of isosurfaces and the spheres
+  // (finite planes when there are none).
   Box3 caster_bounds() const;
   // The volume the ray caster draws (the first visible one), or nullptr.
   const VolumeObject* visible_volume() const;
   bool has_particles() const { return !particles.empty(); }
+  bool has_isosurfaces() const { return !isosurfaces.empty(); }
 };
 
 }  // namespace penumbra

@@ -8,6 +8,7 @@
 #include "penumbra/data/io/particle_io.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/procedural.h"
+#include "penumbra/isosurface/iso_registry.h"
 #include "penumbra/scene/json_reader.h"
 #include "penumbra/particles/particle_registry.h"
 #include "penumbra/particles/sphere_hits.h"
@@ -128,10 +129,13 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
     v.source = "procedural:" + (spec.contains("name") && spec["name"].is_string() ? spec["name"].get<std::string>() : "?");
   }
   if (r.has("origin")) volume->set_origin(r.vec3("origin", {}));
-  if (!r.has("transfer_function")) r.fail("transfer_function", "missing (e.g. {\"preset\": \"ct-bone\"})");
-  v.transfer_function = with_context(r.key_path("transfer_function"), [&] {
-    return parse_transfer_function(r.raw("transfer_function"), volume->min_value(), volume->max_value(), base_dir);
-  });
+  v.visible = r.boolean("visible", true);
+  // A hidden volume (one only isosurfaces are drawn from) needs no transfer function.
+  if (!r.has("transfer_function") && v.visible) r.fail("transfer_function", "missing (e.g. {\"preset\": \"ct-bone\"})");
+  if (r.has("transfer_function"))
+    v.transfer_function = with_context(r.key_path("transfer_function"), [&] {
+      return parse_transfer_function(r.raw("transfer_function"), volume->min_value(), volume->max_value(), base_dir);
+    });
   if (r.has("shadow_transfer_function")) {
     v.has_shadow_transfer_function = true;
     v.shadow_transfer_function = with_context(r.key_path("shadow_transfer_function"), [&] {
@@ -143,7 +147,6 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   if (comp == "alpha") v.compositing = Compositing::Alpha;
   else if (comp == "extinction") v.compositing = Compositing::Extinction;
   else r.fail("compositing", "unknown value '" + comp + "' (expected alpha or extinction)");
-  v.visible = r.boolean("visible", true);
   v.jitter = r.boolean("jitter", true);
   r.finish();
   v.volume = std::move(volume);
@@ -204,10 +207,33 @@ ParticleObject read_particles(const nlohmann::json& j, const std::string& path, 
   return p;
 }
 
+IsosurfaceObject read_isosurface(const nlohmann::json& j, const std::string& path, const std::vector<VolumeObject>& volumes) {
+  JsonReader r(j, path);
+  IsosurfaceObject o;
+  if (volumes.empty()) r.fail("volume", "the scene has no volumes (an isosurface is drawn from one of 'volumes')");
+  o.volume = static_cast<std::size_t>(r.integer("volume", 0, 0, INT32_MAX));
+  if (o.volume >= volumes.size())
+    r.fail("volume", "index " + std::to_string(o.volume) + " but the scene has " + std::to_string(volumes.size()) + " volume(s)");
+  const VolumeObject& v = volumes[o.volume];
+  const float lo = v.volume->min_value(), hi = v.volume->max_value();
+  if (!(lo < hi)) r.fail("volume", v.source + " is constant (every voxel is " + num(lo) + "): it has no isosurface");
+  if (!r.has("value")) r.fail("value", "missing: the isovalue, in the data units of " + v.source);
+  o.value = r.number("value", 0, -3.0e38f, 3.0e38f);
+  if (!(o.value > lo && o.value <= hi))
+    r.fail("value", num(o.value) + " is outside the data range (" + num(lo) + ", " + num(hi) + "] of " + v.source +
+                        ": the isosurface would be empty");
+  o.method = with_context(r.key_path("method"), [&] { return isosurface_method_from_string(r.string("method", "points")); });
+  o.color = r.color("color", o.color);
+  o.collapse = r.boolean("collapse", o.collapse);
+  r.finish();
+  return o;
+}
+
 std::vector<std::string> all_shadow_technique_names() {
   auto names = shadow_technique_names();
-  for (const auto& n : particle_shadow_technique_names())
-    if (std::find(names.begin(), names.end(), n) == names.end()) names.push_back(n);
+  for (const auto& list : {particle_shadow_technique_names(), isosurface_shadow_technique_names()})
+    for (const auto& n : list)
+      if (std::find(names.begin(), names.end(), n) == names.end()) names.push_back(n);
   return names;
 }
 
@@ -218,12 +244,8 @@ std::vector<std::string> all_ambient_technique_names() {
   return names;
 }
 
-// A technique name must be available; a reserved name (a technique of another issue) gets its own message.
-void check_technique(JsonReader& r, const std::string& name, const std::vector<std::string>& available,
-                     const std::vector<std::string>& reserved) {
+void check_technique(JsonReader& r, const std::string& name, const std::vector<std::string>& available) {
   if (std::find(available.begin(), available.end(), name) != available.end()) return;
-  if (std::find(reserved.begin(), reserved.end(), name) != reserved.end())
-    r.fail("technique", "'" + name + "' is not available in this build (available: " + join(available) + ")");
   r.fail("technique", "unknown technique '" + name + "' (expected one of: " + join(available) + ")");
 }
 
@@ -231,7 +253,7 @@ ShadowSettings read_shadows(const nlohmann::json& j) {
   JsonReader r(j, "shadows");
   ShadowSettings s;
   s.technique = r.string("technique", s.technique);
-  check_technique(r, s.technique, all_shadow_technique_names(), planned_shadow_technique_names());
+  check_technique(r, s.technique, all_shadow_technique_names());
   s.resolution = static_cast<int>(r.integer("resolution", s.resolution, 16, 16384));
   s.offsets = static_cast<int>(r.integer("offsets", s.offsets, 1, 21));
   if (s.offsets != 7 && s.offsets != 13 && s.offsets != 21)
@@ -253,6 +275,9 @@ ShadowSettings read_shadows(const nlohmann::json& j) {
   s.soft_distance = r.number("soft_distance", s.soft_distance, 1e-6f, 1e6f);
   s.light_angle = r.number("light_angle", s.light_angle, 0, 45);
   s.area_rays = static_cast<int>(r.integer("area_rays", s.area_rays, 1, 65536));
+  s.light_frustum = r.string("light_frustum", s.light_frustum);
+  if (s.light_frustum != "tight" && s.light_frustum != "volume")
+    r.fail("light_frustum", "unknown value '" + s.light_frustum + "' (expected tight or volume)");
   r.finish();
   return s;
 }
@@ -261,7 +286,7 @@ AmbientSettings read_ambient(const nlohmann::json& j) {
   JsonReader r(j, "ambient");
   AmbientSettings a;
   a.technique = r.string("technique", a.technique);
-  check_technique(r, a.technique, all_ambient_technique_names(), planned_ambient_technique_names());
+  check_technique(r, a.technique, all_ambient_technique_names());
   a.shells = static_cast<int>(r.integer("shells", a.shells, 1, 64));
   a.radius = r.number("radius", a.radius, 0, 1);
   if (!(a.radius > 0)) r.fail("radius", "must be positive (a fraction of the volume's longest side, e.g. 0.05)");
@@ -275,11 +300,21 @@ AmbientSettings read_ambient(const nlohmann::json& j) {
   return a;
 }
 
-// A scene with particles takes the sphere techniques; one without, the volume techniques.
+// A scene with particles takes the sphere techniques; one with isosurfaces the isosurface techniques;
+// any other, the volume techniques.
 void check_techniques_fit_objects(JsonReader& r, const Scene& s) {
   auto has = [](const std::vector<std::string>& names, const std::string& n) {
     return std::find(names.begin(), names.end(), n) != names.end();
   };
+  if (s.has_isosurfaces()) {
+    if (s.has_particles()) r.fail("isosurfaces", "a scene holds isosurfaces or particles, not both (in this build)");
+    if (!has(isosurface_shadow_technique_names(), s.shadows.technique))
+      r.fail("shadows", "technique '" + s.shadows.technique + "' is not for isosurfaces; a scene with isosurfaces uses one of: " +
+                            join(isosurface_shadow_technique_names()));
+    if (s.ambient.technique != "none")
+      r.fail("ambient", "technique '" + s.ambient.technique + "': a scene with isosurfaces takes no ambient technique (none)");
+    return;
+  }
   if (s.has_particles()) {
     if (!has(particle_shadow_technique_names(), s.shadows.technique))
       r.fail("shadows", "technique '" + s.shadows.technique + "' is for volumes; a scene with particles uses one of: " +
@@ -289,7 +324,9 @@ void check_techniques_fit_objects(JsonReader& r, const Scene& s) {
                             join(particle_ambient_technique_names()));
   } else {
     if (!has(shadow_technique_names(), s.shadows.technique))
-      r.fail("shadows", "technique '" + s.shadows.technique + "' needs particles (the scene has none)");
+      r.fail("shadows", "technique '" + s.shadows.technique + "' needs " +
+                            (has(isosurface_shadow_technique_names(), s.shadows.technique) ? "isosurfaces" : "particles") +
+                            " (the scene has none)");
     if (!has(ambient_technique_names(), s.ambient.technique))
       r.fail("ambient", "technique '" + s.ambient.technique + "' needs particles (the scene has none)");
   }
@@ -387,8 +424,13 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir) {
       s.particles.push_back(read_particles(parts[i], "particles." + std::to_string(i), base_dir));
   }
   s.sphere_rasterizer = with_context("sphere_renderer", [&] { return sphere_rasterizer_from_string(r.string("sphere_renderer", "splat")); });
-  if (r.has("isosurfaces") && !r.raw("isosurfaces").empty())
-    r.fail("isosurfaces", "is not available in this build (volumes, particles and planes are)");
+  if (r.has("isosurfaces")) {
+    const auto& isos = array_at(r, "isosurfaces");
+    for (std::size_t i = 0; i < isos.size(); ++i)
+      s.isosurfaces.push_back(read_isosurface(isos[i], "isosurfaces." + std::to_string(i), s.volumes));
+    if (s.isosurfaces.size() > 1)
+      r.fail("isosurfaces", "holds " + std::to_string(s.isosurfaces.size()) + " entries; this build draws one isosurface per scene");
+  }
   if (r.has("planes")) {
     const auto& planes = array_at(r, "planes");
     for (std::size_t i = 0; i < planes.size(); ++i) s.planes.push_back(read_plane(planes[i], "planes." + std::to_string(i)));

@@ -14,8 +14,6 @@ std::vector<std::string> shadow_technique_names() {
   return {"none", "shadow_map", "deep_shadow_map", "cssm", "ray_traced", "sat_cone", "sampled_cone"};
 }
 
-std::vector<std::string> planned_shadow_technique_names() { return {"light_pass"}; }
-
 std::unique_ptr<ShadowTechnique> make_shadow_technique(const ShadowSettings& s) {
   if (s.technique == "none") return std::make_unique<NoShadows>();
   if (s.technique == "shadow_map") return std::make_unique<ClassicShadowMap>(s);
@@ -30,8 +28,6 @@ std::unique_ptr<ShadowTechnique> make_shadow_technique(const ShadowSettings& s) 
 }
 
 std::vector<std::string> ambient_technique_names() { return {"none", "sat_shells", "sampled_ao"}; }
-
-std::vector<std::string> planned_ambient_technique_names() { return {}; }
 
 std::unique_ptr<AmbientTechnique> make_ambient_technique(const AmbientSettings& s) {
   if (s.technique == "none") return nullptr;

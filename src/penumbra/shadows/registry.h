@@ -12,11 +12,9 @@
 namespace penumbra {
 
 std::vector<std::string> shadow_technique_names();          // available in this build
-std::vector<std::string> planned_shadow_technique_names();  // reserved names of other casters' techniques
 std::unique_ptr<ShadowTechnique> make_shadow_technique(const ShadowSettings& settings);
 
 std::vector<std::string> ambient_technique_names();          // available in this build ("none" first)
-std::vector<std::string> planned_ambient_technique_names();  // reserved names of other casters' techniques
 // nullptr for "none".
 std::unique_ptr<AmbientTechnique> make_ambient_technique(const AmbientSettings& settings);
 

@@ -1,0 +1,27 @@
+// What every isosurface method hands to shading: one point per covered pixel, with its world position,
+// unit normal (the field's gradient, turned to face the viewer) and the pixel it covers. The
+// view-dependent extraction (paper 002 §3), the ray-cast reference and the rasterised mesh all produce
+// this list, so shading and shadows treat the three alike.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "penumbra/core/math.h"
+
+namespace penumbra {
+
+// Inside/outside convention of every isosurface method: a value v is inside when v >= isovalue. A cell
+// (2x2x2 voxels) holds the surface when its corners' min < isovalue <= max.
+inline bool range_straddles(float lo, float hi, float isovalue) { return lo < isovalue && isovalue <= hi; }
+
+struct IsoPoint {
+  Vec3 position;
+  Vec3 normal;          // unit
+  float distance;       // from the viewpoint it was extracted for (eye or light)
+  std::uint32_t pixel;  // y * width + x in that view's image
+};
+
+using IsoPoints = std::vector<IsoPoint>;
+
+}  // namespace penumbra

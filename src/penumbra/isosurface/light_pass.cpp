@@ -1,0 +1,154 @@
+#include "penumbra/isosurface/light_pass.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/timer.h"
+
+namespace penumbra {
+
+LightFrustum light_frustum_from_string(const std::string& name) {
+  if (name == "tight") return LightFrustum::Tight;
+  if (name == "volume") return LightFrustum::Volume;
+  throw Error("unknown light frustum '" + name + "' (expected 'tight' or 'volume')");
+}
+
+std::string to_string(LightFrustum f) { return f == LightFrustum::Tight ? "tight" : "volume"; }
+
+namespace {
+
+// Bounds of the points' image-plane coordinates in `view`'s frame (x/z, y/z for perspective).
+struct Window {
+  float left = kInfinity, right = -kInfinity, bottom = kInfinity, top = -kInfinity;
+  void extend(float sx, float sy) {
+    left = std::min(left, sx);
+    right = std::max(right, sx);
+    bottom = std::min(bottom, sy);
+    top = std::max(top, sy);
+  }
+  bool empty() const { return left > right; }
+};
+
+bool image_plane(const ViewProjection& v, const Vec3& p, float& sx, float& sy) {
+  const Vec3 d = p - v.eye;
+  sx = dot(d, v.frame.u);
+  sy = dot(d, v.frame.v);
+  if (v.orthographic) return true;
+  const float z = -dot(d, v.frame.w);
+  if (!(z > 0)) return false;
+  sx /= z;
+  sy /= z;
+  return true;
+}
+
+}  // namespace
+
+ViewProjection fit_light_view(const Light& light, std::span<const IsoPoint> receivers, const Box3& volume_box,
+                              const LightPassSettings& settings) {
+  ViewProjection v;
+  v.width = v.height = settings.resolution;
+  v.orthographic = light.type == LightType::Directional;
+  // The line of sight: from the light to the centre of what the frustum must hold (§4.3).
+  Vec3 centre = volume_box.center();
+  if (settings.frustum == LightFrustum::Tight && !receivers.empty()) {
+    Vec3 sum;
+    for (const IsoPoint& p : receivers) sum += p.position;
+    centre = sum / static_cast<float>(receivers.size());
+  }
+  const float reach = length(volume_box.extent()) + 1e-3f;
+  if (v.orthographic) {
+    const Vec3 forward = normalize(light.direction);
+    v.frame = Frame::from_w(-forward);
+    // the view plane behind everything that can cast a shadow
+    v.eye = centre - forward * (length(centre - volume_box.center()) + reach);
+  } else {
+    v.eye = light.position;
+    const Vec3 to_centre = centre - light.position;
+    v.frame = Frame::from_w(length(to_centre) > 0 ? -normalize(to_centre) : Vec3{0, 0, 1});
+  }
+  Window w;
+  float sx, sy;
+  if (settings.frustum == LightFrustum::Tight) {
+    for (const IsoPoint& p : receivers)
+      if (image_plane(v, p.position, sx, sy)) w.extend(sx, sy);
+  } else {
+    for (int c = 0; c < 8; ++c) {
+      const Vec3 p{(c & 1) ? volume_box.hi.x : volume_box.lo.x, (c & 2) ? volume_box.hi.y : volume_box.lo.y,
+                   (c & 4) ? volume_box.hi.z : volume_box.lo.z};
+      if (!image_plane(v, p, sx, sy))
+        throw Error("shadows.light_frustum = volume: the light is inside or beside the volume box; use 'tight'");
+      w.extend(sx, sy);
+    }
+  }
+  if (w.empty()) w.extend(0, 0);
+  // A margin of half a pixel, so that the outermost points fall inside the buffer, and a minimum size.
+  const float size = std::max({w.right - w.left, w.top - w.bottom, 1e-6f});
+  const float pad = 0.5f * size / static_cast<float>(settings.resolution) + 1e-7f;
+  v.left = w.left - pad;
+  v.right = std::max(w.right, w.left + 1e-6f) + pad;
+  v.bottom = w.bottom - pad;
+  v.top = std::max(w.top, w.bottom + 1e-6f) + pad;
+  return v;
+}
+
+void LightPass::build(const IsoShadowInputs& in, const Light& light) {
+  Timer timer;
+  const Volume& volume = in.tree->volume();
+  view_ = fit_light_view(light, in.receivers, volume.bounds(), settings_);
+  const Vec3& s = volume.spacing();
+  cell_diagonal_ = length(s);
+  // §4.2: all non-visible, then one hole per receiver's light pixel.
+  holes_ = VisibilityBuffer(view_.width, view_.height, false);
+  for (const IsoPoint& p : in.receivers) {
+    float px, py;
+    if (!view_.project(p.position, px, py)) continue;
+    const int x = static_cast<int>(std::floor(px)), y = static_cast<int>(std::floor(py));
+    if (x < 0 || y < 0 || x >= view_.width || y >= view_.height) continue;
+    holes_.set_visible(x, y);
+  }
+  hole_count_ = holes_.visible_count();
+  ExtractionOptions options;
+  options.collapse = false;  // §4.3: a far-subvolume point would shadow the receivers around it
+  options.normals = false;
+  options.start = &holes_;
+  light_points_ = extract_points(*in.tree, in.isovalue, view_, options);
+  depth_.assign(static_cast<std::size_t>(view_.width) * static_cast<std::size_t>(view_.height), kInfinity);
+  for (const IsoPoint& p : light_points_.points) depth_[p.pixel] = std::min(depth_[p.pixel], p.distance);
+  build_ms_ = timer.elapsed_ms();
+}
+
+// The receiver and the light point of its pixel both lie on the surface, but not at the same place:
+// the light point sits on the pixel's central ray, the receiver anywhere in the pixel's footprint, so on
+// a surface tilted by theta to the light their distances differ by up to a pixel's width times
+// tan(theta); and a point from a sub-pixel cell is on the surface only to within that cell. The bias
+// covers both.
+float LightPass::bias(float distance, float cos_theta) const {
+  if (settings_.bias >= 0) return settings_.bias;
+  const float c = std::max(std::abs(cos_theta), 0.1f);
+  const float tan_theta = std::sqrt(std::max(0.0f, 1 - c * c)) / c;
+  return cell_diagonal_ + view_.pixel_size(distance) * tan_theta;
+}
+
+void LightPass::light_fraction(std::span<const IsoPoint> points, std::span<float> out) const {
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const IsoPoint& p = points[i];
+    out[i] = 1;
+    float px, py;
+    if (!view_.project(p.position, px, py)) continue;
+    const int x = static_cast<int>(std::floor(px)), y = static_cast<int>(std::floor(py));
+    if (x < 0 || y < 0 || x >= view_.width || y >= view_.height) continue;
+    const float stored = depth_[static_cast<std::size_t>(y) * static_cast<std::size_t>(view_.width) + static_cast<std::size_t>(x)];
+    if (stored == kInfinity) continue;
+    const float d = view_.distance(p.position);
+    const Vec3 to_light = view_.orthographic ? view_.frame.w : normalize(view_.eye - p.position);
+    if (d > stored + bias(d, dot(p.normal, to_light))) out[i] = 0;
+  }
+}
+
+std::size_t LightPass::memory_bytes() const {
+  return depth_.size() * sizeof(float) + light_points_.points.size() * sizeof(IsoPoint) +
+         static_cast<std::size_t>(view_.width) * static_cast<std::size_t>(view_.height) / 8;
+}
+
+}  // namespace penumbra

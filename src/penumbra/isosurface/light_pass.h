@@ -1,0 +1,64 @@
+// Shadows for incomplete point-based isosurfaces (paper 002 §4): a second PIsA pass from the light.
+// The light's visibility buffer starts all non-visible; the receivers' light-space projections punch
+// holes in it (§4.2: {F(x) = visible | x in P^l(G_e)}), so the extraction from the light looks only
+// where an eye point needs an answer and finds at most as many points as there are eye points. Each
+// light pixel keeps the light distance of the nearest surface found; a receiver is lit when it is no
+// farther from the light than that, plus a bias (docs/techniques/light_pass.md). The light frustum is
+// fitted to the receivers in light coordinates with an asymmetric perspective window (§4.3, Fig. 5 C);
+// `volume` fits it to the whole volume box instead (Fig. 5 A), for comparison. Directional lights use
+// an orthographic view fitted the same way. The far-subvolume collapse is off in this pass (§4.3).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "penumbra/isosurface/iso_shadow_technique.h"
+#include "penumbra/isosurface/point_extraction.h"
+#include "penumbra/isosurface/view_projection.h"
+#include "penumbra/isosurface/visibility_buffer.h"
+
+namespace penumbra {
+
+enum class LightFrustum { Tight, Volume };
+LightFrustum light_frustum_from_string(const std::string& name);  // "tight", "volume"
+std::string to_string(LightFrustum f);
+
+struct LightPassSettings {
+  int resolution = 512;       // light visibility buffer pixels per side (the paper: 512, as the screen)
+  LightFrustum frustum = LightFrustum::Tight;
+  float bias = -1;            // world units added to the stored light distance; < 0: automatic
+};
+
+// The light's view for a set of receivers (§4.3). Points behind a point light's plane are left out
+// (they are lit: no perspective frustum from the light holds them).
+ViewProjection fit_light_view(const Light& light, std::span<const IsoPoint> receivers, const Box3& volume_box,
+                              const LightPassSettings& settings);
+
+class LightPass final : public IsoShadowTechnique {
+public:
+  explicit LightPass(LightPassSettings settings) : settings_(settings) {}
+  void build(const IsoShadowInputs& in, const Light& light) override;
+  void light_fraction(std::span<const IsoPoint> points, std::span<float> out) const override;
+  std::size_t memory_bytes() const override;
+  std::string_view name() const override { return "light_pass"; }
+
+  const ViewProjection& light_view() const { return view_; }
+  const VisibilityBuffer& holes() const { return holes_; }  // the buffer the light pass started from
+  const Extraction& light_points() const { return light_points_; }
+  std::size_t hole_count() const { return hole_count_; }
+  double build_ms() const { return build_ms_; }
+  // The bias for a receiver at light distance d whose normal makes cos_theta with the light direction.
+  float bias(float distance, float cos_theta) const;
+
+private:
+  LightPassSettings settings_;
+  ViewProjection view_;
+  VisibilityBuffer holes_;
+  Extraction light_points_;
+  std::vector<float> depth_;  // per light pixel: nearest light distance found; infinity: none
+  std::size_t hole_count_ = 0;
+  float cell_diagonal_ = 0;
+  double build_ms_ = 0;
+};
+
+}  // namespace penumbra

@@ -1,0 +1,171 @@
+#include "penumbra/render/isosurface_frame.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/isosurface/iso_registry.h"
+#include "penumbra/isosurface/light_pass.h"
+#include "penumbra/isosurface/view_projection.h"
+
+namespace penumbra {
+
+namespace {
+
+constexpr std::uint32_t kNoPoint = 0xffffffffu;
+
+}  // namespace
+
+PreparedIsosurface::PreparedIsosurface(const Scene& scene, const IsosurfaceObject& o)
+    : PreparedIsosurface(std::make_shared<const GridTree>(*scene.volumes[o.volume].volume), o) {}
+
+PreparedIsosurface::PreparedIsosurface(std::shared_ptr<const GridTree> t, const IsosurfaceObject& o)
+    : object(&o), tree(std::move(t)), raycaster(*tree, o.value) {}
+
+IsoPoints isosurface_eye_points(const Camera& camera, PreparedIsosurface& iso, IsosurfaceFrameStats& stats) {
+  const IsosurfaceObject& o = *iso.object;
+  switch (o.method) {
+    case IsosurfaceMethod::Points: {
+      ExtractionOptions options;
+      options.collapse = o.collapse;
+      Extraction e = extract_points(*iso.tree, o.value, ViewProjection::from_camera(camera), options);
+      stats.extract_ms = e.stats.ms;
+      stats.extraction = e.stats;
+      return std::move(e.points);
+    }
+    case IsosurfaceMethod::Raycast: {
+      Timer t;
+      IsoPoints points = iso.raycaster.render(camera);
+      stats.extract_ms = t.elapsed_ms();
+      return points;
+    }
+    case IsosurfaceMethod::Mesh: {
+      if (!iso.mesh) {
+        Timer t;
+        iso.mesh = std::make_unique<TriangleMesh>(marching_cubes(*iso.tree, o.value));
+        stats.mesh_ms = t.elapsed_ms();
+      }
+      stats.triangles = iso.mesh->triangles();
+      Timer t;
+      IsoPoints points = rasterize_mesh(*iso.mesh, camera);
+      stats.extract_ms = t.elapsed_ms();
+      return points;
+    }
+  }
+  return {};
+}
+
+SurfaceLayer render_isosurface_frame(const Scene& scene, const Camera& camera, PreparedIsosurface& iso,
+                                     std::span<const Light> lights,
+                                     std::vector<std::unique_ptr<IsoShadowTechnique>>& shadows,
+                                     IsosurfaceFrameStats& stats) {
+  const int w = camera.width, h = camera.height;
+  const auto pixels = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+  IsoPoints eye = isosurface_eye_points(camera, iso, stats);
+  stats.points = eye.size();
+
+  // Each pixel's nearest surface: the isosurface point or a nearer plane; listed in pixel order.
+  Timer shade;
+  std::vector<std::uint32_t> at_pixel(pixels, kNoPoint);
+  for (std::size_t i = 0; i < eye.size(); ++i) at_pixel[eye[i].pixel] = static_cast<std::uint32_t>(i);
+  SurfaceLayer layer;
+  layer.distance.assign(pixels, kInfinity);
+  std::vector<IsoPoints> row_points(static_cast<std::size_t>(h));
+  std::vector<std::vector<Rgb>> row_albedo(static_cast<std::size_t>(h));
+  std::vector<std::vector<std::uint8_t>> row_is_iso(static_cast<std::size_t>(h));
+  const PrimaryRays rays(camera);
+  parallel_for(static_cast<std::size_t>(h), [&](std::size_t y0, std::size_t y1) {
+    for (std::size_t y = y0; y < y1; ++y)
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = y * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
+        const std::uint32_t k = at_pixel[i];
+        float t = k == kNoPoint ? kInfinity : eye[k].distance;
+        const Plane* plane = nullptr;
+        if (!scene.planes.empty()) {
+          const Ray ray = rays.ray(x, static_cast<int>(y));
+          for (const auto& p : scene.planes) {
+            const float tp = p.intersect(ray, 0, t);
+            if (tp < t) {
+              t = tp;
+              plane = &p;
+            }
+          }
+          if (plane) {
+            const Vec3 n = dot(plane->normal, ray.direction) <= 0 ? plane->normal : -plane->normal;
+            row_points[y].push_back(IsoPoint{ray.at(t), n, t, static_cast<std::uint32_t>(i)});
+            row_albedo[y].push_back(plane->color);
+            row_is_iso[y].push_back(0);
+          }
+        }
+        if (!plane && k != kNoPoint) {
+          row_points[y].push_back(eye[k]);
+          row_albedo[y].push_back(iso.object->color);
+          row_is_iso[y].push_back(1);
+        }
+        layer.distance[i] = t;
+      }
+  });
+  std::vector<Rgb> albedo;
+  std::vector<std::uint8_t> is_iso;
+  for (std::size_t y = 0; y < static_cast<std::size_t>(h); ++y) {
+    layer.receivers.insert(layer.receivers.end(), row_points[y].begin(), row_points[y].end());
+    albedo.insert(albedo.end(), row_albedo[y].begin(), row_albedo[y].end());
+    is_iso.insert(is_iso.end(), row_is_iso[y].begin(), row_is_iso[y].end());
+  }
+  stats.shade_ms += shade.elapsed_ms();
+
+  // Shadows, built for these receivers (paper 002 §4: the light pass answers only for the eye points).
+  Timer shadow_timer;
+  shadows.clear();
+  std::vector<std::vector<float>> fraction(lights.size(), std::vector<float>(layer.receivers.size(), 1.0f));
+  const IsoShadowInputs inputs{iso.tree.get(), iso.object->value, layer.receivers};
+  for (std::size_t l = 0; l < lights.size(); ++l) {
+    auto technique = make_isosurface_shadow_technique(scene.shadows);
+    technique->build(inputs, lights[l]);
+    parallel_for(layer.receivers.size(), [&](std::size_t b, std::size_t e) {
+      technique->light_fraction(std::span<const IsoPoint>(layer.receivers).subspan(b, e - b),
+                                std::span<float>(fraction[l]).subspan(b, e - b));
+    }, 1024);
+    if (const auto* pass = dynamic_cast<const LightPass*>(technique.get())) {
+      stats.light_points += pass->light_points().points.size();
+      stats.holes += pass->hole_count();
+    }
+    shadows.push_back(std::move(technique));
+  }
+  stats.shadow_ms = shadow_timer.elapsed_ms();
+
+  // Blinn–Phong; isosurface points get a specular highlight, planes are Lambertian.
+  shade.reset();
+  const ShadingParams& k = scene.shading;
+  layer.image = Image(w, h, scene.background);
+  const float specular_cutoff = std::pow(1e-4f, 1.0f / k.shininess);
+  parallel_for(layer.receivers.size(), [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      const IsoPoint& p = layer.receivers[i];
+      Rgb lit = albedo[i] * k.ambient;
+      for (std::size_t l = 0; l < lights.size(); ++l) {
+        if (fraction[l][i] <= 0) continue;
+        Vec3 to_light;
+        float distance;
+        lights[l].towards(p.position, to_light, distance);
+        const float ndotl = dot(p.normal, to_light);
+        if (ndotl <= 0) continue;
+        float spec = 0;
+        if (is_iso[i] != 0) {
+          const float ndoth = dot(p.normal, normalize(to_light + normalize(camera.eye - p.position)));
+          if (ndoth > specular_cutoff) spec = std::pow(ndoth, k.shininess);
+        }
+        lit += lights[l].emitted(to_light) * fraction[l][i] * (albedo[i] * (k.diffuse * ndotl) + Rgb(k.specular * spec));
+      }
+      layer.image.at(static_cast<int>(p.pixel % static_cast<std::uint32_t>(w)),
+                     static_cast<int>(p.pixel / static_cast<std::uint32_t>(w))) = lit;
+    }
+  }, 1024);
+  stats.shade_ms += shade.elapsed_ms();
+  layer.eye_points = std::move(eye);
+  return layer;
+}
+
+}  // namespace penumbra

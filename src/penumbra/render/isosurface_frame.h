@@ -1,0 +1,64 @@
+// A frame of an isosurface scene (paper 002): the eye pass finds the visible surface points — by
+// view-dependent point extraction (`points`), by ray casting (`raycast`, the exact reference) or by
+// rasterising the marching-cubes mesh (`mesh`, the baseline) — planes nearer than the isosurface take
+// their pixels, and every point is shaded with Blinn–Phong under each light, the light's direct term
+// scaled by its IsoShadowTechnique (built for this frame's points: the light pass is view-dependent).
+// The result carries each pixel's distance, so that a volume can be composited in front of it
+// (render_volume_frame's OpaqueLayer).
+#pragma once
+
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "penumbra/core/image.h"
+#include "penumbra/isosurface/grid_tree.h"
+#include "penumbra/isosurface/iso_shadow_technique.h"
+#include "penumbra/isosurface/isosurface_raycaster.h"
+#include "penumbra/isosurface/marching_cubes.h"
+#include "penumbra/isosurface/point_extraction.h"
+#include "penumbra/scene/scene.h"
+
+namespace penumbra {
+
+// What an isosurface keeps between frames: the min/max hierarchy (built once per volume, valid for
+// every isovalue), and for the other methods the ray caster or the mesh.
+struct PreparedIsosurface {
+  PreparedIsosurface(const Scene& scene, const IsosurfaceObject& object);  // builds the hierarchy
+  PreparedIsosurface(std::shared_ptr<const GridTree> tree, const IsosurfaceObject& object);  // shares one
+
+  const IsosurfaceObject* object;
+  std::shared_ptr<const GridTree> tree;
+  IsosurfaceRaycaster raycaster;        // the reference eye pass and exact shadow rays
+  std::unique_ptr<TriangleMesh> mesh;   // `mesh`: extracted on the first frame
+};
+
+struct IsosurfaceFrameStats {
+  double extract_ms = 0;  // eye pass: point extraction, ray casting or mesh rasterisation
+  double mesh_ms = 0;     // marching cubes, on the frame that extracted the mesh
+  double shadow_ms = 0;   // the lights' shadow passes
+  double shade_ms = 0;
+  std::size_t points = 0;        // isosurface points of the eye pass (one per covered pixel)
+  std::size_t light_points = 0;  // light_pass: points extracted from the lights
+  std::size_t holes = 0;         // light_pass: light pixels punched by the receivers (§4.2)
+  std::size_t triangles = 0;     // mesh
+  ExtractionStats extraction;    // points: the eye pass's traversal
+};
+
+struct SurfaceLayer {
+  Image image;
+  std::vector<float> distance;  // per pixel; infinity: background
+  IsoPoints receivers;          // the shaded points (isosurface and planes), in pixel order
+  IsoPoints eye_points;         // the isosurface's eye pass, as extracted
+};
+
+// `shadows` receives one technique per light, built for this frame (kept for inspection).
+SurfaceLayer render_isosurface_frame(const Scene& scene, const Camera& camera, PreparedIsosurface& iso,
+                                     std::span<const Light> lights,
+                                     std::vector<std::unique_ptr<IsoShadowTechnique>>& shadows,
+                                     IsosurfaceFrameStats& stats);
+
+// The eye pass alone: the isosurface's visible points for `camera` by the object's method.
+IsoPoints isosurface_eye_points(const Camera& camera, PreparedIsosurface& iso, IsosurfaceFrameStats& stats);
+
+}  // namespace penumbra

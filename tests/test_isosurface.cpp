@@ -1,0 +1,359 @@
+// Tests of the point-based isosurface (paper 002): the hierarchical visibility buffer against brute
+// force, value pruning against a scan of every cell, visibility pruning against an unpruned
+// extraction, points on the surface and their coverage against the ray-cast reference, light-pass
+// shadows against exact shadow rays (and the tight frustum against the whole-volume one), hole
+// punching (§4.2), determinism across thread counts, and the scene file's checks.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <set>
+#include <string>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/core/rng.h"
+#include "penumbra/isosurface/grid_tree.h"
+#include "penumbra/isosurface/isosurface_raycaster.h"
+#include "penumbra/isosurface/light_pass.h"
+#include "penumbra/isosurface/point_extraction.h"
+#include "penumbra/isosurface/ray_traced_isosurface.h"
+#include "penumbra/isosurface/visibility_buffer.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/scene/scene_file.h"
+#include "test_scenes.h"
+
+using namespace penumbra;
+using penumbra::test::sanitize_scale;
+
+namespace {
+
+// A float volume of n^3 voxels on [-1, 1]^3 holding f(p); inside is f >= 0.
+Volume field_volume(int n, const std::function<float(const Vec3&)>& f) {
+  const float s = 2.0f / static_cast<float>(n - 1);
+  Volume v(ScalarType::Float32, {n, n, n}, {s, s, s}, {-1, -1, -1});
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        v.set_value(v.index(i, j, k), f({-1 + static_cast<float>(i) * s, -1 + static_cast<float>(j) * s, -1 + static_cast<float>(k) * s}));
+  v.recompute_range();
+  return v;
+}
+
+float sphere_field(const Vec3& p, const Vec3& c, float r) { return r - length(p - c); }
+
+// A sphere shell (radius 0.35, 0.08 thick) above a slab (|y + 0.6| <= 0.08): the known occluder.
+float shell_over_slab(const Vec3& p) {
+  const float shell = 0.04f - std::abs(length(p - Vec3{0, 0.25f, 0}) - 0.35f);
+  const float slab = 0.08f - std::abs(p.y + 0.6f);
+  return std::max(shell, slab);
+}
+
+// A noisy field with many small components: the hard case for pruning.
+Volume noisy_volume(int n) {
+  return field_volume(n, [](const Vec3& p) {
+    const std::uint64_t h = (static_cast<std::uint64_t>((p.x + 2) * 1000) * 73856093u) ^
+                            (static_cast<std::uint64_t>((p.y + 2) * 1000) * 19349663u) ^
+                            (static_cast<std::uint64_t>((p.z + 2) * 1000) * 83492791u);
+    return sphere_field(p, {0, 0, 0}, 0.6f) + 0.3f * (uniform_float(h, 0, 0) - 0.5f);
+  });
+}
+
+Camera test_camera(int size, Vec3 eye = {1.6f, 1.1f, 2.3f}) {
+  Camera c;
+  c.eye = eye;
+  c.target = {0, 0, 0};
+  c.fov_deg = 40;
+  c.width = c.height = size;
+  return c;
+}
+
+bool same_points(const IsoPoints& a, const IsoPoints& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (a[i].pixel != b[i].pixel || a[i].distance != b[i].distance || a[i].position.x != b[i].position.x) return false;
+  return true;
+}
+
+}  // namespace
+
+TEST(VisibilityBuffer, QueriesMatchBruteForce) {
+  const int w = 200, h = 77;  // not multiples of 8 or 64
+  VisibilityBuffer vb(w, h, true);
+  std::vector<std::uint8_t> brute(static_cast<std::size_t>(w * h), 1);
+  for (int step = 0; step < 4000; ++step) {
+    const int x = static_cast<int>(uniform_float(7, static_cast<std::uint64_t>(step), 0) * w);
+    const int y = static_cast<int>(uniform_float(7, static_cast<std::uint64_t>(step), 1) * h);
+    // mostly covering, sometimes punching holes back: every state of the hierarchy is visited
+    if (uniform_float(7, static_cast<std::uint64_t>(step), 2) < 0.85f) {
+      vb.set_covered(x, y);
+      brute[static_cast<std::size_t>(y * w + x)] = 0;
+    } else {
+      vb.set_visible(x, y);
+      brute[static_cast<std::size_t>(y * w + x)] = 1;
+    }
+    if (step % 20 != 0) continue;
+    for (int q = 0; q < 20; ++q) {
+      int x0 = static_cast<int>(uniform_float(9, static_cast<std::uint64_t>(step * 20 + q), 0) * (w + 20)) - 10;
+      int y0 = static_cast<int>(uniform_float(9, static_cast<std::uint64_t>(step * 20 + q), 1) * (h + 20)) - 10;
+      const int x1 = x0 + static_cast<int>(uniform_float(9, static_cast<std::uint64_t>(step * 20 + q), 2) * 90);
+      const int y1 = y0 + static_cast<int>(uniform_float(9, static_cast<std::uint64_t>(step * 20 + q), 3) * 40);
+      bool expected = false;
+      for (int yy = std::max(y0, 0); yy <= std::min(y1, h - 1); ++yy)
+        for (int xx = std::max(x0, 0); xx <= std::min(x1, w - 1); ++xx) expected |= brute[static_cast<std::size_t>(yy * w + xx)] != 0;
+      ASSERT_EQ(vb.any_visible(x0, y0, x1, y1), expected) << x0 << "," << y0 << " " << x1 << "," << y1;
+    }
+  }
+  std::size_t count = 0;
+  for (auto b : brute) count += b;
+  EXPECT_EQ(vb.visible_count(), count);
+  VisibilityBuffer none(w, h, false);
+  EXPECT_FALSE(none.any_visible(0, 0, w - 1, h - 1));
+  none.set_visible(w - 1, h - 1);
+  EXPECT_TRUE(none.any_visible(0, 0, w - 1, h - 1));
+  EXPECT_FALSE(none.any_visible(0, 0, w - 2, h - 1));
+}
+
+TEST(GridTree, ValuePruningNeverDropsACellHoldingTheSurface) {
+  const Volume v = noisy_volume(37);  // 36 cells: bricks do not divide it evenly
+  const GridTree tree(v);
+  EXPECT_EQ(tree.level_dims(tree.levels() - 1), (std::array<int, 3>{1, 1, 1}));
+  for (float iso : {-0.3f, -0.05f, 0.0f, 0.1f, 0.5f}) {
+    std::size_t straddling = 0;
+    for (int k = 0; k < 36; ++k)
+      for (int j = 0; j < 36; ++j)
+        for (int i = 0; i < 36; ++i) {
+          float lo = kInfinity, hi = -kInfinity;
+          for (int c = 0; c < 8; ++c) {
+            const float x = v.value(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2));
+            lo = std::min(lo, x);
+            hi = std::max(hi, x);
+          }
+          if (!range_straddles(lo, hi, iso)) continue;
+          ++straddling;
+          for (int l = 0; l < tree.levels(); ++l) {
+            const int n = tree.node_cells(l);
+            ASSERT_TRUE(tree.may_contain(l, i / n, j / n, k / n, iso)) << "level " << l << " cell " << i << "," << j << "," << k;
+          }
+        }
+    EXPECT_GT(straddling, 0u);
+  }
+  // and prunes: a value above the maximum leaves nothing at the root
+  EXPECT_FALSE(tree.may_contain(tree.levels() - 1, 0, 0, 0, v.max_value() + 1));
+}
+
+TEST(PointExtraction, VisibilityPruningDropsNothingVisible) {
+  const Volume v = noisy_volume(sanitize_scale() ? 33 : 65);
+  const GridTree tree(v);
+  const ViewProjection view = ViewProjection::from_camera(test_camera(96));
+  for (bool collapse : {false, true}) {
+    ExtractionOptions pruned;
+    pruned.collapse = collapse;
+    ExtractionOptions unpruned = pruned;
+    unpruned.visibility_pruning = false;
+    const Extraction a = extract_points(tree, 0.0f, view, pruned);
+    const Extraction b = extract_points(tree, 0.0f, view, unpruned);
+    EXPECT_TRUE(same_points(a.points, b.points)) << "collapse " << collapse << ": " << a.points.size() << " vs " << b.points.size();
+    EXPECT_GT(a.stats.visibility_pruned, 0u);
+    EXPECT_LT(a.stats.nodes_visited, b.stats.nodes_visited);
+  }
+}
+
+TEST(PointExtraction, PointsLieOnTheSurfaceAndCoverTheReference) {
+  const int n = sanitize_scale() ? 33 : 65;
+  const Vec3 centre{0.1f, -0.05f, 0.0f};
+  const Volume v = field_volume(n, [&](const Vec3& p) { return sphere_field(p, centre, 0.55f); });
+  const GridTree tree(v);
+  const float cell = length(v.spacing());
+  for (int size : {48, 160, 400}) {  // cells larger and smaller than a pixel
+    SCOPED_TRACE(size);
+    const Camera cam = test_camera(size);
+    ExtractionOptions options;
+    options.collapse = false;
+    const Extraction e = extract_points(tree, 0.0f, ViewProjection::from_camera(cam), options);
+    std::set<std::uint32_t> pixels;
+    for (const IsoPoint& p : e.points) {
+      ASSERT_LE(std::abs(length(p.position - centre) - 0.55f), cell) << "a point off the surface";
+      ASSERT_TRUE(pixels.insert(p.pixel).second) << "two points on one pixel";
+      const Vec3 outward = normalize(p.position - centre);
+      ASSERT_GT(std::abs(dot(p.normal, outward)), 0.95f);
+    }
+    const IsosurfaceRaycaster ref(tree, 0.0f);
+    const IsoPoints exact = ref.render(cam);
+    std::size_t covered = 0;
+    for (const IsoPoint& p : exact) covered += pixels.count(p.pixel);
+    const double coverage = static_cast<double>(covered) / static_cast<double>(exact.size());
+    EXPECT_GE(coverage, 0.97) << covered << " of " << exact.size();
+    EXPECT_LE(e.points.size(), exact.size() + exact.size() / 20);  // no halo of extra pixels
+  }
+}
+
+TEST(PointExtraction, SameForOneAndTwoThreads) {
+  const Volume v = noisy_volume(49);
+  const GridTree tree(v);
+  const ViewProjection view = ViewProjection::from_camera(test_camera(130));
+  Extraction a, b;
+  {
+    ThreadLimit l(1);
+    a = extract_points(tree, 0.0f, view);
+  }
+  {
+    ThreadLimit l(2);
+    b = extract_points(tree, 0.0f, view);
+  }
+  EXPECT_TRUE(same_points(a.points, b.points));
+  EXPECT_GT(a.points.size(), 1000u);
+}
+
+TEST(ViewProjection, FromCameraMatchesPrimaryRays) {
+  const Camera cam = test_camera(64);
+  const ViewProjection view = ViewProjection::from_camera(cam);
+  const PrimaryRays rays(cam);
+  for (int y = 0; y < 64; y += 9)
+    for (int x = 0; x < 64; x += 7) {
+      const Ray r = rays.ray(x, y);
+      const Ray q = view.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f);
+      EXPECT_LT(length(r.direction - q.direction), 1e-5f);
+      float px, py;
+      ASSERT_TRUE(view.project(r.at(3.0f), px, py));
+      EXPECT_NEAR(px, static_cast<float>(x) + 0.5f, 1e-3f);
+      EXPECT_NEAR(py, static_cast<float>(y) + 0.5f, 1e-3f);
+    }
+}
+
+namespace {
+
+// Agreement of light-pass shadows with exact shadow rays over the lit-facing eye points.
+struct ShadowAgreement {
+  double agreement;
+  std::size_t eye_points, light_points, holes, shadowed;
+};
+
+ShadowAgreement light_pass_agreement(const GridTree& tree, const Camera& cam, const Light& light, LightPassSettings s) {
+  ExtractionOptions options;
+  const Extraction eye = extract_points(tree, 0.0f, ViewProjection::from_camera(cam), options);
+  LightPass pass(s);
+  const IsoShadowInputs in{&tree, 0.0f, eye.points};
+  pass.build(in, light);
+  RayTracedIsosurfaceShadows exact;
+  exact.build(in, light);
+  std::vector<float> a(eye.points.size()), b(eye.points.size());
+  pass.light_fraction(eye.points, a);
+  exact.light_fraction(eye.points, b);
+  std::size_t facing = 0, agree = 0, shadowed = 0;
+  for (std::size_t i = 0; i < eye.points.size(); ++i) {
+    Vec3 to_light;
+    float d;
+    light.towards(eye.points[i].position, to_light, d);
+    if (dot(eye.points[i].normal, to_light) <= 0) continue;  // unlit either way
+    ++facing;
+    agree += a[i] == b[i];
+    shadowed += b[i] == 0;
+  }
+  return {static_cast<double>(agree) / static_cast<double>(facing), eye.points.size(),
+          pass.light_points().points.size(), pass.hole_count(), shadowed};
+}
+
+}  // namespace
+
+TEST(LightPass, AgreesWithExactShadowRaysOnAKnownOccluder) {
+  const Volume v = field_volume(sanitize_scale() ? 49 : 81, shell_over_slab);
+  const GridTree tree(v);
+  const Camera cam = test_camera(sanitize_scale() ? 96 : 192, {0.4f, 1.6f, 2.4f});
+  Light light;
+  light.type = LightType::Point;
+  light.position = {0.6f, 2.5f, 0.3f};
+  const ShadowAgreement tight = light_pass_agreement(tree, cam, light, {cam.width, LightFrustum::Tight, -1});
+  EXPECT_GT(tight.shadowed, tight.eye_points / 20) << "the shell must shadow part of the slab";
+  EXPECT_GE(tight.agreement, 0.97);
+  // §4.2: holes only where eye points are, and at most one light point per hole.
+  EXPECT_LE(tight.holes, tight.eye_points);
+  EXPECT_LE(tight.light_points, tight.holes);
+  // §4.3: at a coarse light buffer the fitted frustum samples the receivers better than the volume's.
+  const int coarse = 48;
+  const ShadowAgreement fitted = light_pass_agreement(tree, cam, light, {coarse, LightFrustum::Tight, -1});
+  const ShadowAgreement whole = light_pass_agreement(tree, cam, light, {coarse, LightFrustum::Volume, -1});
+  EXPECT_GT(fitted.agreement, whole.agreement);
+  // A directional light (orthographic light view) as well.
+  Light sun;
+  sun.direction = normalize(Vec3{-0.3f, -1, -0.2f});
+  EXPECT_GE(light_pass_agreement(tree, cam, sun, {cam.width, LightFrustum::Tight, -1}).agreement, 0.97);
+}
+
+TEST(LightPass, TightFrustumHoldsEveryReceiver) {
+  const Volume v = field_volume(41, shell_over_slab);
+  const GridTree tree(v);
+  const Extraction eye = extract_points(tree, 0.0f, ViewProjection::from_camera(test_camera(80)));
+  Light light;
+  light.type = LightType::Point;
+  light.position = {3, 4, 1};
+  const ViewProjection lv = fit_light_view(light, eye.points, v.bounds(), {64, LightFrustum::Tight, -1});
+  const ViewProjection whole = fit_light_view(light, eye.points, v.bounds(), {64, LightFrustum::Volume, -1});
+  float xmin = kInfinity, xmax = -kInfinity;
+  for (const IsoPoint& p : eye.points) {
+    float px, py;
+    ASSERT_TRUE(lv.project(p.position, px, py));
+    ASSERT_GE(px, 0);
+    ASSERT_LT(px, 64);
+    ASSERT_GE(py, 0);
+    ASSERT_LT(py, 64);
+    xmin = std::min(xmin, px);
+    xmax = std::max(xmax, px);
+  }
+  EXPECT_GT(xmax - xmin, 60);  // the receivers fill the buffer
+  EXPECT_LT((lv.right - lv.left) * (lv.top - lv.bottom), (whole.right - whole.left) * (whole.top - whole.bottom));
+}
+
+namespace {
+
+nlohmann::json iso_scene() {
+  return nlohmann::json::parse(R"({
+    "volumes": [{"procedural": {"name": "hollow-sphere", "size": 24}, "visible": false}],
+    "isosurfaces": [{"value": 0.5}],
+    "lights": [{"type": "point", "position": [1, 2, 1]}],
+    "shadows": {"technique": "light_pass"},
+    "camera": {"width": 48, "height": 48}
+  })");
+}
+
+void expect_scene_error(const nlohmann::json& j, const std::vector<std::string>& needles) {
+  try {
+    (void)build_scene(j, "");
+    ADD_FAILURE() << "no error for " << j.dump();
+  } catch (const Error& e) {
+    for (const auto& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << n << " in: " << e.what();
+  }
+}
+
+}  // namespace
+
+TEST(IsosurfaceScene, RendersEveryMethodAndRejectsBadInput) {
+  for (const char* method : {"points", "raycast", "mesh"}) {
+    nlohmann::json j = iso_scene();
+    j["isosurfaces"][0]["method"] = method;
+    Renderer r(build_scene(j, ""));
+    const FrameResult f = r.render();
+    EXPECT_GT(f.isosurface.points, 200u) << method;
+  }
+  auto with = [](const std::string& key, const nlohmann::json& value) {
+    nlohmann::json j = iso_scene();
+    apply_override(j, key, value.dump());
+    return j;
+  };
+  expect_scene_error(with("isosurfaces.0.value", 1.5), {"isosurfaces.0.value", "1.5", "outside the data range"});
+  expect_scene_error(with("isosurfaces.0.value", 0.0), {"isosurfaces.0.value", "outside the data range"});
+  expect_scene_error(with("isosurfaces.0.value", "NaN"), {"isosurfaces.0.value"});
+  expect_scene_error(with("isosurfaces.0.volume", 3), {"isosurfaces.0.volume", "3", "1 volume"});
+  expect_scene_error(with("isosurfaces.0.method", "marching"), {"isosurfaces.0.method", "marching", "points, raycast or mesh"});
+  expect_scene_error(with("shadows.technique", "cssm"), {"shadows", "cssm", "light_pass"});
+  expect_scene_error(with("shadows.light_frustum", "loose"), {"light_frustum", "loose", "tight"});
+  nlohmann::json empty = iso_scene();
+  empty["volumes"][0]["procedural"] = {{"name", "slab"}, {"size", 8}, {"thickness", 4.0}};  // every voxel 1
+  expect_scene_error(empty, {"isosurfaces.0.volume", "constant"});
+  nlohmann::json two = iso_scene();
+  two["isosurfaces"].push_back(two["isosurfaces"][0]);
+  expect_scene_error(two, {"isosurfaces", "one isosurface"});
+}
