@@ -1,5 +1,6 @@
 // Tests for procedural.h: grid layout, the analytic shapes measured by counting voxels, the
-// Marschner-Lobb signal at analytic points, the test-spheres plateaus and their preset colours, and
+// Marschner-Lobb signal at analytic points, the test-spheres plateaus and their preset colours, the
+// "ct-body" CT (its grid, determinism, tissues at known places, many bone components, its noise), and
 // the validation of specs.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -7,10 +8,15 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
+#include "penumbra/data/ct_body.h"
 #include "penumbra/data/procedural.h"
 #include "penumbra/data/transfer_function.h"
 
@@ -33,8 +39,9 @@ std::string error_of(const json& spec) {
 
 TEST(Procedural, EveryNameBuildsOnTheDocumentedGrid) {
   const auto names = procedural_volume_names();
-  ASSERT_EQ(names.size(), 5u);
+  ASSERT_EQ(names.size(), 6u);
   for (const std::string& name : names) {
+    if (name == "ct-body") continue;  // a grid of its own: the ProceduralCtBody tests
     const Volume v = make_procedural_volume(json{{"name", name}, {"size", 17}});
     EXPECT_EQ(v.type(), ScalarType::Float32) << name;
     EXPECT_EQ(v.dims(), (std::array<int, 3>{17, 17, 17})) << name;
@@ -199,4 +206,185 @@ TEST(Procedural, BadSpecsAreErrors) {
   error_of(json{{"size", 32}});
   error_of(json{{"name", 3}});
   error_of(json::array());
+}
+
+// ---------------------------------------------------------------- ct-body
+
+namespace {
+
+// The nearest voxel's value at x, y (mm) and the height h above the box's bottom (world z = h - 867).
+float ct_value(const Volume& v, double x, double y, double h) {
+  const Vec3 p = v.to_voxel(Vec3(static_cast<float>(x), static_cast<float>(y), static_cast<float>(h - 867)));
+  const auto clamp_axis = [&](float c, int a) { return std::clamp(static_cast<int>(std::lround(c)), 0, v.dims()[a] - 1); };
+  return v.value(clamp_axis(p.x, 0), clamp_axis(p.y, 1), clamp_axis(p.z, 2));
+}
+
+// The largest value on the segment from (x0, y, h) to (x1, y, h), sampled every 0.5 mm.
+float ct_max_along_x(const Volume& v, double x0, double x1, double y, double h) {
+  float m = 0;
+  for (double x = x0; x <= x1; x += 0.5) m = std::max(m, ct_value(v, x, y, h));
+  return m;
+}
+
+// A ~4 mm body without noise, shared by the tests that read tissues and count bones.
+const Volume& quiet_body() {
+  static const Volume v = make_procedural_volume(json{{"name", "ct-body"}, {"dims", {128, 128, 434}}, {"noise", 0}});
+  return v;
+}
+
+// Connected components (6-neighbourhood) of the voxels at or above `threshold`, by flood fill.
+int components_above(const Volume& v, float threshold) {
+  const auto [nx, ny, nz] = v.dims();
+  std::vector<std::uint8_t> seen(v.voxel_count(), 0);
+  std::vector<std::size_t> stack;
+  int count = 0;
+  for (std::size_t start = 0; start < v.voxel_count(); ++start) {
+    if (seen[start] || v.value(start) < threshold) continue;
+    ++count;
+    seen[start] = 1;
+    stack.push_back(start);
+    while (!stack.empty()) {
+      const std::size_t idx = stack.back();
+      stack.pop_back();
+      const int i = static_cast<int>(idx % static_cast<std::size_t>(nx));
+      const int j = static_cast<int>(idx / static_cast<std::size_t>(nx) % static_cast<std::size_t>(ny));
+      const int k = static_cast<int>(idx / (static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny)));
+      const std::array<std::array<int, 3>, 6> steps{{{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}}};
+      for (const auto& d : steps) {
+        const int a = i + d[0], b = j + d[1], c = k + d[2];
+        if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz) continue;
+        const std::size_t n = v.index(a, b, c);
+        if (!seen[n] && v.value(n) >= threshold) seen[n] = 1, stack.push_back(n);
+      }
+    }
+  }
+  return count;
+}
+
+}  // namespace
+
+TEST(ProceduralCtBody, GridIsTheDocumentedBox) {
+  const Volume v = make_procedural_volume(json{{"name", "ct-body"}, {"dims", {64, 48, 200}}});
+  EXPECT_EQ(v.type(), ScalarType::UInt16);
+  EXPECT_EQ(v.dims(), (std::array<int, 3>{64, 48, 200}));
+  EXPECT_FLOAT_EQ(v.spacing().x, 500.0f / 64);
+  EXPECT_FLOAT_EQ(v.spacing().y, 500.0f / 48);
+  EXPECT_FLOAT_EQ(v.spacing().z, 1734.0f / 200);
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(v.bounds().lo[a] + v.bounds().hi[a], 0.0f, 1e-3f) << a;  // centred
+  EXPECT_NEAR(v.bounds().hi.z - v.bounds().lo.z, 1734.0f * 199 / 200, 1e-2f);
+  EXPECT_EQ(CtBodyParams{}.dims, (std::array<int, 3>{512, 512, 1734}));  // the Visible Woman's grid by default
+}
+
+TEST(ProceduralCtBody, SameForASeedAndAnyThreadCount) {
+  const json spec{{"name", "ct-body"}, {"dims", {64, 64, 200}}, {"seed", 3}};
+  const auto build = [](const json& s, int threads) {
+    ThreadLimit limit(threads);
+    return make_procedural_volume(s);
+  };
+  // Also a slice whose voxel count is odd: the noise hashes 4 voxels at a time across slice borders.
+  for (const json& s : {spec, json{{"name", "ct-body"}, {"dims", {9, 11, 13}}}}) {
+    const Volume one = build(s, 1), two = build(s, 2);
+    ASSERT_EQ(one.memory_bytes(), two.memory_bytes());
+    EXPECT_EQ(std::memcmp(one.data(), two.data(), one.memory_bytes()), 0) << s.dump();
+  }
+  const Volume one = build(spec, 1);
+  const Volume again = make_procedural_volume(spec);
+  EXPECT_EQ(std::memcmp(one.data(), again.data(), one.memory_bytes()), 0);
+  json other = spec;
+  other["seed"] = 4;
+  const Volume reseeded = make_procedural_volume(other);
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < one.voxel_count(); ++i) differ += one.value(i) != reseeded.value(i);
+  EXPECT_GT(differ, one.voxel_count() / 2);  // the noise differs almost everywhere
+}
+
+TEST(ProceduralCtBody, TissuesAtKnownPlaces) {
+  using namespace ct_tissue;
+  const Volume& v = quiet_body();
+  // Without noise a tissue is within 3% (the low-frequency texture) of its value.
+  const auto within = [](float value, float tissue) { return std::abs(value - tissue) <= 0.031f * tissue + 1; };
+  for (const double h : {100.0, 900.0, 1700.0}) {
+    EXPECT_TRUE(within(ct_value(v, -240, -240, h), kAir)) << h;  // a corner of the box
+    EXPECT_TRUE(within(ct_value(v, 0, 240, h), kAir)) << h;      // in front of the body
+  }
+  // The skull on the head's left-right axis (centre (0, 0, 1598) mm, outer semi-axis 72): bone in the
+  // shell, brain inside, air outside.
+  EXPECT_GE(ct_max_along_x(v, 60, 76, 0, 1598), kBoneThreshold);
+  EXPECT_TRUE(within(ct_value(v, 0, 0, 1598), kSoft)) << ct_value(v, 0, 0, 1598);
+  EXPECT_TRUE(within(ct_value(v, 20, -20, 1640), kSoft)) << ct_value(v, 20, -20, 1640);
+  EXPECT_TRUE(within(ct_value(v, 100, 0, 1598), kAir));
+  // The abdomen: liver (centre (-45, 12, 1090)); the right lung (centre (-64, -4, 1240)) is air-like.
+  EXPECT_TRUE(within(ct_value(v, -45, 12, 1090), kOrgan)) << ct_value(v, -45, 12, 1090);
+  int airy = 0;
+  for (int a = -2; a <= 2; ++a)
+    for (int b = -2; b <= 2; ++b)
+      for (int c = -2; c <= 2; ++c) airy += ct_value(v, -64 + 8 * a, -4 + 8 * b, 1240 + 8 * c) < 600;
+  EXPECT_GT(airy, 100) << "of 125";  // a few lung vessels are soft tissue
+  // The left thigh at 700 mm: subcutaneous fat under the skin, a femur of cortex around marrow.
+  EXPECT_TRUE(within(ct_value(v, 80, -59.5, 700), kFat)) << ct_value(v, 80, -59.5, 700);  // 2 + 7 mm deep
+  EXPECT_GE(ct_max_along_x(v, 100, 115, 5.9, 700), kBoneThreshold);
+  EXPECT_TRUE(within(ct_value(v, 96.7, 5.9, 700), kCancellous)) << ct_value(v, 96.7, 5.9, 700);
+  EXPECT_LE(v.max_value(), kEnamel * 1.03f + 1);
+  EXPECT_GE(v.min_value(), kAir * 0.97f - 1);
+}
+
+TEST(ProceduralCtBody, BoneIsManySeparateComponents) {
+  const Volume& v = quiet_body();
+  const int bones = components_above(v, ct_tissue::kBoneThreshold);
+  std::printf("[ bones    ] %d components >= %g at 128 x 128 x 434\n", bones, ct_tissue::kBoneThreshold);
+  // Vertebrae, ribs, phalanges, teeth and calcifications: far more than the long bones.
+  EXPECT_GT(bones, 100);
+}
+
+TEST(ProceduralCtBody, NoiseHasTheRequestedDeviation) {
+  const json spec{{"name", "ct-body"}, {"dims", {64, 64, 200}}, {"seed", 9}};
+  json quiet = spec;
+  quiet["noise"] = 0;
+  const Volume noisy = make_procedural_volume(spec), clean = make_procedural_volume(quiet);
+  double sum = 0, sum2 = 0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < clean.voxel_count(); ++i) {
+    if (clean.value(i) < 500) continue;  // inside the body, where clamping at 0 does not cut the noise
+    const double d = noisy.value(i) - clean.value(i);
+    sum += d;
+    sum2 += d * d;
+    ++n;
+  }
+  ASSERT_GT(n, 100000u);
+  const double mean = sum / static_cast<double>(n), sd = std::sqrt(sum2 / static_cast<double>(n) - mean * mean);
+  EXPECT_NEAR(mean, 0, 0.5);
+  EXPECT_NEAR(sd, 60, 1.5);  // the default noise
+}
+
+TEST(ProceduralCtBody, BadParametersNameTheKey) {
+  const auto expect_key = [](const json& spec, const std::string& key) {
+    const std::string e = error_of(spec);
+    EXPECT_NE(e.find("\"" + key + "\""), std::string::npos) << e;
+    EXPECT_NE(e.find("ct-body"), std::string::npos) << e;
+  };
+  const json base{{"name", "ct-body"}, {"dims", {16, 16, 16}}};
+  for (const json& dims : {json{16, 16}, json{7, 16, 16}, json{16, 16, 2049}, json{16.5, 16, 16}, json("16"), json{16, "a", 16}}) {
+    json spec = base;
+    spec["dims"] = dims;
+    expect_key(spec, "dims");
+  }
+  json spec = base;
+  spec["size"] = 64;  // the other shapes' cube size does not apply
+  expect_key(spec, "size");
+  for (const json& seed : {json(-1), json(1.5), json("x")}) {
+    spec = base;
+    spec["seed"] = seed;
+    expect_key(spec, "seed");
+  }
+  for (const json& noise : {json(-1), json("loud"), json(1e5)}) {
+    spec = base;
+    spec["noise"] = noise;
+    expect_key(spec, "noise");
+  }
+  spec = base;
+  spec["radius"] = 3;
+  const std::string unknown = error_of(spec);
+  EXPECT_NE(unknown.find("radius"), std::string::npos) << unknown;
+  EXPECT_NE(unknown.find("dims"), std::string::npos) << unknown;  // lists what is accepted
+  EXPECT_EQ(unknown.find("size"), std::string::npos) << unknown;
 }

@@ -8,13 +8,17 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "penumbra/core/error.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/volume_stats.h"
+#include "test_scenes.h"
 #include "test_volume_io_util.h"
 
 using namespace penumbra;
@@ -396,6 +400,109 @@ TEST(VolumeIoNrrd, DetachedDataFileProblems) {
   write_file(dir.file("short.raw"), Bytes(7, 0));
   write_file(dir.file("short.nhdr"), fields + "data file: short.raw\n");
   EXPECT_LOAD_ERROR(dir.file("short.nhdr"), std::nullopt, "8 bytes", "7 bytes");
+}
+
+TEST(VolumeIoNrrd, SkipsMembersAndByteOrderWhenReadingIntoTheVolume) {
+  TempDir dir;
+  const std::vector<std::int16_t> values{-3, 0, 7, 300};
+  const Bytes data = to_bytes(values), junk{'j', 'u', 'n', 'k', '\n', 'x', 'y'};
+  const std::string fields = "type: short\ndimension: 3\nsizes: 2 1 2\nendian: little\n";
+  const auto expect_values = [&](const std::string& name) {
+    const Volume v = load_volume(dir.file(name));
+    ASSERT_EQ(v.voxel_count(), values.size()) << name;
+    for (std::size_t i = 0; i < values.size(); ++i) EXPECT_EQ(v.value(i), values[i]) << name << " voxel " << i;
+  };
+  // Raw: bytes skipped before the data, or counted back from the end (-1); lines skipped first.
+  write_file(dir.file("skip.nrrd"), nrrd_file(fields + "encoding: raw\nbyte skip: 3\n", concat(Bytes(3, 9), data)));
+  write_file(dir.file("end.raw"), concat(junk, data));
+  write_file(dir.file("end.nhdr"), "NRRD0004\n" + fields + "encoding: raw\nbyte skip: -1\ndata file: end.raw\n");
+  write_file(dir.file("lines.raw"), concat(Bytes{'a', '\n', 'b', 'c', '\n'}, data));
+  write_file(dir.file("lines.nhdr"), "NRRD0004\n" + fields + "encoding: raw\nline skip: 2\ndata file: lines.raw\n");
+  // gzip: a byte skip counts decompressed bytes; -1 (data at the end) is left to teem; the data may span
+  // several gzip members, and what follows the member that completes it is ignored.
+  write_file(dir.file("gskip.nrrd"), nrrd_file(fields + "encoding: gzip\nbyte skip: 7\n", gzip(concat(junk, data))));
+  write_file(dir.file("gend.nrrd"), nrrd_file(fields + "encoding: gzip\nbyte skip: -1\n", gzip(concat(junk, data))));
+  const Bytes first(data.begin(), data.begin() + 3), rest(data.begin() + 3, data.end());
+  write_file(dir.file("members.nrrd"), nrrd_file(fields + "encoding: gzip\n", concat(concat(gzip(first), gzip(rest)), junk)));
+  for (const char* name : {"skip.nrrd", "end.nhdr", "lines.nhdr", "gskip.nrrd", "gend.nrrd", "members.nrrd"}) expect_values(name);
+
+  // Converted types arrive through a buffer, byte-swapped there.
+  write_file(dir.file("int.nrrd"), nrrd_file("type: int\ndimension: 3\nsizes: 2 1 2\nendian: big\nencoding: raw\n",
+                                             to_bytes(std::vector<std::int32_t>{-5, 70000, 3, -2000000}, true)));
+  const Volume i = load_volume(dir.file("int.nrrd"));
+  EXPECT_EQ(i.type(), ScalarType::Float32);
+  EXPECT_EQ(i.value(1), 70000.0f);
+  EXPECT_EQ(i.value(3), -2000000.0f);
+  // A line skip that eats into the data leaves too few bytes.
+  write_file(dir.file("eaten.nrrd"), nrrd_file("type: uchar\ndimension: 3\nsizes: 2 2 1\nencoding: raw\nline skip: 1\n",
+                                               Bytes{1, '\n', 3, 4}));
+  EXPECT_LOAD_ERROR(dir.file("eaten.nrrd"), std::nullopt, "raw data ends after 2 bytes of the 4 bytes needed");
+}
+
+namespace {
+
+// A "Vm...:" line of /proc/self/status, in bytes (0 where there is none).
+std::uint64_t proc_status_bytes(const std::string& key) {
+  std::ifstream in("/proc/self/status");
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind(key + ":", 0) == 0) return std::stoull(line.substr(key.size() + 1)) * 1024;  // "...  123 kB"
+  return 0;
+}
+
+// Resets the peak resident set size (VmHWM) to the current one (Linux 4.0+); false where refused.
+bool reset_peak_rss() {
+  std::ofstream out("/proc/self/clear_refs");
+  out << "5";
+  out.flush();
+  return static_cast<bool>(out);
+}
+
+// How far loading `path` raises the peak resident memory above what was resident before.
+std::uint64_t peak_growth_of_loading(const std::string& path, Volume& loaded) {
+  const std::uint64_t before = proc_status_bytes("VmRSS");
+  if (!reset_peak_rss() || before == 0) return 0;
+  loaded = load_volume(path);
+  return proc_status_bytes("VmHWM") - before;
+}
+
+}  // namespace
+
+TEST(VolumeIoNrrd, LargeVolumesAreReadOnceIntoTheVolume) {
+  if (!reset_peak_rss() || proc_status_bytes("VmHWM") == 0) GTEST_SKIP() << "no /proc/self/clear_refs or VmHWM here";
+  TempDir dir;
+  // 48 MiB of uint16 (a twentieth of a Visible-Woman-sized CT), big-endian so the bytes are swapped in
+  // place; and 40 MiB gzip-compressed. teem's buffer plus a copy would need twice the data at peak. Both
+  // are above glibc's largest mmap threshold (32 MiB), so every buffer is fresh memory that counts.
+  const std::array<int, 3> dims{256, 256, 384};
+  std::vector<std::uint16_t> values(static_cast<std::size_t>(dims[0]) * dims[1] * dims[2]);
+  for (std::size_t i = 0; i < values.size(); ++i) values[i] = static_cast<std::uint16_t>(i * 2654435761u >> 13);
+  write_file(dir.file("big.nrrd"), nrrd_file("type: ushort\ndimension: 3\nsizes: 256 256 384\nendian: big\nencoding: raw\n",
+                                             to_bytes(values, true)));
+  values.resize(values.size() / 6 * 5);
+  for (std::size_t i = 0; i < values.size(); ++i) values[i] = static_cast<std::uint16_t>(i / 97 % 3000);
+  write_file(dir.file("big_gz.nrrd"), nrrd_file("type: ushort\ndimension: 3\nsizes: 256 256 320\nendian: little\nencoding: gzip\n",
+                                                gzip(to_bytes(values))));
+
+  for (const char* name : {"big.nrrd", "big_gz.nrrd"}) {
+    Volume v;
+    const std::uint64_t growth = peak_growth_of_loading(dir.file(name), v);
+    ASSERT_EQ(v.dims()[2], name == std::string("big.nrrd") ? 384 : 320) << name;
+    const std::size_t last = v.voxel_count() - 1;
+    if (name == std::string("big.nrrd")) {
+      EXPECT_EQ(v.value(last), static_cast<std::uint16_t>(last * 2654435761u >> 13));
+      EXPECT_EQ(v.value(12345), static_cast<std::uint16_t>(12345 * 2654435761u >> 13));
+    } else {
+      EXPECT_EQ(v.value(last), values[last]);
+      EXPECT_EQ(v.max_value(), 2999);
+    }
+    const double ratio = static_cast<double>(growth) / static_cast<double>(v.memory_bytes());
+    std::printf("[ memory   ] %s: %.1f MiB of voxels, peak resident growth %.1f MiB (%.2fx)\n", name,
+                static_cast<double>(v.memory_bytes()) / 1048576.0, static_cast<double>(growth) / 1048576.0, ratio);
+    // The sanitizer's shadow memory and quarantine distort resident sizes; its build checks the values only.
+    if (!sanitize_scale()) {
+      EXPECT_LT(ratio, 1.4) << name;
+    }
+  }
 }
 
 // ---------------------------------------------------------------- NIfTI written here

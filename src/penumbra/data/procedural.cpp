@@ -16,6 +16,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/rng.h"
+#include "penumbra/data/ct_body.h"
 
 namespace penumbra {
 
@@ -38,6 +39,7 @@ const std::map<std::string, std::map<std::string, double>>& shape_params() {
       {"sphere", {{"radius", 0.35}}},
       {"hollow-sphere", {{"radius", 0.35}, {"thickness", 0.08}}},
       {"marschner-lobb", {{"alpha", 0.25}, {"fm", 6.0}}},
+      {"ct-body", {{"dims", 0.0}, {"seed", 1.0}, {"noise", 60.0}}},
   };
   return params;
 }
@@ -84,10 +86,33 @@ std::vector<Ball> test_sphere_layout(std::int64_t seed) {
   return balls;
 }
 
+// "ct-body" (ct_body.h): its own grid ("dims", not "size"), a seed and the noise level.
+CtBodyParams ct_body_params(const json& spec) {
+  CtBodyParams p;
+  const std::string where = "procedural volume \"ct-body\": ";
+  if (spec.contains("dims")) {
+    const json& d = spec["dims"];
+    bool ok = d.is_array() && d.size() == 3;
+    for (std::size_t a = 0; ok && a < 3; ++a)
+      ok = d[a].is_number_integer() && d[a].get<std::int64_t>() >= 8 && d[a].get<std::int64_t>() <= 2048;
+    if (!ok) throw Error(where + "\"dims\": " + d.dump() + " (expected [x, y, z]: three integers in 8..2048)");
+    for (std::size_t a = 0; a < 3; ++a) p.dims[a] = static_cast<int>(d[a].get<std::int64_t>());
+  }
+  if (spec.contains("seed")) {
+    const json& s = spec["seed"];
+    if (!s.is_number_integer() || s.get<std::int64_t>() < 0)
+      throw Error(where + "\"seed\": " + s.dump() + " (expected an integer >= 0)");
+    p.seed = static_cast<std::uint64_t>(s.get<std::int64_t>());
+  }
+  p.noise = number_param(spec, "ct-body", "noise", p.noise, 0.0, true);
+  if (p.noise > 10000) throw Error(where + "\"noise\": " + num(p.noise) + " (expected at most 10000)");
+  return p;
+}
+
 }  // namespace
 
 std::vector<std::string> procedural_volume_names() {
-  return {"test-spheres", "slab", "sphere", "hollow-sphere", "marschner-lobb"};
+  return {"test-spheres", "slab", "sphere", "hollow-sphere", "marschner-lobb", "ct-body"};
 }
 
 Volume make_procedural_volume(const nlohmann::json& spec) {
@@ -100,12 +125,19 @@ Volume make_procedural_volume(const nlohmann::json& spec) {
   if (shape == shape_params().end())
     throw Error("procedural volume: \"name\": \"" + name + "\" is not known (expected one of: " +
                 join(procedural_volume_names()) + ")");
+  const bool ct_body = name == "ct-body";  // a grid of its own ("dims" over a box in mm), no "size"
   for (const auto& [key, val] : spec.items()) {
-    if (key == "name" || key == "size" || shape->second.count(key)) continue;
-    std::vector<std::string> allowed{"name", "size"};
+    if (key == "name" || (key == "size" && !ct_body) || shape->second.count(key)) continue;
+    if (key == "size")
+      throw Error("procedural volume \"ct-body\": \"size\" does not apply (its grid is \"dims\": [x, y, z], "
+                  "default [512, 512, 1734], over a 500 x 500 x 1734 mm box)");
+    std::vector<std::string> allowed{"name"};
+    if (!ct_body) allowed.push_back("size");
     for (const auto& [k, d] : shape->second) allowed.push_back(k);
     throw Error("procedural volume \"" + name + "\": unknown key \"" + key + "\" (expected " + join(allowed) + ")");
   }
+
+  if (ct_body) return make_ct_body_volume(ct_body_params(spec));
 
   int size = 64;
   if (spec.contains("size")) {

@@ -1,12 +1,15 @@
-// NRRD volumes (.nrrd with attached data, .nhdr with a detached "data file") read through teem.
+// NRRD volumes (.nrrd with attached data, .nhdr with a detached "data file") read with teem's help.
 // teem trusts its header: it allocates whatever `sizes` asks for before reading a byte, and a detached
 // "data file" in its printf-template form is handed to sprintf. So the header is first parsed here,
 // with teem's own tables for the names of fields, types and encodings, and rejected unless it is a
-// 3-D volume of a supported type whose voxel count is sane and which the data on disk could hold;
-// gzip data is also decompressed once here (see verify_gzip). Only then does nrrdLoad run, and its
-// result is checked against the pre-parse again.
+// 3-D volume of a supported type whose voxel count is sane and which the data on disk could hold.
+// Only then does nrrdLoad run, and its result is checked against the pre-parse again. For raw and gzip
+// data (nearly every volume) teem parses the header only and leaves the data file open at the data,
+// which is then read once, straight into the volume (a 900 MB CT never exists twice), gzip streams
+// checked to their checksum (gzip_stream.h); teem reads the other encodings into a buffer of its own.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -15,13 +18,14 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <string>
 #include <string_view>
 #include <vector>
 
 #include <teem/nrrd.h>
-#include <zlib.h>
 
 #include "penumbra/data/io/file_checks.h"
+#include "penumbra/data/io/gzip_stream.h"
 #include "penumbra/data/io/text_fields.h"
 #include "penumbra/data/io/volume_io.h"
 
@@ -30,6 +34,7 @@ namespace penumbra {
 namespace {
 
 using io_detail::bytes_str;
+using io_detail::GzipStream;
 using io_detail::printable;
 using io_detail::split_fields;
 using io_detail::trim;
@@ -229,50 +234,31 @@ Checked check_header(const NrrdHeader& h, const std::filesystem::path& header_pa
   return c;
 }
 
-struct InflateEnd {
-  void operator()(z_stream* zs) const { inflateEnd(zs); }
+struct FileCloser {
+  void operator()(std::FILE* f) const { std::fclose(f); }
 };
+using File = std::unique_ptr<std::FILE, FileCloser>;
 
-// teem's gzip reader leaks its stream state (about 50 KB) on every truncated or corrupt stream, as it
-// returns without closing it, and it never checks the gzip checksum (it stops once it has the bytes
-// it wants). So the stream is decompressed here first, to its end marker and checksum, and a bad one
-// is refused before teem gets to it. Several gzip members are allowed, as in gzip; whatever follows
-// the member that completes the data is ignored, as teem ignores it.
+// "sizes 8x8x16 of type uchar need 1024 bytes", for messages about data that runs short.
+std::string need_text(const Checked& c, const NrrdHeader& h, std::uint64_t bytes) {
+  return "sizes " + std::to_string(c.dims[0]) + "x" + std::to_string(c.dims[1]) + "x" + std::to_string(c.dims[2]) +
+         " of type " + printable(h.type_name) + " need " + bytes_str(bytes);
+}
+
+// The gzip stream that teem will read by itself (data placed by a negative byte skip, which teem finds
+// by decompressing everything), checked to its end before teem gets to it.
 void verify_gzip(const Checked& c, const NrrdHeader& h) {
-  std::ifstream in(c.data_path, std::ios::binary);
-  in.seekg(static_cast<std::streamoff>(c.data_start));
-  for (std::int64_t line = 0; line < h.line_skip && in; ++line) in.ignore(std::numeric_limits<std::streamsize>::max(), '\n');
-  if (!in) throw Error("NRRD line skip " + std::to_string(h.line_skip) + " runs past the end of the data");
-  const std::uint64_t want = c.needed_bytes + static_cast<std::uint64_t>(std::max<std::int64_t>(h.byte_skip, 0));
-
-  z_stream zs{};
-  if (inflateInit2(&zs, 15 + 16) != Z_OK) throw Error("zlib could not start decompressing");
-  const std::unique_ptr<z_stream, InflateEnd> guard(&zs);
-  std::vector<unsigned char> input(1u << 16), output(1u << 18);
-  std::uint64_t total = 0;
-  for (;;) {
-    if (zs.avail_in == 0) {
-      in.read(reinterpret_cast<char*>(input.data()), static_cast<std::streamsize>(input.size()));
-      if (in.gcount() <= 0) break;
-      zs.next_in = input.data();
-      zs.avail_in = static_cast<uInt>(in.gcount());
+  const File in(std::fopen(c.data_path.c_str(), "rb"));
+  if (!in || std::fseek(in.get(), static_cast<long>(c.data_start), SEEK_SET) != 0) throw Error("cannot read the NRRD data");
+  for (std::int64_t line = 0; line < h.line_skip; ++line) {
+    int ch = 0;
+    while ((ch = std::getc(in.get())) != EOF && ch != '\n') {
     }
-    zs.next_out = output.data();
-    zs.avail_out = static_cast<uInt>(output.size());
-    const int rc = inflate(&zs, Z_NO_FLUSH);
-    total += output.size() - zs.avail_out;
-    if (rc == Z_STREAM_END) {
-      if (total >= want) return;  // complete and checksummed
-      inflateReset(&zs);          // another gzip member may hold the rest
-    } else if (rc != Z_OK && rc != Z_BUF_ERROR) {
-      throw Error("NRRD gzip data is corrupt after " + bytes_str(total) + " (zlib: " + (zs.msg ? zs.msg : "error") + ")");
-    }
+    if (ch == EOF) throw Error("NRRD line skip " + std::to_string(h.line_skip) + " runs past the end of the data");
   }
-  if (total < want)
-    throw Error("NRRD gzip data decompresses to only " + bytes_str(total) + " but sizes " + std::to_string(c.dims[0]) +
-                "x" + std::to_string(c.dims[1]) + "x" + std::to_string(c.dims[2]) + " of type " +
-                printable(h.type_name) + " need " + bytes_str(want) + " (truncated data or lying sizes)");
-  throw Error("NRRD gzip data is truncated: the stream ends without its end marker and checksum");
+  GzipStream gz(in.get(), "NRRD gzip data", c.needed_bytes, need_text(c, h, c.needed_bytes));
+  gz.read(nullptr, c.needed_bytes);
+  gz.finish();
 }
 
 // teem's error (biff) text, one line per call level from nrrdLoad down. The outer levels only say
@@ -300,30 +286,137 @@ std::string take_biff_message() {
 struct NrrdNuker {
   void operator()(Nrrd* n) const { nrrdNuke(n); }
 };
+struct NioNixer {
+  void operator()(NrrdIoState* nio) const { nrrdIoStateNix(nio); }
+};
 
-template <class T>
-void copy_as(const void* src, Volume& volume) {
-  std::memcpy(volume.data(), src, volume.voxel_count() * sizeof(T));
+// What teem read: the header as a Nrrd, with either its own copy of the data or, `header_only`, the
+// data file left open at the first data byte (after teem's line skip, and its byte skip for raw data).
+struct TeemRead {
+  std::unique_ptr<Nrrd, NrrdNuker> nrrd;
+  File data;
+  int endian = airEndianUnknown;  // the byte order of the data on disk
+};
+
+TeemRead teem_load(const std::filesystem::path& path, bool header_only) {
+  TeemRead r;
+  std::lock_guard lock(teem_mutex);
+  nrrdStateVerboseIO = 0;
+  r.nrrd.reset(nrrdNew());
+  const std::unique_ptr<NrrdIoState, NioNixer> nio(nrrdIoStateNew());
+  if (!r.nrrd || !nio) throw Error("teem could not allocate a Nrrd");
+  // skipData: parse the header and open the data file but allocate and read nothing;
+  // keepNrrdDataFileOpen: hand that file over, positioned at the data.
+  nio->skipData = nio->keepNrrdDataFileOpen = header_only ? AIR_TRUE : AIR_FALSE;
+  if (nrrdLoad(r.nrrd.get(), path.c_str(), nio.get())) throw Error("teem could not read the NRRD: " + take_biff_message());
+  r.data.reset(nio->dataFile);
+  r.endian = nio->endian;
+  if (header_only && !r.data) throw Error("teem did not open the NRRD data");
+  return r;
 }
 
-// Types penumbra does not store natively are widened or converted to float32 (int and uint above 2^24
-// lose precision, which a renderer does not see; double outside float range is an error).
+// The types kept as they are (the voxels are read straight into the volume); the others are widened to
+// int16 (signed char) or converted to float32.
+bool stored_as_is(int nrrd_type) {
+  return nrrd_type == nrrdTypeUChar || nrrd_type == nrrdTypeShort || nrrd_type == nrrdTypeUShort || nrrd_type == nrrdTypeFloat;
+}
+
+ScalarType storage_type(int nrrd_type) {
+  switch (nrrd_type) {
+    case nrrdTypeUChar: return ScalarType::UInt8;
+    case nrrdTypeChar:
+    case nrrdTypeShort: return ScalarType::Int16;  // int8 fits int16 exactly
+    case nrrdTypeUShort: return ScalarType::UInt16;
+    default: return ScalarType::Float32;
+  }
+}
+
+template <std::size_t N>
+void swap_each(std::byte* data, std::size_t count) {
+  for (std::size_t i = 0; i < count; ++i) std::reverse(data + i * N, data + (i + 1) * N);
+}
+
+void swap_bytes(std::byte* data, std::size_t count, std::size_t size) {
+  switch (size) {
+    case 2: swap_each<2>(data, count); break;
+    case 4: swap_each<4>(data, count); break;
+    case 8: swap_each<8>(data, count); break;
+    default: break;
+  }
+}
+
+// Voxels [first, first + count) of a type penumbra does not store natively, widened or converted to
+// float32 (int and uint above 2^24 lose precision, which a renderer does not see; double outside float
+// range is an error).
 template <class Src>
-void convert_to(const void* src, Volume& volume) {
-  const Src* in = static_cast<const Src*>(src);
-  const std::size_t n = volume.voxel_count();
+void convert_to(const std::byte* src, std::size_t first, std::size_t count, Volume& volume) {
+  const auto* in = reinterpret_cast<const Src*>(src);
   if (volume.type() == ScalarType::Int16) {
-    auto* out = volume.data_as<std::int16_t>();
-    for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<std::int16_t>(in[i]);
+    auto* out = volume.data_as<std::int16_t>() + first;
+    for (std::size_t i = 0; i < count; ++i) out[i] = static_cast<std::int16_t>(in[i]);
     return;
   }
-  auto* out = volume.data_as<float>();
-  for (std::size_t i = 0; i < n; ++i) {
+  auto* out = volume.data_as<float>() + first;
+  for (std::size_t i = 0; i < count; ++i) {
     const double v = static_cast<double>(in[i]);
     if (std::abs(v) > std::numeric_limits<float>::max())
-      throw Error("voxel " + std::to_string(i) + " value " + std::to_string(v) + " is outside the float32 range");
+      throw Error("voxel " + std::to_string(first + i) + " value " + std::to_string(v) + " is outside the float32 range");
     out[i] = static_cast<float>(v);  // NaN passes through and is rejected by recompute_range
   }
+}
+
+void convert(int nrrd_type, const std::byte* src, std::size_t first, std::size_t count, Volume& volume) {
+  switch (nrrd_type) {
+    case nrrdTypeChar: convert_to<signed char>(src, first, count, volume); break;
+    case nrrdTypeInt: convert_to<std::int32_t>(src, first, count, volume); break;
+    case nrrdTypeUInt: convert_to<std::uint32_t>(src, first, count, volume); break;
+    case nrrdTypeDouble: convert_to<double>(src, first, count, volume); break;
+    default: throw Error("unsupported NRRD type");
+  }
+}
+
+// Fills the volume from `next(dst, bytes)`, which yields the data's bytes in order: the types stored as
+// they are go straight into the volume's storage (one copy of the voxels, byte order fixed in place),
+// the others through a buffer of 1 M values.
+template <class Next>
+void read_voxels(Next&& next, int nrrd_type, bool swap, Volume& volume) {
+  const std::size_t size = nrrdTypeSize[nrrd_type], n = volume.voxel_count();
+  if (stored_as_is(nrrd_type)) {
+    next(volume.data(), n * size);
+    if (swap) swap_bytes(volume.data(), n, size);
+    return;
+  }
+  constexpr std::size_t kChunk = 1u << 20;
+  std::vector<std::byte> buffer(std::min(n, kChunk) * size);
+  for (std::size_t first = 0; first < n; first += kChunk) {
+    const std::size_t count = std::min(kChunk, n - first);
+    next(buffer.data(), count * size);
+    if (swap) swap_bytes(buffer.data(), count, size);
+    convert(nrrd_type, buffer.data(), first, count, volume);
+  }
+}
+
+// Raw or gzip data, read from the file teem left open at the data straight into the volume.
+void read_data_file(const TeemRead& teem, const NrrdHeader& h, const Checked& c, Volume& volume) {
+  const int type = teem.nrrd->type;
+  const bool swap = nrrdTypeSize[type] > 1 && teem.endian != airEndianUnknown && teem.endian != airMyEndian();
+  if (h.encoding == nrrdEncodingTypeGzip) {
+    const auto skip = static_cast<std::uint64_t>(h.byte_skip);  // counted in the decompressed bytes
+    GzipStream gz(teem.data.get(), "NRRD gzip data", c.needed_bytes + skip, need_text(c, h, c.needed_bytes + skip));
+    gz.read(nullptr, skip);
+    read_voxels([&](std::byte* dst, std::size_t bytes) { gz.read(dst, bytes); }, type, swap, volume);
+    gz.finish();
+    return;
+  }
+  std::uint64_t done = 0;
+  const auto next = [&](std::byte* dst, std::size_t bytes) {
+    const std::size_t got = std::fread(dst, 1, bytes, teem.data.get());
+    done += got;
+    if (got != bytes)
+      throw Error("NRRD raw data ends after " + bytes_str(done) + " of the " + bytes_str(c.needed_bytes) +
+                  " needed (truncated data or lying sizes)");
+  };
+  read_voxels(next, type, swap, volume);
 }
 
 Vec3 axis_spacing(const Nrrd& nrrd) {
@@ -364,48 +457,37 @@ Volume load_nrrd_volume(const std::string& path) {
   // teem resolves a relative data file against the header's directory, which it needs spelled out.
   const std::filesystem::path abs_path = std::filesystem::absolute(path);
   const Checked checked = check_header(header, abs_path, file_bytes);
-  if (header.encoding == nrrdEncodingTypeGzip) verify_gzip(checked, header);
+  // Raw and gzip data are read here, once, into the volume: teem parses the header and finds the data.
+  // teem reads the rest itself into a buffer of its own (ascii, hex, and gzip data placed by a negative
+  // byte skip, which only decompressing all of it finds), a gzip stream verified first.
+  const bool gzip = header.encoding == nrrdEncodingTypeGzip;
+  const bool direct = header.encoding == nrrdEncodingTypeRaw || (gzip && header.byte_skip >= 0);
+  if (gzip && !direct) verify_gzip(checked, header);
+  TeemRead teem = teem_load(abs_path, direct);
 
-  std::unique_ptr<Nrrd, NrrdNuker> nrrd;
-  {
-    std::lock_guard lock(teem_mutex);
-    nrrdStateVerboseIO = 0;
-    nrrd.reset(nrrdNew());
-    if (!nrrd) throw Error("teem could not allocate a Nrrd");
-    if (nrrdLoad(nrrd.get(), abs_path.c_str(), nullptr)) throw Error("teem could not read the NRRD: " + take_biff_message());
-  }
   // teem parsed the header itself; it must agree with what was checked above.
-  const Nrrd& n = *nrrd;
-  if (n.dim != 3 || n.type != header.type || !n.data)
+  const Nrrd& n = *teem.nrrd;
+  if (n.dim != 3 || n.type != header.type || (!direct && !n.data))
     throw Error("teem read the NRRD differently from its header (dimension " + std::to_string(n.dim) + ")");
   for (unsigned a = 0; a < 3; ++a)
     if (n.axis[a].size != static_cast<std::size_t>(checked.dims[a]))
       throw Error("teem read NRRD size " + std::to_string(n.axis[a].size) + " on axis " + std::to_string(a) +
                   " but the header says " + std::to_string(checked.dims[a]));
 
-  ScalarType type = ScalarType::Float32;
-  switch (n.type) {
-    case nrrdTypeUChar: type = ScalarType::UInt8; break;
-    case nrrdTypeChar:
-    case nrrdTypeShort: type = ScalarType::Int16; break;  // int8 fits int16 exactly
-    case nrrdTypeUShort: type = ScalarType::UInt16; break;
-    default: type = ScalarType::Float32; break;
-  }
-  Volume volume(type,
+  Volume volume(storage_type(n.type),
                 {static_cast<int>(checked.dims[0]), static_cast<int>(checked.dims[1]), static_cast<int>(checked.dims[2])},
                 axis_spacing(n), space_origin(n));
-  switch (n.type) {
-    case nrrdTypeUChar: copy_as<std::uint8_t>(n.data, volume); break;
-    case nrrdTypeShort: copy_as<std::int16_t>(n.data, volume); break;
-    case nrrdTypeUShort: copy_as<std::uint16_t>(n.data, volume); break;
-    case nrrdTypeFloat: copy_as<float>(n.data, volume); break;
-    case nrrdTypeChar: convert_to<signed char>(n.data, volume); break;
-    case nrrdTypeInt: convert_to<std::int32_t>(n.data, volume); break;
-    case nrrdTypeUInt: convert_to<std::uint32_t>(n.data, volume); break;
-    case nrrdTypeDouble: convert_to<double>(n.data, volume); break;
-    default: throw Error("unsupported NRRD type");
+  if (direct) {
+    read_data_file(teem, header, checked, volume);
+  } else {
+    const auto* src = static_cast<const std::byte*>(teem.nrrd->data);  // teem has fixed the byte order
+    const auto next = [&](std::byte* dst, std::size_t bytes) {
+      std::memcpy(dst, src, bytes);
+      src += bytes;
+    };
+    read_voxels(next, n.type, false, volume);
   }
-  nrrd.reset();  // free teem's copy before the range pass
+  teem = TeemRead{};  // free teem's copy, if any, before the range pass
   volume.recompute_range();  // rejects NaN/inf voxels and gives the volume its range
   return volume;
 }
