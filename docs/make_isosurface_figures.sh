@@ -3,7 +3,7 @@
 # (build/release/penumbra).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-B=build/release/penumbra
+B=${PENUMBRA:-build/release/penumbra}
 out=docs/images
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT

@@ -107,9 +107,12 @@ struct Agreement {
   double extra = 0;           // point pixels the reference leaves empty, per reference pixel
   double depth_voxels = 0;    // median |depth difference| on common pixels, in voxels
   double disagreement = 0;    // common light-facing pixels whose lit/shadowed state differs
+  Image map;                  // grey: agree; red: shadowed by the points only; blue: by the reference only
 };
 
 Agreement compare(const Run& points, const Run& reference, const Light& light, float voxel) {
+  Agreement a;
+  a.map = Image(points.layer.image.width(), points.layer.image.height(), Rgb(0.0f));
   std::unordered_map<std::uint32_t, std::size_t> ref;
   for (std::size_t i = 0; i < reference.layer.receivers.size(); ++i) ref[reference.layer.receivers[i].pixel] = i;
   std::size_t common = 0, facing = 0, differ = 0;
@@ -126,9 +129,12 @@ Agreement compare(const Run& points, const Run& reference, const Light& light, f
     light.towards(q.position, to_light, d);
     if (dot(q.normal, to_light) <= 0) continue;
     ++facing;
-    differ += (points.fraction[i] > 0) != (reference.fraction[it->second] > 0);
+    const bool lit = points.fraction[i] > 0, lit_ref = reference.fraction[it->second] > 0;
+    differ += lit != lit_ref;
+    const int w = a.map.width();
+    a.map.at(static_cast<int>(p.pixel % static_cast<std::uint32_t>(w)), static_cast<int>(p.pixel / static_cast<std::uint32_t>(w))) =
+        lit == lit_ref ? Rgb(lit ? 0.8f : 0.35f) : (lit_ref ? Rgb(1, 0.1f, 0.1f) : Rgb(0.2f, 0.4f, 1));
   }
-  Agreement a;
   const double n = static_cast<double>(std::max<std::size_t>(ref.size(), 1));
   a.coverage = static_cast<double>(common) / n;
   a.extra = static_cast<double>(points.layer.receivers.size() - common) / n;
@@ -157,8 +163,6 @@ void bench_dataset(const IsosurfaceBenchOptions& o, const Dataset& d, std::ostri
   const double load_ms = load.elapsed_ms();
   const Volume& volume = *scene.volumes[0].volume;
   const Box3 box = volume.bounds();
-  // a point light above and to the side of the viewer, well outside the volume
-  scene.lights[0].position = box.center() + normalize(Vec3{0.8f, -1.0f, 1.2f}) * (2.5f * box.radius());
   Timer tree_timer;
   const auto tree = std::make_shared<const GridTree>(volume);
   const double tree_ms = tree_timer.elapsed_ms();
@@ -195,6 +199,9 @@ void bench_dataset(const IsosurfaceBenchOptions& o, const Dataset& d, std::ostri
       std::fprintf(stderr, "bench isosurface %s: %s, %s...\n", d.name.c_str(), iso.name, v.name);
       const Camera cam = framed(box, v, d.up, o.size);
       Scene s = scene;
+      // a point light beside and above the viewer, well outside the volume: shadows fall visibly
+      const Vec3 dir = normalize(v.direction), right = normalize(cross(d.up, dir));
+      s.lights[0].position = cam.target + normalize(dir + right * 0.9f + normalize(d.up) * 0.7f) * (2.5f * box.radius());
       s.shadows.resolution = o.size;
       s.shadows.technique = "none";
       const Run plain = run_frames(s, cam, points, o.repeats);
@@ -217,6 +224,7 @@ void bench_dataset(const IsosurfaceBenchOptions& o, const Dataset& d, std::ostri
       write_image(stem + "_points.png", plain.layer.image);
       write_image(stem + "_light_pass.png", shadowed.layer.image);
       write_image(stem + "_ray_traced.png", exact.layer.image);
+      write_image(stem + "_disagreement.png", a.map);
       for (const Run* r : {&plain, &shadowed}) {
         const bool sh = r == &shadowed;
         std::snprintf(line, sizeof line, "| %s %g | %s | %s | %.1f | %.1f | %zu | %s | %.1f |\n", iso.name,

@@ -20,6 +20,7 @@ struct IsoPoint {
   Vec3 normal;          // unit
   float distance;       // from the viewpoint it was extracted for (eye or light)
   std::uint32_t pixel;  // y * width + x in that view's image
+  float error = 0;      // how far from the surface it may lie: 0 for exact roots, up to a cell for cell points
 };
 
 using IsoPoints = std::vector<IsoPoint>;

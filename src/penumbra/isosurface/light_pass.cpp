@@ -18,6 +18,10 @@ std::string to_string(LightFrustum f) { return f == LightFrustum::Tight ? "tight
 
 namespace {
 
+// The share of the two points' position errors the bias allows for: a cell point's distance from the
+// surface is typically well below the cell's diagonal that bounds it.
+constexpr float kErrorShare = 0.5f;
+
 // Bounds of the points' image-plane coordinates in `view`'s frame (x/z, y/z for perspective).
 struct Window {
   float left = kInfinity, right = -kInfinity, bottom = kInfinity, top = -kInfinity;
@@ -96,8 +100,6 @@ void LightPass::build(const IsoShadowInputs& in, const Light& light) {
   Timer timer;
   const Volume& volume = in.tree->volume();
   view_ = fit_light_view(light, in.receivers, volume.bounds(), settings_);
-  const Vec3& s = volume.spacing();
-  cell_diagonal_ = length(s);
   // §4.2: all non-visible, then one hole per receiver's light pixel.
   holes_ = VisibilityBuffer(view_.width, view_.height, false);
   for (const IsoPoint& p : in.receivers) {
@@ -114,20 +116,25 @@ void LightPass::build(const IsoShadowInputs& in, const Light& light) {
   options.start = &holes_;
   light_points_ = extract_points(*in.tree, in.isovalue, view_, options);
   depth_.assign(static_cast<std::size_t>(view_.width) * static_cast<std::size_t>(view_.height), kInfinity);
-  for (const IsoPoint& p : light_points_.points) depth_[p.pixel] = std::min(depth_[p.pixel], p.distance);
+  depth_error_.assign(depth_.size(), 0);
+  for (const IsoPoint& p : light_points_.points) {  // one point per pixel
+    depth_[p.pixel] = p.distance;
+    depth_error_[p.pixel] = p.error;
+  }
   build_ms_ = timer.elapsed_ms();
 }
 
 // The receiver and the light point of its pixel both lie on the surface, but not at the same place:
 // the light point sits on the pixel's central ray, the receiver anywhere in the pixel's footprint, so on
-// a surface tilted by theta to the light their distances differ by up to a pixel's width times
-// tan(theta); and a point from a sub-pixel cell is on the surface only to within that cell. The bias
-// covers both.
-float LightPass::bias(float distance, float cos_theta) const {
+// a surface tilted by theta to the light their distances differ by up to half a pixel's diagonal times
+// tan(theta) — we allow a whole pixel (measured on the CT bone surfaces: 0.5 leaves 3 % of the lit
+// points in false shadow on the cranium, 1.0 0.3 %); and a point from a sub-pixel cell (or a collapsed node) is on the surface only to within
+// that cell, which each point carries as its `error`. The bias covers both.
+float LightPass::bias(float distance, float cos_theta, float error, float light_error) const {
   if (settings_.bias >= 0) return settings_.bias;
   const float c = std::max(std::abs(cos_theta), 0.1f);
   const float tan_theta = std::sqrt(std::max(0.0f, 1 - c * c)) / c;
-  return cell_diagonal_ + view_.pixel_size(distance) * tan_theta;
+  return kErrorShare * (error + light_error) + view_.pixel_size(distance) * tan_theta;
 }
 
 void LightPass::light_fraction(std::span<const IsoPoint> points, std::span<float> out) const {
@@ -138,11 +145,11 @@ void LightPass::light_fraction(std::span<const IsoPoint> points, std::span<float
     if (!view_.project(p.position, px, py)) continue;
     const int x = static_cast<int>(std::floor(px)), y = static_cast<int>(std::floor(py));
     if (x < 0 || y < 0 || x >= view_.width || y >= view_.height) continue;
-    const float stored = depth_[static_cast<std::size_t>(y) * static_cast<std::size_t>(view_.width) + static_cast<std::size_t>(x)];
-    if (stored == kInfinity) continue;
+    const std::size_t k = static_cast<std::size_t>(y) * static_cast<std::size_t>(view_.width) + static_cast<std::size_t>(x);
+    if (depth_[k] == kInfinity) continue;
     const float d = view_.distance(p.position);
     const Vec3 to_light = view_.orthographic ? view_.frame.w : normalize(view_.eye - p.position);
-    if (d > stored + bias(d, dot(p.normal, to_light))) out[i] = 0;
+    if (d > depth_[k] + bias(d, dot(p.normal, to_light), p.error, depth_error_[k])) out[i] = 0;
   }
 }
 

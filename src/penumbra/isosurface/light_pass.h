@@ -47,8 +47,9 @@ public:
   const Extraction& light_points() const { return light_points_; }
   std::size_t hole_count() const { return hole_count_; }
   double build_ms() const { return build_ms_; }
-  // The bias for a receiver at light distance d whose normal makes cos_theta with the light direction.
-  float bias(float distance, float cos_theta) const;
+  // The bias for a receiver at light distance d, placed to within `error` of the surface, whose normal
+  // makes cos_theta with the light direction, against a light point placed to within `light_error`.
+  float bias(float distance, float cos_theta, float error, float light_error) const;
 
 private:
   LightPassSettings settings_;
@@ -56,8 +57,8 @@ private:
   VisibilityBuffer holes_;
   Extraction light_points_;
   std::vector<float> depth_;  // per light pixel: nearest light distance found; infinity: none
+  std::vector<float> depth_error_;  // per light pixel: that point's position error
   std::size_t hole_count_ = 0;
-  float cell_diagonal_ = 0;
   double build_ms_ = 0;
 };
 

@@ -32,6 +32,7 @@ public:
         options_(options), tile_{tile.x0, tile.y0, tile.x1 - 1, tile.y1 - 1},
         vis_(tile.x1 - tile.x0, tile.y1 - tile.y0, options.start == nullptr) {
     const auto& d = volume_.dims();
+    cell_diagonal_ = length(volume_.spacing());
     stride_ = {1, static_cast<std::size_t>(d[0]), static_cast<std::size_t>(d[0]) * static_cast<std::size_t>(d[1])};
     if (options.start)
       for (int y = tile.y0; y < tile.y1; ++y)
@@ -200,7 +201,7 @@ private:
       if (!view_.project(p, px, py)) return;
       const int x = static_cast<int>(std::floor(px)), y = static_cast<int>(std::floor(py));
       if (x < tile_.x0 || x > tile_.x1 || y < tile_.y0 || y > tile_.y1 || !visible(x, y)) return;
-      emit(p, x, y);
+      emit(p, x, y, nullptr, cell_diagonal_);
       return;
     }
     // A cell wider than a pixel: the exact surface point along each visible pixel's ray.
@@ -246,12 +247,13 @@ private:
     if (g2 > 0) p = c - g * ((volume_.sample(c) - iso_) / g2);
     p = min(max(p, box.lo), box.hi);
     ++stats.collapsed;
-    emit(p, x, y, &g);
+    emit(p, x, y, &g, length(box.extent()));
   }
 
-  void emit(const Vec3& p, int x, int y, const Vec3* gradient = nullptr) {
+  void emit(const Vec3& p, int x, int y, const Vec3* gradient = nullptr, float error = 0) {
     IsoPoint q;
     q.position = p;
+    q.error = error;
     q.distance = view_.distance(p);
     q.pixel = static_cast<std::uint32_t>(y) * static_cast<std::uint32_t>(view_.width) + static_cast<std::uint32_t>(x);
     if (options_.normals) {
@@ -273,6 +275,7 @@ private:
   PixelRect tile_;
   VisibilityBuffer vis_;
   std::array<std::size_t, 3> stride_;
+  float cell_diagonal_;
 };
 
 template <class T>
