@@ -30,6 +30,13 @@ constexpr int kMaxPieces = 6;               // a triangle clipped by five planes
 std::int64_t floor_div(std::int64_t a, std::int64_t b) { return a / b - ((a % b != 0) && (a < 0)); }
 std::int64_t ceil_div(std::int64_t a, std::int64_t b) { return -floor_div(-a, b); }
 
+// A pixel coordinate in fixed point, rounded half away from zero (a conversion the compiler inlines,
+// unlike llround; the guard band keeps it far from overflow).
+std::int64_t to_fixed(double pixel) {
+  const double f = pixel * static_cast<double>(kSubpixel);
+  return static_cast<std::int64_t>(f + (f >= 0 ? 0.5 : -0.5));
+}
+
 // A point in camera space (x right, y up, z forward from the eye) with its weights on the corners of
 // the mesh triangle it lies on.
 struct CameraVertex {
@@ -67,10 +74,12 @@ PixelRange pixel_range(const ScreenTriangle& t, int width, int height) {
 // plane and the guard band), perspective projection onto PrimaryRays' pixel coordinates, snapping.
 class Projector {
 public:
-  Projector(const Camera& camera, float near) : rays(camera), near_(near) {
+  Projector(const Camera& camera, float near)
+      : rays(camera), near_(near), pixel_x0_(rays.pixel_x(0)), pixel_y0_(rays.pixel_y(0)),
+        pixels_per_x_(rays.pixel_x(1) - rays.pixel_x(0)), pixels_per_y_(rays.pixel_y(1) - rays.pixel_y(0)) {
     const float half_w = 0.5f * static_cast<float>(camera.width), half_h = 0.5f * static_cast<float>(camera.height);
-    guard_x_ = (half_w + kGuardPixels) / (rays.pixel_x(1) - rays.pixel_x(0));
-    guard_y_ = (half_h + kGuardPixels) / (rays.pixel_y(0) - rays.pixel_y(1));
+    guard_x_ = static_cast<float>((half_w + kGuardPixels) / pixels_per_x_);
+    guard_y_ = static_cast<float>((half_h + kGuardPixels) / -pixels_per_y_);
   }
 
   int project(const TriangleMesh& mesh, std::size_t t, std::array<ScreenTriangle, kMaxPieces>& out) const {
@@ -89,8 +98,9 @@ public:
     std::array<ScreenVertex, 8> screen;
     for (std::size_t i = 0; i < static_cast<std::size_t>(n); ++i) {
       const Vec3& p = poly[i].p;
-      const double px = rays.pixel_x(p.x / p.z), py = rays.pixel_y(p.y / p.z);
-      screen[i] = {std::llround(px * kSubpixel), std::llround(py * kSubpixel), 1.0 / p.z, poly[i].weights};
+      const double inv_z = 1.0 / p.z;  // PrimaryRays::pixel_x and pixel_y, as one affine map
+      const double px = pixel_x0_ + pixels_per_x_ * (p.x * inv_z), py = pixel_y0_ + pixels_per_y_ * (p.y * inv_z);
+      screen[i] = {to_fixed(px), to_fixed(py), inv_z, poly[i].weights};
     }
     for (int i = 1; i + 1 < n; ++i)
       out[static_cast<std::size_t>(i - 1)] = {screen[0], screen[static_cast<std::size_t>(i)], screen[static_cast<std::size_t>(i + 1)]};
@@ -128,7 +138,9 @@ private:
     return m;
   }
 
-  float near_, guard_x_, guard_y_;  // guard band: |x| <= guard_x * z, |y| <= guard_y * z
+  float near_;
+  double pixel_x0_, pixel_y0_, pixels_per_x_, pixels_per_y_;  // pixel = p0 + pixels_per * (x / z)
+  float guard_x_, guard_y_;                                  // guard band: |x| <= guard_x * z, |y| <= guard_y * z
 };
 
 // A tile's z-buffer: per pixel the largest 1/z so far, its triangle and its corner weights.
