@@ -222,7 +222,7 @@ Volume make_ct_body_volume(const CtBodyParams& params) {
   const double sx = ct_anatomy::kFov / nx, sy = ct_anatomy::kFov / ny, sz = ct_anatomy::kLength / nz;
   const double x0 = -0.5 * (nx - 1) * sx, y0 = -0.5 * (ny - 1) * sy, z0 = -0.5 * (nz - 1) * sz;
   Volume volume(ScalarType::UInt16, params.dims, Vec3(static_cast<float>(sx), static_cast<float>(sy), static_cast<float>(sz)),
-                Vec3(static_cast<float>(x0), static_cast<float>(y0), static_cast<float>(z0)));
+                Vec3(static_cast<float>(x0), static_cast<float>(y0), static_cast<float>(z0)), VoxelFill::Uninitialized);
 
   const std::vector<Item> items = ct_anatomy::build(params.seed);
   const auto active = structures_by_slice(items, nz, z0, sz);

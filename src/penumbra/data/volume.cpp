@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
 
 namespace penumbra {
 
@@ -49,7 +50,7 @@ std::size_t checked_voxel_count(const std::array<std::int64_t, 3>& dims) {
   return static_cast<std::size_t>(count);
 }
 
-Volume::Volume(ScalarType type, std::array<int, 3> dims, Vec3 spacing, Vec3 origin)
+Volume::Volume(ScalarType type, std::array<int, 3> dims, Vec3 spacing, Vec3 origin, VoxelFill fill)
     : type_(type), dims_(dims), spacing_(spacing), origin_(origin) {
   const std::size_t count = checked_voxel_count({dims[0], dims[1], dims[2]});
   for (int a = 0; a < 3; ++a)
@@ -57,7 +58,9 @@ Volume::Volume(ScalarType type, std::array<int, 3> dims, Vec3 spacing, Vec3 orig
       throw Error("spacing " + std::to_string(spacing[a]) + " on axis " + std::to_string(a) + " (expected a positive number)");
   if (!is_finite(origin)) throw Error("origin is not finite");
   inv_spacing_ = {1.0f / spacing.x, 1.0f / spacing.y, 1.0f / spacing.z};
-  bytes_.assign(count * scalar_size(type), std::byte{0});
+  bytes_.resize(count * scalar_size(type));
+  if (fill == VoxelFill::Zero)  // in parallel: zeroing is page faults first of all
+    parallel_for(bytes_.size(), [&](std::size_t b, std::size_t e) { std::memset(bytes_.data() + b, 0, e - b); }, 1 << 20);
 }
 
 Box3 Volume::bounds() const {
@@ -124,16 +127,60 @@ Vec3 Volume::gradient(const Vec3& p) const {
   return {gx * 0.5f * inv_spacing_.x, gy * 0.5f * inv_spacing_.y, gz * 0.5f * inv_spacing_.z};
 }
 
-void Volume::recompute_range() {
+namespace {
+
+// Smallest and largest voxel of [begin, end) and the first non-finite one (or `end`).
+struct RangeScan {
   float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
+  std::size_t bad;
+};
+
+template <class T>
+RangeScan scan_range(const T* data, std::size_t begin, std::size_t end) {
+  RangeScan r{.bad = end};
+  T lo = std::numeric_limits<T>::max(), hi = std::numeric_limits<T>::lowest();
+  for (std::size_t i = begin; i < end; ++i) {
+    if constexpr (std::is_floating_point_v<T>) {
+      if (!std::isfinite(data[i])) {
+        r.bad = i;
+        break;
+      }
+    }
+    lo = std::min(lo, data[i]);
+    hi = std::max(hi, data[i]);
+  }
+  r.lo = static_cast<float>(lo);
+  r.hi = static_cast<float>(hi);
+  return r;
+}
+
+}  // namespace
+
+void Volume::recompute_range() {
   const std::size_t n = voxel_count();
-  for (std::size_t i = 0; i < n; ++i) {
-    const float v = value(i);
-    if (!std::isfinite(v))
-      throw Error("voxel " + std::to_string(i) + " is " + (std::isnan(v) ? "NaN" : "infinite") +
+  constexpr std::size_t kChunk = 1 << 22;
+  std::vector<RangeScan> parts((n + kChunk - 1) / kChunk);
+  parallel_for(parts.size(), [&](std::size_t b, std::size_t e) {
+    for (std::size_t c = b; c < e; ++c) {
+      const std::size_t begin = c * kChunk, end = std::min(n, begin + kChunk);
+      switch (type_) {
+        case ScalarType::UInt8: parts[c] = scan_range(data_as<std::uint8_t>(), begin, end); break;
+        case ScalarType::Int16: parts[c] = scan_range(data_as<std::int16_t>(), begin, end); break;
+        case ScalarType::UInt16: parts[c] = scan_range(data_as<std::uint16_t>(), begin, end); break;
+        case ScalarType::Float32: parts[c] = scan_range(data_as<float>(), begin, end); break;
+      }
+    }
+  });
+  float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
+  for (std::size_t c = 0; c < parts.size(); ++c) {
+    const std::size_t end = std::min(n, (c + 1) * kChunk);
+    if (parts[c].bad < end) {  // the first non-finite voxel, whatever the thread count
+      const float v = value(parts[c].bad);
+      throw Error("voxel " + std::to_string(parts[c].bad) + " is " + (std::isnan(v) ? "NaN" : "infinite") +
                   " (expected finite values)");
-    lo = std::min(lo, v);
-    hi = std::max(hi, v);
+    }
+    lo = std::min(lo, parts[c].lo);
+    hi = std::max(hi, parts[c].hi);
   }
   range_ = {n ? lo : 0.0f, n ? hi : 0.0f};
 }

@@ -6,7 +6,9 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "penumbra/core/math.h"
@@ -34,11 +36,30 @@ struct TrilinearCell {
   float tx, ty, tz;              // fractional position inside the cell
 };
 
+// Zero: the voxels start at 0. Uninitialized: left as allocated, for a caller that writes every voxel
+// (a loader reading the file into place, a generator): a large volume then costs one pass, not two.
+enum class VoxelFill { Zero, Uninitialized };
+
+// An allocator whose value-initialisation does nothing, so that a vector of bytes can be sized without
+// being zeroed.
+template <class T>
+struct DefaultInitAllocator : std::allocator<T> {
+  template <class U> struct rebind { using other = DefaultInitAllocator<U>; };
+  DefaultInitAllocator() = default;
+  template <class U> DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+  template <class U> void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) { ::new (static_cast<void*>(p)) U; }
+  template <class U, class... Args> void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+
 class Volume {
 public:
   Volume() = default;
-  // Allocates zero-filled voxels. Throws Error on zero, negative or absurd dimensions or bad spacing.
-  Volume(ScalarType type, std::array<int, 3> dims, Vec3 spacing = {1, 1, 1}, Vec3 origin = {0, 0, 0});
+  // Allocates the voxels (zero-filled unless `fill` says otherwise). Throws Error on zero, negative or
+  // absurd dimensions or bad spacing.
+  Volume(ScalarType type, std::array<int, 3> dims, Vec3 spacing = {1, 1, 1}, Vec3 origin = {0, 0, 0},
+         VoxelFill fill = VoxelFill::Zero);
 
   ScalarType type() const { return type_; }
   const std::array<int, 3>& dims() const { return dims_; }
@@ -84,7 +105,7 @@ public:
   // Smallest and largest voxel value (computed once, on first call or after recompute_range()).
   float min_value() const { return range_[0]; }
   float max_value() const { return range_[1]; }
-  void recompute_range();  // also rejects NaN or infinite voxels with an Error
+  void recompute_range();  // also rejects NaN or infinite voxels with an Error (in parallel)
 
 private:
   template <class T> float sample_typed(const Vec3& v) const;
@@ -92,7 +113,7 @@ private:
   ScalarType type_ = ScalarType::Float32;
   std::array<int, 3> dims_{0, 0, 0};
   Vec3 spacing_{1, 1, 1}, inv_spacing_{1, 1, 1}, origin_{0, 0, 0};
-  std::vector<std::byte> bytes_;
+  std::vector<std::byte, DefaultInitAllocator<std::byte>> bytes_;
   std::array<float, 2> range_{0, 0};
 };
 

@@ -476,7 +476,7 @@ Volume load_nrrd_volume(const std::string& path) {
 
   Volume volume(storage_type(n.type),
                 {static_cast<int>(checked.dims[0]), static_cast<int>(checked.dims[1]), static_cast<int>(checked.dims[2])},
-                axis_spacing(n), space_origin(n));
+                axis_spacing(n), space_origin(n), VoxelFill::Uninitialized);  // both paths below fill every voxel
   if (direct) {
     read_data_file(teem, header, checked, volume);
   } else {

@@ -44,7 +44,7 @@ Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options)
 
   Volume volume(options.type,
                 {static_cast<int>(options.dims[0]), static_cast<int>(options.dims[1]), static_cast<int>(options.dims[2])},
-                options.spacing);
+                options.spacing, {0, 0, 0}, VoxelFill::Uninitialized);  // the read below fills every voxel
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot open the file for reading");
   in.seekg(static_cast<std::streamoff>(options.header_bytes));
