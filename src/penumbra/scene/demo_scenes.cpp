@@ -70,4 +70,17 @@ nlohmann::json molecule_scene(const std::string& path) {
   return j;
 }
 
+nlohmann::json ct_body_scene(int nx, int ny, int nz) {
+  nlohmann::json j = nlohmann::json::parse(R"({
+    "volumes": [ { "procedural": { "name": "ct-body" }, "visible": false } ],
+    "isosurfaces": [ { "value": 1400, "method": "points" } ],
+    "lights": [ { "type": "point", "position": [1200, 1400, 1500] } ],
+    "camera": { "direction": [0.35, 1.0, 0.25], "up": [0, 0, 1], "target": [0, 0, 300], "zoom": 1.9,
+                "width": 512, "height": 512 },
+    "shadows": { "technique": "light_pass", "resolution": 512 }
+  })");
+  j["volumes"][0]["procedural"]["dims"] = {nx, ny, nz};
+  return j;
+}
+
 }  // namespace penumbra

@@ -26,4 +26,8 @@ nlohmann::json spheres_floor_scene();
 // A molecule file (e.g. 1aon.pdb.gz) coloured by chain with ISSM and particle AO, framed closely.
 nlohmann::json molecule_scene(const std::string& path);
 
+// The procedural ct-body CT (nx × ny × nz voxels; 512 × 512 × 1734 is the Visible Woman's size) as a
+// bone isosurface of points with light-pass shadows from a point light (scenes/ct-body.json).
+nlohmann::json ct_body_scene(int nx = 512, int ny = 512, int nz = 1734);
+
 }  // namespace penumbra
