@@ -24,24 +24,14 @@
 #include "penumbra/isosurface/visibility_buffer.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/scene_file.h"
+#include "isosurface_test_util.h"
 #include "test_scenes.h"
 
 using namespace penumbra;
+using penumbra::test::field_volume;
 using penumbra::test::sanitize_scale;
 
 namespace {
-
-// A float volume of n^3 voxels on [-1, 1]^3 holding f(p); inside is f >= 0.
-Volume field_volume(int n, const std::function<float(const Vec3&)>& f) {
-  const float s = 2.0f / static_cast<float>(n - 1);
-  Volume v(ScalarType::Float32, {n, n, n}, {s, s, s}, {-1, -1, -1});
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i)
-        v.set_value(v.index(i, j, k), f({-1 + static_cast<float>(i) * s, -1 + static_cast<float>(j) * s, -1 + static_cast<float>(k) * s}));
-  v.recompute_range();
-  return v;
-}
 
 float sphere_field(const Vec3& p, const Vec3& c, float r) { return r - length(p - c); }
 
@@ -62,14 +52,7 @@ Volume noisy_volume(int n) {
   });
 }
 
-Camera test_camera(int size, Vec3 eye = {1.6f, 1.1f, 2.3f}) {
-  Camera c;
-  c.eye = eye;
-  c.target = {0, 0, 0};
-  c.fov_deg = 40;
-  c.width = c.height = size;
-  return c;
-}
+Camera test_camera(int size, Vec3 eye = {1.6f, 1.1f, 2.3f}) { return test::camera_at(size, eye); }
 
 bool same_points(const IsoPoints& a, const IsoPoints& b) {
   if (a.size() != b.size()) return false;

@@ -20,24 +20,13 @@
 #include "penumbra/isosurface/isosurface_raycaster.h"
 #include "penumbra/isosurface/marching_cubes.h"
 #include "penumbra/isosurface/trilinear_root.h"
+#include "isosurface_test_util.h"
 #include "test_scenes.h"
 
 using namespace penumbra;
+using penumbra::test::field_volume;
 
 namespace {
-
-// A volume of n^3 voxels on [-1, 1]^3 holding f(p); inside is f >= isovalue.
-Volume field_volume(int n, const std::function<float(const Vec3&)>& f, ScalarType type = ScalarType::Float32) {
-  const float s = 2.0f / static_cast<float>(n - 1);
-  Volume v(type, {n, n, n}, {s, s, s}, {-1, -1, -1});
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i)
-        v.set_value(v.index(i, j, k), f({-1 + static_cast<float>(i) * s, -1 + static_cast<float>(j) * s,
-                                          -1 + static_cast<float>(k) * s}));
-  v.recompute_range();
-  return v;
-}
 
 const Vec3 kCentre{0.05f, -0.03f, 0.02f};
 constexpr float kRadius = 0.6137f;
@@ -68,14 +57,7 @@ Volume blobs_volume(int n, ScalarType type) {
   }, type);
 }
 
-Camera test_camera(int size, Vec3 eye = {1.3f, 0.9f, 1.8f}) {
-  Camera c;
-  c.eye = eye;
-  c.target = {0, 0, 0};
-  c.fov_deg = 40;
-  c.width = c.height = size;
-  return c;
-}
+Camera test_camera(int size, Vec3 eye = {1.3f, 0.9f, 1.8f}) { return test::camera_at(size, eye); }
 
 int image_size(int size) { return test::sanitize_scale() ? size / 2 : size; }
 

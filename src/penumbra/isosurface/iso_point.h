@@ -4,6 +4,7 @@
 // this list, so shading and shadows treat the three alike.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -24,5 +25,15 @@ struct IsoPoint {
 };
 
 using IsoPoints = std::vector<IsoPoint>;
+
+// The points of a per-pixel buffer (a ray cast, a rasterised mesh), in pixel order: at_pixel[i] for
+// every pixel i that is covered.
+inline IsoPoints points_in_pixel_order(const std::vector<IsoPoint>& at_pixel, const std::vector<std::uint8_t>& covered) {
+  IsoPoints points;
+  points.reserve(static_cast<std::size_t>(std::count(covered.begin(), covered.end(), std::uint8_t{1})));
+  for (std::size_t i = 0; i < at_pixel.size(); ++i)
+    if (covered[i]) points.push_back(at_pixel[i]);
+  return points;
+}
 
 }  // namespace penumbra

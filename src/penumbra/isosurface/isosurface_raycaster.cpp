@@ -179,11 +179,7 @@ IsoPoints IsosurfaceRaycaster::render(const Camera& camera) const {
         hit[i] = 1;
       }
   });
-  IsoPoints points;
-  points.reserve(static_cast<std::size_t>(std::count(hit.begin(), hit.end(), std::uint8_t{1})));
-  for (std::size_t i = 0; i < pixels; ++i)
-    if (hit[i]) points.push_back(at_pixel[i]);
-  return points;
+  return points_in_pixel_order(at_pixel, hit);
 }
 
 }  // namespace penumbra

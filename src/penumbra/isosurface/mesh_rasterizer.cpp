@@ -307,11 +307,7 @@ IsoPoints rasterize_mesh(const TriangleMesh& mesh, const Camera& camera) {
         covered[i] = 1;
       }
   });
-  IsoPoints points;
-  points.reserve(static_cast<std::size_t>(std::count(covered.begin(), covered.end(), std::uint8_t{1})));
-  for (std::size_t i = 0; i < pixels; ++i)
-    if (covered[i]) points.push_back(at_pixel[i]);
-  return points;
+  return points_in_pixel_order(at_pixel, covered);
 }
 
 }  // namespace penumbra
