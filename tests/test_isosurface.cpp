@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <functional>
 #include <memory>
 #include <set>
@@ -336,6 +337,18 @@ TEST(IsosurfaceScene, RendersEveryMethodAndRejectsBadInput) {
   nlohmann::json empty = iso_scene();
   empty["volumes"][0]["procedural"] = {{"name", "slab"}, {"size", 8}, {"thickness", 4.0}};  // every voxel 1
   expect_scene_error(empty, {"isosurfaces.0.volume", "constant"});
+  // NaN voxels: the volume is refused where it is read, naming the file and the voxel.
+  test::ScratchDir dir;
+  {
+    std::ofstream raw(dir.file("nan.raw"), std::ios::binary);
+    const float voxels[8] = {0, 1, std::nanf(""), 1, 0, 1, 1, 0};
+    raw.write(reinterpret_cast<const char*>(voxels), sizeof voxels);
+  }
+  nlohmann::json nan_scene = iso_scene();
+  nan_scene["volumes"][0] = {{"file", dir.file("nan.raw")},
+                             {"raw", {{"dims", {2, 2, 2}}, {"type", "float32"}}},
+                             {"visible", false}};
+  expect_scene_error(nan_scene, {"volumes.0.file", "nan.raw", "NaN"});
   nlohmann::json two = iso_scene();
   two["isosurfaces"].push_back(two["isosurfaces"][0]);
   expect_scene_error(two, {"isosurfaces", "one isosurface"});
