@@ -88,7 +88,8 @@ Run run_frames(const Scene& scene, const Camera& camera, PreparedIsosurface& iso
     std::vector<std::unique_ptr<IsoShadowTechnique>> shadows;
     IsosurfaceFrameStats stats;
     Run run;
-    run.layer = render_isosurface_frame(scene, camera, iso, scene.lights, shadows, stats);
+    PreparedIsosurface* isos[] = {&iso};
+    run.layer = render_isosurface_frame(scene, camera, isos, scene.lights, shadows, stats);
     run.cull_ms = stats.extract_ms;
     run.shadow_ms = stats.shadow_ms;
     run.render_ms = stats.shade_ms;
@@ -214,7 +215,8 @@ void bench_dataset(const IsosurfaceBenchOptions& o, const Dataset& d, std::ostri
         s.shadows.technique = "none";
         IsosurfaceFrameStats ms;
         std::vector<std::unique_ptr<IsoShadowTechnique>> none;
-        render_isosurface_frame(s, cam, mesh, s.lights, none, ms);
+        PreparedIsosurface* isos[] = {&mesh};
+        render_isosurface_frame(s, cam, isos, s.lights, none, ms);
         if (ms.mesh_ms > 0) mc_ms = ms.mesh_ms;
         meshed.cull_ms = ms.extract_ms;
         meshed.points = ms.triangles;

@@ -34,11 +34,13 @@ std::string frame_path(const std::string& output, int frame) {
 // paper 002 Fig. 2 (the eye pass's final visibility mask) and Fig. 6 (the view from the light).
 void write_isosurface_buffers(const std::string& dir, const Renderer& renderer, const Camera& camera) {
   write_image(dir + "/eye_visibility.png", coverage_image(renderer.isosurface_eye_points(), camera.width, camera.height));
-  const auto& shadows = renderer.isosurface_shadows();
-  for (std::size_t l = 0; l < shadows.size(); ++l) {
-    const auto* pass = dynamic_cast<const LightPass*>(shadows[l].get());
+  const auto& shadows = renderer.isosurface_shadows();  // per light, one per isosurface
+  const std::size_t surfaces = renderer.isosurfaces().size();
+  for (std::size_t k = 0; k < shadows.size(); ++k) {
+    const auto* pass = dynamic_cast<const LightPass*>(shadows[k].get());
     if (!pass) continue;
-    const std::string stem = dir + "/light" + std::to_string(l);
+    std::string stem = dir + "/light" + std::to_string(k / surfaces);
+    if (surfaces > 1) stem += "_iso" + std::to_string(k % surfaces);
     write_image(stem + "_holes.png", visibility_image(pass->holes()));
     write_image(stem + "_points.png",
                 distance_image(pass->light_points().points, pass->light_view().width, pass->light_view().height));
@@ -127,7 +129,7 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--stats", o->stats, "Write timings, memory and counts as JSON");
   cmd->add_option("--buffers", o->buffers,
                   "Isosurface scenes: write the eye pass's final visibility mask and each light pass's holes and "
-                  "points (light view) as PNGs into this directory");
+                  "points (light view) as PNGs into this directory (lightN_isoK_* with several isosurfaces)");
   cmd->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
   cmd->add_option("--orbit", o->orbit, "Render N frames with the camera turning once around its target")->check(CLI::Range(1, 100000));
   cmd->add_option("--light-orbit", o->light_orbit, "Render N frames with the first light turning once around the scene")->check(CLI::Range(1, 100000));

@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include "penumbra/core/error.h"
 #include "penumbra/particles/sphere_hits.h"
@@ -40,15 +41,26 @@ nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const 
   const IsosurfaceFrameStats& iso = first.isosurface;
   j["counts"] = {{"voxels", renderer.voxel_count()}, {"spheres", renderer.sphere_count()}, {"points", iso.points},
                  {"lights", scene.lights.size()}, {"sphere_pixels", first.sphere_pixels}};
-  if (const PreparedIsosurface* p = renderer.isosurface()) {
-    j["isosurface"] = {{"method", to_string(p->object->method)}, {"value", p->object->value},
-                       {"grid_tree_ms", p->tree->build_ms()}, {"grid_tree_bytes", p->tree->memory_bytes()},
+  if (!renderer.isosurfaces().empty()) {
+    nlohmann::json surfaces = nlohmann::json::array();
+    std::set<const GridTree*> trees;
+    double tree_ms = 0;
+    std::size_t tree_bytes = 0, mesh_bytes = 0;
+    for (const auto& p : renderer.isosurfaces()) {
+      surfaces.push_back({{"method", to_string(p->object->method)}, {"value", p->object->value}, {"volume", p->object->volume}});
+      if (trees.insert(p->tree.get()).second) {
+        tree_ms += p->tree->build_ms();
+        tree_bytes += p->tree->memory_bytes();
+      }
+      if (p->mesh) mesh_bytes += p->mesh->memory_bytes();
+    }
+    j["isosurface"] = {{"surfaces", surfaces}, {"grid_tree_ms", tree_ms}, {"grid_tree_bytes", tree_bytes},
                        {"light_points", iso.light_points}, {"holes", iso.holes}, {"triangles", iso.triangles},
                        {"nodes_visited", iso.extraction.nodes_visited}, {"value_pruned", iso.extraction.value_pruned},
                        {"visibility_pruned", iso.extraction.visibility_pruned},
                        {"cells_visited", iso.extraction.cells_visited}, {"collapsed", iso.extraction.collapsed}};
-    j["memory_bytes"]["grid_tree"] = p->tree->memory_bytes();
-    if (p->mesh) j["memory_bytes"]["mesh"] = p->mesh->memory_bytes();
+    j["memory_bytes"]["grid_tree"] = tree_bytes;
+    if (mesh_bytes) j["memory_bytes"]["mesh"] = mesh_bytes;
   }
   if (scene.has_particles()) {
     j["sphere_renderer"] = to_string(scene.sphere_rasterizer);

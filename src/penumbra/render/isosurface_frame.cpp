@@ -18,9 +18,6 @@ constexpr std::uint32_t kNoPoint = 0xffffffffu;
 
 }  // namespace
 
-PreparedIsosurface::PreparedIsosurface(const Scene& scene, const IsosurfaceObject& o)
-    : PreparedIsosurface(std::make_shared<const GridTree>(*scene.volumes[o.volume].volume), o) {}
-
 PreparedIsosurface::PreparedIsosurface(std::shared_ptr<const GridTree> t, const IsosurfaceObject& o)
     : object(&o), tree(std::move(t)), raycaster(*tree, o.value) {}
 
@@ -57,19 +54,33 @@ IsoPoints isosurface_eye_points(const Camera& camera, PreparedIsosurface& iso, I
   return {};
 }
 
-SurfaceLayer render_isosurface_frame(const Scene& scene, const Camera& camera, PreparedIsosurface& iso,
+SurfaceLayer render_isosurface_frame(const Scene& scene, const Camera& camera, std::span<PreparedIsosurface* const> isos,
                                      std::span<const Light> lights,
                                      std::vector<std::unique_ptr<IsoShadowTechnique>>& shadows,
                                      IsosurfaceFrameStats& stats) {
   const int w = camera.width, h = camera.height;
   const auto pixels = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
-  IsoPoints eye = isosurface_eye_points(camera, iso, stats);
-  stats.points = eye.size();
-
-  // Each pixel's nearest surface: the isosurface point or a nearer plane; listed in pixel order.
+  // Each isosurface's eye pass; per pixel the nearest of their points.
+  std::vector<IsoPoints> eye(isos.size());
+  for (std::size_t s = 0; s < isos.size(); ++s) {
+    IsosurfaceFrameStats one;
+    eye[s] = isosurface_eye_points(camera, *isos[s], one);
+    stats.add(one);
+    stats.points += eye[s].size();
+  }
   Timer shade;
-  std::vector<std::uint32_t> at_pixel(pixels, kNoPoint);
-  for (std::size_t i = 0; i < eye.size(); ++i) at_pixel[eye[i].pixel] = static_cast<std::uint32_t>(i);
+  struct Nearest {
+    std::uint32_t surface = kNoPoint, point = kNoPoint;
+  };
+  std::vector<Nearest> at_pixel(pixels);
+  for (std::size_t s = 0; s < isos.size(); ++s)
+    for (std::size_t i = 0; i < eye[s].size(); ++i) {
+      Nearest& n = at_pixel[eye[s][i].pixel];
+      if (n.point == kNoPoint || eye[s][i].distance < eye[n.surface][n.point].distance)
+        n = {static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(i)};
+    }
+
+  // Each pixel's nearest surface: an isosurface point or a nearer plane; listed in pixel order.
   SurfaceLayer layer;
   layer.distance.assign(pixels, kInfinity);
   std::vector<IsoPoints> row_points(static_cast<std::size_t>(h));
@@ -80,8 +91,8 @@ SurfaceLayer render_isosurface_frame(const Scene& scene, const Camera& camera, P
     for (std::size_t y = y0; y < y1; ++y)
       for (int x = 0; x < w; ++x) {
         const std::size_t i = y * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
-        const std::uint32_t k = at_pixel[i];
-        float t = k == kNoPoint ? kInfinity : eye[k].distance;
+        const Nearest k = at_pixel[i];
+        float t = k.point == kNoPoint ? kInfinity : eye[k.surface][k.point].distance;
         const Plane* plane = nullptr;
         if (!scene.planes.empty()) {
           const Ray ray = rays.ray(x, static_cast<int>(y));
@@ -99,9 +110,9 @@ SurfaceLayer render_isosurface_frame(const Scene& scene, const Camera& camera, P
             row_is_iso[y].push_back(0);
           }
         }
-        if (!plane && k != kNoPoint) {
-          row_points[y].push_back(eye[k]);
-          row_albedo[y].push_back(iso.object->color);
+        if (!plane && k.point != kNoPoint) {
+          row_points[y].push_back(eye[k.surface][k.point]);
+          row_albedo[y].push_back(isos[k.surface]->object->color);
           row_is_iso[y].push_back(1);
         }
         layer.distance[i] = t;
@@ -117,23 +128,27 @@ SurfaceLayer render_isosurface_frame(const Scene& scene, const Camera& camera, P
   stats.shade_ms += shade.elapsed_ms();
 
   // Shadows, built for these receivers (paper 002 §4: the light pass answers only for the eye points).
+  // With several isosurfaces every one casts: each light gets one technique per isosurface, and a
+  // receiver's light fraction is the product of theirs (lit only where no isosurface is in front).
   Timer shadow_timer;
   shadows.clear();
   std::vector<std::vector<float>> fraction(lights.size(), std::vector<float>(layer.receivers.size(), 1.0f));
-  const IsoShadowInputs inputs{iso.tree.get(), iso.object->value, layer.receivers};
-  for (std::size_t l = 0; l < lights.size(); ++l) {
-    auto technique = make_isosurface_shadow_technique(scene.shadows);
-    technique->build(inputs, lights[l]);
-    parallel_for(layer.receivers.size(), [&](std::size_t b, std::size_t e) {
-      technique->light_fraction(std::span<const IsoPoint>(layer.receivers).subspan(b, e - b),
-                                std::span<float>(fraction[l]).subspan(b, e - b));
-    }, 1024);
-    if (const auto* pass = dynamic_cast<const LightPass*>(technique.get())) {
-      stats.light_points += pass->light_points().points.size();
-      stats.holes += pass->hole_count();
+  std::vector<float> one(layer.receivers.size());
+  for (std::size_t l = 0; l < lights.size(); ++l)
+    for (PreparedIsosurface* iso : isos) {
+      auto technique = make_isosurface_shadow_technique(scene.shadows);
+      technique->build(IsoShadowInputs{iso->tree.get(), iso->object->value, layer.receivers}, lights[l]);
+      parallel_for(layer.receivers.size(), [&](std::size_t b, std::size_t e) {
+        technique->light_fraction(std::span<const IsoPoint>(layer.receivers).subspan(b, e - b),
+                                  std::span<float>(one).subspan(b, e - b));
+        for (std::size_t i = b; i < e; ++i) fraction[l][i] *= one[i];
+      }, 1024);
+      if (const auto* pass = dynamic_cast<const LightPass*>(technique.get())) {
+        stats.light_points += pass->light_points().points.size();
+        stats.holes += pass->hole_count();
+      }
+      shadows.push_back(std::move(technique));
     }
-    shadows.push_back(std::move(technique));
-  }
   stats.shadow_ms = shadow_timer.elapsed_ms();
 
   // Blinn–Phong; isosurface points get a specular highlight, planes are Lambertian.
@@ -164,7 +179,7 @@ SurfaceLayer render_isosurface_frame(const Scene& scene, const Camera& camera, P
     }
   }, 1024);
   stats.shade_ms += shade.elapsed_ms();
-  layer.eye_points = std::move(eye);
+  for (IsoPoints& e : eye) layer.eye_points.insert(layer.eye_points.end(), e.begin(), e.end());
   return layer;
 }
 

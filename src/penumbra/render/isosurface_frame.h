@@ -24,8 +24,8 @@ namespace penumbra {
 // What an isosurface keeps between frames: the min/max hierarchy (built once per volume, valid for
 // every isovalue), and for the other methods the ray caster or the mesh.
 struct PreparedIsosurface {
-  PreparedIsosurface(const Scene& scene, const IsosurfaceObject& object);  // builds the hierarchy
-  PreparedIsosurface(std::shared_ptr<const GridTree> tree, const IsosurfaceObject& object);  // shares one
+  // `tree` is the hierarchy of the object's volume (shared by the isosurfaces of one volume).
+  PreparedIsosurface(std::shared_ptr<const GridTree> tree, const IsosurfaceObject& object);
 
   const IsosurfaceObject* object;
   std::shared_ptr<const GridTree> tree;
@@ -43,17 +43,25 @@ struct IsosurfaceFrameStats {
   std::size_t holes = 0;         // light_pass: light pixels punched by the receivers (§4.2)
   std::size_t triangles = 0;     // mesh
   ExtractionStats extraction;    // points: the eye pass's traversal
+
+  void add(const IsosurfaceFrameStats& o) {  // the times and counts of another isosurface's eye pass
+    extract_ms += o.extract_ms;
+    mesh_ms += o.mesh_ms;
+    triangles += o.triangles;
+    extraction.add(o.extraction);
+  }
 };
 
 struct SurfaceLayer {
   Image image;
   std::vector<float> distance;  // per pixel; infinity: background
   IsoPoints receivers;          // the shaded points (isosurface and planes), in pixel order
-  IsoPoints eye_points;         // the isosurface's eye pass, as extracted
+  IsoPoints eye_points;         // the isosurfaces' eye passes, as extracted
 };
 
-// `shadows` receives one technique per light, built for this frame (kept for inspection).
-SurfaceLayer render_isosurface_frame(const Scene& scene, const Camera& camera, PreparedIsosurface& iso,
+// `shadows` receives, for each light in turn, one technique per isosurface, built for this frame
+// (kept for inspection).
+SurfaceLayer render_isosurface_frame(const Scene& scene, const Camera& camera, std::span<PreparedIsosurface* const> isos,
                                      std::span<const Light> lights,
                                      std::vector<std::unique_ptr<IsoShadowTechnique>>& shadows,
                                      IsosurfaceFrameStats& stats);

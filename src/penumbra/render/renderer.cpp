@@ -1,6 +1,7 @@
 #include "penumbra/render/renderer.h"
 
 #include <algorithm>
+#include <map>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/timer.h"
@@ -47,7 +48,7 @@ Renderer::Renderer(Scene scene) : scene_(std::move(scene)) {
   Timer timer;
   prepare();
   prepare_particles();
-  if (scene_.has_isosurfaces()) isosurface_ = std::make_unique<PreparedIsosurface>(scene_, scene_.isosurfaces.front());
+  prepare_isosurfaces();
   prepare_ms_ = timer.elapsed_ms();
 }
 
@@ -77,6 +78,15 @@ void Renderer::prepare_particles() {
   }
   particle_scene_.particles = particles_.get();
   particle_scene_.bounds = particles_->bounds();
+}
+
+void Renderer::prepare_isosurfaces() {
+  std::map<std::size_t, std::shared_ptr<const GridTree>> trees;  // one hierarchy per volume
+  for (const IsosurfaceObject& o : scene_.isosurfaces) {
+    auto& tree = trees[o.volume];
+    if (!tree) tree = std::make_shared<const GridTree>(*scene_.volumes[o.volume].volume);
+    isosurfaces_.push_back(std::make_unique<PreparedIsosurface>(tree, o));
+  }
 }
 
 void Renderer::set_transfer_function(const TransferFunction& tf) {
@@ -148,7 +158,9 @@ FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lig
     if (scene_.has_particles()) {
       opaque = render_particles(camera, lights, frame);
     } else {
-      SurfaceLayer layer = render_isosurface_frame(scene_, camera, *isosurface_, lights, isosurface_shadows_, frame.isosurface);
+      std::vector<PreparedIsosurface*> isos;
+      for (auto& iso : isosurfaces_) isos.push_back(iso.get());
+      SurfaceLayer layer = render_isosurface_frame(scene_, camera, isos, lights, isosurface_shadows_, frame.isosurface);
       opaque = std::move(layer.image);
       opaque_distance_ = std::move(layer.distance);
       isosurface_eye_points_ = std::move(layer.eye_points);

@@ -57,20 +57,22 @@ public:
   std::size_t sat_memory_bytes() const { return sat_ ? sat_->memory_bytes() : 0; }
   std::size_t voxel_count() const {
     if (volume_) return volume_->volume->voxel_count();
-    return isosurface_ ? isosurface_->tree->volume().voxel_count() : 0;
+    return isosurfaces_.empty() ? 0 : isosurfaces_.front()->tree->volume().voxel_count();
   }
   std::size_t sphere_count() const { return particles_ ? particles_->size() : 0; }
   std::size_t particle_memory_bytes() const { return particles_ ? particles_->memory_bytes() : 0; }
   std::size_t bvh_memory_bytes() const { return bvh_ ? bvh_->memory_bytes() : 0; }
   double prepare_ms() const { return prepare_ms_; }
-  // Isosurface scenes: the min/max hierarchy, and the shadow techniques of the last frame.
-  const PreparedIsosurface* isosurface() const { return isosurface_.get(); }
+  // Isosurface scenes: each isosurface with its min/max hierarchy, and the shadow techniques of the
+  // last frame (for each light, one per isosurface).
+  const std::vector<std::unique_ptr<PreparedIsosurface>>& isosurfaces() const { return isosurfaces_; }
   const std::vector<std::unique_ptr<IsoShadowTechnique>>& isosurface_shadows() const { return isosurface_shadows_; }
   const IsoPoints& isosurface_eye_points() const { return isosurface_eye_points_; }
 
 private:
   void prepare();  // prepared volume and shadow medium for the current transfer function
   void prepare_particles();  // one particle set of all the scene's particle objects
+  void prepare_isosurfaces();
   // Rebuilds the shadow structures of the lights that changed; true when any was rebuilt.
   bool update_volume_shadows(const std::vector<Light>& lights);
   bool update_sphere_shadows(const std::vector<Light>& lights);
@@ -92,7 +94,7 @@ private:
   std::vector<std::unique_ptr<SphereShadowTechnique>> sphere_shadows_;
   std::vector<Light> sphere_shadows_for_;
   bool particles_built_ = false;
-  std::unique_ptr<PreparedIsosurface> isosurface_;
+  std::vector<std::unique_ptr<PreparedIsosurface>> isosurfaces_;  // sharing one GridTree per volume
   std::vector<std::unique_ptr<IsoShadowTechnique>> isosurface_shadows_;
   IsoPoints isosurface_eye_points_;  // the last frame's eye pass
   std::vector<float> opaque_distance_;  // the last sphere frame's per-pixel surface distance

@@ -428,8 +428,6 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir) {
     const auto& isos = array_at(r, "isosurfaces");
     for (std::size_t i = 0; i < isos.size(); ++i)
       s.isosurfaces.push_back(read_isosurface(isos[i], "isosurfaces." + std::to_string(i), s.volumes));
-    if (s.isosurfaces.size() > 1)
-      r.fail("isosurfaces", "holds " + std::to_string(s.isosurfaces.size()) + " entries; this build draws one isosurface per scene");
   }
   if (r.has("planes")) {
     const auto& planes = array_at(r, "planes");
