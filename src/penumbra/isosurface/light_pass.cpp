@@ -99,10 +99,20 @@ ViewProjection fit_light_view(const Light& light, std::span<const IsoPoint> rece
 void LightPass::build(const IsoShadowInputs& in, const Light& light) {
   Timer timer;
   const Volume& volume = in.tree->volume();
-  view_ = fit_light_view(light, in.receivers, volume.bounds(), settings_);
+  // Only receivers facing the light need an answer (the others get no light whatever lies in front of
+  // them): the frustum is fitted to them and only they punch holes.
+  std::vector<IsoPoint> facing;
+  facing.reserve(in.receivers.size());
+  for (const IsoPoint& p : in.receivers) {
+    Vec3 to_light;
+    float distance;
+    light.towards(p.position, to_light, distance);
+    if (dot(p.normal, to_light) > 0) facing.push_back(p);
+  }
+  view_ = fit_light_view(light, facing, volume.bounds(), settings_);
   // §4.2: all non-visible, then one hole per receiver's light pixel.
   holes_ = VisibilityBuffer(view_.width, view_.height, false);
-  for (const IsoPoint& p : in.receivers) {
+  for (const IsoPoint& p : facing) {
     float px, py;
     if (!view_.project(p.position, px, py)) continue;
     const int x = static_cast<int>(std::floor(px)), y = static_cast<int>(std::floor(py));

@@ -1,7 +1,7 @@
 // Shadows for incomplete point-based isosurfaces (paper 002 §4): a second PIsA pass from the light.
 // The light's visibility buffer starts all non-visible; the receivers' light-space projections punch
-// holes in it (§4.2: {F(x) = visible | x in P^l(G_e)}), so the extraction from the light looks only
-// where an eye point needs an answer and finds at most as many points as there are eye points. Each
+// holes in it (§4.2: {F(x) = visible | x in P^l(G_e)}) — those that face the light: the others are
+// unlit anyway — so the extraction from the light looks only where an eye point needs an answer and finds at most as many points as there are eye points. Each
 // light pixel keeps the light distance of the nearest surface found; a receiver is lit when it is no
 // farther from the light than that, plus a bias (docs/techniques/light_pass.md). The light frustum is
 // fitted to the receivers in light coordinates with an asymmetric perspective window (§4.3, Fig. 5 C);

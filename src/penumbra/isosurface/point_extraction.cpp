@@ -99,14 +99,13 @@ private:
 
   // Shared test of a node or block: value range, projection, visibility, far-subvolume collapse.
   // True when its children should be visited.
-  bool enter(float lo_value, float hi_value, const Cells& lo, const Cells& hi) {
+  bool enter(float lo_value, float hi_value, const Cells& lo, const Cells& hi, float& extent) {
     ++stats.nodes_visited;
     if (!range_straddles(lo_value, hi_value, iso_)) {
       ++stats.value_pruned;
       return false;
     }
     const Box3 box{world(lo), world(hi)};
-    float extent;
     const PixelRect r = project(box, extent);
     if (!any_visible(r)) {
       ++stats.visibility_pruned;
@@ -123,7 +122,8 @@ private:
     Cells lo, hi;
     tree_.node_cells(level, i, j, k, lo, hi);
     const auto& range = tree_.range(level, i, j, k);
-    if (!enter(range[0], range[1], lo, hi)) return;
+    float extent;
+    if (!enter(range[0], range[1], lo, hi, extent)) return;
     if (level == 0) {
       visit_brick(lo, hi);
       return;
@@ -139,9 +139,10 @@ private:
   }
 
   // The cells of a brick, as 2x2x2 blocks and then single cells, in front-to-back order.
-  void visit_brick(const Cells& lo, const Cells& hi) { visit_split(lo, hi, 2); }
+  void visit_brick(const Cells& lo, const Cells& hi) { visit_split(lo, hi, 2, false); }
 
-  void visit_split(const Cells& lo, const Cells& hi, int size) {
+  // `sub_pixel`: the enclosing block projects to at most a pixel, so every cell in it does too.
+  void visit_split(const Cells& lo, const Cells& hi, int size, bool sub_pixel) {
     const int first = first_child(world({lo[0] + size, lo[1] + size, lo[2] + size}));
     for (int o = 0; o < 8; ++o) {
       const int c = first ^ o;
@@ -153,7 +154,7 @@ private:
         exists = exists && clo[a] < chi[a];
       }
       if (!exists) continue;
-      if (size == 1) visit_cell(clo);
+      if (size == 1) visit_cell(clo, sub_pixel);
       else visit_block(clo, chi);
     }
   }
@@ -168,8 +169,9 @@ private:
           mx = std::max(mx, row[x]);
         }
       }
-    if (!enter(static_cast<float>(mn), static_cast<float>(mx), lo, hi)) return;
-    visit_split(lo, hi, 1);
+    float extent;
+    if (!enter(static_cast<float>(mn), static_cast<float>(mx), lo, hi, extent)) return;
+    visit_split(lo, hi, 1, extent <= 1.0f);
   }
 
   std::size_t index(const Cells& c) const {
@@ -177,7 +179,7 @@ private:
            static_cast<std::size_t>(c[0]);
   }
 
-  void visit_cell(const Cells& c) {
+  void visit_cell(const Cells& c, bool sub_pixel) {
     const std::size_t base = index(c);
     std::array<float, 8> v;
     float mn = kInfinity, mx = -kInfinity;
@@ -190,9 +192,12 @@ private:
     if (!range_straddles(mn, mx, iso_)) return;
     const Cells hi{c[0] + 1, c[1] + 1, c[2] + 1};
     const Box3 box{world(c), world(hi)};
-    float extent;
-    const PixelRect r = project(box, extent);
-    if (!any_visible(r)) return;
+    float extent = 0;
+    PixelRect r{0, 0, -1, -1};
+    if (!sub_pixel) {  // (a cell inside a sub-pixel block needs only its point's pixel, tested below)
+      r = project(box, extent);
+      if (!any_visible(r)) return;
+    }
     ++stats.cells_visited;
     if (extent <= 1.0f) {
       // Sub-pixel cell: one point, the mean of the crossings on its 12 edges (§3.2).
