@@ -9,6 +9,7 @@
 #include "penumbra/isosurface/iso_registry.h"
 #include "penumbra/isosurface/light_pass.h"
 #include "penumbra/isosurface/view_projection.h"
+#include "penumbra/render/surface_shading.h"
 
 namespace penumbra {
 
@@ -96,16 +97,9 @@ SurfaceLayer render_isosurface_frame(const Scene& scene, const Camera& camera, s
         const Plane* plane = nullptr;
         if (!scene.planes.empty()) {
           const Ray ray = rays.ray(x, static_cast<int>(y));
-          for (const auto& p : scene.planes) {
-            const float tp = p.intersect(ray, 0, t);
-            if (tp < t) {
-              t = tp;
-              plane = &p;
-            }
-          }
+          plane = nearest_plane(scene.planes, ray, t);
           if (plane) {
-            const Vec3 n = dot(plane->normal, ray.direction) <= 0 ? plane->normal : -plane->normal;
-            row_points[y].push_back(IsoPoint{ray.at(t), n, t, static_cast<std::uint32_t>(i)});
+            row_points[y].push_back(IsoPoint{ray.at(t), plane->facing_normal(ray.direction), t, static_cast<std::uint32_t>(i)});
             row_albedo[y].push_back(plane->color);
             row_is_iso[y].push_back(0);
           }
@@ -155,25 +149,14 @@ SurfaceLayer render_isosurface_frame(const Scene& scene, const Camera& camera, s
   shade.reset();
   const ShadingParams& k = scene.shading;
   layer.image = Image(w, h, scene.background);
-  const float specular_cutoff = std::pow(1e-4f, 1.0f / k.shininess);
+  const SurfaceShading shading(k);
   parallel_for(layer.receivers.size(), [&](std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e; ++i) {
       const IsoPoint& p = layer.receivers[i];
       Rgb lit = albedo[i] * k.ambient;
-      for (std::size_t l = 0; l < lights.size(); ++l) {
-        if (fraction[l][i] <= 0) continue;
-        Vec3 to_light;
-        float distance;
-        lights[l].towards(p.position, to_light, distance);
-        const float ndotl = dot(p.normal, to_light);
-        if (ndotl <= 0) continue;
-        float spec = 0;
-        if (is_iso[i] != 0) {
-          const float ndoth = dot(p.normal, normalize(to_light + normalize(camera.eye - p.position)));
-          if (ndoth > specular_cutoff) spec = std::pow(ndoth, k.shininess);
-        }
-        lit += lights[l].emitted(to_light) * fraction[l][i] * (albedo[i] * (k.diffuse * ndotl) + Rgb(k.specular * spec));
-      }
+      for (std::size_t l = 0; l < lights.size(); ++l)
+        if (fraction[l][i] > 0)
+          lit += shading.direct(lights[l], p.position, p.normal, camera.eye, albedo[i], is_iso[i] != 0) * fraction[l][i];
       layer.image.at(static_cast<int>(p.pixel % static_cast<std::uint32_t>(w)),
                      static_cast<int>(p.pixel / static_cast<std::uint32_t>(w))) = lit;
     }

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "penumbra/core/parallel.h"
+#include "penumbra/render/surface_shading.h"
 
 namespace penumbra {
 namespace {
@@ -32,11 +33,7 @@ VisibleSurfaces visible_surfaces(const ParticleFrameInputs& in) {
         const Vec3 dir = rays.direction(x, static_cast<int>(y));
         const Ray ray{cam.eye, dir};
         float t = in.hits->t[i];
-        const Plane* plane = nullptr;
-        for (const auto& p : in.scene->planes) {
-          const float tp = p.intersect(ray, 0, t);
-          if (tp < t) { t = tp; plane = &p; }
-        }
+        const Plane* plane = nearest_plane(in.scene->planes, ray, t);
         if (t == kInfinity) continue;
         vs.distance[i] = t;
         const Vec3 pos = ray.at(t);
@@ -44,7 +41,7 @@ VisibleSurfaces visible_surfaces(const ParticleFrameInputs& in) {
         sp.position = pos;
         Rgb albedo;
         if (plane) {
-          sp.normal = dot(plane->normal, dir) <= 0 ? plane->normal : -plane->normal;
+          sp.normal = plane->facing_normal(dir);
           albedo = plane->color;
         } else {
           const std::uint32_t id = in.hits->id[i];
@@ -72,7 +69,7 @@ Image shade_particle_frame(const ParticleFrameInputs& in, const VisibleSurfaces&
   const Camera& cam = *in.camera;
   const ShadingParams& k = in.scene->shading;
   Image image(cam.width, cam.height, in.scene->background);
-  const float specular_cutoff = std::pow(1e-4f, 1.0f / k.shininess);
+  const SurfaceShading shading(k);
   parallel_for(vs.points.size(), [&](std::size_t begin, std::size_t end) {
     std::array<float, kBatch> fraction;
     std::array<float, kBatch> ao;
@@ -89,19 +86,8 @@ Image shade_particle_frame(const ParticleFrameInputs& in, const VisibleSurfaces&
         for (std::size_t i = 0; i < n; ++i) {
           if (fraction[i] <= 0) continue;  // fully shadowed: ambient only
           const SurfacePoint& p = pts[i];
-          Vec3 to_light;
-          float distance;
-          light.towards(p.position, to_light, distance);
-          const float ndotl = dot(p.normal, to_light);
-          if (ndotl <= 0) continue;
-          const bool sphere = p.self != kNoSphere;
-          float spec = 0;
-          if (sphere) {
-            const Vec3 view = normalize(cam.eye - p.position);
-            const float ndoth = dot(p.normal, normalize(to_light + view));
-            if (ndoth > specular_cutoff) spec = std::pow(ndoth, k.shininess);
-          }
-          lit[i] += light.emitted(to_light) * fraction[i] * (vs.albedo[b0 + i] * (k.diffuse * ndotl * ao[i]) + Rgb(k.specular * spec));
+          lit[i] += shading.direct(light, p.position, p.normal, cam.eye, vs.albedo[b0 + i], p.self != kNoSphere, ao[i]) *
+                    fraction[i];
         }
       }
       for (std::size_t i = 0; i < n; ++i) {

@@ -87,10 +87,7 @@ Rgb trace(const RayCastInputs& in, const Shader& shader, const Ray& ray, float j
   if (in.opaque) {
     t_surface = (*in.opaque->distance)[static_cast<std::size_t>(y) * static_cast<std::size_t>(in.camera->width) + static_cast<std::size_t>(x)];
   } else {
-    for (const auto& p : in.scene->planes) {
-      const float t = p.intersect(ray, 0, t_surface);
-      if (t < t_surface) { t_surface = t; plane = &p; }
-    }
+    plane = nearest_plane(in.scene->planes, ray, t_surface);
   }
   Rgb color(0.0f);
   float opacity = 0;

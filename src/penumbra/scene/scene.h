@@ -87,7 +87,22 @@ struct Plane {
     return t;
   }
   Box3 bounds() const;  // empty for infinite planes
+  // The normal on the side a ray travelling along `direction` sees.
+  Vec3 facing_normal(const Vec3& direction) const { return dot(normal, direction) <= 0 ? normal : -normal; }
 };
+
+// The nearest of `planes` that r hits in (0, t), or nullptr; t becomes that hit's distance.
+inline const Plane* nearest_plane(const std::vector<Plane>& planes, const Ray& r, float& t) {
+  const Plane* nearest = nullptr;
+  for (const auto& p : planes) {
+    const float tp = p.intersect(r, 0, t);
+    if (tp < t) {
+      t = tp;
+      nearest = &p;
+    }
+  }
+  return nearest;
+}
 
 struct ShadingParams {
   float ambient = 0.2f;
