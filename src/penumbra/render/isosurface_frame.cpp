@@ -162,7 +162,9 @@ SurfaceLayer render_isosurface_frame(const Scene& scene, const Camera& camera, s
     }
   }, 1024);
   stats.shade_ms += shade.elapsed_ms();
-  for (IsoPoints& e : eye) layer.eye_points.insert(layer.eye_points.end(), e.begin(), e.end());
+  if (eye.size() == 1) layer.eye_points = std::move(eye.front());
+  else
+    for (const IsoPoints& e : eye) layer.eye_points.insert(layer.eye_points.end(), e.begin(), e.end());
   return layer;
 }
 
