@@ -418,3 +418,45 @@ TEST(IsosurfaceScene, SeveralIsosurfacesDrawAndShadowEachOther) {
       }
   EXPECT_GT(lit_without, lit_with * 3 / 2);  // 292 vs 137 when written; equal if the shell cast nothing
 }
+
+// Planes with an isosurface: a floor under a sphere receives its light-pass shadow where exact shadow
+// rays put it, and a wall in front of the sphere hides it (depth-correct composition).
+TEST(IsosurfaceScene, PlanesAreDepthCorrectAndReceiveTheShadow) {
+  nlohmann::json j = nlohmann::json::parse(R"({
+    "volumes": [{"procedural": {"name": "sphere", "size": 32, "radius": 0.3}, "visible": false}],
+    "isosurfaces": [{"value": 0.5, "color": [1, 0, 0]}],
+    "planes": [{"point": [0, -0.5, 0], "normal": [0, 1, 0], "size": 3, "color": [0.8, 0.8, 0.8]}],
+    "lights": [{"type": "point", "position": [0.3, 2.0, 0.2]}],
+    "shadows": {"technique": "light_pass", "resolution": 256},
+    "camera": {"eye": [0, 0.9, 2.2], "target": [0, -0.2, 0], "width": 96, "height": 96}
+  })");
+  Renderer points(build_scene(j, ""));
+  const Image a = points.render().image;
+  nlohmann::json exact_json = j;
+  exact_json["isosurfaces"][0]["method"] = "raycast";
+  exact_json["shadows"]["technique"] = "ray_traced";
+  Renderer exact(build_scene(exact_json, ""));
+  const Image b = exact.render().image;
+  auto floor = [](const Rgb& p) { return std::abs(p.r - p.g) < 0.02f && p.r > 0.05f; };  // grey, not the red sphere
+  std::size_t floor_pixels = 0, shadowed = 0, differ = 0;
+  for (int y = 0; y < 96; ++y)
+    for (int x = 0; x < 96; ++x) {
+      const Rgb p = a.at(x, y), q = b.at(x, y);
+      if (!floor(p) || !floor(q)) continue;
+      ++floor_pixels;
+      const bool dark_p = p.r < 0.3f, dark_q = q.r < 0.3f;
+      shadowed += dark_q;
+      differ += dark_p != dark_q;
+    }
+  EXPECT_GT(floor_pixels, 2000u);
+  EXPECT_GT(shadowed, 100u) << "the sphere must shadow the floor";
+  EXPECT_LT(static_cast<double>(differ), 0.03 * static_cast<double>(floor_pixels));
+  // A wall between the camera and the sphere: no red pixel is left.
+  j["planes"].push_back({{"point", {0, 0, 0.6}}, {"normal", {0, 0, 1}}, {"size", 3}, {"color", {0.2, 0.8, 0.2}}});
+  Renderer walled(build_scene(j, ""));
+  const Image c = walled.render().image;
+  std::size_t red = 0;
+  for (int y = 0; y < 96; ++y)
+    for (int x = 0; x < 96; ++x) red += c.at(x, y).r > 2 * c.at(x, y).g;
+  EXPECT_EQ(red, 0u);
+}
