@@ -117,6 +117,7 @@ struct ShadowSettings {
   int offsets = 13;               // cssm: 7, 13 or 21 look-up offsets (paper Table 2)
   std::uint64_t seed = 1;         // cssm: random numbers of the generation pass
   int nodes = 3;                  // deep_shadow_map: nodes per colour channel
+  std::string dsm_layout = "per_channel";  // deep_shadow_map: "per_channel" or "shared_depth" (node depths shared by R, G, B: the CSSM paper's DSM)
   int pcf = 0;                    // shadow_map: percentage-closer filter radius in texels (0 = off)
   float bias = -1;                // world units subtracted from a receiver's light depth; < 0: one shadow step
   float step = -1;                // light-ray sampling step in voxels; < 0: one voxel (kDefaultShadowStepVoxels)

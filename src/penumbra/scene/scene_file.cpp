@@ -260,6 +260,9 @@ ShadowSettings read_shadows(const nlohmann::json& j) {
     r.fail("offsets", "value " + std::to_string(s.offsets) + " is not supported (expected 7, 13 or 21, paper §4)");
   s.seed = static_cast<std::uint64_t>(r.integer("seed", static_cast<std::int64_t>(s.seed), 0, INT64_MAX));
   s.nodes = static_cast<int>(r.integer("nodes", s.nodes, 2, 64));
+  s.dsm_layout = r.string("dsm_layout", s.dsm_layout);
+  if (s.dsm_layout != "per_channel" && s.dsm_layout != "shared_depth")
+    r.fail("dsm_layout", "unknown value '" + s.dsm_layout + "' (expected per_channel or shared_depth)");
   s.pcf = static_cast<int>(r.integer("pcf", s.pcf, 0, 16));
   s.bias = r.number("bias", s.bias, -1, 1e6f);
   s.step = r.number("step", s.step, -1, 8);
