@@ -362,7 +362,19 @@ TEST(ExtinctionAmbient, ShellsMatchBruteForce) {
 }
 
 // Proves the sampled ball integral approaches the continuum (1/4π)∫_ball τ/r² dV = τ·R in a homogeneous
-// medium, and that the cuboid shells give the same order of magnitude.
+// medium, and that the cuboid shells give the value their geometry predicts there.
+//
+// The cuboid shells in a homogeneous medium (extinction τ per world unit in every cell they reach, cubic
+// cells of edge c): shell i is the cube of half-size h_i cells minus the cube of h_{i−1}, so it holds
+// N_i = (2h_i + 1)³ − (2h_{i−1} + 1)³ cells (N_1 = (2h_1 + 1)³, the centre cell included), each weighted
+// V_cell / (4π r_i²) with r_i = (h_i + ½)·c, the cube's face distance. Hence
+//   X_shells = τ·c · Σ_i N_i / (4π (h_i + ½)²),   X_shells / (τR) = (c/R) · Σ_i N_i / (4π (h_i + ½)²).
+// As the shells get thin (N_i ≈ 24 h² dh) the sum tends to ∫ 24 h² / (4π h²) dh = (6/π)·h_n: cubes
+// weighted by their face distance hold 6/π ≈ 1.91 times the ball's 1/r² integral; the half-sizes are
+// rounded up (at least one cell apart), so h_n can exceed R: R = 6.4 cells, 8 shells → h = 1 … 8, ratio
+// 1.83; R = 12.8 cells → h = 2, 3, 5, 6, 8, 10, 11, 13, ratio 1.44. The shells are checked against that
+// prediction to 1e-4 (float result of double sums of equal cells, as ShellsMatchBruteForce), in a
+// box filled with the medium (the ball scene's medium ends at 0.3, inside the R = 12.8 cube's corners).
 TEST(ExtinctionAmbient, HomogeneousMediumExponent) {
   const double a = 0.16;  // τ per voxel
   // A ball of radius 0.3 filled with density 1: homogeneous within 0.2 + 2 voxels of the centre, and
@@ -374,7 +386,17 @@ TEST(ExtinctionAmbient, HomogeneousMediumExponent) {
   const int res = 64;
   const ExtinctionSat sat(*v.volume, v.transfer_function, v.compositing, v.reference_step(), res, false);
   holder.medium->attach_extinction_sat(&sat);
+  // The same medium filling the whole box (17³ voxels: the same τ per world unit, a cheaper volume).
+  nlohmann::json jb = full_box_scene(17, step_tf(a * (1.0 / 16) / v.reference_step()));
+  jb["volumes"][0]["compositing"] = "extinction";
+  MediumHolder box(jb);
+  const VolumeObject& vb = *box.scene.visible_volume();
+  const ExtinctionSat box_sat(*vb.volume, vb.transfer_function, vb.compositing, vb.reference_step(), res, false);
+  box.medium->attach_extinction_sat(&box_sat);
   const double tau = a / v.reference_step();  // 5.12 per world unit
+  ASSERT_NEAR(box_sat.tau(32, 32, 32), tau, 1e-4 * tau);
+  const double c = std::cbrt(box_sat.cell_volume());
+  ASSERT_NEAR(c, 1.0 / res, 1e-7);
   std::vector<float> radii{0.1f, 0.2f};  // 6.4 and 12.8 cells: the ball stays inside the medium
   if (sanitize_scale()) radii.pop_back();
   for (const float radius : radii) {
@@ -387,19 +409,25 @@ TEST(ExtinctionAmbient, HomogeneousMediumExponent) {
     s.technique = "sat_shells";
     s.shells = 8;
     SatShellsAmbient shells(s);
-    shells.build(*holder.medium);
+    shells.build(*box.medium);
     const double x_sampled = sampled.optical_depth(32, 32, 32).g;
     const double x_shells = shells.optical_depth(32, 32, 32).g;
-    std::printf("[measure] R=%.2f tauR=%.4f sampled=%.4f (ratio %.4f) shells=%.4f (ratio %.4f)\n", radius, want,
-                x_sampled, x_sampled / want, x_shells, x_shells / want);
+    const std::vector<int> h = shell_half_sizes(s.shells, radius * res);
+    double sum = 0, inner = 0;  // Σ N_i / (4π (h_i + ½)²); inner = (2h_{i−1} + 1)³
+    for (const int hi : h) {
+      const double outer = std::pow(2.0 * hi + 1, 3);
+      sum += (outer - inner) / (4 * kPi * (hi + 0.5) * (hi + 0.5));
+      inner = outer;
+    }
+    const double ratio = c / radius * sum;
+    std::printf("[measure] R=%.2f tauR=%.4f sampled=%.4f (ratio %.4f) shells=%.4f (ratio %.4f, predicted %.4f)\n", radius,
+                want, x_sampled, x_sampled / want, x_shells, x_shells / want, ratio);
     // Measured: sampled / τR = 0.968 (R = 6.4 cells) and 0.990 (12.8 cells): the discretised 1/r² ball
     // converges as R grows in cells. Bound ±5%.
     EXPECT_NEAR(x_sampled / want, 1.0, 0.05);
-    // Measured: shells / τR = 1.83 (6.4 cells) and 1.41 (12.8 cells; 1.44 in a full box — the outer
-    // cube's corners, 0.35 from the centre, reach past the medium's 0.3), 8 shells. Cubes weighted by
-    // their face distance overestimate the ball (continuum limit 6/π ≈ 1.91); bound [1, 2.2].
-    EXPECT_GT(x_shells / want, 1.0);
-    EXPECT_LT(x_shells / want, 2.2);
+    EXPECT_NEAR(x_shells / want, ratio, 1e-4 * ratio);
+    EXPECT_GT(ratio, 1.0);  // the cubes hold more than the ball, and less than the 6/π of thin shells
+    EXPECT_LT(ratio, 6 / kPi * (h.back() + 0.5) / (radius * res));
     // and the cache answers the same at the cell centre
     EXPECT_NEAR(sampled.ambient(sat.cell_center(32, 32, 32)).g, std::exp(-x_sampled), 1e-5);
   }

@@ -4,7 +4,8 @@
 // against the exact ray-traced shadows. Then the same for spheres (random spheres over a floor, and
 // 1AON when it is there): local lighting | ISSM | ISSM + particle AO | ray-traced shadows + AO. Then a
 // point-based isosurface of the procedural ct-body CT: points | points + light-pass shadows |
-// marching-cubes mesh | ray-cast isosurface with exact shadow rays.
+// marching-cubes mesh | ray-cast isosurface with exact shadow rays. `--quick` renders every scene
+// test-sized (64² images, 128² maps, small volumes): a smoke test of the same code in seconds.
 #include <cstdio>
 #include <filesystem>
 
@@ -20,8 +21,16 @@
 namespace penumbra::cli {
 namespace {
 
+// The scene with its image resized (quick mode).
+nlohmann::json sized(nlohmann::json scene, int width, int height) {
+  scene["camera"]["width"] = width;
+  scene["camera"]["height"] = height;
+  return scene;
+}
+
 void demo_scene(const std::string& name, const nlohmann::json& scene, const std::string& dir, int resolution) {
-  std::printf("\n%s (shadow maps %d², image 512²)\n", name.c_str(), resolution);
+  std::printf("\n%s (shadow maps %d², image %dx%d)\n", name.c_str(), resolution, scene["camera"].value("width", 512),
+              scene["camera"].value("height", 512));
   std::printf("| technique       | build ms | render ms | shadow memory | RMSE vs ray_traced | PSNR dB |\n");
   std::printf("|-----------------|---------:|----------:|--------------:|-------------------:|--------:|\n");
   const TechniqueRun reference = run_technique(scene, "ray_traced", resolution, {}, 1);
@@ -84,7 +93,7 @@ void demo_particles(const std::string& name, const nlohmann::json& scene_json, c
 
 // The bone isosurface of the procedural CT by each method, timed, with the error of each against the
 // ray-cast isosurface with exact shadow rays.
-void demo_isosurface(const std::string& dir) {
+void demo_isosurface(const std::string& dir, bool quick) {
   struct Config {
     const char* label;
     IsosurfaceMethod method;
@@ -96,10 +105,10 @@ void demo_isosurface(const std::string& dir) {
                             {"mesh (marching cubes)", IsosurfaceMethod::Mesh, "none", "mesh"},
                             {"raycast + ray_traced", IsosurfaceMethod::Raycast, "ray_traced", "ray_traced"}};
   Timer load;
-  const Scene base = build_scene(ct_body_scene(256, 256, 867), "");
+  const Scene base = build_scene(quick ? sized(ct_body_scene(64, 64, 216), 64, 64) : ct_body_scene(256, 256, 867), "");
   const auto& d = base.volumes[0].volume->dims();
-  std::printf("\nct-body bone isosurface (procedural CT %dx%dx%d uint16, built in %.0f ms; image 512²)\n", d[0], d[1], d[2],
-              load.elapsed_ms());
+  std::printf("\nct-body bone isosurface (procedural CT %dx%dx%d uint16, built in %.0f ms; image %dx%d)\n", d[0], d[1], d[2],
+              load.elapsed_ms(), base.camera.width, base.camera.height);
   std::printf("| method                | cull ms | shadows ms | mesh ms | points | PSNR dB vs raycast + ray_traced |\n");
   std::printf("|-----------------------|--------:|-----------:|--------:|-------:|--------------------------------:|\n");
   std::vector<FrameResult> frames;
@@ -128,24 +137,28 @@ void add_demo_command(CLI::App& app) {
     std::string dir = "penumbra-demo";
     int threads = 0;
     std::string data_dir = default_data_dir();
+    bool quick = false;
   };
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand("demo", "Render the built-in scenes with every shadow technique");
   cmd->add_option("-o,--output", o->dir, "Output directory (created)");
   cmd->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
+  cmd->add_flag("--quick", o->quick, "Test-sized scenes (64² images, 128² maps, small volumes): a smoke test in seconds");
   cmd->add_option("--data-dir", o->data_dir, "Where cranium_ct.nrrd is looked for (default: $PENUMBRA_DATA_DIR or ../shared/data)");
   cmd->callback([o] {
     ThreadLimit limit(o->threads);
     std::filesystem::create_directories(o->dir);
-    demo_scene("test-spheres", test_spheres_scene(128), o->dir, 1024);
+    const bool q = o->quick;
+    const int maps = q ? 128 : 1024;
+    demo_scene("test-spheres", q ? sized(test_spheres_scene(32), 64, 64) : test_spheres_scene(128), o->dir, maps);
     const std::string ct = o->data_dir + "/cranium_ct.nrrd";
-    if (std::filesystem::exists(ct)) demo_scene("cranium", cranium_scene(ct), o->dir, 1024);
+    if (std::filesystem::exists(ct)) demo_scene("cranium", q ? sized(cranium_scene(ct), 64, 64) : cranium_scene(ct), o->dir, maps);
     else std::printf("\n(%s not found: the CT scene is skipped)\n", ct.c_str());
-    demo_particles("spheres-floor", spheres_floor_scene(), o->dir);
+    demo_particles("spheres-floor", q ? sized(spheres_floor_scene(), 64, 48) : spheres_floor_scene(), o->dir);
     const std::string groel = o->data_dir + "/1aon.pdb.gz";
-    if (std::filesystem::exists(groel)) demo_particles("1aon", molecule_scene(groel), o->dir);
+    if (std::filesystem::exists(groel)) demo_particles("1aon", q ? sized(molecule_scene(groel), 64, 64) : molecule_scene(groel), o->dir);
     else std::printf("\n(%s not found: the molecule scene is skipped)\n", groel.c_str());
-    demo_isosurface(o->dir);
+    demo_isosurface(o->dir, q);
   });
 }
 
