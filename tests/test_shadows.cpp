@@ -379,8 +379,6 @@ struct DsmReceivers {
   std::vector<Rgb> reference;
 };
 
-}  // namespace
-
 // The Marschner–Lobb volume under a linear transfer function (opacity 0.08·density, transmission
 // colour (0.9, 0.5, 0.2)) gives smooth, many-times-bending transmittance functions along light rays.
 // Receivers sit on texel-centre rays of the map at segment ends of the light ray's lattice (depth kΔ),
@@ -388,7 +386,8 @@ struct DsmReceivers {
 // the ray-traced reference, marching from the receiver back along the same line, uses the same lattice,
 // so the two agree exactly (checked below) and every error left is the map's node compression.
 // Receivers with T > 0.98 or < 0.02 in every channel are skipped (every technique gets those right).
-TEST(ShadowsDeepShadowMap, ErrorFallsAsNodesGrow) {
+// Run for both layouts (`shadows.dsm_layout`); the bounds are the same, derived below.
+void check_error_falls_as_nodes_grow(const std::string& layout) {
   const int size = sanitize_scale() ? 32 : 48, res = 64;
   nlohmann::json j = volume_scene({{"name", "marschner-lobb"}, {"size", size}},
                                   {{"points", {{0.0, 0.9, 0.5, 0.2, 0.0}, {1.0, 0.9, 0.5, 0.2, 0.08}}}});
@@ -400,6 +399,7 @@ TEST(ShadowsDeepShadowMap, ErrorFallsAsNodesGrow) {
 
   ShadowSettings s;
   s.technique = "deep_shadow_map";
+  s.dsm_layout = layout;
   s.resolution = res;
   s.bias = 0;
   s.nodes = 2;
@@ -443,9 +443,10 @@ TEST(ShadowsDeepShadowMap, ErrorFallsAsNodesGrow) {
     }
     mean_err.push_back(sum / (3.0 * static_cast<double>(rx.points.size())));
     max_err.push_back(worst);
-    RecordProperty("mean_error_nodes_" + std::to_string(n), std::to_string(mean_err.back()));
+    ::testing::Test::RecordProperty(layout + "_mean_error_nodes_" + std::to_string(n), std::to_string(mean_err.back()));
   }
-  // Measured (48³): 0.061, 0.014, 0.0079, 0.0017, 3.3e-4, 5.8e-5, 6e-6.
+  // Measured (48³, 2026-12-01), per_channel: 0.056, 0.013, 0.0073, 0.0011, 2.6e-4, 6.4e-5, 7e-6;
+  // shared_depth: 0.056, 0.013, 0.0082, 0.0013, 2.9e-4, 7.5e-5, 2e-6 (the channels share the node depths).
   // Non-increasing. Slack 1e-4: the compression stops inserting nodes once every vertex is within 1e-4
   // of the approximation, so below that level the error is not controlled by the node count.
   for (std::size_t i = 1; i < nodes.size(); ++i)
@@ -456,8 +457,9 @@ TEST(ShadowsDeepShadowMap, ErrorFallsAsNodesGrow) {
   EXPECT_GT(mean_err.front(), 0.01) << "2 nodes should visibly miss this medium (else the test proves nothing)";
   // At 64 nodes the budget holds the whole function: a light ray crosses at most 1/|d_y|·(size − 1)
   // ≈ 1.06·47 ≈ 50 segments (< 64 vertices), so the greedy compression stops on its own tolerance 1e-4
-  // (the largest vertex deviation it leaves). At the receivers (vertices) the error is therefore ≤ 1e-4,
-  // plus float rounding of T and of the interpolation weight (< 1e-5).
+  // (the largest vertex deviation it leaves, in every channel: shared_depth measures the largest over the
+  // three). At the receivers (vertices) the error is therefore ≤ 1e-4, plus float rounding of T and of
+  // the interpolation weight (< 1e-5).
   EXPECT_LE(max_err.back(), 1e-4 + 1e-5);
 }
 
@@ -465,13 +467,14 @@ TEST(ShadowsDeepShadowMap, ErrorFallsAsNodesGrow) {
 // the deep shadow map (3 nodes, the paper's setting) as in the reference. Receivers behind the ball on
 // texel-centre rays at lattice depths (bias 0), where, behind the last node, the map holds the exact
 // product (see above): tolerance 1e-4 (the compression tolerance) + 1e-5 (float).
-TEST(ShadowsDeepShadowMap, ColouredMediumKeepsColouredShadows) {
+void check_coloured_medium_keeps_coloured_shadows(const std::string& layout) {
   MediumHolder m(volume_scene({{"name", "sphere"}, {"size", 32}, {"radius", 0.3}}, step_tf(0.1, 0.9, 0.3, 0.05)));
   const Light light{LightType::Directional, {}, unit(0, -1, 0)};
   RayTracedShadows rt;
   rt.build(*m.medium, light);
   ShadowSettings s;
   s.technique = "deep_shadow_map";
+  s.dsm_layout = layout;
   s.resolution = 64;
   s.nodes = 3;
   s.bias = 0;
@@ -498,6 +501,133 @@ TEST(ShadowsDeepShadowMap, ColouredMediumKeepsColouredShadows) {
       EXPECT_GT(T.r, T.g);
     }
   EXPECT_GE(tested, 20);
+}
+
+// Closed forms in a homogeneous box (the whole box, opacity a per voxel, black: t = 0, so every channel
+// passes (1 − a)^(ℓ/Δref) over a path ℓ inside the box, whatever the segments' lengths), light straight
+// down, so a texel's ray enters the box at depth z_in and leaves at z_out (Box3::clip), L = z_out − z_in.
+//  - 2 nodes: the compression keeps the first and last vertices only, so T(z) is the chord
+//    1 + ((1 − a)^(L/Δref) − 1)·(z − z_in)/L on [z_in, z_out], 1 before and (1 − a)^(L/Δref) after.
+//    Tolerance 1e-4: T_out is a product of ≤ 33 float factors (< 1e-5), z_in and the lattice vertex
+//    differ by float rounding of depths ≈ 2 (≤ 1e-6 relative), and 1e-4 still fails for a node off by
+//    one segment (T changes by ≥ a·T ≥ 0.005 per segment here).
+//  - 64 nodes (≥ the ≤ 33 vertices of a 32-voxel chord at one voxel a step): every vertex is kept to
+//    1e-4, and between vertices (≤ Δ apart) T is the chord of the exponential e^(−k(z − z_in)),
+//    k = −ln(1 − a)/Δref, whose distance from the curve is at most Δ²k²/8 (the interpolation error of a
+//    function with |f''| ≤ k²). So |T − (1 − a)^((z − z_in)/Δref)| ≤ 1e-4 + Δ²k²/8 + 1e-5.
+void check_homogeneous_box_closed_forms(const std::string& layout) {
+  const double a = 0.05;
+  MediumHolder m(full_box_scene(32, constant_tf(a)));
+  const Light light{LightType::Directional, {}, unit(0, -1, 0)};
+  const double h = m.voxel(), delta = m.medium->step();
+  const double k = -std::log(1 - a) / h;
+  const Box3 box = m.scene.visible_volume()->volume->bounds();
+  for (const int n : {2, 64}) {
+    ShadowSettings s;
+    s.technique = "deep_shadow_map";
+    s.dsm_layout = layout;
+    s.resolution = 32;
+    s.nodes = n;
+    s.bias = 0;
+    const auto t = build_technique(s, *m.medium, light);
+    const auto& dsm = dynamic_cast<const DeepShadowMap&>(*t);
+    int checked = 0;
+    for (int ix = 1; ix < 32; ix += 5)
+      for (int iy = 2; iy < 32; iy += 5) {
+        const Ray ray = dsm.projection().texel_ray((static_cast<float>(ix) + 0.5f) / 32, (static_cast<float>(iy) + 0.5f) / 32);
+        float z_in, z_out;
+        ASSERT_TRUE(box.clip(ray, z_in, z_out));
+        const double L = z_out - z_in, T_out = std::pow(1 - a, L / h);
+        for (int ch = 0; ch < 3; ++ch) ASSERT_EQ(dsm.node_count(ix, iy, ch), n == 2 ? 2 : dsm.node_count(ix, iy, 0));
+        for (int i = -3; i <= 40; ++i) {
+          const double z = z_in + L * i / 37.0;  // before, inside (off the lattice) and behind the box
+          const double expected = n == 2 ? (z < z_in ? 1.0 : z > z_out ? T_out : 1 + (T_out - 1) * (z - z_in) / L)
+                                         : (z < z_in ? 1.0 : std::pow(1 - a, (std::min<double>(z, z_out) - z_in) / h));
+          const double tol = n == 2 ? 1e-4 : 1e-4 + delta * delta * k * k / 8 + 1e-5;
+          for (int ch = 0; ch < 3; ++ch)
+            EXPECT_NEAR(dsm.evaluate(ix, iy, ch, static_cast<float>(z)), expected, tol)
+                << n << " nodes, texel " << ix << "," << iy << ", z − z_in = " << z - z_in << ", channel " << ch;
+          ++checked;
+        }
+      }
+    EXPECT_GE(checked, 6 * 6 * 40);
+  }
+}
+
+}  // namespace
+
+TEST(ShadowsDeepShadowMap, ErrorFallsAsNodesGrow) { check_error_falls_as_nodes_grow("per_channel"); }
+TEST(ShadowsDeepShadowMap, SharedDepthErrorFallsAsNodesGrow) { check_error_falls_as_nodes_grow("shared_depth"); }
+TEST(ShadowsDeepShadowMap, ColouredMediumKeepsColouredShadows) { check_coloured_medium_keeps_coloured_shadows("per_channel"); }
+TEST(ShadowsDeepShadowMap, SharedDepthColouredMediumKeepsColouredShadows) {
+  check_coloured_medium_keeps_coloured_shadows("shared_depth");
+}
+TEST(ShadowsDeepShadowMap, HomogeneousBoxClosedForms) { check_homogeneous_box_closed_forms("per_channel"); }
+TEST(ShadowsDeepShadowMap, SharedDepthHomogeneousBoxClosedForms) { check_homogeneous_box_closed_forms("shared_depth"); }
+
+// What distinguishes the layouts. In a coloured medium (the red ball over the Marschner–Lobb field: the
+// channels bend at different depths) shared_depth keeps one set of node depths per texel: every channel
+// reports the same count and the same depths, and memory is resolution²·(4N floats + 1 count byte + 1
+// surface float) against per_channel's resolution²·(6N floats + 3 count bytes + 1 surface float). In a
+// grey medium (equal transmission in R, G, B) the three channels' functions coincide, so the largest
+// deviation over channels is each channel's own, the greedy insertion picks the same vertices, and the
+// two layouts must give bit-identical transmittance.
+TEST(ShadowsDeepShadowMap, SharedDepthSharesNodesAndEqualsPerChannelInGrey) {
+  const int res = 32;
+  const Light light{LightType::Directional, {}, unit(0.3f, -1, 0.2f)};
+  auto build = [&](const MediumHolder& m, const char* layout, int nodes) {
+    ShadowSettings s;
+    s.technique = "deep_shadow_map";
+    s.dsm_layout = layout;
+    s.resolution = res;
+    s.nodes = nodes;
+    return build_technique(s, *m.medium, light);
+  };
+  {
+    MediumHolder m(volume_scene({{"name", "marschner-lobb"}, {"size", 32}},
+                                {{"points", {{0.0, 0.9, 0.5, 0.2, 0.0}, {1.0, 0.9, 0.5, 0.2, 0.08}}}}));
+    for (const int n : {2, 3, 5}) {
+      const auto shared_t = build(m, "shared_depth", n), per_t = build(m, "per_channel", n);
+      const auto& shared = dynamic_cast<const DeepShadowMap&>(*shared_t);
+      const auto& per = dynamic_cast<const DeepShadowMap&>(*per_t);
+      EXPECT_EQ(shared.layout(), DsmLayout::SharedDepth);
+      EXPECT_EQ(shared.memory_bytes(), static_cast<std::size_t>(res * res) * (4 * 4 * n + 1 + 4)) << n << " nodes";
+      EXPECT_EQ(per.memory_bytes(), static_cast<std::size_t>(res * res) * (6 * 4 * n + 3 + 4)) << n << " nodes";
+      int with_nodes = 0, per_channel_depths_differ = 0;
+      for (int iy = 0; iy < res; ++iy)
+        for (int ix = 0; ix < res; ++ix) {
+          const int c = shared.node_count(ix, iy, 0);
+          ASSERT_LE(c, n);
+          with_nodes += c > 0 ? 1 : 0;
+          for (int ch = 1; ch < 3; ++ch) {
+            ASSERT_EQ(shared.node_count(ix, iy, ch), c);
+            for (int j = 0; j < c; ++j) ASSERT_EQ(shared.node_depth(ix, iy, ch, j), shared.node_depth(ix, iy, 0, j));
+          }
+          // per_channel, in the same medium, does place some channels' nodes elsewhere (else this medium
+          // would not tell the layouts apart)
+          if (per.node_count(ix, iy, 0) == per.node_count(ix, iy, 2) && per.node_count(ix, iy, 0) > 2)
+            for (int j = 0; j < per.node_count(ix, iy, 0); ++j)
+              per_channel_depths_differ += per.node_depth(ix, iy, 0, j) != per.node_depth(ix, iy, 2, j) ? 1 : 0;
+        }
+      EXPECT_GT(with_nodes, res * res / 4);
+      if (n > 2) {
+        EXPECT_GT(per_channel_depths_differ, 0) << n << " nodes";
+      }
+    }
+  }
+  MediumHolder grey(volume_scene({{"name", "marschner-lobb"}, {"size", 32}},
+                                 {{"points", {{0.0, 0.4, 0.4, 0.4, 0.0}, {1.0, 0.4, 0.4, 0.4, 0.1}}}}));
+  for (const int n : {2, 3, 8}) {
+    const auto shared = build(grey, "shared_depth", n), per = build(grey, "per_channel", n);
+    int compared = 0;
+    for (int i = 0; i < 2000; ++i) {
+      const Vec3 p{uniform_float(41, i, 0) - 0.5f, uniform_float(41, i, 1) - 0.5f, uniform_float(41, i, 2) - 0.5f};
+      const Rgb a = transmittance_at(*shared, p), b = transmittance_at(*per, p);
+      for (int ch = 0; ch < 3; ++ch) ASSERT_EQ(a[ch], b[ch]) << n << " nodes, point " << i << ", channel " << ch;
+      compared += a.r < 0.99f ? 1 : 0;
+    }
+    EXPECT_GT(compared, 500) << "most points should be in shadow";
+  }
 }
 
 // ---------------------------------------------------------------------------------------------------
