@@ -544,9 +544,14 @@ void check_homogeneous_box_closed_forms(const std::string& layout) {
           const double expected = n == 2 ? (z < z_in ? 1.0 : z > z_out ? T_out : 1 + (T_out - 1) * (z - z_in) / L)
                                          : (z < z_in ? 1.0 : std::pow(1 - a, (std::min<double>(z, z_out) - z_in) / h));
           const double tol = n == 2 ? 1e-4 : 1e-4 + delta * delta * k * k / 8 + 1e-5;
-          for (int ch = 0; ch < 3; ++ch)
-            EXPECT_NEAR(dsm.evaluate(ix, iy, ch, static_cast<float>(z)), expected, tol)
-                << n << " nodes, texel " << ix << "," << iy << ", z − z_in = " << z - z_in << ", channel " << ch;
+          // through the query a renderer uses (the point on the texel's ray at depth z; bias 0) and
+          // through the per-channel evaluation
+          const Rgb T = transmittance_at(dsm, ray.at(static_cast<float>(z)));
+          for (int ch = 0; ch < 3; ++ch) {
+            EXPECT_NEAR(T[ch], expected, tol) << n << " nodes, texel " << ix << "," << iy << ", z − z_in = " << z - z_in
+                                              << ", channel " << ch;
+            EXPECT_NEAR(dsm.evaluate(ix, iy, ch, static_cast<float>(z)), expected, tol) << "evaluate(), channel " << ch;
+          }
           ++checked;
         }
       }
