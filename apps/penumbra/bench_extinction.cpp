@@ -77,12 +77,11 @@ void hard_ray_cache(const ShadowMedium& medium, const ExtinctionSat& sat, const 
 
 void cache_tables(const ExtinctionBenchOptions& o, const std::string& name, const Scene& scene, std::ostringstream& md,
                   nlohmann::json& out) {
-  const std::vector<int> sizes{64, 128, 192, 256};
   md << "\n### " << name << ": light-cache builds (ms)\n\n"
      << "| cache size | SAT | AO 3 shells | AO 7 shells | AO 11 shells | AO sampled r = 7 | shadows 50 samples | "
         "shadows 20 samples | 1 shadow ray | SAT memory MiB |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   const Light light = scene.lights.at(0);
-  for (const int n : sizes) {
+  for (const int n : o.cache_sizes) {
     std::fprintf(stderr, "bench extinction %s: cache %d³...\n", name.c_str(), n);
     const VolumeObject& v = *scene.visible_volume();
     const double sat_ms = fastest_ms(o.repeats, [&] {
@@ -117,9 +116,9 @@ void cache_tables(const ExtinctionBenchOptions& o, const std::string& name, cons
                                    {"shadow_ray_ms", ray_ms}, {"sat_bytes", b.sat->memory_bytes()}});
   }
   // Accuracy of the cuboid cone against the densely sampled cone (the same model, exact rays) at the
-  // filled cells of a 64³ cache.
+  // filled cells of a small cache (64³).
   {
-    CacheBench b(scene, 64);
+    CacheBench b(scene, o.accuracy_cache);
     ShadowSettings s = scene.shadows;
     SatConeShadows cone(s);
     cone.build(*b.medium, light);
@@ -149,7 +148,7 @@ void cache_tables(const ExtinctionBenchOptions& o, const std::string& name, cons
       n += cells[k];
     }
     const double rmse = n ? std::sqrt(sum2 / static_cast<double>(n)) : 0;
-    md << "\nAt 64³, " << n << " filled cells: sat_cone (" << s.cone_angle << "°, " << s.cone_samples
+    md << "\nAt " << o.accuracy_cache << "³, " << n << " filled cells: sat_cone (" << s.cone_angle << "°, " << s.cone_samples
        << " samples) against the densely sampled cone (" << kRays << " exact rays per cell, " << fmt("%.0f", ms)
        << " ms): transmittance RMSE " << fmt("%.4f", rmse) << ", largest difference " << fmt("%.3f", emax) << ".\n";
     out["cone_accuracy"][name] = {{"cells", n}, {"rays", kRays}, {"sampled_cone_ms", ms}, {"rmse", rmse}, {"max", emax}};
@@ -275,12 +274,13 @@ void frame_table(const ExtinctionBenchOptions& o, const std::string& name, const
                                    {"lit_vs_reference", e_both.rmse}}}};
 }
 
-nlohmann::json extinction_scene(nlohmann::json j, int size) {
+nlohmann::json extinction_scene(nlohmann::json j, int size, int cache) {
   j["volumes"][0]["compositing"] = "extinction";
   j["planes"] = nlohmann::json::array();  // the paper's Table 1 renders the volume alone
   j["camera"]["width"] = size;
   j["camera"]["height"] = size;
   j["shadows"] = {{"technique", "none"}};
+  if (cache > 0) j["light_cache"]["resolution"] = cache;
   return j;
 }
 
@@ -291,7 +291,7 @@ void bench_extinction(const ExtinctionBenchOptions& o, std::ostringstream& md, n
   for (const auto& d : o.datasets) {
     nlohmann::json scene;
     if (d == "procedural") {
-      scene = test_spheres_scene(256);
+      scene = test_spheres_scene(o.procedural_size);
     } else if (d == "cranium" || d == "chest") {
       const std::string file = o.data_dir + "/" + d + "_ct.nrrd";
       if (!std::filesystem::exists(file)) throw Error("--datasets " + d + ": " + file + " not found (see --data-dir)");
@@ -299,7 +299,7 @@ void bench_extinction(const ExtinctionBenchOptions& o, std::ostringstream& md, n
     } else {
       throw Error("--datasets: unknown data set '" + d + "' for the extinction suite (expected procedural, cranium or chest)");
     }
-    scene = extinction_scene(scene, o.size);
+    scene = extinction_scene(scene, o.size, o.frame_cache);
     cache_tables(o, d, build_scene(scene, ""), md, out);
     frame_table(o, d, scene, md, out);
   }

@@ -16,6 +16,10 @@ struct ExtinctionBenchOptions {
   int repeats = 3;
   int size = 512;                   // frame width and height
   int max_sampled_size = 128;       // largest cache size the sampled-AO column is timed at
+  std::vector<int> cache_sizes{64, 128, 192, 256};  // light-cache sizes of the build table
+  int accuracy_cache = 64;          // cache size of the sat_cone vs densely sampled cone comparison
+  int procedural_size = 256;        // the procedural data set: test-spheres of this size³
+  int frame_cache = 0;              // light-cache resolution of the frame table; 0: the scene's (128)
 };
 
 // Appends the Markdown tables to `md` and the figures to out["extinction"].

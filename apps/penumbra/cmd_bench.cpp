@@ -1,12 +1,13 @@
 // `penumbra bench`: suite `cssm` — the CSSM paper's Tables 3 (generation time) and 4 (rendering time) on
 // this machine, for shadow_map, deep_shadow_map (3 nodes) and cssm (13 offsets) at several shadow-map
 // resolutions and a 512² frame, on test-spheres 128³ and cranium_ct.nrrd — plus what the paper lacks:
-// memory per technique and error (RMSE, PSNR) against the exact ray-traced image; suite `extinction` —
-// paper 001's Tables 1–3 (bench_extinction.cpp); suite `particles` — paper 003's Fig. 8
-// (bench_particles.cpp); suite `isosurface` — paper 002's Table 1 (bench_isosurface.cpp). Markdown on stdout and in DIR/bench.md, JSON in DIR/bench.json.
-#include <sys/utsname.h>
-#include <unistd.h>
-
+// memory per technique and error (RMSE, PSNR) against the exact ray-traced image; suite `dsm` — cssm
+// against both deep shadow map layouts and the classic map at the paper's settings and at equal memory
+// (bench_dsm.cpp); suite `extinction` — paper 001's Tables 1–3 (bench_extinction.cpp); suite `particles`
+// — paper 003's Fig. 8 (bench_particles.cpp); suite `isosurface` — paper 002's Table 1
+// (bench_isosurface.cpp). Markdown on stdout and in DIR/bench.md, JSON in DIR/bench.json; both begin with
+// the provenance (commit, date, CPU, cores, threads: bench_provenance.h). `--quick` runs every suite on
+// small procedural data (and 1tii for the particles) in seconds: a check that the bench works, not figures.
 #include <algorithm>
 #include <cstdio>
 #include <ctime>
@@ -19,36 +20,16 @@
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/scene/demo_scenes.h"
+#include "bench_dsm.h"
 #include "bench_extinction.h"
 #include "bench_isosurface.h"
 #include "bench_particles.h"
+#include "bench_provenance.h"
 #include "stats.h"
 #include "technique_runs.h"
 
 namespace penumbra::cli {
 namespace {
-
-std::string cpu_model() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(in, line))
-    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
-  return "unknown CPU";
-}
-
-std::string machine_description() {
-  std::ostringstream s;
-  s << cpu_model() << ", " << sysconf(_SC_NPROCESSORS_ONLN) << " cores, "
-    << (sysconf(_SC_PHYS_PAGES) * sysconf(_SC_PAGE_SIZE)) / (1024LL * 1024 * 1024) << " GiB";
-  return s.str();
-}
-
-std::string today() {
-  char buf[32];
-  const std::time_t t = std::time(nullptr);
-  std::strftime(buf, sizeof buf, "%Y-%m-%d", std::gmtime(&t));
-  return buf;
-}
 
 struct Options {
   std::string dir = "penumbra-bench";
@@ -58,7 +39,11 @@ struct Options {
   int repeats = 3;
   int size = 512;
   int threads = 0;
-  std::vector<std::string> suites{"cssm", "extinction"};
+  std::vector<std::string> suites{"cssm", "dsm", "extinction"};
+  std::vector<std::string> dsm_datasets{"test-spheres", "cranium"};
+  int dsm_resolution = 1024;
+  int test_spheres_size = 128;
+  bool quick = false;
   std::vector<std::string> extinction_datasets{"procedural", "cranium", "chest"};
   int max_sampled_size = 128;
   std::vector<std::string> particle_datasets = ParticleBenchOptions{}.datasets;
@@ -68,6 +53,36 @@ struct Options {
   std::vector<int> body_dims{512, 512, 1734};
   bool no_mesh = false;
 };
+
+// --quick: every suite on small procedural data (1tii for the particles, when found), one repeat.
+void make_quick(Options& o) {
+  o.suites = {"cssm", "dsm", "extinction", "isosurface"};
+  if (std::filesystem::exists(o.data_dir + "/1tii.pdb")) o.suites.push_back("particles");
+  o.resolutions = {48, 64};
+  o.datasets = {"test-spheres"};
+  o.dsm_datasets = {"test-spheres"};
+  o.dsm_resolution = 64;
+  o.test_spheres_size = 24;
+  o.repeats = 1;
+  o.size = 40;
+  o.extinction_datasets = {"procedural"};
+  o.max_sampled_size = 12;
+  o.particle_datasets = {"1tii"};
+  o.width = 96;
+  o.height = 60;
+  o.isosurface_datasets = {"ct-body"};
+  o.body_dims = {24, 24, 64};
+}
+
+nlohmann::json dataset_scene(const Options& o, const std::string& d, const char* option) {
+  if (d == "test-spheres") return test_spheres_scene(o.test_spheres_size);
+  if (d == "cranium") {
+    const std::string ct = o.data_dir + "/cranium_ct.nrrd";
+    if (!std::filesystem::exists(ct)) throw Error(std::string(option) + " cranium: " + ct + " not found (see --data-dir)");
+    return cranium_scene(ct);
+  }
+  throw Error(std::string(option) + ": unknown data set '" + d + "' (expected test-spheres or cranium)");
+}
 
 void bench_dataset(const Options& o, const std::string& name, const nlohmann::json& scene_in, std::ostringstream& md,
                    nlohmann::json& out) {
@@ -148,8 +163,8 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--size", o->size, "Frame width and height")->check(CLI::Range(16, 8192));
   cmd->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
   cmd->add_option("--suite", o->suites,
-                  "cssm (paper 000, Tables 3/4), extinction (paper 001, Tables 1-3), particles (paper 003, Fig. 8) "
-                  "and/or isosurface (paper 002, Table 1)");
+                  "cssm (paper 000, Tables 3/4), dsm (cssm vs both deep shadow map layouts, issue 12), extinction (paper 001, "
+                  "Tables 1-3), particles (paper 003, Fig. 8) and/or isosurface (paper 002, Table 1)");
   cmd->add_option("--extinction-datasets", o->extinction_datasets, "procedural (test-spheres 256³), cranium and/or chest");
   cmd->add_option("--max-sampled-size", o->max_sampled_size, "Largest light cache the sampled-AO reference is timed at")
       ->check(CLI::Range(4, 512));
@@ -161,28 +176,37 @@ void add_bench_command(CLI::App& app) {
       ->expected(3)
       ->check(CLI::Range(8, 2048));
   cmd->add_flag("--no-mesh", o->no_mesh, "Isosurface suite: skip the marching-cubes baseline");
+  cmd->add_option("--dsm-datasets", o->dsm_datasets, "Suite dsm: test-spheres and/or cranium");
+  cmd->add_option("--dsm-resolution", o->dsm_resolution, "Suite dsm: the paper's map resolution (1024)")->check(CLI::Range(16, 16384));
+  cmd->add_flag("--quick", o->quick,
+                "Every suite on small procedural data in seconds (overrides the sizes and data sets): checks that the bench runs");
   cmd->callback([o] {
+    if (o->quick) make_quick(*o);
     ThreadLimit limit(o->threads);
     std::filesystem::create_directories(o->dir);
     std::ostringstream md;
     nlohmann::json out;
-    out["date"] = today();
-    out["machine"] = machine_description();
-    out["threads"] = ThreadLimit::current_max();
+    const Provenance provenance = current_provenance(ThreadLimit::current_max());
+    out["provenance"] = to_json(provenance);
+    out["quick"] = o->quick;
+    out["suites"] = o->suites;
     for (const auto& s : o->suites)
-      if (s != "cssm" && s != "extinction" && s != "particles" && s != "isosurface")
-        throw Error("--suite: unknown suite '" + s + "' (expected cssm, extinction, particles or isosurface)");
+      if (s != "cssm" && s != "dsm" && s != "extinction" && s != "particles" && s != "isosurface")
+        throw Error("--suite: unknown suite '" + s + "' (expected cssm, dsm, extinction, particles or isosurface)");
     auto runs = [&](const char* suite) { return std::find(o->suites.begin(), o->suites.end(), suite) != o->suites.end(); };
-    md << "Machine: " << machine_description() << ", " << ThreadLimit::current_max() << " threads, " << today()
-       << ". Fastest of " << o->repeats << " runs.\n";
+    md << to_markdown(provenance) << " Fastest of " << o->repeats << " runs." << (o->quick ? " Quick mode: tiny sizes, not figures." : "")
+       << "\n";
     if (runs("cssm")) md << "\n## CSSM paper Tables 3 and 4 on this machine\n";
-    for (const auto& d : runs("cssm") ? o->datasets : std::vector<std::string>{}) {
-      if (d == "test-spheres") bench_dataset(*o, d, test_spheres_scene(128), md, out);
-      else if (d == "cranium") {
-        const std::string ct = o->data_dir + "/cranium_ct.nrrd";
-        if (!std::filesystem::exists(ct)) throw Error("--datasets cranium: " + ct + " not found (see --data-dir)");
-        bench_dataset(*o, d, cranium_scene(ct), md, out);
-      } else throw Error("--datasets: unknown data set '" + d + "' (expected test-spheres or cranium)");
+    for (const auto& d : runs("cssm") ? o->datasets : std::vector<std::string>{})
+      bench_dataset(*o, d, dataset_scene(*o, d, "--datasets"), md, out);
+    if (runs("dsm")) {
+      DsmBenchOptions b;
+      b.dir = o->dir;
+      for (const auto& d : o->dsm_datasets) b.scenes.emplace_back(d, dataset_scene(*o, d, "--dsm-datasets"));
+      b.resolution = o->dsm_resolution;
+      b.repeats = o->repeats;
+      b.size = o->size;
+      bench_dsm(b, md, out["dsm"]);
     }
     if (runs("extinction")) {
       ExtinctionBenchOptions e;
@@ -192,6 +216,12 @@ void add_bench_command(CLI::App& app) {
       e.repeats = o->repeats;
       e.size = o->size;
       e.max_sampled_size = o->max_sampled_size;
+      if (o->quick) {
+        e.cache_sizes = {8, 12};
+        e.accuracy_cache = 8;
+        e.procedural_size = 24;
+        e.frame_cache = 16;
+      }
       bench_extinction(e, md, out["extinction"]);
     }
     if (runs("particles")) {
