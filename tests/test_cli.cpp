@@ -193,7 +193,7 @@ TEST(Cli, BadInputsFailWithAMessageAndLeaveNoOutput) {
   const std::vector<Case> cases{
       {"render " + quote(scene) + out + " --set shadows.bogus=1", "shadows.bogus"},
       {"render " + quote(scene) + out + " --set lights.3.intensity=1", "lights.3"},
-      {"render " + quote(scene) + out + " --set shadows.technique=issm", "needs particles"},
+      {"render " + quote(scene) + out + " --set shadows.technique=issm", "is for sphere scenes"},
       {"render " + quote(scene) + out + " --set shadows.cone_angle=95", "shadows.cone_angle"},
       {"render " + quote(missing_scene) + out, "missing_volume.nrrd"},
       {"render " + quote(scene) + " -o " + quote(dir.file("out.jpg")) + " --stats " + quote(dir.file("stats.json")), ".jpg"},
@@ -271,4 +271,26 @@ TEST(Cli, InfoDescribesAParticleFile) {
   const CliRun no_assembly = penumbra_cli("info " + quote(file) + " --assembly 3");
   EXPECT_NE(no_assembly.status, 0);
   EXPECT_TRUE(contains(no_assembly.err, "assembly 3")) << no_assembly.err;
+}
+
+// A key the chosen technique does not read gets one line on stderr naming it and its readers; with
+// --strict it is an error: exit 1 and no image (issue 12 §3: cssm used to take pcf silently).
+TEST(Cli, KeysTheTechniqueDoesNotReadAreReportedAndRefusedWithStrict) {
+  ScratchDir dir;
+  const std::string scene = write_scene(dir, "scene.json", cli_scene());
+  const std::string base = "render " + quote(scene) + " --set shadows.technique=cssm --set shadows.pcf=5";
+  const CliRun noted = penumbra_cli(base + " -o " + quote(dir.file("noted.png")));
+  ASSERT_EQ(noted.status, 0) << noted.err;
+  EXPECT_TRUE(contains(noted.err, "shadows.pcf is not read by shadows.technique cssm")) << noted.err;
+  EXPECT_TRUE(contains(noted.err, "read by: shadow_map")) << noted.err;
+  EXPECT_FALSE(contains(noted.err, "shadows.seed")) << "cssm reads seed: " << noted.err;
+  const CliRun strict = penumbra_cli(base + " --strict -o " + quote(dir.file("strict.png")));
+  EXPECT_EQ(strict.status, 1);
+  EXPECT_TRUE(contains(strict.err, "shadows.pcf")) << strict.err;
+  EXPECT_FALSE(fs::exists(dir.file("strict.png")));
+  // Every key read: --strict renders, and says nothing about keys.
+  const CliRun clean = penumbra_cli("render " + quote(scene) + " --set shadows.technique=cssm --strict -o " + quote(dir.file("clean.png")));
+  ASSERT_EQ(clean.status, 0) << clean.err;
+  EXPECT_FALSE(contains(clean.err, "is not read")) << clean.err;
+  EXPECT_TRUE(fs::exists(dir.file("clean.png")));
 }

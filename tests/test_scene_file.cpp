@@ -7,7 +7,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/scene/scene_file.h"
-#include "penumbra/shadows/registry.h"
+#include "penumbra/scene/technique_catalog.h"
 #include "test_scenes.h"
 
 using namespace penumbra;
@@ -159,25 +159,25 @@ TEST(SceneFile, WrongTypesAndRangesNameTheKey) {
 }
 
 TEST(SceneFile, TechniqueNames) {
-  for (const auto& t : shadow_technique_names()) EXPECT_NO_THROW(build_scene(with(base_scene(), "shadows.technique", t), "")) << t;
+  for (const auto& t : technique_names(TechniqueFamily::Shadow, SceneKind::Volume)) EXPECT_NO_THROW(build_scene(with(base_scene(), "shadows.technique", t), "")) << t;
   // Unknown: the message lists the valid ones.
   std::vector<std::string> needles{"shadows.technique", "shadow_mapp"};
-  for (const auto& t : shadow_technique_names()) needles.push_back(t);
+  for (const auto& t : technique_names(TechniqueFamily::Shadow, SceneKind::Volume)) needles.push_back(t);
   try {
     (void)build_scene(with(base_scene(), "shadows.technique", "shadow_mapp"), "");
     ADD_FAILURE() << "no error";
   } catch (const Error& e) {
     for (const auto& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << n << " in " << e.what();
   }
-  expect_error(with(base_scene(), "shadows.technique", "light_pass"), {"shadows", "light_pass", "needs isosurfaces"});
+  expect_error(with(base_scene(), "shadows.technique", "light_pass"), {"shadows", "light_pass", "is for isosurface scenes", "a volume scene uses one of"});
   // Sphere techniques in a scene without particles, volume techniques in a scene with particles.
-  expect_error(with(base_scene(), "shadows.technique", "issm"), {"shadows", "issm", "needs particles"});
-  expect_error(with(base_scene(), "ambient.technique", "particle_ao"), {"ambient", "particle_ao", "needs particles"});
+  expect_error(with(base_scene(), "shadows.technique", "issm"), {"shadows", "issm", "is for sphere scenes"});
+  expect_error(with(base_scene(), "ambient.technique", "particle_ao"), {"ambient", "particle_ao", "is for sphere scenes"});
   nlohmann::json spheres = base_scene();
   spheres["particles"] = nlohmann::json::parse(R"([{"procedural": {"name": "random-spheres", "count": 10}}])");
   EXPECT_NO_THROW(build_scene(with(spheres, "shadows.technique", "issm"), ""));
   EXPECT_NO_THROW(build_scene(with(spheres, "ambient.technique", "ray_traced_ao"), ""));
-  expect_error(with(spheres, "shadows.technique", "cssm"), {"shadows", "cssm", "is for volumes", "issm"});
+  expect_error(with(spheres, "shadows.technique", "cssm"), {"shadows", "cssm", "is for volume scenes", "issm"});
   expect_error(with(spheres, "ambient.technique", "sat_shells"), {"ambient", "sat_shells", "particle_ao"});
   expect_error(with(base_scene(), "ambient.technique", "magic"), {"ambient.technique", "magic"});
 }
@@ -247,4 +247,28 @@ TEST(SceneFile, InvalidJsonFileNamesTheFileAndLine) {
   const Scene s = load_scene(good, {"shadows.technique=cssm", "shadows.resolution=128"});
   EXPECT_EQ(s.shadows.technique, "cssm");
   EXPECT_EQ(s.shadows.resolution, 128);
+}
+
+// particles[].radius: one radius for every sphere of a file (beads and coarse-grained models have no
+// element radii); not together with radius_scale, and not for generated spheres.
+TEST(SceneFile, ParticleRadiusSetsEverySphere) {
+  ScratchDir dir;
+  const std::string xyz = dir.file("beads.xyz");
+  std::ofstream(xyz) << "3\nbeads\nC 0 0 0\nO 2 0 0\nX 0 3 0\n";
+  nlohmann::json j;
+  j["particles"] = nlohmann::json::array({{{"file", xyz}}});
+  const Scene element = build_scene(j, "");
+  ASSERT_EQ(element.particles.at(0).set->size(), 3u);
+  EXPECT_NE(element.particles[0].set->spheres[0].radius, element.particles[0].set->spheres[1].radius) << "C and O differ";
+  j["particles"][0]["radius"] = 0.75;
+  const Scene beads = build_scene(j, "");
+  for (const Sphere& s : beads.particles.at(0).set->spheres) EXPECT_EQ(s.radius, 0.75f);
+  j["particles"][0]["radius_scale"] = 2;
+  expect_error(j, {"particles.0.radius", "radius_scale", "not both"});
+  nlohmann::json generated;
+  generated["particles"] = nlohmann::json::parse(R"([{"procedural": {"name": "random-spheres", "count": 10}, "radius": 0.1}])");
+  expect_error(generated, {"particles.0.radius", "procedural"});
+  j["particles"][0].erase("radius_scale");
+  j["particles"][0]["radius"] = -1;
+  expect_error(j, {"particles.0.radius"});
 }

@@ -17,7 +17,7 @@
 #include "penumbra/core/rng.h"
 #include "penumbra/shadows/cssm.h"
 #include "penumbra/shadows/deep_shadow_map.h"
-#include "penumbra/shadows/light_projection.h"
+#include "penumbra/scene/light_projection.h"
 #include "penumbra/shadows/ray_traced.h"
 #include "penumbra/shadows/registry.h"
 #include "penumbra/shadows/shadow_map.h"

@@ -1,5 +1,5 @@
 // `penumbra render SCENE.json -o OUT.png [--width W --height H] [--set key=value ...] [--stats S.json]
-//  [--threads N] [--orbit N | --light-orbit N]`
+//  [--threads N] [--orbit N | --light-orbit N] [--strict]`
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -21,6 +21,7 @@ namespace {
 struct RenderOptions {
   std::string scene, output, stats, buffers;
   int width = 0, height = 0, threads = 0, orbit = 0, light_orbit = 0;
+  bool strict = false;
   std::vector<std::string> sets;
 };
 
@@ -83,7 +84,8 @@ void run_render(const RenderOptions& o) {
   if (o.height > 0) sets.push_back("camera.height=" + std::to_string(o.height));
   sets.insert(sets.end(), o.sets.begin(), o.sets.end());
   ThreadLimit limit(o.threads);
-  const Scene scene = load_scene(o.scene, sets);
+  const Scene scene = load_scene(o.scene, sets, SceneReadOptions{o.strict});
+  for (const auto& note : scene.unread_keys) std::fprintf(stderr, "penumbra: note: %s\n", note.c_str());
   if (!o.buffers.empty() && !scene.has_isosurfaces()) throw Error("--buffers: " + o.scene + " has no isosurface");
   Renderer renderer(scene);
   const int frames = std::max({1, o.orbit, o.light_orbit});
@@ -130,6 +132,7 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--buffers", o->buffers,
                   "Isosurface scenes: write the eye pass's final visibility mask and each light pass's holes and "
                   "points (light view) as PNGs into this directory (lightN_isoK_* with several isosurfaces)");
+  cmd->add_flag("--strict", o->strict, "Keys that the chosen techniques do not read are an error (exit 1, no image), not a note");
   cmd->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
   cmd->add_option("--orbit", o->orbit, "Render N frames with the camera turning once around its target")->check(CLI::Range(1, 100000));
   cmd->add_option("--light-orbit", o->light_orbit, "Render N frames with the first light turning once around the scene")->check(CLI::Range(1, 100000));

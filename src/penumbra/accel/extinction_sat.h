@@ -11,7 +11,7 @@
 //
 // Accumulation type: double. A 256³ table sums up to 1.7·10⁷ cells; in float32 (24-bit mantissa) the
 // prefix sums carry an absolute error of about 2⁻²⁴ of the whole-volume sum, which for a small box deep
-// in the table is larger than the box's own sum (tests/test_extinction_sat.cpp measures it). double's
+// in the table is larger than the box's own sum (tests/test_extinction.cpp measures it). double's
 // 53 bits leave the box sums exact to ~10⁻⁹ relative of the total. Integer fixed point with wrap-around
 // arithmetic would be exact too, but needs a quantisation of τ that thin media (τ ~ 10⁻³) do not survive.
 #pragma once

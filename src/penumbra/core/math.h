@@ -103,6 +103,17 @@ struct Box3 {
   }
 };
 
+// floor and ceil to int without the libm call the baseline x86-64 target makes of std::floor (hot
+// loops: splat footprints, cone cuboids, density-volume cells); valid for |x| < 2^31.
+inline int floor_int(float x) {
+  const int i = static_cast<int>(x);
+  return i - (x < static_cast<float>(i) ? 1 : 0);
+}
+inline int ceil_int(float x) {
+  const int i = static_cast<int>(x);
+  return i + (x > static_cast<float>(i) ? 1 : 0);
+}
+
 inline float clamp(float v, float lo, float hi) { return std::min(std::max(v, lo), hi); }
 inline float radians(float deg) { return deg * kPi / 180.0f; }
 

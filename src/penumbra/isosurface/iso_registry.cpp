@@ -6,8 +6,6 @@
 
 namespace penumbra {
 
-std::vector<std::string> isosurface_shadow_technique_names() { return {"none", "light_pass", "ray_traced"}; }
-
 std::unique_ptr<IsoShadowTechnique> make_isosurface_shadow_technique(const ShadowSettings& s) {
   if (s.technique == "none") return std::make_unique<NoIsosurfaceShadows>();
   if (s.technique == "ray_traced") return std::make_unique<RayTracedIsosurfaceShadows>();

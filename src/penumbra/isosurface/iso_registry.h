@@ -1,4 +1,4 @@
-// Scene-file names of the isosurface shadow techniques and their factory.
+// Factory of the isosurface shadow techniques (their names and keys are in scene/technique_catalog.h).
 #pragma once
 
 #include <memory>
@@ -10,7 +10,6 @@
 
 namespace penumbra {
 
-std::vector<std::string> isosurface_shadow_technique_names();  // "none", "light_pass", "ray_traced"
 std::unique_ptr<IsoShadowTechnique> make_isosurface_shadow_technique(const ShadowSettings& settings);
 
 }  // namespace penumbra

@@ -3,7 +3,7 @@
 // holes in it (§4.2: {F(x) = visible | x in P^l(G_e)}) — those that face the light: the others are
 // unlit anyway — so the extraction from the light looks only where an eye point needs an answer and finds at most as many points as there are eye points. Each
 // light pixel keeps the light distance of the nearest surface found; a receiver is lit when it is no
-// farther from the light than that, plus a bias (docs/techniques/light_pass.md). The light frustum is
+// farther from the light than that, plus a bias (docs/techniques/point_isosurface.md). The light frustum is
 // fitted to the receivers in light coordinates with an asymmetric perspective window (§4.3, Fig. 5 C);
 // `volume` fits it to the whole volume box instead (Fig. 5 A), for comparison. Directional lights use
 // an orthographic view fitted the same way. The far-subvolume collapse is off in this pass (§4.3).
@@ -23,10 +23,11 @@ enum class LightFrustum { Tight, Volume };
 LightFrustum light_frustum_from_string(const std::string& name);  // "tight", "volume"
 std::string to_string(LightFrustum f);
 
+// The scene file's shadows.resolution, light_frustum and bias (their defaults are ShadowSettings').
 struct LightPassSettings {
-  int resolution = 512;       // light visibility buffer pixels per side (the paper: 512, as the screen)
-  LightFrustum frustum = LightFrustum::Tight;
-  float bias = -1;            // world units added to the stored light distance; < 0: automatic
+  int resolution;        // light visibility buffer pixels per side (the paper: 512, as the screen)
+  LightFrustum frustum;
+  float bias;            // world units added to the stored light distance; < 0: automatic
 };
 
 // The light's view for a set of receivers (§4.3). Points behind a point light's plane are left out

@@ -15,16 +15,18 @@
 #include <vector>
 
 #include "penumbra/particles/sphere_shadow_technique.h"
-#include "penumbra/shadows/light_projection.h"
+#include "penumbra/scene/light_projection.h"
 
 namespace penumbra {
 
+// The scene file's shadows.resolution, rings, soft_radius, soft_exponent and soft_distance (their
+// defaults are ShadowSettings').
 struct IssmParams {
-  int resolution = 512;      // N
-  int rings = 1;             // t: texel rings around the receiver's texel
-  float soft_radius = 0;     // s: virtual radius growth in world units (0: hard shadows)
-  float soft_exponent = 1;   // x
-  float soft_distance = 10;  // b: occluder distance (world units) of full softness
+  int resolution;       // N
+  int rings;            // t: texel rings around the receiver's texel
+  float soft_radius;    // s: virtual radius growth in world units (0: hard shadows)
+  float soft_exponent;  // x
+  float soft_distance;  // b: occluder distance (world units) of full softness
 };
 
 class ImplicitSphereShadowMap final : public SphereShadowTechnique {

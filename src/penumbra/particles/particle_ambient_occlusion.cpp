@@ -3,17 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "penumbra/core/cutoffs.h"
 #include "penumbra/core/parallel.h"
 
 namespace penumbra {
-namespace {
-
-int floor_int(float v) {
-  const int i = static_cast<int>(v);
-  return i - (static_cast<float>(i) > v ? 1 : 0);
-}
-
-}  // namespace
 
 void ParticleAmbientOcclusion::build(const ParticleScene& scene) {
   const ParticleSet& ps = *scene.particles;
@@ -213,7 +206,7 @@ float ParticleAmbientOcclusion::occlusion(const Vec3& origin, const Vec3& dir, f
     if (rho > 0) {
       // a step of half the cone's diameter through cells (as wide as the cone) of opacity rho
       alpha += (1 - alpha) * (1.0f - std::sqrt(1.0f - std::min(rho, 0.999f)));
-      if (alpha >= 0.99f) break;
+      if (alpha >= kEarlyTermination) break;
     }
   }
   return alpha;

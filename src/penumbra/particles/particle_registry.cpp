@@ -7,9 +7,6 @@
 
 namespace penumbra {
 
-std::vector<std::string> particle_shadow_technique_names() { return {"none", "issm", "ray_traced"}; }
-std::vector<std::string> particle_ambient_technique_names() { return {"none", "particle_ao", "ray_traced_ao"}; }
-
 bool needs_sphere_bvh(const Scene& scene) {
   return scene.shadows.technique == "ray_traced" || scene.ambient.technique == "ray_traced_ao";
 }

@@ -1,5 +1,6 @@
-// Scene-file names of the shadow and ambient techniques for spheres and their factories. A scene with
-// particles uses these; a scene without uses the volume techniques of shadows/registry.h.
+// Factories of the shadow and ambient techniques for spheres (their names and keys are in
+// scene/technique_catalog.h). A scene with particles uses these; a scene without uses the volume
+// techniques of shadows/registry.h.
 #pragma once
 
 #include <memory>
@@ -10,9 +11,6 @@
 #include "penumbra/scene/scene.h"
 
 namespace penumbra {
-
-std::vector<std::string> particle_shadow_technique_names();   // "none", "issm", "ray_traced"
-std::vector<std::string> particle_ambient_technique_names();  // "none", "particle_ao", "ray_traced_ao"
 
 std::unique_ptr<SphereShadowTechnique> make_sphere_shadow_technique(const ShadowSettings& settings);
 // Whether the scene's sphere techniques trace rays through the Embree BVH.

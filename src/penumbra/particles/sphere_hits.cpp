@@ -52,14 +52,6 @@ std::size_t SphereHits::covered() const {
   return n;
 }
 
-std::string to_string(SphereRasterizer r) { return r == SphereRasterizer::Splat ? "splat" : "embree"; }
-
-SphereRasterizer sphere_rasterizer_from_string(const std::string& s) {
-  if (s == "splat") return SphereRasterizer::Splat;
-  if (s == "embree") return SphereRasterizer::Embree;
-  throw Error("unknown sphere renderer '" + s + "' (expected splat or embree)");
-}
-
 SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera) {
   const PrimaryRays m(camera);
   std::vector<PixelRect> rects(particles.size());

@@ -24,8 +24,6 @@ struct SphereHits {
   std::size_t covered() const;    // pixels showing a sphere
 };
 
-std::string to_string(SphereRasterizer r);
-SphereRasterizer sphere_rasterizer_from_string(const std::string& s);  // Error listing the names
 
 // Tile-binned splatting: every sphere's projected bounding rectangle (exact per axis for a sphere in
 // front of the camera) is binned into 32×32-pixel screen tiles; each tile then walks its spheres, and

@@ -12,6 +12,8 @@
 #include <span>
 #include <vector>
 
+#include "penumbra/core/math.h"
+
 namespace penumbra {
 
 constexpr int kRasterTile = 32;  // tile edge in pixels / texels
@@ -21,12 +23,6 @@ struct PixelRect {
   int x0 = 0, y0 = 0, x1 = -1, y1 = -1;
   bool empty() const { return x1 < x0 || y1 < y0; }
 };
-
-// Integer floor without libm (std::floor is a call on baseline x86-64); v must fit in an int.
-inline int floor_int(float v) {
-  const int i = static_cast<int>(v);
-  return i - (static_cast<float>(i) > v ? 1 : 0);
-}
 
 // The inclusive range of pixel indices whose centres (i + 0.5) lie in [lo, hi] — widened by one pixel
 // on each side, so that a conservative footprint stays conservative — clamped to [0, n − 1]. The

@@ -10,6 +10,7 @@
 #include "penumbra/particles/sphere_hits.h"
 #include "penumbra/render/particle_frame.h"
 #include "penumbra/render/volume_raycaster.h"
+#include "penumbra/scene/technique_catalog.h"
 #include "penumbra/shadows/ray_traced.h"
 #include "penumbra/shadows/registry.h"
 

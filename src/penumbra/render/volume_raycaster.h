@@ -12,6 +12,7 @@
 #include <span>
 #include <vector>
 
+#include "penumbra/core/cutoffs.h"
 #include "penumbra/core/image.h"
 #include "penumbra/render/prepared_volume.h"
 #include "penumbra/scene/scene.h"
@@ -19,9 +20,6 @@
 #include "penumbra/shadows/shadow_technique.h"
 
 namespace penumbra {
-
-// Rays stop once their accumulated opacity reaches this.
-constexpr float kEarlyTermination = 0.99f;
 
 // Opaque surfaces drawn by another pass (spheres and planes): per pixel the distance along the primary
 // ray and the shaded colour. Rays stop there and composite over that colour; the planes are then not

@@ -29,6 +29,14 @@ IsosurfaceMethod isosurface_method_from_string(const std::string& name) {
   throw Error("unknown isosurface method '" + name + "' (expected points, raycast or mesh)");
 }
 
+std::string to_string(SphereRasterizer r) { return r == SphereRasterizer::Splat ? "splat" : "embree"; }
+
+SphereRasterizer sphere_rasterizer_from_string(const std::string& s) {
+  if (s == "splat") return SphereRasterizer::Splat;
+  if (s == "embree") return SphereRasterizer::Embree;
+  throw Error("unknown sphere renderer '" + s + "' (expected splat or embree)");
+}
+
 Box3 Plane::bounds() const {
   Box3 b;
   if (size <= 0) return b;

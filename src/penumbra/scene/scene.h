@@ -65,6 +65,8 @@ struct IsosurfaceObject {
 
 // How the sphere renderer finds each pixel's nearest sphere (particles/sphere_hits.h).
 enum class SphereRasterizer { Splat, Embree };
+std::string to_string(SphereRasterizer r);
+SphereRasterizer sphere_rasterizer_from_string(const std::string& s);  // Error listing the names
 
 // An opaque plane: a square of edge `size` centred at `point`, or infinite when size is 0.
 struct Plane {
@@ -163,6 +165,9 @@ struct Scene {
   LightCacheSettings light_cache;
   ShadingParams shading;
   Rgb background{0.1f, 0.1f, 0.12f};
+  // One line for each key given in the scene that its techniques do not read (scene_file.h); front
+  // ends print them.
+  std::vector<std::string> unread_keys;
 
   // The box light frusta are fitted to: the visible volumes, the volumes of isosurfaces and the spheres
   // (finite planes when there are none).

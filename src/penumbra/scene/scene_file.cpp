@@ -8,11 +8,8 @@
 #include "penumbra/data/io/particle_io.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/procedural.h"
-#include "penumbra/isosurface/iso_registry.h"
 #include "penumbra/scene/json_reader.h"
-#include "penumbra/particles/particle_registry.h"
-#include "penumbra/particles/sphere_hits.h"
-#include "penumbra/shadows/registry.h"
+#include "penumbra/scene/technique_catalog.h"
 
 namespace penumbra {
 namespace {
@@ -180,11 +177,20 @@ ParticleObject read_particles(const nlohmann::json& j, const std::string& path, 
       for (const char* key : {"scalar", "color_map"})
         if (r.has(key)) r.fail(key, "is used only with \"color_by\": \"scalar\"");
     }
+    if (r.has("radius") && r.has("radius_scale"))
+      r.fail("radius", "give 'radius' (one radius for every sphere) or 'radius_scale' (scales the element radii), not both");
     o.radius_scale = r.number("radius_scale", o.radius_scale, 0.01f, 100);
     o.hydrogens = r.boolean("hydrogens", o.hydrogens);
-    p.set = std::make_shared<ParticleSet>(with_context(r.key_path("file"), [&] { return load_particles(file, o); }));
+    ParticleSet set = with_context(r.key_path("file"), [&] { return load_particles(file, o); });
+    // One radius for every sphere (beads, SPH particles, coarse-grained models have no element radii).
+    if (r.has("radius")) {
+      const float radius = r.number("radius", 1, 1e-6f, 1e6f);
+      for (Sphere& sp : set.spheres) sp.radius = radius;
+    }
+    p.set = std::make_shared<ParticleSet>(std::move(set));
     p.source = file;
   } else {
+    if (r.has("radius")) r.fail("radius", "generated spheres take their radius inside 'procedural'");
     JsonReader g(r.raw("procedural"), r.key_path("procedural"));
     const std::string name = g.required_string("name");
     if (name != "random-spheres") g.fail("name", "unknown particle generator '" + name + "' (expected random-spheres)");
@@ -229,21 +235,6 @@ IsosurfaceObject read_isosurface(const nlohmann::json& j, const std::string& pat
   return o;
 }
 
-std::vector<std::string> all_shadow_technique_names() {
-  auto names = shadow_technique_names();
-  for (const auto& list : {particle_shadow_technique_names(), isosurface_shadow_technique_names()})
-    for (const auto& n : list)
-      if (std::find(names.begin(), names.end(), n) == names.end()) names.push_back(n);
-  return names;
-}
-
-std::vector<std::string> all_ambient_technique_names() {
-  auto names = ambient_technique_names();
-  for (const auto& n : particle_ambient_technique_names())
-    if (std::find(names.begin(), names.end(), n) == names.end()) names.push_back(n);
-  return names;
-}
-
 void check_technique(JsonReader& r, const std::string& name, const std::vector<std::string>& available) {
   if (std::find(available.begin(), available.end(), name) != available.end()) return;
   r.fail("technique", "unknown technique '" + name + "' (expected one of: " + join(available) + ")");
@@ -253,7 +244,7 @@ ShadowSettings read_shadows(const nlohmann::json& j) {
   JsonReader r(j, "shadows");
   ShadowSettings s;
   s.technique = r.string("technique", s.technique);
-  check_technique(r, s.technique, all_shadow_technique_names());
+  check_technique(r, s.technique, technique_names(TechniqueFamily::Shadow));
   s.resolution = static_cast<int>(r.integer("resolution", s.resolution, 16, 16384));
   s.offsets = static_cast<int>(r.integer("offsets", s.offsets, 1, 21));
   if (s.offsets != 7 && s.offsets != 13 && s.offsets != 21)
@@ -289,7 +280,7 @@ AmbientSettings read_ambient(const nlohmann::json& j) {
   JsonReader r(j, "ambient");
   AmbientSettings a;
   a.technique = r.string("technique", a.technique);
-  check_technique(r, a.technique, all_ambient_technique_names());
+  check_technique(r, a.technique, technique_names(TechniqueFamily::Ambient));
   a.shells = static_cast<int>(r.integer("shells", a.shells, 1, 64));
   a.radius = r.number("radius", a.radius, 0, 1);
   if (!(a.radius > 0)) r.fail("radius", "must be positive (a fraction of the volume's longest side, e.g. 0.05)");
@@ -304,34 +295,42 @@ AmbientSettings read_ambient(const nlohmann::json& j) {
 }
 
 // A scene with particles takes the sphere techniques; one with isosurfaces the isosurface techniques;
-// any other, the volume techniques.
+// any other, the volume techniques (scene_kind).
 void check_techniques_fit_objects(JsonReader& r, const Scene& s) {
-  auto has = [](const std::vector<std::string>& names, const std::string& n) {
-    return std::find(names.begin(), names.end(), n) != names.end();
+  if (s.has_isosurfaces() && s.has_particles())
+    r.fail("isosurfaces", "a scene holds isosurfaces or particles, not both (in this build)");
+  const SceneKind kind = scene_kind(s);
+  const std::string scene = "a " + to_string(kind) + " scene";
+  // The kinds of scene that do take a technique of this name, for the message.
+  auto kinds_of = [](TechniqueFamily family, const std::string& name) {
+    std::vector<std::string> kinds;
+    for (const auto& t : technique_catalog())
+      if (t.family == family && t.name == name) kinds.push_back(to_string(t.kind) + " scenes");
+    return join(kinds);
   };
-  if (s.has_isosurfaces()) {
-    if (s.has_particles()) r.fail("isosurfaces", "a scene holds isosurfaces or particles, not both (in this build)");
-    if (!has(isosurface_shadow_technique_names(), s.shadows.technique))
-      r.fail("shadows", "technique '" + s.shadows.technique + "' is not for isosurfaces; a scene with isosurfaces uses one of: " +
-                            join(isosurface_shadow_technique_names()));
-    if (s.ambient.technique != "none")
-      r.fail("ambient", "technique '" + s.ambient.technique + "': a scene with isosurfaces takes no ambient technique (none)");
-    return;
-  }
-  if (s.has_particles()) {
-    if (!has(particle_shadow_technique_names(), s.shadows.technique))
-      r.fail("shadows", "technique '" + s.shadows.technique + "' is for volumes; a scene with particles uses one of: " +
-                            join(particle_shadow_technique_names()));
-    if (!has(particle_ambient_technique_names(), s.ambient.technique))
-      r.fail("ambient", "technique '" + s.ambient.technique + "' is for volumes; a scene with particles uses one of: " +
-                            join(particle_ambient_technique_names()));
-  } else {
-    if (!has(shadow_technique_names(), s.shadows.technique))
-      r.fail("shadows", "technique '" + s.shadows.technique + "' needs " +
-                            (has(isosurface_shadow_technique_names(), s.shadows.technique) ? "isosurfaces" : "particles") +
-                            " (the scene has none)");
-    if (!has(ambient_technique_names(), s.ambient.technique))
-      r.fail("ambient", "technique '" + s.ambient.technique + "' needs particles (the scene has none)");
+  if (!find_technique(TechniqueFamily::Shadow, kind, s.shadows.technique))
+    r.fail("shadows", "technique '" + s.shadows.technique + "' is for " + kinds_of(TechniqueFamily::Shadow, s.shadows.technique) +
+                          "; " + scene + " uses one of: " + join(technique_names(TechniqueFamily::Shadow, kind)));
+  if (!find_technique(TechniqueFamily::Ambient, kind, s.ambient.technique))
+    r.fail("ambient", "technique '" + s.ambient.technique + "' is for " + kinds_of(TechniqueFamily::Ambient, s.ambient.technique) +
+                          "; " + scene + " uses one of: " + join(technique_names(TechniqueFamily::Ambient, kind)));
+}
+
+// One line for every key of `section` ("shadows" or "ambient") that the scene's chosen technique does
+// not read: the key, the technique, and the techniques that would read it.
+void note_unread_keys(const nlohmann::json& j, const std::string& section, TechniqueFamily family, const std::string& chosen,
+                      SceneKind kind, std::vector<std::string>& notes) {
+  if (!j.is_object()) return;
+  const TechniqueInfo* info = find_technique(family, kind, chosen);
+  for (const auto& [key, value] : j.items()) {
+    if (key == "technique" || value.is_null()) continue;
+    if (info && std::find(info->keys.begin(), info->keys.end(), key) != info->keys.end()) continue;
+    std::vector<std::string> readers;
+    for (const auto& t : technique_catalog())
+      if (t.family == family && std::find(t.keys.begin(), t.keys.end(), key) != t.keys.end())
+        readers.push_back(std::string(t.name) + (t.kind == kind ? "" : " (" + to_string(t.kind) + " scenes)"));
+    notes.push_back(section + "." + key + " is not read by " + section + ".technique " + chosen + " in a " +
+                    to_string(kind) + " scene; " + (readers.empty() ? std::string("no technique reads it") : "it is read by: " + join(readers)));
   }
 }
 
@@ -356,19 +355,17 @@ const nlohmann::json& array_at(JsonReader& r, const std::string& key) {
 
 
 nlohmann::json read_json_file(const std::string& path) {
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": cannot open the file");
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw Error(path + ": not valid JSON: " + e.what());
-  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  return parse_json_text(text.str(), path + ": not valid JSON");
 }
 
 void apply_override(nlohmann::json& scene, const std::string& path, const std::string& value) {
   if (path.empty()) throw Error("--set: empty key");
-  nlohmann::json parsed = nlohmann::json::parse(value, nullptr, /*allow_exceptions=*/false);
-  if (parsed.is_discarded()) parsed = value;
+  check_utf8(path, "--set: the key");
+  nlohmann::json parsed = override_value(value, "--set " + path);
   nlohmann::json* node = &scene;
   std::string walked;
   std::size_t start = 0;
@@ -410,7 +407,7 @@ void apply_override(nlohmann::json& scene, const std::string& assignment) {
   apply_override(scene, assignment.substr(0, eq), assignment.substr(eq + 1));
 }
 
-Scene build_scene(const nlohmann::json& j, const std::string& base_dir) {
+Scene build_scene(const nlohmann::json& j, const std::string& base_dir, const SceneReadOptions& options) {
   JsonReader r(j, "");
   Scene s;
   if (r.has("volumes")) {
@@ -459,14 +456,24 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir) {
            "the extinction techniques (sat_cone, sat_shells, sampled_ao) need a visible volume");
   s.background = r.color("background", s.background);
   r.finish();
+  const SceneKind kind = scene_kind(s);
+  if (r.has("shadows")) note_unread_keys(j["shadows"], "shadows", TechniqueFamily::Shadow, s.shadows.technique, kind, s.unread_keys);
+  if (r.has("ambient")) note_unread_keys(j["ambient"], "ambient", TechniqueFamily::Ambient, s.ambient.technique, kind, s.unread_keys);
+  if (r.has("light_cache") && !needs_extinction_sat(s))
+    s.unread_keys.push_back("light_cache is not read: only the extinction techniques (sat_cone, sat_shells, sampled_ao) use it");
+  if (options.strict && !s.unread_keys.empty()) {
+    std::string all;
+    for (const auto& n : s.unread_keys) all += "\n  " + n;
+    throw Error("keys that the chosen techniques do not read (--strict):" + all);
+  }
   return s;
 }
 
-Scene load_scene(const std::string& path, const std::vector<std::string>& overrides) {
+Scene load_scene(const std::string& path, const std::vector<std::string>& overrides, const SceneReadOptions& options) {
   nlohmann::json j = read_json_file(path);
-  for (const auto& o : overrides) apply_override(j, o);
+  with_context(path, [&] { for (const auto& o : overrides) apply_override(j, o); });
   const std::string base = std::filesystem::path(path).parent_path().string();
-  return with_context(path, [&] { return build_scene(j, base); });
+  return with_context(path, [&] { return build_scene(j, base, options); });
 }
 
 }  // namespace penumbra

@@ -20,10 +20,17 @@ nlohmann::json read_json_file(const std::string& path);
 void apply_override(nlohmann::json& scene, const std::string& path, const std::string& value);
 void apply_override(nlohmann::json& scene, const std::string& assignment);  // "path=value"
 
+struct SceneReadOptions {
+  // Keys that the chosen techniques do not read (Scene::unread_keys) are an error, not a note.
+  bool strict = false;
+};
+
 // Builds the scene; relative file paths are resolved against base_dir. Every error names the key.
-Scene build_scene(const nlohmann::json& scene, const std::string& base_dir);
+// Keys of `shadows`, `ambient` and `light_cache` that the chosen techniques do not read are listed in
+// the scene's unread_keys (technique_catalog.h says who reads what).
+Scene build_scene(const nlohmann::json& scene, const std::string& base_dir, const SceneReadOptions& options = {});
 
 // read_json_file + overrides + build_scene, with the file name prepended to errors.
-Scene load_scene(const std::string& path, const std::vector<std::string>& overrides = {});
+Scene load_scene(const std::string& path, const std::vector<std::string>& overrides = {}, const SceneReadOptions& options = {});
 
 }  // namespace penumbra

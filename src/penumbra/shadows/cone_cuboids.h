@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "penumbra/accel/extinction_sat.h"
+#include "penumbra/core/cutoffs.h"
 
 namespace penumbra {
 
@@ -31,20 +32,6 @@ struct ConeCuboid {
   CellBox box;           // not clipped to the grid
   float path_length;     // world length of the cone's axis inside the slab
 };
-
-// floor and ceil to int without the libm call the baseline x86-64 target makes of std::floor (the
-// cone loop does six per cuboid); valid for |x| < 2^31.
-inline int floor_int(float x) {
-  const int i = static_cast<int>(x);
-  return i - (x < static_cast<float>(i) ? 1 : 0);
-}
-inline int ceil_int(float x) {
-  const int i = static_cast<int>(x);
-  return i + (x > static_cast<float>(i) ? 1 : 0);
-}
-
-// Optical depth at which a cone stops: transmittance below 1e-4 (OSPRay's minContribution).
-constexpr double kOpaqueDepth = 9.21;
 
 // Visits the cuboids from the apex outwards; visit(const ConeCuboid&) returns false to stop.
 // `to_light`: unit direction; `distance`: to the light (infinity for directional lights).

@@ -35,7 +35,7 @@ void ColoredStochasticShadowMap::build_map(const ShadowMedium& medium) {
   for_each_texel([&](int ix, int iy, const Ray& ray) {
     const std::size_t texel = texel_index(ix, iy);
     // Surfaces first (§4): an opaque plane stops every photon.
-    const float surface = medium.surface_hit(ray, 0, kInfinity);
+    const float surface = first_surface(medium, ray);
     float c[3] = {surface, surface, surface};
     const RandomStream random(seed_, texel);  // r_i keyed by (seed, texel, segment index)
     // Table 1. Segments beyond the surface cannot lower a stored minimum, so the walk ends there.

@@ -89,7 +89,7 @@ void DeepShadowMap::build_map(const ShadowMedium& medium) {
     Scratch& s = scratch.local();
     s.z.clear();
     for (auto& t : s.T) t.clear();
-    const float surface = medium.surface_hit(ray, 0, kInfinity);
+    const float surface = first_surface(medium, ray);
     Rgb T(1.0f);
     float last_end = -kInfinity;
     medium.march(ray, 0, surface, [&](const MediumSegment& seg) {

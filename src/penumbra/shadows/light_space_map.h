@@ -6,7 +6,7 @@
 #include <functional>
 
 #include "penumbra/scene/scene.h"
-#include "penumbra/shadows/light_projection.h"
+#include "penumbra/scene/light_projection.h"
 #include "penumbra/shadows/shadow_technique.h"
 
 namespace penumbra {
@@ -27,6 +27,11 @@ protected:
   // Calls texel(ix, iy, ray) for every texel, rows in parallel; `ray` goes from the light through the
   // texel centre with t = light depth.
   void for_each_texel(const std::function<void(int ix, int iy, const Ray& ray)>& texel) const;
+  // Light depth of the first opaque surface on a texel ray (projection().caster_t_begin() onwards), or
+  // infinity: the depth every map technique stops its walk at.
+  float first_surface(const ShadowMedium& medium, const Ray& ray) const {
+    return medium.surface_hit(ray, projection_.caster_t_begin(), kInfinity);
+  }
   // Texel of p and its biased depth; false when p is outside the map (then it is lit: nothing that
   // casts a shadow lies outside the frustum).
   bool locate(const Vec3& p, int& ix, int& iy, float& depth) const {

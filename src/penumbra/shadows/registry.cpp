@@ -1,6 +1,7 @@
 #include "penumbra/shadows/registry.h"
 
 #include "penumbra/core/error.h"
+#include "penumbra/scene/technique_catalog.h"
 #include "penumbra/shadows/cssm.h"
 #include "penumbra/shadows/deep_shadow_map.h"
 #include "penumbra/shadows/ray_traced.h"
@@ -9,10 +10,6 @@
 #include "penumbra/shadows/volume_ambient_occlusion.h"
 
 namespace penumbra {
-
-std::vector<std::string> shadow_technique_names() {
-  return {"none", "shadow_map", "deep_shadow_map", "cssm", "ray_traced", "sat_cone", "sampled_cone"};
-}
 
 std::unique_ptr<ShadowTechnique> make_shadow_technique(const ShadowSettings& s) {
   if (s.technique == "none") return std::make_unique<NoShadows>();
@@ -23,28 +20,17 @@ std::unique_ptr<ShadowTechnique> make_shadow_technique(const ShadowSettings& s) 
   if (s.technique == "sat_cone") return std::make_unique<SatConeShadows>(s);
   if (s.technique == "sampled_cone") return std::make_unique<SampledConeShadows>(s);
   std::string known;
-  for (const auto& n : shadow_technique_names()) known += (known.empty() ? "" : ", ") + n;
+  for (const auto& n : technique_names(TechniqueFamily::Shadow, SceneKind::Volume)) known += (known.empty() ? "" : ", ") + n;
   throw Error("shadows.technique: unknown technique '" + s.technique + "' (expected one of: " + known + ")");
 }
-
-std::vector<std::string> ambient_technique_names() { return {"none", "sat_shells", "sampled_ao"}; }
 
 std::unique_ptr<AmbientTechnique> make_ambient_technique(const AmbientSettings& s) {
   if (s.technique == "none") return nullptr;
   if (s.technique == "sat_shells") return std::make_unique<SatShellsAmbient>(s);
   if (s.technique == "sampled_ao") return std::make_unique<SampledAmbientOcclusion>(s);
   std::string known;
-  for (const auto& n : ambient_technique_names()) known += (known.empty() ? "" : ", ") + n;
+  for (const auto& n : technique_names(TechniqueFamily::Ambient, SceneKind::Volume)) known += (known.empty() ? "" : ", ") + n;
   throw Error("ambient.technique: unknown technique '" + s.technique + "' (expected one of: " + known + ")");
-}
-
-bool needs_extinction_sat(const Scene& scene) {
-  return scene.shadows.technique == "sat_cone" || scene.ambient.technique == "sat_shells" ||
-         scene.ambient.technique == "sampled_ao";
-}
-
-bool needs_extinction_colour(const Scene& scene) {
-  return needs_extinction_sat(scene) && scene.ambient.technique != "none" && scene.ambient.bleeding > 0;
 }
 
 }  // namespace penumbra

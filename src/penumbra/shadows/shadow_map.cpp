@@ -5,7 +5,7 @@ namespace penumbra {
 void ClassicShadowMap::build_map(const ShadowMedium& medium) {
   depth_.assign(static_cast<std::size_t>(resolution_) * resolution_, kInfinity);
   for_each_texel([&](int ix, int iy, const Ray& ray) {
-    float depth = medium.surface_hit(ray, 0, kInfinity);
+    float depth = first_surface(medium, ray);
     float transparency = 1;  // Π(1 − α_i): colour plays no part in the classic map
     medium.march(ray, 0, depth, [&](const MediumSegment& s) {
       transparency *= 1 - s.alpha;

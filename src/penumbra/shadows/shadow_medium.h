@@ -13,6 +13,7 @@
 #include "penumbra/accel/extinction_sat.h"
 #include "penumbra/accel/macrocell_grid.h"
 #include "penumbra/core/color.h"
+#include "penumbra/core/cutoffs.h"
 #include "penumbra/core/math.h"
 #include "penumbra/data/transfer_function.h"
 #include "penumbra/scene/scene.h"
@@ -23,9 +24,6 @@ namespace penumbra {
 // only integrated, never shaded, so it does not need the eye's finer step; all techniques, the
 // ray-traced reference included, use the same step, so their differences are the techniques' own.
 constexpr float kDefaultShadowStepVoxels = 1.0f;
-
-// Shadow rays stop once every channel's transmittance is below this (OSPRay's "minContribution").
-constexpr float kShadowOpaque = 1e-4f;
 
 struct MediumSegment {
   std::int64_t index;  // k: the segment [k·Δ, (k+1)·Δ] of the ray's lattice

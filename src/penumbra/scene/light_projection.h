@@ -51,6 +51,10 @@ public:
   bool perspective() const { return perspective_; }
   // Orthographic maps: map units (u, v) per world unit (the same on both axes).
   float map_scale() const { return inv_u_; }
+  // Where opaque casters begin along a texel ray. A directional light has no "behind": every caster
+  // on the texel's whole line shadows what lies beyond it, including a plane on the light's side of
+  // the fitted bounds (at negative depth). A point or spot light casts only forwards from its position.
+  float caster_t_begin() const { return perspective_ ? 0.0f : -kInfinity; }
   // Depth range [near, far] of the casters' bounds.
   float near_depth() const { return near_; }
   float far_depth() const { return far_; }

@@ -1,4 +1,4 @@
-#include "penumbra/shadows/light_projection.h"
+#include "penumbra/scene/light_projection.h"
 
 #include <cmath>
 #include <string>
