@@ -50,7 +50,7 @@ inline std::string write_failure_images(const std::string& tag, const Image& ren
       const float scale = std::max(1e-6f, static_cast<float>(compare_images(rendered, reference).max_abs));
       write_image(base + ".difference.png", difference_image(rendered, reference, scale));
     }
-    std::printf("[  images  ] wrote %s.{rendered,reference,difference}.png\n", base.c_str());
+    std::printf("[  images  ] wrote %s.%s.png\n", base.c_str(), reference.width() > 0 ? "{rendered,reference,difference}" : "rendered");
   } catch (const std::exception& e) {
     std::printf("[  images  ] could not write %s: %s\n", base.c_str(), e.what());
   }

@@ -31,6 +31,7 @@
 #include "penumbra/shadows/ray_traced.h"
 #include "penumbra/shadows/sat_cone.h"
 #include "penumbra/shadows/volume_ambient_occlusion.h"
+#include "image_check.h"
 #include "test_scenes.h"
 
 using namespace penumbra;
@@ -649,6 +650,7 @@ TEST(ExtinctionCache, RebuildsOnlyWhatChanged) {
   Renderer r(scene);
   using Names = std::vector<std::string>;
   const FrameResult f1 = r.render();
+  FailureImages keep;
   EXPECT_EQ(f1.rebuilt, (Names{"sat", "ambient", "shadows"}));
   const FrameResult f2 = r.render();
   EXPECT_TRUE(f2.rebuilt.empty());
@@ -666,6 +668,11 @@ TEST(ExtinctionCache, RebuildsOnlyWhatChanged) {
   EXPECT_EQ(f5.rebuilt, (Names{"sat", "ambient", "shadows"}));
   EXPECT_GT(compare_images(f4.image, f5.image).max_abs, 1e-3);
   const FrameResult f6 = r.render(scene.camera, moved);
+  keep.add("unchanged", f2.image, f1.image);
+  keep.add("camera_moved", f3.image, f2.image);
+  keep.add("light_moved", f4.image, f2.image);
+  keep.add("tf_changed", f5.image, f4.image);
+  keep.add("tf_unchanged", f6.image, f5.image);
   EXPECT_TRUE(f6.rebuilt.empty());
   EXPECT_EQ(compare_images(f5.image, f6.image).max_abs, 0.0);
 }
@@ -694,6 +701,7 @@ TEST(ExtinctionCache, EightLightsAddUp) {
   const FrameResult f = all.render();
   EXPECT_EQ(f.rebuilt, (std::vector<std::string>{"sat", "shadows"}));
   Image sum(32, 32);
+  FailureImages keep;
   for (int i = 0; i < 8; ++i) {
     const Image one = Renderer(scene).render(scene.camera, {scene.lights[static_cast<std::size_t>(i)]}).image;
     for (int y = 0; y < 32; ++y)
@@ -702,8 +710,10 @@ TEST(ExtinctionCache, EightLightsAddUp) {
     unshadowed["shadows"] = {{"technique", "none"}};
     unshadowed["lights"] = nlohmann::json::array({lights[static_cast<std::size_t>(i)]});
     const Image lit = Renderer(build_scene(unshadowed, "")).render().image;
+    keep.add("light" + std::to_string(i) + "_vs_unshadowed", one, lit);
     EXPECT_GT(compare_images(one, lit).max_abs, 1e-3) << "light " << i << " casts no shadow";
   }
+  keep.add("all_vs_sum", f.image, sum);
   EXPECT_LT(compare_images(f.image, sum).max_abs, 1e-4);
 }
 

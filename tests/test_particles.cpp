@@ -12,6 +12,7 @@
 #include "penumbra/particles/sphere_hits.h"
 #include "penumbra/render/particle_frame.h"
 #include "penumbra/render/renderer.h"
+#include "image_check.h"
 #include "test_scenes.h"
 
 namespace penumbra {
@@ -468,6 +469,8 @@ Image composite_frame(bool with_volume) {
 TEST(ParticleScene, VolumesAreCompositedByDepthWithTheSpheres) {
   const Image spheres = composite_frame(false);
   const Image both = composite_frame(true);
+  test::FailureImages keep;
+  keep.add("with_volume", both, spheres);
   // pixel columns of the front (x < 0) and back (x > 0) sphere, on the middle row
   const int y = 24;
   int front_x = -1, back_x = -1;

@@ -154,6 +154,8 @@ TEST(RayCaster, ImagesAreIdenticalForOneAndTwoThreads) {
       ThreadLimit limit(2);
       two = render(j);
     }
+    FailureImages keep;
+    keep.add(std::string(t) + "_two_threads", two, one);
     ASSERT_EQ(one.pixels().size(), two.pixels().size());
     EXPECT_EQ(std::memcmp(one.pixels().data(), two.pixels().data(), one.pixels().size() * sizeof(Rgb)), 0);
     // and it is not a blank image
@@ -178,6 +180,8 @@ TEST(RayCaster, ShadowsAreRebuiltOnlyWhenTheLightChanges) {
   EXPECT_EQ(third.rebuilt, std::vector<std::string>{"shadows"});
   // Same camera and light as the first frame: the same picture.
   const FrameResult fourth = renderer.render();
+  FailureImages keep;
+  keep.add("fourth_vs_first", fourth.image, first.image);
   EXPECT_EQ(fourth.rebuilt, std::vector<std::string>{"shadows"});
   EXPECT_EQ(std::memcmp(first.image.pixels().data(), fourth.image.pixels().data(), first.image.pixels().size() * sizeof(Rgb)), 0);
 }
