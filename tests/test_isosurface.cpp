@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <functional>
 #include <memory>
@@ -25,6 +26,7 @@
 #include "penumbra/isosurface/visibility_buffer.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/scene_file.h"
+#include "image_check.h"
 #include "isosurface_test_util.h"
 #include "test_scenes.h"
 
@@ -390,6 +392,8 @@ TEST(IsosurfaceScene, SeveralIsosurfacesDrawAndShadowEachOther) {
   exact_scene.shadows.technique = "ray_traced";
   Renderer exact(exact_scene);
   const FrameResult b = exact.render();
+  test::FailureImages keep;
+  keep.add("points_light_pass", a.image, b.image);
   std::size_t differ = 0, lit_ref = 0, covered = 0;
   for (int y = 0; y < 96; ++y)
     for (int x = 0; x < 96; ++x) {
@@ -408,6 +412,7 @@ TEST(IsosurfaceScene, SeveralIsosurfacesDrawAndShadowEachOther) {
   alone.isosurfaces.pop_back();
   Renderer inner_only(alone);
   const Image c = inner_only.render().image;
+  keep.add("without_shell", c, a.image);
   auto is_red = [](const Rgb& p) { return p.r > 2 * p.b && p.r > 0.05f; };
   std::size_t lit_with = 0, lit_without = 0;
   for (int y = 0; y < 96; ++y)
@@ -437,6 +442,8 @@ TEST(IsosurfaceScene, PlanesAreDepthCorrectAndReceiveTheShadow) {
   exact_json["shadows"]["technique"] = "ray_traced";
   Renderer exact(build_scene(exact_json, ""));
   const Image b = exact.render().image;
+  test::FailureImages keep;
+  keep.add("light_pass", a, b);
   auto floor = [](const Rgb& p) { return std::abs(p.r - p.g) < 0.02f && p.r > 0.05f; };  // grey, not the red sphere
   std::size_t floor_pixels = 0, shadowed = 0, differ = 0;
   for (int y = 0; y < 96; ++y)
@@ -450,6 +457,9 @@ TEST(IsosurfaceScene, PlanesAreDepthCorrectAndReceiveTheShadow) {
     }
   EXPECT_GT(floor_pixels, 2000u);
   EXPECT_GT(shadowed, 100u) << "the sphere must shadow the floor";
+  // An image without shadows would differ on every shadowed floor pixel: the bound must fail it.
+  EXPECT_GT(static_cast<double>(shadowed), 2 * 0.03 * static_cast<double>(floor_pixels));
+  std::printf("[ floor    ] %zu floor pixels, %zu shadowed, %zu differ\n", floor_pixels, shadowed, differ);
   EXPECT_LT(static_cast<double>(differ), 0.03 * static_cast<double>(floor_pixels));
   // A wall between the camera and the sphere: no red pixel is left.
   j["planes"].push_back({{"point", {0, 0, 0.6}}, {"normal", {0, 0, 1}}, {"size", 3}, {"color", {0.2, 0.8, 0.2}}});
