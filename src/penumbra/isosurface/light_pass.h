@@ -7,6 +7,11 @@
 // fitted to the receivers in light coordinates with an asymmetric perspective window (§4.3, Fig. 5 C);
 // `volume` fits it to the whole volume box instead (Fig. 5 A), for comparison. Directional lights use
 // an orthographic view fitted the same way. The far-subvolume collapse is off in this pass (§4.3).
+//
+// | parameter             | default   | meaning                                                        |
+// | shadows.resolution    | 1024      | light visibility buffer pixels per side (the paper: 512)       |
+// | shadows.light_frustum | tight     | tight (fitted to the receivers, §4.3) or volume (the box)      |
+// | shadows.bias          | automatic | world units added to the stored light distance (see the page)  |
 #pragma once
 
 #include <string>

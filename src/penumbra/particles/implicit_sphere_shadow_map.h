@@ -9,6 +9,13 @@
 // k = b; a ray passing at distance s' from an occluder's surface is darkened by (1 − s'/(s·w))^x and
 // the receiver keeps the minimum light over its occluders. Directional lights use an orthographic map
 // (the paper); point and spot lights a perspective one fitted to the spheres (the paper's future work).
+//
+// | parameter             | default | meaning                                                          |
+// | shadows.resolution    | 1024    | N, texels per side (the paper's benchmarks: 512)                  |
+// | shadows.rings         | 1       | t, texel rings searched around the receiver's texel; −1 automatic |
+// | shadows.soft_radius   | 0       | s, virtual radius growth in world units (0: hard shadows)         |
+// | shadows.soft_exponent | 1       | x, the penumbra's falloff (1 − s'/s)^x                            |
+// | shadows.soft_distance | 10      | b, occluder distance (world units) of full softness               |
 #pragma once
 
 #include <algorithm>

@@ -12,6 +12,11 @@
 // level whose cell matches the diameter (trilinear, blended between levels) and compositing its
 // opacity front to back, up to `max_distance`. The ambient factor is 1 minus the cosine-weighted mean
 // of the cones' occlusion. Our choices are explained and measured in docs/techniques/issm.md.
+//
+// | parameter            | default | meaning                                               |
+// | ambient.directions   | 16      | cones per hemisphere                                  |
+// | ambient.max_distance | 0.7     | reach, a fraction of the spheres' longest side         |
+// | ambient.grid         | 64      | density-volume cells along the spheres' longest side   |
 #pragma once
 
 #include <atomic>

@@ -4,6 +4,13 @@
 // caster with one trilinear fetch per sample. Receivers outside the cache (planes) evaluate their cone
 // directly. Works for directional, point and spot lights anywhere, inside the volume too: the cone
 // stops at the light. Opaque planes between a receiver and the light block it (a hard ray test).
+//
+// | parameter            | default | meaning                                                           |
+// | shadows.cone_angle   | 5       | half-angle of the cone towards the light, degrees (§3.3)          |
+// | shadows.cone_samples | 50      | cuboids per longest side of the light cache, before growth        |
+// | shadows.cone_growth  | 0       | relative growth of each cuboid's thickness over the previous one  |
+// | shadows.cone_rays    | 64      | sampled_cone (the reference): exact shadow rays over the cone     |
+// | light_cache.resolution | 128   | cells of the SAT and the cache along the volume's longest side    |
 #pragma once
 
 #include "penumbra/accel/cell_field.h"

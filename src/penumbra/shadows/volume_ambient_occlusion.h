@@ -14,6 +14,12 @@
 //   sampled_ao — the reference: every cell of the ball of radius R weighted by V_cell/(4π|s − t|²)
 //                (the cell's own contribution by the exact integral of 1/r² over a cube), the paper's
 //                "sampled radius" column.
+//
+// | parameter              | default | meaning                                                        |
+// | ambient.shells         | 3       | sat_shells: number of cuboid shells n                          |
+// | ambient.radius         | 0.05    | R, a fraction of the volume's longest side                     |
+// | ambient.bleeding       | 0       | β: 0 grey occlusion (Eq. 4), 1 full colour bleeding (Eq. 5)    |
+// | light_cache.resolution | 128     | cells of the SAT and the cache along the longest side          |
 #pragma once
 
 #include <vector>
