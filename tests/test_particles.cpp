@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <memory>
 
 #include "penumbra/core/parallel.h"
@@ -245,6 +246,7 @@ TEST(Issm, AutomaticRingsStopWhenTheImageStopsChanging) {
       map.set_rings(t - 1);
       EXPECT_GT(changed(fractions(map, pts), converged), threshold) << "t − 1 = " << t - 1 << " already gave the image";
     }
+    std::printf("[ rings    ] %d² map: t = %d\n", res, t);
     chosen.push_back(t);
   }
   EXPECT_GE(chosen[0], 1) << "the coarse map needs rings";

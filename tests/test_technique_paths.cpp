@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <set>
 #include <vector>
 
@@ -76,9 +77,12 @@ TEST(ShadowsPcf, FilteredLightIsTheMeanOfTheUnfilteredMapOverTheWindow) {
       if (previous_plain >= 0 && p != previous_plain) ++switches;
       previous_plain = p;
     }
+    std::printf("[ pcf      ] r = %d: %zu distinct fractional values across the edge\n", r, fractional.size());
     EXPECT_EQ(switches, 1) << "the unfiltered row crosses the shadow's edge once";
-    // Across a straight-ish edge the window's lit share grows a column (≈ 2r + 1 texels) at a time; the
-    // ball's curved edge adds partial columns. At least 2r distinct fractions: an ignored pcf gives none.
+    // Across an edge perpendicular to the row (the ball's, through its centre) the window's lit share
+    // grows a column of 2r + 1 texels at a time: the 2r values j/(2r + 1), j = 1 … 2r (measured: exactly
+    // those); curvature could only add partial columns. At least 2r distinct fractions: an ignored pcf
+    // gives none.
     EXPECT_GE(static_cast<int>(fractional.size()), 2 * r) << "PCF gives fractional light across the edge";
   }
 }
