@@ -4,7 +4,8 @@ set -euo pipefail
 packages=(build-essential cmake ninja-build g++ pkg-config
           libtbb-dev libpng-dev zlib1g-dev nlohmann-json3-dev libcli11-dev
           libteem-dev libnifti2-dev libgtest-dev libbenchmark-dev
-          gemmi-dev tao-pegtl-dev libembree-dev)
+          gemmi-dev tao-pegtl-dev libembree-dev
+          clang-14 libfuzzer-14-dev libclang-rt-14-dev)  # the libFuzzer targets (scripts/fuzz.sh)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -235,8 +235,10 @@ Volume make_ct_body_volume(const CtBodyParams& params) {
   // Chunks of slices share their buffers (a fresh megabyte per slice would cost more page faults than
   // the painting); 64 chunks keep the threads busy to the end.
   const std::size_t grain = std::max<std::size_t>(1, static_cast<std::size_t>(nz) / 64);
+  // Structured bindings are copied for the lambda: C++20 lets a lambda capture them, clang 14 does not.
+  const int width = nx, height = ny;
   parallel_for(static_cast<std::size_t>(nz), [&](std::size_t k0, std::size_t k1) {
-    Slice s{nx, ny, x0, y0, sx, sy, std::max(sx, sy), std::vector<float>(slice_voxels), std::vector<float>(slice_voxels),
+    Slice s{width, height, x0, y0, sx, sy, std::max(sx, sy), std::vector<float>(slice_voxels), std::vector<float>(slice_voxels),
             std::vector<float>(slice_voxels)};
     for (std::size_t k = k0; k < k1; ++k) {
       const double z = z0 + static_cast<double>(k) * sz;

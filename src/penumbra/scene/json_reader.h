@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <set>
 #include <string>
+#include <string_view>
 
 #include "penumbra/core/color.h"
 #include "penumbra/core/error.h"
@@ -44,5 +45,18 @@ private:
 };
 
 std::string json_brief(const nlohmann::json& value);  // the value as compact JSON, shortened for messages
+
+// Parses JSON text. A syntax error, invalid UTF-8 or a number beyond the double range (2e308) throws
+// Error "<what>: line L, column C: at <dotted.key.path>: <what went wrong>".
+nlohmann::json parse_json_text(const std::string& text, const std::string& what);
+
+// Throws Error "<what>: not valid UTF-8 (byte N)" unless s is valid UTF-8 (what nlohmann::json can hold
+// and print).
+void check_utf8(std::string_view s, const std::string& what);
+
+// The value of `--set key=value`: JSON when it parses as JSON, else the text as a string. Error (with
+// `what` in front) for text that is not UTF-8 and for a number beyond the double range (2e308), which
+// would otherwise become the string "2e308".
+nlohmann::json override_value(const std::string& value, const std::string& what);
 
 }  // namespace penumbra

@@ -7,7 +7,9 @@
 #include "penumbra/data/io/molecule_gemmi.h"
 
 #include <cctype>
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <exception>
 #include <string>
 #include <unordered_map>
@@ -117,10 +119,65 @@ std::vector<MoleculeAssembly> scan_pdb(std::string_view text) {
   return assemblies;
 }
 
+// gemmi expands every pdbx_struct_assembly_gen.oper_expression while it builds the structure, even when
+// no assembly is asked for: "(1-30000000)" becomes thirty million strings (1.5 GB), and a range ending
+// at 2147483647 never ends (its int counter overflows). Each expression is measured first, exactly as
+// gemmi 0.5.7's parse_operation_expr walks it (the first bracket only; "a-b" ranges of no_sign_atoi
+// numbers), and refused when it names more operators than an assembly can sensibly have.
+constexpr std::int64_t kMaxOperatorNames = 100000;
+
+std::int64_t leading_number(const std::string& s, std::size_t pos) {  // gemmi::no_sign_atoi, without overflow
+  while (pos < s.size() && std::isspace(static_cast<unsigned char>(s[pos]))) ++pos;
+  std::int64_t n = 0;
+  for (; pos < s.size() && s[pos] >= '0' && s[pos] <= '9'; ++pos) n = std::min<std::int64_t>(n * 10 + (s[pos] - '0'), INT64_MAX / 16);
+  return n;
+}
+
+void check_operation_expression(const std::string& expr, const std::string& assembly) {
+  const auto fail = [&](const std::string& what) {
+    throw Error("assembly " + printable(assembly, 40) + ": oper_expression '" + printable(expr, 60) + "' " + what);
+  };
+  if (expr.empty()) return;
+  std::size_t start = 0, close_br = std::string::npos;
+  if (expr[0] == '(') {
+    start = 1;
+    close_br = expr.find(')');
+  }
+  std::int64_t names = 0;
+  for (;;) {
+    const std::size_t sep = std::min(expr.find(',', start), close_br);
+    const std::size_t minus = expr.find('-', start);
+    if (minus < sep) {
+      const std::int64_t lo = leading_number(expr, start), hi = leading_number(expr, minus + 1);
+      if (lo > INT32_MAX || hi >= INT32_MAX) fail("holds an operator number beyond 2147483646");
+      if (hi >= lo) names += hi - lo + 1;
+    } else {
+      ++names;
+    }
+    if (names > kMaxOperatorNames)
+      fail("names more than " + std::to_string(kMaxOperatorNames) + " operators (expected a list or range of operator ids)");
+    if (sep == close_br || sep == std::string::npos) break;
+    start = sep + 1;
+  }
+}
+
+void check_assembly_generators(const gemmi::cif::Document& doc) {
+  for (const gemmi::cif::Block& const_block : doc.blocks) {
+    auto& block = const_cast<gemmi::cif::Block&>(const_block);  // Block::find is not const in gemmi 0.5.7
+    for (const auto row : block.find("_pdbx_struct_assembly_gen.", {"assembly_id", "oper_expression"}))
+      check_operation_expression(row.str(1), row.str(0));
+  }
+}
+
 gemmi::Structure parse_structure(std::string_view text, MoleculeFormat format, const std::string& name) {
-  if (format == MoleculeFormat::Pdb) return gemmi::read_pdb_from_memory(text.data(), text.size(), name);
+  if (format == MoleculeFormat::Pdb) {
+    std::string fixed;
+    if (pdb_text_for_gemmi(text, fixed)) return gemmi::read_pdb_from_memory(fixed.data(), fixed.size(), name);
+    return gemmi::read_pdb_from_memory(text.data(), text.size(), name);
+  }
   const gemmi::cif::Document doc = gemmi::cif::read_memory(text.data(), text.size(), name.c_str());
   if (doc.blocks.empty()) throw Error("no data block (expected mmCIF: data_… with _atom_site)");
+  check_assembly_generators(doc);
   return gemmi::make_structure(doc);
 }
 
@@ -189,6 +246,39 @@ PackedMolecule pack(const gemmi::Structure& st, MoleculeFormat format) {
 }
 
 }  // namespace
+
+// Two habits of gemmi 0.5.7's PDB parser that input must not reach:
+// - it reads the distance of an SSBOND or LINK record (columns 74-78) whenever the record, line break
+//   included, is longer than 73 characters, without checking that the five columns exist: a record of
+//   74 to 77 characters makes it read up to three bytes past the end of its copy of the line (a heap
+//   over-read; fast_float then compares the bytes after the line's end with "nan" and "inf");
+// - it packs record names into an int by shifting (signed) chars, undefined for bytes of 0x80 and up.
+// So SSBOND and LINK records are padded with blanks to 80 columns (gemmi then reads no distance) and
+// bytes above 0x7f, which the PDB format (ASCII) does not have, become '?'. A copy of the text is made
+// only when it needs either.
+bool pdb_text_for_gemmi(std::string_view text, std::string& fixed) {
+  constexpr std::size_t kFull = 80;
+  const auto short_record = [&](std::string_view line) {
+    return (starts_with_ci(line, "SSBOND") || starts_with_ci(line, "LINK")) && line.size() < kFull;
+  };
+  bool needed = std::any_of(text.begin(), text.end(), [](char c) { return static_cast<unsigned char>(c) > 0x7f; });
+  LineReader lines(text);
+  std::string_view line;
+  while (!needed && lines.next(line)) needed = short_record(line);
+  if (!needed) return false;
+  fixed.clear();
+  fixed.reserve(text.size() + text.size() / 8);
+  LineReader again(text);
+  while (again.next(line)) {
+    const std::size_t start = fixed.size();
+    fixed += line;
+    if (short_record(line)) fixed.append(kFull - line.size(), ' ');
+    for (std::size_t i = start; i < fixed.size(); ++i)
+      if (static_cast<unsigned char>(fixed[i]) > 0x7f) fixed[i] = '?';
+    fixed += '\n';
+  }
+  return true;
+}
 
 PackedMolecule read_molecule_gemmi(std::string_view text, MoleculeFormat format, const std::string& name) {
   std::vector<MoleculeAssembly> pdb_assemblies;

@@ -44,6 +44,11 @@ std::mutex teem_mutex;
 
 // A header longer than this is not a volume header (teem would read lines of any length).
 constexpr std::uint64_t kMaxHeaderBytes = 1u << 20;
+// teem formats its error messages into a fixed 1025-byte stack buffer (biff, AIR_STRLEN_HUGE) and quotes
+// the offending field value in many of them: a field line of about 1000 characters that teem cannot
+// parse overflows it ("buffer overflow detected"). Field lines are refused above this length, far above
+// any real header's (three space directions at full double precision take under 200 characters).
+constexpr std::size_t kMaxFieldLine = 512;
 
 struct NrrdHeader {
   std::optional<unsigned> dimension;
@@ -58,6 +63,45 @@ struct NrrdHeader {
   std::uint64_t header_end = 0;  // offset of the first data byte when the data is attached
   bool complete = false;         // saw the blank line that ends an attached header
 };
+
+// teem's airOneLinify, which cleans each comment, reads one byte before the comment when the comment
+// is made only of bytes it deletes (control and non-ASCII bytes in the C locale) after the leading '#'
+// and blanks it skips. Such a comment is refused here.
+void check_comment(std::string_view line, std::size_t line_no) {
+  const std::size_t start = line.find_first_not_of(" #");
+  if (start == std::string_view::npos) return;  // nothing left: teem drops the comment
+  for (const char ch : line.substr(start)) {
+    const auto c = static_cast<unsigned char>(ch);
+    if ((c >= 0x20 && c < 0x7f) || c == '\t' || c == '\v' || c == '\f' || c == '\r') return;
+  }
+  throw Error("line " + std::to_string(line_no) +
+              ": a comment made only of control or non-ASCII bytes (teem cannot read such a comment safely)");
+}
+
+// The value of "labels", "units" and "space units" must be `count` double-quoted strings: teem leaks
+// memory on an unterminated string, so the quotes are checked here the way teem scans them (a
+// backslash before a quote escapes it).
+void check_quoted_strings(std::string_view value, std::size_t count, const std::string& where) {
+  std::size_t i = 0;
+  for (std::size_t k = 0; k < count; ++k) {
+    while (i < value.size() && (value[i] == ' ' || value[i] == '\t')) ++i;
+    if (i == value.size() || value[i] != '"')
+      throw Error(where + " expected " + std::to_string(count) + " double-quoted strings, found '" + printable(value, 80) + "'");
+    ++i;
+    while (i < value.size() && value[i] != '"') i += (value[i] == '\\' && i + 1 < value.size() && value[i + 1] == '"') ? 2 : 1;
+    if (i == value.size()) throw Error(where + " string " + std::to_string(k + 1) + " has no closing '\"'");
+    ++i;
+  }
+}
+
+bool is_per_axis(int field) {
+  switch (field) {
+    case nrrdField_sizes: case nrrdField_spacings: case nrrdField_thicknesses: case nrrdField_axis_mins:
+    case nrrdField_axis_maxs: case nrrdField_space_directions: case nrrdField_centers: case nrrdField_kinds:
+    case nrrdField_labels: case nrrdField_units: return true;
+    default: return false;
+  }
+}
 
 // Header text quoted in an Error: control and non-ASCII bytes (garbage files have plenty) become '?'.
 // Whole-token integer parse; anything teem might read differently (signs, hex, trailing junk) fails.
@@ -84,10 +128,12 @@ NrrdHeader parse_header(const std::string& path, std::uint64_t file_bytes) {
   if (file_bytes == 0) throw Error("empty file (expected a NRRD header starting with NRRD000x)");
 
   NrrdHeader h;
-  std::size_t pos = 0;
+  std::size_t pos = 0, line_no = 0;
   bool first = true;
   std::vector<int> seen;
+  std::optional<std::int64_t> space_dim;
   while (pos < text.size()) {
+    ++line_no;
     const std::size_t nl = text.find('\n', pos);
     if (nl == std::string::npos && prefix_bytes < file_bytes)
       throw Error("NRRD header line longer than " + bytes_str(kMaxHeaderBytes));
@@ -96,7 +142,7 @@ NrrdHeader parse_header(const std::string& path, std::uint64_t file_bytes) {
     pos = nl == std::string::npos ? text.size() : nl + 1;
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
     if (first) {
-      if (line.substr(0, 7) != "NRRD000" && line != "NRRD00.01")
+      if (!((line.size() == 8 && line.substr(0, 7) == "NRRD000" && line[7] >= '1' && line[7] <= '9') || line == "NRRD00.01"))
         throw Error("not a NRRD file (it does not start with a NRRD000x magic line)");
       first = false;
       continue;
@@ -105,17 +151,54 @@ NrrdHeader parse_header(const std::string& path, std::uint64_t file_bytes) {
       h.complete = true;
       break;
     }
-    if (line[0] == '#') continue;
+    const std::string where = "line " + std::to_string(line_no) + ":";
+    // teem reads header lines as C strings ending at "\n", "\r\n" or a lone "\r"; a NUL byte or a lone
+    // carriage return would make it see other lines than those checked here.
+    if (line.find('\0') != std::string_view::npos) throw Error(where + " a NUL byte in the NRRD header");
+    if (line.find('\r') != std::string_view::npos) throw Error(where + " a carriage return inside a NRRD header line");
+    if (line[0] == '#') {
+      check_comment(line, line_no);
+      continue;
+    }
+    // Lines are classified as teem does: "name: value" with a known field name, else "key:=value".
     const std::size_t colon = line.find(": ");
-    if (colon == std::string_view::npos) continue;  // key:=value, or a line teem itself will reject
-    const std::string key(line.substr(0, colon));
-    const int field = airEnumVal(nrrdField, key.c_str());
+    const std::string key(line.substr(0, std::min(colon, line.size())));
+    const int field = colon == std::string_view::npos ? nrrdField_unknown : airEnumVal(nrrdField, key.c_str());
+    if (field == nrrdField_unknown || field == nrrdField_comment || field == nrrdField_keyvalue) {
+      if (line.find(":=") != std::string_view::npos) continue;  // key:=value, which teem stores unquoted
+      throw Error(where + " '" + printable(key, 60) + (key.size() > 60 ? "…" : "") +
+                  "' is neither a NRRD field ('name: value') nor a key/value pair ('key:=value')");
+    }
+    if (line.size() > kMaxFieldLine && field != nrrdField_content && field != nrrdField_sample_units)
+      throw Error(where + " the '" + key + "' line is " + std::to_string(line.size()) + " characters long (at most " +
+                  std::to_string(kMaxFieldLine) + " expected)");
     const std::string_view value = trim(line.substr(colon + 2));
-    if (field == nrrdField_unknown || field == nrrdField_comment || field == nrrdField_keyvalue) continue;
     if (std::find(seen.begin(), seen.end(), field) != seen.end())
       throw Error("NRRD field '" + printable(key) + "' appears twice");
+    if (is_per_axis(field) && !h.dimension)
+      throw Error(where + " the per-axis field '" + key + "' comes before 'dimension'");
     seen.push_back(field);
     switch (field) {
+      case nrrdField_labels:
+      case nrrdField_units:
+        check_quoted_strings(value, *h.dimension, where + " '" + key + "':");
+        break;
+      case nrrdField_space_units:
+        if (!space_dim) throw Error(where + " 'space units' comes before 'space' or 'space dimension'");
+        check_quoted_strings(value, static_cast<std::size_t>(*space_dim), where + " 'space units':");
+        break;
+      case nrrdField_space_dimension: {
+        const auto d = parse_int(value, false);
+        if (!d || *d < 1 || *d > NRRD_SPACE_DIM_MAX) throw Error(where + " 'space dimension' is not 1 to " + std::to_string(NRRD_SPACE_DIM_MAX));
+        space_dim = *d;
+        break;
+      }
+      case nrrdField_space: {
+        const std::string name(value);
+        const int space = airEnumVal(nrrdSpace, name.c_str());
+        if (space != nrrdSpaceUnknown) space_dim = nrrdSpaceDimension(space);
+        break;
+      }
       case nrrdField_dimension: {
         const auto d = parse_int(value, false);
         if (!d || *d > 1000) throw Error("NRRD dimension '" + printable(value) + "' is not a small number");

@@ -305,7 +305,7 @@ std::uint32_t color_of(const PackedMolecule& m, std::size_t i, const ParticleLoa
 // Spheres of the generators of assembly `n` (1-based) applied to `base`, which holds the kept atoms
 // `kept` of `m`. Output order: generator, operator, atom. Sized exactly before it is filled.
 ParticleSet expand_assembly(const PackedMolecule& m, const std::vector<std::uint32_t>& kept, const ParticleSet& base,
-                            int n, int& operators) {
+                            int n, std::uint64_t max_spheres, int& operators) {
   const int count = static_cast<int>(m.assemblies.size());
   if (count == 0) throw Error("assembly " + std::to_string(n) + " was asked for, but the file lists no biological assemblies");
   if (n < 1 || n > count)
@@ -336,8 +336,9 @@ ParticleSet expand_assembly(const PackedMolecule& m, const std::vector<std::uint
       jobs.push_back({&selections[g], &op, static_cast<std::size_t>(total)});
       total += selections[g].size();
       ++operators;
-      if (total > kMaxSpheres)
-        throw Error("assembly " + std::to_string(n) + " would have more than " + std::to_string(kMaxSpheres) + " spheres");
+      if (total > max_spheres)
+        throw Error("assembly " + std::to_string(n) + " would have more than " + std::to_string(max_spheres) +
+                    " spheres (" + std::to_string(kept.size()) + " atoms, " + std::to_string(operators) + "+ operators)");
     }
   }
   if (total == 0) throw Error("assembly " + std::to_string(n) + " selects no atoms (its generators name no chain present)");
@@ -408,7 +409,7 @@ ParticleSet build_particles(const PackedMolecule& m, const ParticleLoadOptions& 
     for (std::size_t k = 0; k < kept.size(); ++k) base.colors[k] = pack_rgba8(map.evaluate(v[kept[k]]).rgb);
   }
   if (o.assembly == 0) return base;
-  return expand_assembly(m, kept, base, o.assembly, info.operators);
+  return expand_assembly(m, kept, base, o.assembly, std::min(o.max_spheres, kMaxSpheres), info.operators);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 // to the packed coordinates of the chains they name. World units are ångström.
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -30,6 +31,8 @@ struct ParticleLoadOptions {
   // The colour map of ParticleColoring::Scalar, made for the value range [lo, hi] of the atoms kept
   // (a transfer function's colour is used, its opacity ignored); null: ParaView's "Cool to Warm".
   std::function<TransferFunction(float lo, float hi)> color_map;
+  // An assembly with more spheres than this is refused (with a message) before anything is allocated.
+  std::uint64_t max_spheres = std::uint64_t{1} << 30;
 };
 
 // What a load produced besides the spheres, for `penumbra info` and --stats.

@@ -1,0 +1,157 @@
+#!/usr/bin/env python3
+"""Writes the small seed corpora of the fuzz targets (fuzz/seeds/<target>/) from the real files in
+../shared/data: headers and the first records of each file, with sizes cut down so that one run of a
+target takes microseconds. Run again after changing it: python3 fuzz/make_seeds.py [shared-data-dir]."""
+import gzip
+import os
+import struct
+import sys
+import zlib
+
+here = os.path.dirname(os.path.abspath(__file__))
+data = sys.argv[1] if len(sys.argv) > 1 else os.path.join(here, "..", "..", "shared", "data")
+out = os.path.join(here, "seeds")
+
+
+def put(target, name, content):
+    os.makedirs(os.path.join(out, target), exist_ok=True)
+    if isinstance(content, str):
+        content = content.encode("latin-1")
+    with open(os.path.join(out, target, name), "wb") as f:
+        f.write(content)
+
+
+def text(name):
+    path = os.path.join(data, name)
+    raw = gzip.open(path).read() if name.endswith(".gz") else open(path, "rb").read()
+    return raw.decode("latin-1")
+
+
+def nrrd_header(name):
+    raw = open(os.path.join(data, name), "rb").read()
+    end = raw.find(b"\n\n")
+    return raw[: end + 1].decode("latin-1"), raw[end + 2 :]
+
+
+def set_field(header, field, value):
+    lines = [l for l in header.splitlines() if not l.startswith(field + ":")]
+    return "\n".join(lines + [f"{field}: {value}"]) + "\n"
+
+
+# --- NRRD: detached headers naming the fuzzer's 4096-byte d.raw, attached gzip/raw/ascii/hex data.
+for name, sizes in (("headsq.nhdr", "16 16 8"), ("neghip.nhdr", "16 16 16")):
+    h = open(os.path.join(data, name)).read()
+    h = set_field(set_field(h, "sizes", sizes), "data file", "d.raw")
+    put("nrrd", name, h)
+for name, typ in (("chest_ct.nrrd", 1), ("cranium_ct.nrrd", 2)):
+    h, payload = nrrd_header(name)
+    voxels = zlib.decompressobj(31).decompress(payload, 8 * 8 * 6 * typ)[: 8 * 8 * 6 * typ]
+    h = set_field(h, "sizes", "8 8 6")
+    put("nrrd", name.replace(".nrrd", "_gzip.nrrd"), h.encode() + b"\n" + gzip.compress(voxels))
+    put("nrrd", name.replace(".nrrd", "_raw.nrrd"), set_field(h, "encoding", "raw").encode() + b"\n" + voxels)
+    if typ == 1:
+        put("nrrd", "chest_ascii.nrrd", set_field(set_field(h, "encoding", "ascii"), "sizes", "4 4 2") + "\n" +
+            " ".join(str(b) for b in voxels[:32]) + "\n")
+        put("nrrd", "chest_hex.nrrd", set_field(set_field(h, "encoding", "hex"), "sizes", "4 4 2") + "\n" + voxels[:32].hex() + "\n")
+put("nrrd", "space.nrrd",
+    "NRRD0005\n# a comment\ncontent: test\ntype: float\ndimension: 3\nspace: left-posterior-superior\n"
+    "sizes: 2 2 2\nspace directions: (1,0,0) (0,1.5,0) (0,0,2)\nkinds: domain domain domain\n"
+    "labels: \"x\" \"y\" \"z\"\nspace units: \"mm\" \"mm\" \"mm\"\nspace origin: (0.5,-1,2)\n"
+    "measurement frame: (1,0,0) (0,1,0) (0,0,1)\nendian: big\nline skip: 0\nbyte skip: 0\n"
+    "key:=value\nencoding: raw\n\n" + "\0\0\0\0" * 8)
+
+# --- NIfTI-1: chris_t1's header with a 4x4x4 grid, as uint8, int16 and float32, plain and gzip.
+hdr = bytearray(gzip.open(os.path.join(data, "chris_t1.nii.gz")).read(352))
+for code, bits, fmt, tag in ((2, 8, "B", "u8"), (4, 16, "h", "i16"), (16, 32, "f", "f32")):
+    h = bytearray(hdr)
+    struct.pack_into("<8h", h, 40, 3, 4, 4, 4, 1, 1, 1, 1)
+    struct.pack_into("<hh", h, 70, code, bits)
+    struct.pack_into("<f", h, 108, 352.0)
+    body = struct.pack("<64" + fmt, *[(i * 7) % 100 for i in range(64)])
+    put("nifti", f"t1_{tag}.nii", bytes(h) + body)
+    if tag == "i16":
+        put("nifti", f"t1_{tag}.nii.gz", gzip.compress(bytes(h) + body))
+
+# --- PDB: header records (REMARK 350, SSBOND, LINK, CISPEP, HELIX, SHEET, CRYST1) and the first atoms.
+def pdb_seed(name, atoms, keep_remark350=40):
+    lines = text(name).splitlines()
+    head, n350, body = [], 0, []
+    for l in lines:
+        rec = l[:6]
+        if l.startswith("REMARK 350"):
+            if n350 < keep_remark350:
+                head.append(l)
+            n350 += 1
+        elif rec in ("HEADER", "TITLE ", "CRYST1", "SCALE1", "ORIGX1", "MTRIX1") and len(head) < 80:
+            head.append(l)
+        elif rec in ("SSBOND", "LINK  ", "CISPEP", "HELIX ", "SHEET ") and sum(h[:6] == rec for h in head) < 2:
+            head.append(l)
+        elif rec in ("ATOM  ", "HETATM") and len(body) < atoms:
+            body.append(l)
+    return "\n".join(head + body + ["TER", "END"]) + "\n"
+
+put("pdb", "1tii.pdb", pdb_seed("1tii.pdb", 40))
+put("pdb", "1af6.pdb", pdb_seed("1af6.pdb", 30))
+put("pdb", "1m4x.pdb", pdb_seed("1m4x.pdb.gz", 30, keep_remark350=16))
+put("pdb", "3j6r.pdb.gz", gzip.compress(pdb_seed("3j6r.pdb.gz", 20, keep_remark350=16).encode()))
+
+# --- mmCIF: the assembly categories (three operators) and the first atom_site rows.
+def cif_seed(name, atoms):
+    sections, cur = [], []
+    for l in text(name).splitlines():
+        if l.strip() == "#":
+            sections.append(cur)
+            cur = []
+        else:
+            cur.append(l.rstrip())
+    sections.append(cur)
+    keep = []
+    for lines in sections:
+        body = "\n".join(lines)
+        if not lines:
+            continue
+        first = lines[1] if lines[0] == "loop_" and len(lines) > 1 else lines[0]
+        if first.startswith("data_"):
+            keep.append(lines[0])
+        elif first.startswith(("_pdbx_struct_assembly", "_cell.", "_symmetry.", "_struct_conn.")):
+            if lines[0] == "loop_":
+                tags = [l for l in lines if l.startswith("_") or l == "loop_"]
+                rows = [l for l in lines if not (l.startswith("_") or l == "loop_")]
+                keep.append("\n".join(tags + rows[:6]))
+            else:
+                keep.append(body)
+        elif first.startswith("_atom_site."):
+            tags = [l for l in lines if l.startswith("_") or l == "loop_"]
+            rows = [l for l in lines if not (l.startswith("_") or l == "loop_")]
+            keep.append("\n".join(tags + rows[:atoms]))
+    return "\n#\n".join(keep) + "\n#\n"
+
+put("mmcif", "4yvs.cif", cif_seed("4yvs.cif.gz", 40))
+put("mmcif", "3sn6.cif.gz", gzip.compress(cif_seed("3sn6.cif.gz", 20).encode()))
+
+# --- GRO: the first atoms with a matching count, with and without velocities.
+def gro_seed(name, atoms):
+    lines = text(name).splitlines()
+    return "\n".join([lines[0], "%5d" % atoms] + lines[2 : 2 + atoms] + [lines[-1]]) + "\n"
+
+put("gro", "md_1tii_chainD.gro", gro_seed("md_1tii_chainD.gro", 20))
+put("gro", "bace1_dppc.gro", gro_seed("bace1_dppc.gro.gz", 20))
+
+# --- XYZ: one frame of graphene, two frames of the MD trajectory.
+def xyz_seed(name, atoms, frames):
+    lines = text(name).splitlines()
+    n, out_lines, pos = int(lines[0]), [], 0
+    for _ in range(frames):
+        out_lines += [str(atoms), lines[pos + 1]] + lines[pos + 2 : pos + 2 + atoms]
+        pos += n + 2
+    return "\n".join(out_lines) + "\n"
+
+put("xyz", "graphene.xyz", xyz_seed("graphene.xyz", 24, 1))
+put("xyz", "md_1tii.xyz", xyz_seed("md_1tii_chainD_20frames.xyz.gz", 12, 2))
+
+# --- Scene files: every scenes/*.json, some with --set overrides after NUL bytes.
+scenes = os.path.join(here, "..", "scenes")
+for i, name in enumerate(sorted(os.listdir(scenes))):
+    s = open(os.path.join(scenes, name), "rb").read()
+    sets = [b"shadows.technique=cssm", b"lights.0.intensity=2", b"camera.width=8"][: i % 4]
+    put("scene", name, b"\0".join([s] + sets))
