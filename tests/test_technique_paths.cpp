@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <set>
 #include <vector>
@@ -245,3 +246,27 @@ TEST(SphereRenderer, EmbreeMatchesSplattingThroughTheRenderer) {
 }
 
 }  // namespace
+
+// The failure-output helper itself: write_failure_images puts the rendered image, the reference and a
+// difference image (same size, red where they differ most, black where equal) into
+// $PENUMBRA_TEST_OUTPUT, named after the running test.
+TEST(ImageCheck, WritesRenderedReferenceAndDifference) {
+  ScratchDir dir;
+  const char* before = std::getenv("PENUMBRA_TEST_OUTPUT");
+  const std::string saved = before != nullptr ? before : "";
+  ::setenv("PENUMBRA_TEST_OUTPUT", dir.path().c_str(), 1);
+  Image a(8, 6, Rgb(0.5f)), b(8, 6, Rgb(0.5f));
+  b.at(3, 2) = Rgb(1.0f);
+  const std::string base = write_failure_images("pair", a, b);
+  if (before != nullptr) ::setenv("PENUMBRA_TEST_OUTPUT", saved.c_str(), 1);
+  else ::unsetenv("PENUMBRA_TEST_OUTPUT");
+  EXPECT_EQ(base, (dir.path() / "ImageCheck.WritesRenderedReferenceAndDifference.pair").string());
+  const Image rendered = read_image(base + ".rendered.png"), reference = read_image(base + ".reference.png"),
+              diff = read_image(base + ".difference.png");
+  EXPECT_NEAR(rendered.at(0, 0).r, 0.5f, 0.01f) << "8-bit PNG of 0.5";
+  EXPECT_NEAR(reference.at(3, 2).r, 1.0f, 1e-6f);
+  ASSERT_EQ(diff.width(), 8);
+  ASSERT_EQ(diff.height(), 6);
+  EXPECT_GT(diff.at(3, 2).r, 0.5f) << "the differing pixel is marked";
+  EXPECT_EQ(diff.at(0, 0).r + diff.at(0, 0).g + diff.at(0, 0).b, 0.0f) << "equal pixels are black";
+}
