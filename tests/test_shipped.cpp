@@ -137,25 +137,24 @@ CliRun run_cli(const std::string& args, const ScratchDir& logs) {
   return r;
 }
 
-// `penumbra demo --quick -o DIR` (test-sized scenes) with a data directory that holds nothing, so that
-// the CT and molecule scenes are skipped (and it says so). It prints, for each scene, a table with one
+// `penumbra demo --quick -o DIR` (test-sized scenes), once with a data directory that holds nothing, so
+// that the CT and molecule scenes are skipped (and it says so), once with ../shared/data. It prints, for each scene, a table with one
 // row per technique and a line "wrote DIR/NAME_*.png and NAME_comparison.png (a | b | c | d)"; the
 // files it writes are NAME_<technique>.png for every row and NAME_comparison.png, the four named images
 // side by side 4 pixels apart. Checked: exit 0; the "wrote" lines name DIR; exactly the expected files
 // exist, each a PNG that reads back with the scene's size (the comparison: four of them and three gaps),
 // and shows something; a technique's image differs from another's; the ray-traced rows compare equal to
 // themselves (PSNR inf) and the `none` row does not.
-TEST(Demo, QuickModeWritesTheImagesItNames) {
-  ScratchDir dir, logs, empty;
+using DemoFiles = std::map<std::string, std::vector<std::string>>;  // scene → its per-technique suffixes
+
+// Runs `penumbra demo --quick` with `data_dir` and checks what it wrote against `expected`.
+void check_demo(const std::string& data_dir, const DemoFiles& expected, bool data_scenes) {
+  ScratchDir dir, logs;
   const fs::path out = dir.path() / "demo";
-  const CliRun r = run_cli("demo --quick --threads 2 --data-dir " + quote(empty.path().string()) + " -o " + quote(out.string()), logs);
+  const CliRun r = run_cli("demo --quick --threads 2 --data-dir " + quote(data_dir) + " -o " + quote(out.string()), logs);
   ASSERT_EQ(r.status, 0) << r.out << r.err;
-  EXPECT_NE(r.out.find("cranium_ct.nrrd not found"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("1aon.pdb.gz not found"), std::string::npos) << r.out;
-  const std::map<std::string, std::vector<std::string>> expected{
-      {"test-spheres", {"none", "shadow_map", "deep_shadow_map", "cssm", "ray_traced"}},
-      {"spheres-floor", {"ll", "issm", "issm_ao", "ray_traced", "ray_traced_ao"}},
-      {"ct-body", {"points", "light_pass", "mesh", "ray_traced"}}};
+  EXPECT_EQ(r.out.find("cranium_ct.nrrd not found") == std::string::npos, data_scenes) << r.out;
+  EXPECT_EQ(r.out.find("1aon.pdb.gz not found") == std::string::npos, data_scenes) << r.out;
   std::set<std::string> want;
   for (const auto& [scene, parts] : expected) {
     const std::string wrote = "wrote " + out.string() + "/" + scene + "_*.png and " + scene + "_comparison.png";
@@ -190,13 +189,31 @@ TEST(Demo, QuickModeWritesTheImagesItNames) {
     // the first technique (no shadows / local lighting / points) is not the reference's picture
     EXPECT_GT(compare_images(images.front(), images.back()).max_abs, 0.05) << "the techniques' images differ";
   }
-  // The volume table: the ray_traced row is the reference (RMSE 0, PSNR inf); `none` is not.
+  // The volume tables: the ray_traced row is the reference (RMSE 0, PSNR inf); `none` is not.
   const std::regex row(R"(\|\s*(none|ray_traced)\s*\|[^\n]*\|\s*([0-9.]+)\s*\|\s*(inf|[0-9.]+)\s*\|)");
   std::map<std::string, std::string> psnr;
   for (std::sregex_iterator it(r.out.begin(), r.out.end(), row), end; it != end; ++it) psnr.emplace((*it)[1], (*it)[3]);
   EXPECT_EQ(psnr["ray_traced"], "inf") << r.out;
   ASSERT_TRUE(psnr.count("none")) << r.out;
   EXPECT_NE(psnr["none"], "inf") << r.out;
+}
+
+const DemoFiles kProceduralDemo{{"test-spheres", {"none", "shadow_map", "deep_shadow_map", "cssm", "ray_traced"}},
+                                {"spheres-floor", {"ll", "issm", "issm_ao", "ray_traced", "ray_traced_ao"}},
+                                {"ct-body", {"points", "light_pass", "mesh", "ray_traced"}}};
+
+TEST(Demo, QuickModeWritesTheImagesItNames) {
+  ScratchDir empty;
+  check_demo(empty.path().string(), kProceduralDemo, false);
+}
+
+// The same with the data sets: the head CT (volume techniques) and 1AON (sphere techniques) join.
+TEST(Demo, QuickModeWithTheDataSetsWritesTheirImagesToo) {
+  if (!shared_data_present() || !fs::exists(fs::path(PENUMBRA_SHARED_DATA_DIR) / "1aon.pdb.gz")) GTEST_SKIP() << "no ../shared/data";
+  DemoFiles all = kProceduralDemo;
+  all["cranium"] = all["test-spheres"];
+  all["1aon"] = all["spheres-floor"];
+  check_demo(PENUMBRA_SHARED_DATA_DIR, all, true);
 }
 
 }  // namespace
