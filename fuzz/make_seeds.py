@@ -47,7 +47,7 @@ for name, typ in (("chest_ct.nrrd", 1), ("cranium_ct.nrrd", 2)):
     h, payload = nrrd_header(name)
     voxels = zlib.decompressobj(31).decompress(payload, 8 * 8 * 6 * typ)[: 8 * 8 * 6 * typ]
     h = set_field(h, "sizes", "8 8 6")
-    put("nrrd", name.replace(".nrrd", "_gzip.nrrd"), h.encode() + b"\n" + gzip.compress(voxels))
+    put("nrrd", name.replace(".nrrd", "_gzip.nrrd"), h.encode() + b"\n" + gzip.compress(voxels, mtime=0))
     put("nrrd", name.replace(".nrrd", "_raw.nrrd"), set_field(h, "encoding", "raw").encode() + b"\n" + voxels)
     if typ == 1:
         put("nrrd", "chest_ascii.nrrd", set_field(set_field(h, "encoding", "ascii"), "sizes", "4 4 2") + "\n" +
@@ -60,6 +60,11 @@ put("nrrd", "space.nrrd",
     "measurement frame: (1,0,0) (0,1,0) (0,0,1)\nendian: big\nline skip: 0\nbyte skip: 0\n"
     "key:=value\nencoding: raw\n\n" + "\0\0\0\0" * 8)
 
+# --- Raw: the fuzz target takes its options from the input's last bytes (FuzzedDataProvider) and the
+# file from the first: slices of the real raw volumes.
+put("raw", "headsq.bin", open(os.path.join(data, "headsq.raw"), "rb").read()[40000:40600])
+put("raw", "neghip.bin", open(os.path.join(data, "neghip.raw"), "rb").read()[140000:140300])
+
 # --- NIfTI-1: chris_t1's header with a 4x4x4 grid, as uint8, int16 and float32, plain and gzip.
 hdr = bytearray(gzip.open(os.path.join(data, "chris_t1.nii.gz")).read(352))
 for code, bits, fmt, tag in ((2, 8, "B", "u8"), (4, 16, "h", "i16"), (16, 32, "f", "f32")):
@@ -70,7 +75,7 @@ for code, bits, fmt, tag in ((2, 8, "B", "u8"), (4, 16, "h", "i16"), (16, 32, "f
     body = struct.pack("<64" + fmt, *[(i * 7) % 100 for i in range(64)])
     put("nifti", f"t1_{tag}.nii", bytes(h) + body)
     if tag == "i16":
-        put("nifti", f"t1_{tag}.nii.gz", gzip.compress(bytes(h) + body))
+        put("nifti", f"t1_{tag}.nii.gz", gzip.compress(bytes(h) + body, mtime=0))
 
 # --- PDB: header records (REMARK 350, SSBOND, LINK, CISPEP, HELIX, SHEET, CRYST1) and the first atoms.
 def pdb_seed(name, atoms, keep_remark350=40):
@@ -93,7 +98,7 @@ def pdb_seed(name, atoms, keep_remark350=40):
 put("pdb", "1tii.pdb", pdb_seed("1tii.pdb", 40))
 put("pdb", "1af6.pdb", pdb_seed("1af6.pdb", 30))
 put("pdb", "1m4x.pdb", pdb_seed("1m4x.pdb.gz", 30, keep_remark350=16))
-put("pdb", "3j6r.pdb.gz", gzip.compress(pdb_seed("3j6r.pdb.gz", 20, keep_remark350=16).encode()))
+put("pdb", "3j6r.pdb.gz", gzip.compress(pdb_seed("3j6r.pdb.gz", 20, keep_remark350=16).encode(), mtime=0))
 
 # --- mmCIF: the assembly categories (three operators) and the first atom_site rows.
 def cif_seed(name, atoms):
@@ -127,7 +132,7 @@ def cif_seed(name, atoms):
     return "\n#\n".join(keep) + "\n#\n"
 
 put("mmcif", "4yvs.cif", cif_seed("4yvs.cif.gz", 40))
-put("mmcif", "3sn6.cif.gz", gzip.compress(cif_seed("3sn6.cif.gz", 20).encode()))
+put("mmcif", "3sn6.cif.gz", gzip.compress(cif_seed("3sn6.cif.gz", 20).encode(), mtime=0))
 
 # --- GRO: the first atoms with a matching count, with and without velocities.
 def gro_seed(name, atoms):

@@ -252,7 +252,8 @@ PackedMolecule pack(const gemmi::Structure& st, MoleculeFormat format) {
 //   included, is longer than 73 characters, without checking that the five columns exist: a record of
 //   74 to 77 characters makes it read up to three bytes past the end of its copy of the line (a heap
 //   over-read; fast_float then compares the bytes after the line's end with "nan" and "inf");
-// - it packs record names into an int by shifting (signed) chars, undefined for bytes of 0x80 and up.
+// - it packs record names into an int by shifting (signed) chars: negative for bytes of 0x80 and up,
+//   and shifting a negative int is undefined before C++20 (this file is C++17 under clang).
 // So SSBOND and LINK records are padded with blanks to 80 columns (gemmi then reads no distance) and
 // bytes above 0x7f, which the PDB format (ASCII) does not have, become '?'. A copy of the text is made
 // only when it needs either.
