@@ -570,6 +570,22 @@ TEST(ShadowsDeepShadowMap, SharedDepthColouredMediumKeepsColouredShadows) {
 TEST(ShadowsDeepShadowMap, HomogeneousBoxClosedForms) { check_homogeneous_box_closed_forms("per_channel"); }
 TEST(ShadowsDeepShadowMap, SharedDepthHomogeneousBoxClosedForms) { check_homogeneous_box_closed_forms("shared_depth"); }
 
+// A layout that does not exist is an error naming the key, in the scene file as in the technique.
+TEST(ShadowsDeepShadowMap, UnknownLayoutIsAnError) {
+  ShadowSettings s;
+  s.technique = "deep_shadow_map";
+  s.dsm_layout = "per_texel";
+  EXPECT_THROW(make_shadow_technique(s), Error);
+  nlohmann::json j = full_box_scene(8, constant_tf(0.1));
+  j["shadows"] = {{"technique", "deep_shadow_map"}, {"dsm_layout", "per_texel"}};
+  try {
+    (void)build_scene(j, "");
+    ADD_FAILURE() << "dsm_layout per_texel was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("dsm_layout"), std::string::npos) << e.what();
+  }
+}
+
 // What distinguishes the layouts. In a coloured medium (the red ball over the Marschner–Lobb field: the
 // channels bend at different depths) shared_depth keeps one set of node depths per texel: every channel
 // reports the same count and the same depths, and memory is resolution²·(4N floats + 1 count byte + 1
