@@ -259,6 +259,27 @@ TEST(FuzzFindings, PdbShortSsbondRecordsArePaddedForGemmi) {
   EXPECT_EQ(padded.size(), 81u);
 }
 
+// Found by fuzz_pdb after the first fix: gemmi knows SSBOND by "SSBO" alone, and a NUL byte ends its copy
+// of a line, so "SSBOxx" records and records with a NUL before column 74 were still read past their end.
+TEST(FuzzFindings, PdbSsbondByFourLettersOrCutByNulIsPaddedToo) {
+  TempDir dir;
+  std::string four = pdb_with_ssbond(80);
+  four.replace(4, 2, "xx");  // "SSBOxx"
+  std::string nul = pdb_with_ssbond(80);
+  nul[74] = '\0';
+  for (const std::string& text : {pdb_with_ssbond(74).replace(4, 2, "xx"), nul}) {
+    std::string fixed;
+    ASSERT_TRUE(io_detail::pdb_text_for_gemmi(text, fixed));
+    EXPECT_EQ(fixed.find('\0'), std::string::npos);
+    EXPECT_EQ(fixed.find('\n'), 80u);
+    const std::string path = dir.file("ssbo.pdb");
+    write_file(path, text);
+    EXPECT_EQ(load_particles(path, {}).size(), 2u);
+  }
+  std::string unchanged;
+  EXPECT_FALSE(io_detail::pdb_text_for_gemmi(four, unchanged));  // 80 columns: nothing to do
+}
+
 // gemmi 0.5.7 packs the first four characters of every line into an int by shifting chars: a byte of
 // 0x80 or more is a negative char, and shifting it is undefined behaviour (UBSan in the fuzzer build).
 // Such bytes become '?' before gemmi sees the text.
@@ -329,4 +350,25 @@ TEST(FuzzFindings, SetValuesWithInvalidUtf8OrOverflowNameFileAndKey) {
   EXPECT_HAS(error_of([&] { (void)load_scene(path, {"camera.wid\xfft=3"}); }), "not valid UTF-8");
   // Valid UTF-8 and plain strings still work.
   EXPECT_NO_THROW((void)load_scene(path, {"lights.0.intensity=2", "camera.width=4"}));
+}
+
+// Found by fuzz_mmcif: gemmi parses integers (here label_seq_id) with an int accumulator that overflows,
+// undefined behaviour, on more digits than an int holds.
+TEST(FuzzFindings, MmcifIntegersBeyondIntAreRefused) {
+  TempDir dir;
+  std::string text = cif_with_oper_expression("1");
+  const std::string row = "ATOM 2 C CA . GLY A 1 1 ";
+  text.replace(text.find(row), row.size(), "ATOM 2 C CA . GLY A 1 99999999999 ");
+  const std::string path = dir.file("seq.cif");
+  write_file(path, text);
+  const std::string m = error_of([&] { (void)load_particles(path, {}); });
+  EXPECT_HAS(m, path);
+  EXPECT_HAS(m, "_atom_site.label_seq_id");
+  EXPECT_HAS(m, "99999999999");
+  EXPECT_HAS(m, "int range");
+  // -2147483647 and leading zeros are fine.
+  text = cif_with_oper_expression("1");
+  text.replace(text.find(row), row.size(), "ATOM 2 C CA . GLY A 1 -000000000002147483647 ");
+  write_file(path, text);
+  EXPECT_EQ(load_particles(path, {}).size(), 2u);
 }

@@ -161,6 +161,35 @@ void check_operation_expression(const std::string& expr, const std::string& asse
   }
 }
 
+// gemmi 0.5.7 reads integers (sequence ids, serials, charges, counts) with an int accumulator and no
+// overflow check: a value whose leading digits exceed the int range is undefined behaviour (signed
+// overflow, found by fuzz_mmcif). No field of a real file holds such a number, so one is refused, with
+// its tag and line. Leading blanks and a sign are skipped as gemmi does; the digits are read as far as
+// they go (gemmi also reads "123abc" as 123 where it does not check the whole value).
+void check_integer_ranges(const gemmi::cif::Document& doc) {
+  const auto check = [](const std::string& value, const std::string& tag, int line) {
+    std::size_t i = 0;
+    while (i < value.size() && (value[i] == ' ' || value[i] == '\t')) ++i;
+    if (i < value.size() && (value[i] == '-' || value[i] == '+')) ++i;
+    std::int64_t n = 0;
+    for (; i < value.size() && value[i] >= '0' && value[i] <= '9'; ++i) {
+      n = n * 10 + (value[i] - '0');
+      if (n > INT32_MAX)
+        throw Error("line " + std::to_string(line) + ": " + printable(tag, 60) + " value '" + printable(value, 40) +
+                    "' holds a number beyond the int range");
+    }
+  };
+  for (const gemmi::cif::Block& block : doc.blocks)
+    for (const gemmi::cif::Item& item : block.items) {
+      if (item.type == gemmi::cif::ItemType::Pair) {
+        check(item.pair[1], item.pair[0], item.line_number);
+      } else if (item.type == gemmi::cif::ItemType::Loop && !item.loop.tags.empty()) {
+        for (std::size_t v = 0; v < item.loop.values.size(); ++v)
+          check(item.loop.values[v], item.loop.tags[v % item.loop.tags.size()], item.line_number);
+      }
+    }
+}
+
 void check_assembly_generators(const gemmi::cif::Document& doc) {
   for (const gemmi::cif::Block& const_block : doc.blocks) {
     auto& block = const_cast<gemmi::cif::Block&>(const_block);  // Block::find is not const in gemmi 0.5.7
@@ -177,6 +206,7 @@ gemmi::Structure parse_structure(std::string_view text, MoleculeFormat format, c
   }
   const gemmi::cif::Document doc = gemmi::cif::read_memory(text.data(), text.size(), name.c_str());
   if (doc.blocks.empty()) throw Error("no data block (expected mmCIF: data_… with _atom_site)");
+  check_integer_ranges(doc);
   check_assembly_generators(doc);
   return gemmi::make_structure(doc);
 }
@@ -254,15 +284,17 @@ PackedMolecule pack(const gemmi::Structure& st, MoleculeFormat format) {
 //   over-read; fast_float then compares the bytes after the line's end with "nan" and "inf");
 // - it packs record names into an int by shifting (signed) chars: negative for bytes of 0x80 and up,
 //   and shifting a negative int is undefined before C++20 (this file is C++17 under clang).
-// So SSBOND and LINK records are padded with blanks to 80 columns (gemmi then reads no distance) and
-// bytes above 0x7f, which the PDB format (ASCII) does not have, become '?'. A copy of the text is made
-// only when it needs either.
+// So SSBOND and LINK records (gemmi knows them by their first four letters, any case: "SSBO", "LINK")
+// are padded with blanks to 80 columns (gemmi then reads no distance), NUL bytes (which would end
+// gemmi's copy of a line early, making a padded record short again) become blanks, and bytes above
+// 0x7f, which the PDB format (ASCII) does not have, become '?'. A copy of the text is made only when it
+// needs any of these.
 bool pdb_text_for_gemmi(std::string_view text, std::string& fixed) {
   constexpr std::size_t kFull = 80;
   const auto short_record = [&](std::string_view line) {
-    return (starts_with_ci(line, "SSBOND") || starts_with_ci(line, "LINK")) && line.size() < kFull;
+    return (starts_with_ci(line, "SSBO") || starts_with_ci(line, "LINK")) && line.size() < kFull;
   };
-  bool needed = std::any_of(text.begin(), text.end(), [](char c) { return static_cast<unsigned char>(c) > 0x7f; });
+  bool needed = std::any_of(text.begin(), text.end(), [](char c) { return c == '\0' || static_cast<unsigned char>(c) > 0x7f; });
   LineReader lines(text);
   std::string_view line;
   while (!needed && lines.next(line)) needed = short_record(line);
@@ -276,6 +308,7 @@ bool pdb_text_for_gemmi(std::string_view text, std::string& fixed) {
     if (short_record(line)) fixed.append(kFull - line.size(), ' ');
     for (std::size_t i = start; i < fixed.size(); ++i)
       if (static_cast<unsigned char>(fixed[i]) > 0x7f) fixed[i] = '?';
+      else if (fixed[i] == '\0') fixed[i] = ' ';
     fixed += '\n';
   }
   return true;

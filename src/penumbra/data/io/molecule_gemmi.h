@@ -64,10 +64,11 @@ enum class MoleculeFormat { Pdb, Mmcif };
 PackedMolecule read_molecule_gemmi(std::string_view text, MoleculeFormat format, const std::string& name);
 
 // What gemmi 0.5.7's PDB parser must not see (molecule_gemmi.cpp): SSBOND/LINK records shorter than 80
-// columns (it reads their distance past the end of a 74- to 77-character record: a heap over-read) and
-// bytes above 0x7f (undefined shifts of negative chars). When `text` has either, `fixed` receives a copy
-// with those records padded with blanks to 80 columns and those bytes replaced by '?', and the result
-// is true; otherwise false. read_molecule_gemmi applies it to every PDB text.
+// columns (it reads their distance past the end of a 74- to 77-character record: a heap over-read), NUL
+// bytes (they shorten its copy of a line) and bytes above 0x7f (shifts of negative chars). When `text`
+// has any, `fixed` receives a copy with those records padded with blanks to 80 columns, NULs made
+// blanks and high bytes '?', and the result is true; otherwise false. read_molecule_gemmi applies it to
+// every PDB text.
 bool pdb_text_for_gemmi(std::string_view text, std::string& fixed);
 
 }  // namespace penumbra::io_detail
