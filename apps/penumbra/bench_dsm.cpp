@@ -59,8 +59,10 @@ void bench_dsm(const DsmBenchOptions& o, std::ostringstream& md, nlohmann::json&
      << "Equal memory: each map's resolution lowered or raised until it takes at most the bytes of the budget "
         "(⌊√(budget / bytes per texel)⌋). Error against `ray_traced`, " << o.size << "² frame, fastest of "
      << o.repeats << " runs.\n";
-  for (const auto& [name, scene_in] : o.scenes) {
-    nlohmann::json scene = scene_in;
+  for (const auto& named : o.scenes) {
+    // Not a structured binding: the lambda below captures the name, which clang 14 refuses for bindings.
+    const auto& name = named.first;
+    nlohmann::json scene = named.second;
     scene["camera"]["width"] = o.size;
     scene["camera"]["height"] = o.size;
     std::fprintf(stderr, "bench dsm %s: reference and frame without shadows...\n", name.c_str());
