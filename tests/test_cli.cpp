@@ -2,7 +2,6 @@
 // `penumbra` binary (PENUMBRA_CLI) on small procedural scenes written to a scratch directory, and checks
 // images, --stats JSON, sequences, error messages and that failures leave no output behind.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <algorithm>
 #include <cmath>
@@ -14,6 +13,7 @@
 #include <sstream>
 #include <string>
 
+#include "cli_run.h"
 #include "penumbra/core/image_io.h"
 #include "test_scenes.h"
 
@@ -22,42 +22,6 @@ using namespace penumbra::test;
 namespace fs = std::filesystem;
 
 namespace {
-
-struct CliRun {
-  int status = -1;  // exit status
-  std::string out, err;
-};
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string quote(const std::string& s) { return "'" + s + "'"; }
-
-// Runs `penumbra ARGS` with stdout and stderr captured in files outside `dir` (so that `dir` holds only
-// what the command itself wrote).
-CliRun penumbra_cli(const std::string& args) {
-  static int counter = 0;
-  const fs::path logs = fs::temp_directory_path() / ("penumbra_cli_logs_" + std::to_string(::getpid()));
-  fs::create_directories(logs);
-  const std::string out = (logs / ("out" + std::to_string(counter) + ".txt")).string();
-  const std::string err = (logs / ("err" + std::to_string(counter) + ".txt")).string();
-  ++counter;
-  const std::string cmd = quote(PENUMBRA_CLI) + " " + args + " >" + quote(out) + " 2>" + quote(err);
-  const int raw = std::system(cmd.c_str());
-  CliRun r;
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + (WIFSIGNALED(raw) ? WTERMSIG(raw) : 0);
-  r.out = slurp(out);
-  r.err = slurp(err);
-  std::error_code ec;
-  fs::remove(out, ec);
-  fs::remove(err, ec);
-  fs::remove(logs, ec);  // only when empty
-  return r;
-}
 
 std::set<std::string> listing(const fs::path& dir) {
   std::set<std::string> names;

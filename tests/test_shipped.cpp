@@ -2,7 +2,6 @@
 // a non-trivial image (shrunk with --set overrides, as a user would), and `penumbra demo --quick` writes
 // the files it says it writes, each a valid, non-trivial PNG, and prints the table it promises.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <algorithm>
 #include <cctype>
@@ -17,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_run.h"
 #include "penumbra/core/image_io.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/scene_file.h"
@@ -102,8 +102,8 @@ TEST_P(ShippedScene, LoadsAndRenders) {
   EXPECT_TRUE(non_trivial(img)) << "all one colour";
 }
 
-INSTANTIATE_TEST_SUITE_P(Files, ShippedScene, ::testing::ValuesIn(scene_files()), [](const ::testing::TestParamInfo<std::string>& info) {
-  std::string name = info.param.substr(0, info.param.size() - 5);  // without ".json"
+INSTANTIATE_TEST_SUITE_P(Files, ShippedScene, ::testing::ValuesIn(scene_files()), [](const ::testing::TestParamInfo<std::string>& scene) {
+  std::string name = scene.param.substr(0, scene.param.size() - 5);  // without ".json"
   for (char& c : name)
     if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
   return name;
@@ -112,30 +112,6 @@ GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(ShippedScene);
 
 // ---------------------------------------------------------------------------------------------------
 // penumbra demo --quick
-
-struct CliRun {
-  int status = -1;
-  std::string out, err;
-};
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string quote(const std::string& s) { return "'" + s + "'"; }
-
-CliRun run_cli(const std::string& args, const ScratchDir& logs) {
-  const std::string out = logs.file("stdout.txt"), err = logs.file("stderr.txt");
-  const int raw = std::system((quote(PENUMBRA_CLI) + " " + args + " >" + quote(out) + " 2>" + quote(err)).c_str());
-  CliRun r;
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + (WIFSIGNALED(raw) ? WTERMSIG(raw) : 0);
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
-}
 
 // `penumbra demo --quick -o DIR` (test-sized scenes), once with a data directory that holds nothing, so
 // that the CT and molecule scenes are skipped (and it says so), once with ../shared/data. It prints, for each scene, a table with one
@@ -149,9 +125,9 @@ using DemoFiles = std::map<std::string, std::vector<std::string>>;  // scene →
 
 // Runs `penumbra demo --quick` with `data_dir` and checks what it wrote against `expected`.
 void check_demo(const std::string& data_dir, const DemoFiles& expected, bool data_scenes) {
-  ScratchDir dir, logs;
+  ScratchDir dir;
   const fs::path out = dir.path() / "demo";
-  const CliRun r = run_cli("demo --quick --threads 2 --data-dir " + quote(data_dir) + " -o " + quote(out.string()), logs);
+  const CliRun r = penumbra_cli("demo --quick --threads 2 --data-dir " + quote(data_dir) + " -o " + quote(out.string()));
   ASSERT_EQ(r.status, 0) << r.out << r.err;
   EXPECT_EQ(r.out.find("cranium_ct.nrrd not found") == std::string::npos, data_scenes) << r.out;
   EXPECT_EQ(r.out.find("1aon.pdb.gz not found") == std::string::npos, data_scenes) << r.out;

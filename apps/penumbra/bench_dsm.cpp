@@ -15,16 +15,11 @@
 #include <cstdio>
 
 #include "penumbra/core/image_io.h"
+#include "bench_format.h"
 #include "technique_runs.h"
 
 namespace penumbra::cli {
 namespace {
-
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
 
 struct Config {
   std::string label;     // shadow_map, deep_shadow_map per_channel (3 nodes), ...

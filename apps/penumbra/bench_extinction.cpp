@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "bench_extinction.h"
+#include "bench_format.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/parallel.h"
@@ -22,12 +23,6 @@
 
 namespace penumbra::cli {
 namespace {
-
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
 
 // Fastest of `repeats` runs of f(), in ms.
 template <class F>

@@ -5,6 +5,7 @@
 // against the exact ray-cast isosurface with exact shadow rays, and the marching-cubes baseline (mesh
 // extraction time, triangles, rasterisation time) the paper argues points beat.
 #include "bench_isosurface.h"
+#include "bench_format.h"
 
 #include <algorithm>
 #include <cmath>
@@ -145,12 +146,6 @@ Agreement compare(const Run& points, const Run& reference, const Light& light, f
   }
   a.disagreement = facing ? static_cast<double>(differ) / static_cast<double>(facing) : 0;
   return a;
-}
-
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
 }
 
 void bench_dataset(const IsosurfaceBenchOptions& o, const Dataset& d, std::ostringstream& md, nlohmann::json& out) {

@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "bench_particles.h"
+#include "bench_format.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/parallel.h"
@@ -51,13 +52,6 @@ const Dataset& find_dataset(const std::string& name) {
 }
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-std::string fmt(const char* f, double v) {
-  if (std::isnan(v)) return "—";
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
 
 std::string mib(std::size_t bytes) { return fmt("%.1f", static_cast<double>(bytes) / 1048576.0); }
 
