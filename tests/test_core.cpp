@@ -1,10 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+
+#include "penumbra/core/cutoffs.h"
 #include "penumbra/core/math.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/rng.h"
-
-#include <cmath>
 
 using namespace penumbra;
 
@@ -87,4 +88,9 @@ TEST(ImageCore, CompareAndMontage) {
   EXPECT_EQ(m.width(), 4 + 4 + 4);
   EXPECT_EQ(m.at(5, 1).r, 1.0f);       // the white gap
   EXPECT_EQ(m.at(8 + 1, 1).r, 0.6f);   // b's changed pixel, after a and the gap
+}
+
+// The shadow-ray cut-off as an optical depth is the same cut-off as a transmittance.
+TEST(Cutoffs, OpaqueDepthIsMinusLogOfShadowOpaque) {
+  EXPECT_NEAR(kOpaqueDepth, -std::log(static_cast<double>(kShadowOpaque)), 1e-12);
 }
