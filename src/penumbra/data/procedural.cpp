@@ -1,7 +1,8 @@
 // Procedural volumes (procedural.h): analytic shapes sampled at voxel centres on [-0.5, 0.5]^3, the
 // Marschner-Lobb signal (Marschner & Lobb, "An evaluation of reconstruction filters for volume
 // rendering", 1994) and a "test spheres" volume in the spirit of Roettger's data set used by the CSSM
-// paper (overlapping spheres of constant, distinct densities).
+// paper (overlapping spheres of constant, distinct densities), and "molecular-density", a Gaussian splat
+// of a molecule's atoms read with the particle loaders.
 #include "penumbra/data/procedural.h"
 
 #include <nlohmann/json.hpp>
@@ -12,11 +13,14 @@
 #include <functional>
 #include <map>
 #include <sstream>
+#include <filesystem>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/data/ct_body.h"
+#include "penumbra/data/elements.h"
+#include "penumbra/data/io/particle_io.h"
 
 namespace penumbra {
 
@@ -40,6 +44,8 @@ const std::map<std::string, std::map<std::string, double>>& shape_params() {
       {"hollow-sphere", {{"radius", 0.35}, {"thickness", 0.08}}},
       {"marschner-lobb", {{"alpha", 0.25}, {"fm", 6.0}}},
       {"ct-body", {{"dims", 0.0}, {"seed", 1.0}, {"noise", 60.0}}},
+      // padding's default is 3 sigma; file and weight are strings (the numbers are unused).
+      {"molecular-density", {{"file", 0.0}, {"spacing", 1.5}, {"sigma", 1.5}, {"padding", 0.0}, {"weight", 0.0}}},
   };
   return params;
 }
@@ -109,13 +115,158 @@ CtBodyParams ct_body_params(const json& spec) {
   return p;
 }
 
+// ------------------------------------------------------------------------------- molecular-density
+
+// The particle loaders keep no element per atom, but with their default options (colour by element,
+// radius_scale 1) an atom's sphere carries exactly element_vdw_radius(Z) and pack_rgba8(element_color(Z)),
+// and that pair differs for every Z of the table (tests/test_molecular_density.cpp checks it): the element
+// is read back from it. kUnknownElement for a pair that is not in the table.
+int element_of_atom(const Sphere& s, std::uint32_t color) {
+  static const std::map<std::pair<float, std::uint32_t>, int> table = [] {
+    std::map<std::pair<float, std::uint32_t>, int> t;
+    for (int z = kMaxElement; z >= kUnknownElement; --z)  // on a collision the lower Z would win
+      t[{element_vdw_radius(z), pack_rgba8(element_color(z))}] = z;
+    return t;
+  }();
+  const auto it = table.find({s.radius, color});
+  return it == table.end() ? kUnknownElement : it->second;
+}
+
+// "molecular-density": rho(x) = sum over atoms of w_a exp(-|x - c_a|^2 / (2 sigma^2)), each atom splatted
+// only within 3 sigma of its centre, on a grid over the atoms' box plus padding whose world coordinates
+// are the file's (Å).
+Volume make_molecular_density(const json& spec, const std::string& base_dir) {
+  const std::string shape = "molecular-density";
+  const std::string where = "procedural volume \"" + shape + "\": ";
+  if (!spec.contains("file") || !spec["file"].is_string() || spec["file"].get<std::string>().empty())
+    throw Error(where + "\"file\" " + (spec.contains("file") ? spec["file"].dump() + " " : std::string("missing ")) +
+                "(expected the path of a molecule file: .pdb, .cif, .gro, .xyz, optionally .gz)");
+  std::string file = spec["file"].get<std::string>();
+  if (!base_dir.empty() && std::filesystem::path(file).is_relative()) file = (std::filesystem::path(base_dir) / file).string();
+  const double spacing = number_param(spec, shape, "spacing", 1.5, 0.0, false);
+  const double sigma = number_param(spec, shape, "sigma", 1.5, 0.0, false);
+  const double padding = number_param(spec, shape, "padding", 3 * sigma, 0.0, true);
+  bool uniform = false;
+  if (spec.contains("weight")) {
+    const json& w = spec["weight"];
+    if (!w.is_string() || (w.get<std::string>() != "atomic_number" && w.get<std::string>() != "uniform"))
+      throw Error(where + "\"weight\": " + w.dump() + " (expected \"atomic_number\" or \"uniform\")");
+    uniform = w.get<std::string>() == "uniform";
+  }
+
+  // The deposited coordinates (no biological assembly), hydrogens kept when the file has them.
+  const ParticleSet atoms = load_particles(file, ParticleLoadOptions{});
+  const std::size_t n_atoms = atoms.size();
+  std::vector<float> weight(n_atoms, 1.0f);
+  if (!uniform)
+    for (std::size_t a = 0; a < n_atoms; ++a) {
+      const int z = element_of_atom(atoms.spheres[a], atoms.colors[a]);
+      weight[a] = static_cast<float>(z == kUnknownElement ? 6 : z);  // unknown: as carbon (as it is drawn)
+    }
+
+  double lo[3] = {kInfinity, kInfinity, kInfinity}, hi[3] = {-kInfinity, -kInfinity, -kInfinity};
+  for (const Sphere& s : atoms.spheres)
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], static_cast<double>(s.center[a]));
+      hi[a] = std::max(hi[a], static_cast<double>(s.center[a]));
+    }
+  std::array<int, 3> dims{};
+  double n_voxels[3];
+  for (int a = 0; a < 3; ++a) n_voxels[a] = std::max(2.0, std::ceil((hi[a] - lo[a] + 2 * padding) / spacing) + 1);
+  if (!(n_voxels[0] <= 1024 && n_voxels[1] <= 1024 && n_voxels[2] <= 1024))
+    throw Error(where + "\"spacing\": " + num(spacing) + " gives a grid of " + num(n_voxels[0]) + " x " + num(n_voxels[1]) +
+                " x " + num(n_voxels[2]) + " voxels over the atoms' box (" + num(hi[0] - lo[0]) + " x " + num(hi[1] - lo[1]) +
+                " x " + num(hi[2] - lo[2]) + " Å) plus \"padding\" " + num(padding) +
+                " Å on each side (expected at most 1024 per dimension: a larger \"spacing\" or a smaller \"padding\")");
+  for (int a = 0; a < 3; ++a) dims[a] = static_cast<int>(n_voxels[a]);
+  const float h = static_cast<float>(spacing);
+  Volume vol(ScalarType::Float32, dims, Vec3(h, h, h),
+             Vec3(static_cast<float>(lo[0] - padding), static_cast<float>(lo[1] - padding), static_cast<float>(lo[2] - padding)));
+
+  // Voxel (i, j, k) lies at origin + (i, j, k) * spacing, in the float values the volume stores.
+  const double hd = vol.spacing().x;
+  const double origin[3] = {vol.origin().x, vol.origin().y, vol.origin().z};
+  const double cutoff = 3 * sigma, cutoff2 = cutoff * cutoff, inv_2s2 = 1 / (2 * sigma * sigma);
+  // The voxel index range of each atom's cutoff box (empty when lo > hi).
+  struct Range {
+    int lo[3], hi[3];
+  };
+  std::vector<Range> range(n_atoms);
+  parallel_for(n_atoms, [&](std::size_t b, std::size_t e) {
+    for (std::size_t a = b; a < e; ++a)
+      for (int d = 0; d < 3; ++d) {
+        const double c = (atoms.spheres[a].center[d] - origin[d]) / hd, r = cutoff / hd;
+        range[a].lo[d] = static_cast<int>(std::max(0.0, std::ceil(c - r)));
+        range[a].hi[d] = static_cast<int>(std::min(dims[d] - 1.0, std::floor(c + r)));
+      }
+  }, 4096);
+
+  // Slabs of kSlab z-slices, fixed by position: each slab lists the atoms whose cutoff box reaches it, in
+  // file order, and one task writes all of a slab's voxels, adding the atoms in that order. Every voxel
+  // therefore sums the same terms in the same order for any thread count: the bytes do not depend on it.
+  constexpr int kSlab = 4;
+  const int n_slabs = (dims[2] + kSlab - 1) / kSlab;
+  std::vector<std::size_t> start(static_cast<std::size_t>(n_slabs) + 1, 0);
+  for (const Range& r : range)
+    if (r.lo[0] <= r.hi[0] && r.lo[1] <= r.hi[1] && r.lo[2] <= r.hi[2])
+      for (int s = r.lo[2] / kSlab; s <= r.hi[2] / kSlab; ++s) ++start[static_cast<std::size_t>(s) + 1];
+  for (int s = 0; s < n_slabs; ++s) start[s + 1] += start[s];
+  std::vector<std::uint32_t> list(start.back());
+  {
+    std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+    for (std::size_t a = 0; a < n_atoms; ++a) {
+      const Range& r = range[a];
+      if (r.lo[0] <= r.hi[0] && r.lo[1] <= r.hi[1] && r.lo[2] <= r.hi[2])
+        for (int s = r.lo[2] / kSlab; s <= r.hi[2] / kSlab; ++s) list[fill[s]++] = static_cast<std::uint32_t>(a);
+    }
+  }
+
+  float* out = vol.data_as<float>();
+  parallel_for(static_cast<std::size_t>(n_slabs), [&](std::size_t s0, std::size_t s1) {
+    std::vector<double> dx2, gx;  // per voxel column of the atom's box: squared distance, Gaussian factor
+    for (std::size_t s = s0; s < s1; ++s) {
+      const int k_begin = static_cast<int>(s) * kSlab, k_end = std::min(dims[2], k_begin + kSlab);
+      for (std::size_t l = start[s]; l < start[s + 1]; ++l) {
+        const std::uint32_t a = list[l];
+        const Range& r = range[a];
+        const Vec3 c = atoms.spheres[a].center;
+        const double w = weight[a];
+        dx2.resize(static_cast<std::size_t>(r.hi[0] - r.lo[0] + 1));
+        gx.resize(dx2.size());
+        for (int i = r.lo[0]; i <= r.hi[0]; ++i) {
+          const double d = origin[0] + i * hd - c.x;
+          dx2[static_cast<std::size_t>(i - r.lo[0])] = d * d;
+          gx[static_cast<std::size_t>(i - r.lo[0])] = std::exp(-d * d * inv_2s2);
+        }
+        for (int k = std::max(r.lo[2], k_begin); k <= std::min(r.hi[2], k_end - 1); ++k) {
+          const double dz = origin[2] + k * hd - c.z;
+          if (dz * dz > cutoff2) continue;
+          const double wz = w * std::exp(-dz * dz * inv_2s2);
+          for (int j = r.lo[1]; j <= r.hi[1]; ++j) {
+            const double dy = origin[1] + j * hd - c.y, dyz2 = dy * dy + dz * dz;
+            if (dyz2 > cutoff2) continue;
+            const double wyz = wz * std::exp(-dy * dy * inv_2s2);
+            float* row = out + vol.index(0, j, k);
+            for (int i = r.lo[0]; i <= r.hi[0]; ++i) {
+              const std::size_t q = static_cast<std::size_t>(i - r.lo[0]);
+              if (dx2[q] + dyz2 <= cutoff2) row[i] += static_cast<float>(wyz * gx[q]);
+            }
+          }
+        }
+      }
+    }
+  });
+  vol.recompute_range();
+  return vol;
+}
+
 }  // namespace
 
 std::vector<std::string> procedural_volume_names() {
-  return {"test-spheres", "slab", "sphere", "hollow-sphere", "marschner-lobb", "ct-body"};
+  return {"test-spheres", "slab", "sphere", "hollow-sphere", "marschner-lobb", "ct-body", "molecular-density"};
 }
 
-Volume make_procedural_volume(const nlohmann::json& spec) {
+Volume make_procedural_volume(const nlohmann::json& spec, const std::string& base_dir) {
   if (!spec.is_object()) throw Error("procedural volume: " + spec.dump() + " (expected an object)");
   if (!spec.contains("name") || !spec["name"].is_string())
     throw Error("procedural volume: \"name\" " + (spec.contains("name") ? spec["name"].dump() + " " : std::string("missing ")) +
@@ -126,18 +277,23 @@ Volume make_procedural_volume(const nlohmann::json& spec) {
     throw Error("procedural volume: \"name\": \"" + name + "\" is not known (expected one of: " +
                 join(procedural_volume_names()) + ")");
   const bool ct_body = name == "ct-body";  // a grid of its own ("dims" over a box in mm), no "size"
+  const bool molecule = name == "molecular-density";  // its grid follows from the atoms and "spacing"
   for (const auto& [key, val] : spec.items()) {
-    if (key == "name" || (key == "size" && !ct_body) || shape->second.count(key)) continue;
-    if (key == "size")
+    if (key == "name" || (key == "size" && !ct_body && !molecule) || shape->second.count(key)) continue;
+    if (key == "size" && ct_body)
       throw Error("procedural volume \"ct-body\": \"size\" does not apply (its grid is \"dims\": [x, y, z], "
                   "default [512, 512, 1734], over a 500 x 500 x 1734 mm box)");
+    if (key == "size")
+      throw Error("procedural volume \"molecular-density\": \"size\" does not apply (its grid covers the atoms' box "
+                  "plus \"padding\" with voxels of edge \"spacing\")");
     std::vector<std::string> allowed{"name"};
-    if (!ct_body) allowed.push_back("size");
+    if (!ct_body && !molecule) allowed.push_back("size");
     for (const auto& [k, d] : shape->second) allowed.push_back(k);
     throw Error("procedural volume \"" + name + "\": unknown key \"" + key + "\" (expected " + join(allowed) + ")");
   }
 
   if (ct_body) return make_ct_body_volume(ct_body_params(spec));
+  if (molecule) return make_molecular_density(spec, base_dir);
 
   int size = 64;
   if (spec.contains("size")) {

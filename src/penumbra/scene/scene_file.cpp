@@ -122,7 +122,7 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
     v.source = file;
   } else {
     const auto& spec = r.raw("procedural");
-    volume = std::make_shared<Volume>(with_context(r.key_path("procedural"), [&] { return make_procedural_volume(spec); }));
+    volume = std::make_shared<Volume>(with_context(r.key_path("procedural"), [&] { return make_procedural_volume(spec, base_dir); }));
     v.source = "procedural:" + (spec.contains("name") && spec["name"].is_string() ? spec["name"].get<std::string>() : "?");
   }
   if (r.has("origin")) volume->set_origin(r.vec3("origin", {}));
