@@ -17,11 +17,14 @@ using namespace penumbra;
 struct Fixture {
   Scene scene;
   std::unique_ptr<PreparedVolume> prepared;
-  std::unique_ptr<ShadowMedium> medium;
+  std::unique_ptr<ShadowCasters> medium;
   std::vector<Vec3> points;
   Fixture() : scene(build_scene(test_spheres_scene(128), "")) {
     prepared = std::make_unique<PreparedVolume>(*scene.visible_volume());
-    medium = std::make_unique<ShadowMedium>(scene, prepared->grid);
+    // the visible volume casts with its macrocells; the scene's other volumes are not drawn
+    std::vector<const MacrocellGrid*> grids(scene.volumes.size(), nullptr);
+    grids.at(static_cast<std::size_t>(scene.visible_volume() - scene.volumes.data())) = &prepared->grid;
+    medium = std::make_unique<ShadowCasters>(scene, grids);
     for (std::uint64_t i = 0; i < 4096; ++i)
       points.push_back({uniform_float(7, i, 0) - 0.5f, uniform_float(7, i, 1) - 0.5f, uniform_float(7, i, 2) - 0.5f});
   }

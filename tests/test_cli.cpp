@@ -157,7 +157,7 @@ TEST(Cli, BadInputsFailWithAMessageAndLeaveNoOutput) {
   const std::vector<Case> cases{
       {"render " + quote(scene) + out + " --set shadows.bogus=1", "shadows.bogus"},
       {"render " + quote(scene) + out + " --set lights.3.intensity=1", "lights.3"},
-      {"render " + quote(scene) + out + " --set shadows.technique=issm", "is for sphere scenes"},
+      {"render " + quote(scene) + out + " --set shadows.technique=issm", "is for spheres"},
       {"render " + quote(scene) + out + " --set shadows.cone_angle=95", "shadows.cone_angle"},
       {"render " + quote(missing_scene) + out, "missing_volume.nrrd"},
       {"render " + quote(scene) + " -o " + quote(dir.file("out.jpg")) + " --stats " + quote(dir.file("stats.json")), ".jpg"},
@@ -245,7 +245,7 @@ TEST(Cli, KeysTheTechniqueDoesNotReadAreReportedAndRefusedWithStrict) {
   const std::string base = "render " + quote(scene) + " --set shadows.technique=cssm --set shadows.pcf=5";
   const CliRun noted = penumbra_cli(base + " -o " + quote(dir.file("noted.png")));
   ASSERT_EQ(noted.status, 0) << noted.err;
-  EXPECT_TRUE(contains(noted.err, "shadows.pcf is not read by shadows.technique cssm")) << noted.err;
+  EXPECT_TRUE(contains(noted.err, "shadows.pcf is not read by cssm")) << noted.err;
   EXPECT_TRUE(contains(noted.err, "read by: shadow_map")) << noted.err;
   EXPECT_FALSE(contains(noted.err, "shadows.seed")) << "cssm reads seed: " << noted.err;
   const CliRun strict = penumbra_cli(base + " --strict -o " + quote(dir.file("strict.png")));

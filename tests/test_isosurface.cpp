@@ -22,7 +22,7 @@
 #include "penumbra/isosurface/isosurface_raycaster.h"
 #include "penumbra/isosurface/light_pass.h"
 #include "penumbra/isosurface/point_extraction.h"
-#include "penumbra/isosurface/ray_traced_isosurface.h"
+#include "penumbra/shadows/ray_traced.h"
 #include "penumbra/isosurface/visibility_buffer.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/scene_file.h"
@@ -221,14 +221,32 @@ struct ShadowAgreement {
 ShadowAgreement light_pass_agreement(const GridTree& tree, const Camera& cam, const Light& light, LightPassSettings s) {
   ExtractionOptions options;
   const Extraction eye = extract_points(tree, 0.0f, ViewProjection::from_camera(cam), options);
+  // the isosurface alone as the caster, the eye points as the receivers
+  const IsosurfaceRaycaster raycaster(tree, 0.0f);
+  ShadowCasters casters(Scene{}, {});
+  casters.add_isosurface(raycaster, tree, 0);
+  std::vector<SurfacePoint> receivers;
+  for (const IsoPoint& p : eye.points) {
+    SurfacePoint sp;
+    sp.position = p.position;
+    sp.normal = p.normal;
+    sp.kind = ObjectKind::Isosurface;
+    sp.error = p.error;
+    receivers.push_back(sp);
+  }
   LightPass pass(s);
-  const IsoShadowInputs in{&tree, 0.0f, eye.points};
-  pass.build(in, light);
-  RayTracedIsosurfaceShadows exact;
-  exact.build(in, light);
-  std::vector<float> a(eye.points.size()), b(eye.points.size());
-  pass.light_fraction(eye.points, a);
-  exact.light_fraction(eye.points, b);
+  pass.build(casters, light);
+  pass.fit_to_receivers(receivers, false);
+  RayTracedShadows exact;
+  exact.build(casters, light);
+  std::vector<Rgb> a_rgb(receivers.size()), b_rgb(receivers.size());
+  pass.transmittance(std::span<const SurfacePoint>(receivers), std::span<Rgb>(a_rgb));
+  exact.transmittance(std::span<const SurfacePoint>(receivers), std::span<Rgb>(b_rgb));
+  std::vector<float> a, b;
+  for (std::size_t i = 0; i < receivers.size(); ++i) {
+    a.push_back(a_rgb[i].r);
+    b.push_back(b_rgb[i].r);
+  }
   std::size_t facing = 0, agree = 0, shadowed = 0;
   for (std::size_t i = 0; i < eye.points.size(); ++i) {
     Vec3 to_light;
@@ -240,7 +258,7 @@ ShadowAgreement light_pass_agreement(const GridTree& tree, const Camera& cam, co
     shadowed += b[i] == 0;
   }
   return {static_cast<double>(agree) / static_cast<double>(facing), eye.points.size(),
-          pass.light_points().points.size(), pass.hole_count(), shadowed};
+          pass.passes().front().light_points.points.size(), pass.passes().front().hole_count, shadowed};
 }
 
 }  // namespace
@@ -334,7 +352,9 @@ TEST(IsosurfaceScene, RendersEveryMethodAndRejectsBadInput) {
   expect_scene_error(with("isosurfaces.0.value", "NaN"), {"isosurfaces.0.value"});
   expect_scene_error(with("isosurfaces.0.volume", 3), {"isosurfaces.0.volume", "3", "1 volume"});
   expect_scene_error(with("isosurfaces.0.method", "marching"), {"isosurfaces.0.method", "marching", "points, raycast or mesh"});
-  expect_scene_error(with("shadows.technique", "cssm"), {"shadows", "cssm", "light_pass"});
+  expect_scene_error(with("shadows.technique", "issm"), {"shadows", "issm", "is for spheres", "casters are isosurfaces"});
+  expect_scene_error(with("shadows.isosurfaces", "sat_cone_x"), {"shadows.isosurfaces", "sat_cone_x", "light_pass"});
+  expect_scene_error(with("isosurfaces.0.casts_shadows", "yes"), {"isosurfaces.0.casts_shadows"});
   expect_scene_error(with("shadows.light_frustum", "loose"), {"light_frustum", "loose", "tight"});
   nlohmann::json empty = iso_scene();
   empty["volumes"][0]["procedural"] = {{"name", "slab"}, {"size", 8}, {"thickness", 4.0}};  // every voxel 1
@@ -370,8 +390,8 @@ TEST(IsosurfaceScene, SeveralIsosurfacesDrawAndShadowEachOther) {
     vo.visible = false;
     s.volumes.push_back(vo);
   }
-  s.isosurfaces.push_back(IsosurfaceObject{0, 0.5f, IsosurfaceMethod::Points, {1, 0, 0}, true});  // inner, red
-  s.isosurfaces.push_back(IsosurfaceObject{1, 0.5f, IsosurfaceMethod::Points, {0, 0, 1}, true});  // shell, blue
+  s.isosurfaces.push_back([] { IsosurfaceObject o; o.volume = 0; o.value = 0.5f; o.color = {1, 0, 0}; return o; }());  // inner, red
+  s.isosurfaces.push_back([] { IsosurfaceObject o; o.volume = 1; o.value = 0.5f; o.color = {0, 0, 1}; return o; }());  // shell, blue
   s.camera = test_camera(96, {0.4f, 0.3f, 2.4f});
   Light light;
   light.type = LightType::Point;
@@ -381,7 +401,9 @@ TEST(IsosurfaceScene, SeveralIsosurfacesDrawAndShadowEachOther) {
   s.shadows.resolution = 256;
   Renderer points(s);
   const FrameResult a = points.render();
-  EXPECT_EQ(points.isosurface_shadows().size(), 2u);  // one per isosurface for the light
+  ASSERT_EQ(points.light_shadows().size(), 1u);
+  ASSERT_EQ(points.light_shadows().front()->techniques().size(), 1u);  // one light pass for both isosurfaces
+  EXPECT_EQ(dynamic_cast<const LightPass&>(*points.light_shadows().front()->techniques().front()).passes().size(), 2u);
   // the inner sphere is seen through the cut: red pixels
   std::size_t red = 0;
   for (int y = 0; y < 96; ++y)

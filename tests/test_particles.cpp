@@ -9,9 +9,10 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/particles/implicit_sphere_shadow_map.h"
 #include "penumbra/particles/particle_ambient_occlusion.h"
-#include "penumbra/particles/ray_traced_spheres.h"
+#include "penumbra/shadows/ray_traced.h"
+#include "penumbra/shadows/ray_traced_ao.h"
 #include "penumbra/particles/sphere_hits.h"
-#include "penumbra/render/particle_frame.h"
+#include "penumbra/render/surface_frame.h"
 #include "penumbra/render/renderer.h"
 #include "image_check.h"
 #include "test_scenes.h"
@@ -19,17 +20,15 @@
 namespace penumbra {
 namespace {
 
-// A particle set with its BVH and the scene view the techniques take.
+// A particle set with its BVH and the casters the techniques take (the spheres alone).
 struct SphereWorld {
-  explicit SphereWorld(ParticleSet set) : particles(std::move(set)) {
+  explicit SphereWorld(ParticleSet set) : particles(std::move(set)), view(Scene{}, {}) {
     bvh = std::make_unique<SphereBvh>(particles);
-    view.particles = &particles;
-    view.bvh = bvh.get();
-    view.bounds = particles.bounds();
+    view.set_spheres(CastingSpheres{&particles, bvh.get(), particles.bounds()});
   }
   ParticleSet particles;
   std::unique_ptr<SphereBvh> bvh;
-  ParticleScene view;
+  ShadowCasters view;
 };
 
 ParticleSet spheres(std::initializer_list<Sphere> list) {
@@ -50,8 +49,11 @@ Light directional(const Vec3& dir) {
 // Points on the surfaces of a frame of `set` seen by `camera` (spheres only, no planes).
 std::vector<SurfacePoint> frame_points(const SphereWorld& w, const Camera& camera) {
   Scene scene;
+  scene.particles.push_back(ParticleObject{});
+  scene.particles.back().set = std::shared_ptr<const ParticleSet>(&w.particles, [](const ParticleSet*) {});
   const SphereHits hits = splat_spheres(w.particles, camera);
-  const ParticleFrameInputs in{&scene, &camera, &w.particles, &hits, {}, {}, nullptr};
+  const std::uint32_t offsets[] = {0, static_cast<std::uint32_t>(w.particles.size())}, objects[] = {0};
+  const SurfaceInputs in{&scene, &camera, &w.particles, offsets, objects, &hits, {}};
   return visible_surfaces(in).points;
 }
 
@@ -63,9 +65,20 @@ Camera looking_at(const Box3& b, int size, const Vec3& dir = {1.0f, 0.8f, 1.2f})
   return c;
 }
 
-std::vector<float> fractions(const SphereShadowTechnique& t, const std::vector<SurfacePoint>& pts) {
-  std::vector<float> out(pts.size());
-  t.light_fraction(pts, out);
+// The (grey) light fractions of a technique, and the ambient factors of an ambient technique.
+std::vector<float> fractions(const ShadowTechnique& t, const std::vector<SurfacePoint>& pts) {
+  std::vector<Rgb> rgb(pts.size());
+  t.transmittance(std::span<const SurfacePoint>(pts), std::span<Rgb>(rgb));
+  std::vector<float> out;
+  for (const Rgb& c : rgb) out.push_back(c.r);
+  return out;
+}
+
+std::vector<float> ambient_of(const AmbientTechnique& t, const std::vector<SurfacePoint>& pts) {
+  std::vector<Rgb> rgb(pts.size());
+  t.ambient(std::span<const SurfacePoint>(pts), std::span<Rgb>(rgb));
+  std::vector<float> out;
+  for (const Rgb& c : rgb) out.push_back(c.r);
   return out;
 }
 
@@ -90,7 +103,7 @@ double disagreement(const std::vector<float>& a, const std::vector<float>& b) {
 
 TEST(SphereHits, SplattingFindsTheSameSpheresAsEmbreeRays) {
   const SphereWorld w(random_spheres(3000, 0.03f, 7));
-  const Camera cam = looking_at(w.view.bounds, 200);
+  const Camera cam = looking_at(w.view.bounds(), 200);
   const SphereHits a = splat_spheres(w.particles, cam);
   const SphereHits b = trace_spheres(*w.bvh, cam);
   std::size_t same = 0, covered = 0;
@@ -128,7 +141,7 @@ TEST(Issm, NoSphereShadowsItself) {
   const Light light = directional({-0.3f, -1, -0.2f});
   ImplicitSphereShadowMap map(IssmParams{64, 2, 0, 1, 1});
   map.build(w.view, light);
-  const auto pts = frame_points(w, looking_at(w.view.bounds, 64));
+  const auto pts = frame_points(w, looking_at(w.view.bounds(), 64));
   ASSERT_GT(pts.size(), 500u);
   for (float f : fractions(map, pts)) EXPECT_EQ(f, 1.0f);
 }
@@ -192,8 +205,8 @@ TEST(Issm, TheMapIsTheSameForAnyThreadCount) {
 TEST(Issm, HardShadowsAgreeWithShadowRaysAndImproveWithRingsAndResolution) {
   const SphereWorld w(shadow_test_set());
   const Light light = directional({-0.35f, -1, -0.25f});
-  const auto pts = facing(frame_points(w, looking_at(w.view.bounds, test::sanitize_scale() ? 96 : 192)), light);
-  RayTracedSphereShadows exact(0, 1);
+  const auto pts = facing(frame_points(w, looking_at(w.view.bounds(), test::sanitize_scale() ? 96 : 192)), light);
+  RayTracedShadows exact(0, 1);
   exact.build(w.view, light);
   const auto ref = fractions(exact, pts);
   auto issm = [&](int res, int rings) {
@@ -224,7 +237,7 @@ TEST(Issm, HardShadowsAgreeWithShadowRaysAndImproveWithRingsAndResolution) {
 TEST(Issm, AutomaticRingsStopWhenTheImageStopsChanging) {
   const SphereWorld w(shadow_test_set());
   const Light light = directional({-0.35f, -1, -0.25f});
-  const auto pts = facing(frame_points(w, looking_at(w.view.bounds, 96)), light);
+  const auto pts = facing(frame_points(w, looking_at(w.view.bounds(), 96)), light);
   const double threshold = 1e-4 * static_cast<double>(pts.size());  // choose_issm_rings' default max_changed
   auto changed = [](const std::vector<float>& a, const std::vector<float>& b) {
     std::size_t n = 0;
@@ -236,7 +249,7 @@ TEST(Issm, AutomaticRingsStopWhenTheImageStopsChanging) {
     SCOPED_TRACE("map " + std::to_string(res));
     ImplicitSphereShadowMap map(IssmParams{res, 0, 0, 1, 1});
     map.build(w.view, light);
-    const int t = choose_issm_rings(map, pts);
+    const int t = map.choose_rings(pts);
     EXPECT_EQ(map.rings(), t) << "the map is left at the chosen t";
     const auto at_t = fractions(map, pts);
     map.set_rings(8);
@@ -303,8 +316,8 @@ TEST(IssmPerspective, PointLightShadowsAgreeWithShadowRays) {
   Light light;
   light.type = LightType::Point;
   light.position = {0.8f, 2.5f, 0.6f};
-  const auto pts = facing(frame_points(w, looking_at(w.view.bounds, test::sanitize_scale() ? 96 : 160)), light);
-  RayTracedSphereShadows exact(0, 1);
+  const auto pts = facing(frame_points(w, looking_at(w.view.bounds(), test::sanitize_scale() ? 96 : 160)), light);
+  RayTracedShadows exact(0, 1);
   exact.build(w.view, light);
   ImplicitSphereShadowMap map(IssmParams{1024, 1, 0, 1, 1});
   map.build(w.view, light);
@@ -335,8 +348,8 @@ TEST(ParticleAo, LoneSphereIsUnoccludedAndClusterCentreIsOccluded) {
     in_cluster.push_back({n * 0.01f, n, kNoSphere});
   }
   std::vector<float> a(64), b(64);
-  ao.ambient(on_lone, a);
-  ao.ambient(in_cluster, b);
+  a = ambient_of(ao, on_lone);
+  b = ambient_of(ao, in_cluster);
   double mean_a = 0, mean_b = 0;
   for (int i = 0; i < 64; ++i) { mean_a += a[static_cast<std::size_t>(i)] / 64; mean_b += b[static_cast<std::size_t>(i)] / 64; }
   EXPECT_GT(mean_a, 0.97);
@@ -355,8 +368,8 @@ TEST(ParticleAo, AFloorOutsideTheDensityGridIsOccludedByTheClusterAboveIt) {
   const std::vector<SurfacePoint> pts{{{0, -0.6f, 0}, {0, 1, 0}, kNoSphere}, {{0.2f, -0.6f, -0.1f}, {0, 1, 0}, kNoSphere},
                                       {{3, -0.6f, 3}, {0, 1, 0}, kNoSphere}};
   std::vector<float> a(3), b(3);
-  approx.ambient(pts, a);
-  exact.ambient(pts, b);
+  a = ambient_of(approx, pts);
+  b = ambient_of(exact, pts);
   EXPECT_LT(a[0], 0.8f);
   EXPECT_NEAR(a[0], b[0], 0.15f);
   EXPECT_NEAR(a[1], b[1], 0.15f);
@@ -371,7 +384,7 @@ TEST(ParticleAo, AFloorsOcclusionHasNoEdgeWhereItLeavesTheGridsFootprint) {
   std::vector<SurfacePoint> pts;
   for (int i = 0; i <= 120; ++i) pts.push_back({{0.2f + 0.006f * static_cast<float>(i), -0.6f, 0.1f}, {0, 1, 0}, kNoSphere});
   std::vector<float> a(pts.size());
-  ao.ambient(pts, a);
+  a = ambient_of(ao, pts);
   float largest_step = 0;
   for (std::size_t i = 1; i < a.size(); ++i) largest_step = std::max(largest_step, std::abs(a[i] - a[i - 1]));
   EXPECT_LT(largest_step, 0.02f);
@@ -396,7 +409,7 @@ TEST(ParticleAo, AFloorsOcclusionHasNoEdgeWhereItLeavesTheGridsFootprint) {
 // σ 0.0125, r 0.956 of r_max 0.999, a constant AO's RMS 0.266.
 TEST(ParticleAo, AgreesWithMonteCarloAmbientOcclusionOnASmallCluster) {
   const SphereWorld w(random_spheres(800, 0.05f, 9));
-  const auto pts = frame_points(w, looking_at(w.view.bounds, test::sanitize_scale() ? 40 : 64));
+  const auto pts = frame_points(w, looking_at(w.view.bounds(), test::sanitize_scale() ? 40 : 64));
   AmbientSettings s;
   s.max_distance = 0.3f;
   s.rays = test::sanitize_scale() ? 256 : 1024;
@@ -405,8 +418,8 @@ TEST(ParticleAo, AgreesWithMonteCarloAmbientOcclusionOnASmallCluster) {
   RayTracedAmbientOcclusion exact(s.max_distance, s.rays);
   exact.build(w.view);
   std::vector<float> a(pts.size()), b(pts.size());
-  approx.ambient(pts, a);
-  exact.ambient(pts, b);
+  a = ambient_of(approx, pts);
+  b = ambient_of(exact, pts);
   const double n = static_cast<double>(pts.size());
   ASSERT_GT(n, 500);
   double mean_a = 0, mean_b = 0, sq = 0, noise = 0;
@@ -464,7 +477,10 @@ Image composite_frame(bool with_volume) {
     set->spheres.push_back({p.set->spheres[0].center, 0.15f});
     set->colors.push_back(pack_rgba8(Rgb(0.9f, 0.2f, 0.2f)));
   }
-  s.particles = {ParticleObject{set, "test"}};
+  ParticleObject object;
+  object.set = set;
+  object.source = "test";
+  s.particles = {object};
   return Renderer(s).render().image;
 }
 

@@ -159,26 +159,30 @@ TEST(SceneFile, WrongTypesAndRangesNameTheKey) {
 }
 
 TEST(SceneFile, TechniqueNames) {
-  for (const auto& t : technique_names(TechniqueFamily::Shadow, SceneKind::Volume)) EXPECT_NO_THROW(build_scene(with(base_scene(), "shadows.technique", t), "")) << t;
+  for (const auto& t : technique_names(TechniqueFamily::Shadow, ObjectKind::Volume)) EXPECT_NO_THROW(build_scene(with(base_scene(), "shadows.technique", t), "")) << t;
   // Unknown: the message lists the valid ones.
   std::vector<std::string> needles{"shadows.technique", "shadow_mapp"};
-  for (const auto& t : technique_names(TechniqueFamily::Shadow, SceneKind::Volume)) needles.push_back(t);
+  for (const auto& t : technique_names(TechniqueFamily::Shadow, ObjectKind::Volume)) needles.push_back(t);
   try {
     (void)build_scene(with(base_scene(), "shadows.technique", "shadow_mapp"), "");
     ADD_FAILURE() << "no error";
   } catch (const Error& e) {
     for (const auto& n : needles) EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << n << " in " << e.what();
   }
-  expect_error(with(base_scene(), "shadows.technique", "light_pass"), {"shadows", "light_pass", "is for isosurface scenes", "a volume scene uses one of"});
-  // Sphere techniques in a scene without particles, volume techniques in a scene with particles.
-  expect_error(with(base_scene(), "shadows.technique", "issm"), {"shadows", "issm", "is for sphere scenes"});
-  expect_error(with(base_scene(), "ambient.technique", "particle_ao"), {"ambient", "particle_ao", "is for sphere scenes"});
+  // A technique that takes none of the scene's kinds of caster (here a volume and a plane).
+  expect_error(with(base_scene(), "shadows.technique", "light_pass"), {"shadows", "light_pass", "is for isosurfaces", "casters are volumes, planes"});
+  expect_error(with(base_scene(), "shadows.technique", "issm"), {"shadows", "issm", "is for spheres"});
+  expect_error(with(base_scene(), "ambient.technique", "particle_ao"), {"ambient", "particle_ao", "is for spheres"});
+  // A kind given a technique that does not take it.
+  expect_error(with(base_scene(), "shadows.volumes", "\"issm\""), {"shadows.volumes", "issm", "does not take volumes"});
   nlohmann::json spheres = base_scene();
   spheres["particles"] = nlohmann::json::parse(R"([{"procedural": {"name": "random-spheres", "count": 10}}])");
   EXPECT_NO_THROW(build_scene(with(spheres, "shadows.technique", "issm"), ""));
   EXPECT_NO_THROW(build_scene(with(spheres, "ambient.technique", "ray_traced_ao"), ""));
-  expect_error(with(spheres, "shadows.technique", "cssm"), {"shadows", "cssm", "is for volume scenes", "issm"});
-  expect_error(with(spheres, "ambient.technique", "sat_shells"), {"ambient", "sat_shells", "particle_ao"});
+  // One scene holds every kind: the maps take the spheres too, and the volume's ambient technique sees
+  // the volume.
+  EXPECT_NO_THROW(build_scene(with(spheres, "shadows.technique", "cssm"), ""));
+  EXPECT_NO_THROW(build_scene(with(spheres, "ambient.technique", "sat_shells"), ""));
   expect_error(with(base_scene(), "ambient.technique", "magic"), {"ambient.technique", "magic"});
 }
 
@@ -203,12 +207,15 @@ TEST(SceneFile, VolumeSourceAndTransferFunctionErrors) {
   expect_error(with(base_scene(), "volumes.0.procedural.name", "cube"), {"volumes.0.procedural", "cube"});
   expect_error(with(base_scene(), "volumes.0.transfer_function", "{\"preset\": \"nope\"}"),
                {"volumes.0.transfer_function", "nope"});
-  // Two visible volumes
+  // Two visible volumes are composited together; the extinction techniques read one volume's SAT
   j = base_scene();
   j["volumes"].push_back(j["volumes"][0]);
-  expect_error(j, {"volumes", "visible"});
+  EXPECT_NO_THROW(build_scene(j, ""));
+  expect_error(with(j, "shadows.technique", "sat_cone"), {"volumes", "sat_cone", "2 visible volumes"});
   j["volumes"][1]["visible"] = false;
   EXPECT_NO_THROW(build_scene(j, ""));
+  // an invisible volume has no shadow flags
+  expect_error(with(j, "volumes.1.casts_shadows", "true"), {"volumes.1.casts_shadows", "not visible"});
 }
 
 TEST(SceneFile, InvalidJsonFileNamesTheFileAndLine) {

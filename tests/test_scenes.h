@@ -1,5 +1,5 @@
 // Shared helpers of the shadow, ray-caster, scene-file and CLI tests: small procedural scenes built in
-// code, a holder that owns a Scene with its macrocell grid and ShadowMedium, an independent
+// code, a holder that owns a Scene with its macrocell grid and ShadowCasters, an independent
 // (double-precision) box clip for closed forms, and the sanitizer scale switch.
 #pragma once
 
@@ -12,11 +12,12 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "penumbra/accel/macrocell_grid.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/scene/scene_file.h"
-#include "penumbra/shadows/shadow_medium.h"
+#include "penumbra/shadows/shadow_casters.h"
 
 namespace penumbra::test {
 
@@ -52,11 +53,12 @@ inline nlohmann::json full_box_scene(int size, const nlohmann::json& tf, double 
   return volume_scene({{"name", "slab"}, {"size", size}, {"thickness", 2.0}}, tf, step);
 }
 
-// A scene together with what a ShadowMedium needs; pinned in memory (the medium points into it).
+// A scene together with what a ShadowCasters needs; pinned in memory (the medium points into it).
 struct MediumHolder {
   explicit MediumHolder(const nlohmann::json& j) : scene(build_scene(j, "")) {
     grid = std::make_unique<MacrocellGrid>(*scene.visible_volume()->volume);
-    medium = std::make_unique<ShadowMedium>(scene, *grid);
+    const std::vector<const MacrocellGrid*> grids{grid.get()};
+    medium = std::make_unique<ShadowCasters>(scene, grids);
   }
   MediumHolder(const MediumHolder&) = delete;
   MediumHolder& operator=(const MediumHolder&) = delete;
@@ -64,7 +66,7 @@ struct MediumHolder {
 
   Scene scene;
   std::unique_ptr<MacrocellGrid> grid;
-  std::unique_ptr<ShadowMedium> medium;
+  std::unique_ptr<ShadowCasters> medium;
 };
 
 // Length of the part of the ray o + t·d, t in [t0, t1], inside the axis-aligned box [lo, hi]³

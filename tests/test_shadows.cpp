@@ -33,7 +33,7 @@ Vec3 unit(float x, float y, float z) { return normalize(Vec3{x, y, z}); }
 // Query through the base class (the concrete classes' batched override hides the one-point overload).
 Rgb transmittance_at(const ShadowTechnique& t, const Vec3& p) { return t.transmittance(p); }
 
-std::unique_ptr<ShadowTechnique> build_technique(const ShadowSettings& s, const ShadowMedium& medium, const Light& light) {
+std::unique_ptr<ShadowTechnique> build_technique(const ShadowSettings& s, const ShadowCasters& medium, const Light& light) {
   auto t = make_shadow_technique(s);
   t->build(medium, light);
   return t;
@@ -655,8 +655,8 @@ TEST(ShadowsDeepShadowMap, SharedDepthSharesNodesAndEqualsPerChannelInGrey) {
 // 4. Classic shadow map.
 
 // Accumulated opacity 1 − Π(1 − α_i) from far towards the light down to p (the reference of the
-// binarised map), by ShadowMedium::march along the ray from p + to_light·far back to p.
-double accumulated_opacity(const ShadowMedium& medium, const Light& light, const Vec3& p, float far = 3.0f) {
+// binarised map), by ShadowCasters::march along the ray from p + to_light·far back to p.
+double accumulated_opacity(const ShadowCasters& medium, const Light& light, const Vec3& p, float far = 3.0f) {
   Vec3 to_light;
   float distance;
   light.towards(p, to_light, distance);

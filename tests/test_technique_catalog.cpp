@@ -24,28 +24,39 @@ namespace {
 using nlohmann::json;
 
 // Small scenes of each kind with a floor that receives shadows and a light from above at an angle.
-json base_scene(SceneKind kind) {
+// The floor only receives: every frame's shadows come from the technique under test.
+json base_scene(ObjectKind kind) {
   json j;
   j["camera"] = {{"width", 40}, {"height", 40}, {"direction", {1.0, 0.8, 1.2}}};
   j["lights"] = json::array({{{"type", "directional"}, {"direction", {-0.4, -1.0, -0.3}}}});
-  j["planes"] = json::array({{{"point", {0.0, -0.6, 0.0}}, {"normal", {0.0, 1.0, 0.0}}}});
+  j["planes"] = json::array({{{"point", {0.0, -0.6, 0.0}}, {"normal", {0.0, 1.0, 0.0}}, {"casts_shadows", false}}});
   switch (kind) {
-    case SceneKind::Volume:
+    case ObjectKind::Volume:
       // coloured, so that colour keys (bleeding, the deep map's layouts) show
       j["volumes"] = json::array({{{"procedural", {{"name", "test-spheres"}, {"size", 24}}},
                                    {"transfer_function",
                                     {{"points", {{0.0, 1.0, 0.3, 0.2, 0.0}, {0.3, 1.0, 0.3, 0.2, 0.08}, {1.0, 0.2, 0.5, 1.0, 0.6}}}}}}});
       j["light_cache"] = {{"resolution", 16}};
       break;
-    case SceneKind::Spheres:
+    case ObjectKind::Spheres:
       j["particles"] = json::array({{{"procedural", {{"name", "random-spheres"}, {"count", 300}, {"radius", 0.05}}}}});
       break;
-    case SceneKind::Isosurface:
+    case ObjectKind::Isosurface:
       j["volumes"] = json::array({{{"procedural", {{"name", "test-spheres"}, {"size", 24}}}, {"visible", false}}});
       j["isosurfaces"] = json::array({{{"value", 0.5}}});
       break;
+    case ObjectKind::Plane:
+      break;
   }
   return j;
+}
+
+// The kind of scene a technique is tested in: the first kind of caster it takes (volumes for the
+// techniques that take every kind; their other kinds are tested in test_mixed_scenes.cpp).
+ObjectKind primary_kind(const TechniqueInfo& t) {
+  for (ObjectKind k : {ObjectKind::Volume, ObjectKind::Spheres, ObjectKind::Isosurface})
+    if (t.casters & kind_bit(k)) return k;
+  return ObjectKind::Volume;
 }
 
 struct KeyChange {
@@ -117,10 +128,10 @@ void check_family(TechniqueFamily family) {
   }
   for (const auto& t : technique_catalog()) {
     if (t.family != family) continue;
-    SCOPED_TRACE(std::string(t.name) + " in a " + to_string(t.kind) + " scene");
+    SCOPED_TRACE(std::string(t.name) + " in a scene of " + to_string(primary_kind(t)));
     for (const auto& [key, change] : keys) {
       SCOPED_TRACE(section + "." + key);
-      json base = base_scene(t.kind);
+      json base = base_scene(primary_kind(t));
       base[section] = {{"technique", std::string(t.name)}};
       if (family == TechniqueFamily::Shadow) {
         base[section]["resolution"] = 64;
@@ -149,20 +160,20 @@ TEST(TechniqueCatalog, AmbientKeysAreReadExactlyWhereListed) { check_family(Tech
 TEST(TechniqueCatalog, LightCacheIsReadOnlyByExtinctionTechniques) {
   for (const char* technique : {"none", "shadow_map", "sat_cone"}) {
     SCOPED_TRACE(technique);
-    json base = base_scene(SceneKind::Volume);
+    json base = base_scene(ObjectKind::Volume);
     base["shadows"] = {{"technique", technique}, {"resolution", 64}};
     json changed = base;
     changed["light_cache"]["resolution"] = 8;
-    const bool read = find_technique(TechniqueFamily::Shadow, SceneKind::Volume, technique)->extinction_sat;
+    const bool read = find_technique(TechniqueFamily::Shadow, technique)->extinction_sat;
     EXPECT_EQ(notes_name(build_scene(changed, ""), "light_cache"), !read);
     EXPECT_EQ(render(base).pixels() != render(changed).pixels(), read);
   }
 }
 
-// Every name the reader accepts is in the catalogue once per kind, "none" first.
+// Every name the reader accepts is in the catalogue once, "none" first, for every kind of caster.
 TEST(TechniqueCatalog, NamesAreUniquePerKindAndNoneComesFirst) {
   for (auto family : {TechniqueFamily::Shadow, TechniqueFamily::Ambient})
-    for (auto kind : {SceneKind::Volume, SceneKind::Spheres, SceneKind::Isosurface}) {
+    for (auto kind : {ObjectKind::Volume, ObjectKind::Spheres, ObjectKind::Isosurface, ObjectKind::Plane}) {
       const auto names = technique_names(family, kind);
       ASSERT_FALSE(names.empty());
       EXPECT_EQ(names.front(), "none");

@@ -11,7 +11,7 @@
 #include <set>
 #include <vector>
 
-#include "penumbra/particles/ray_traced_spheres.h"
+#include "penumbra/shadows/ray_traced.h"
 #include "penumbra/particles/sphere_bvh.h"
 #include "penumbra/particles/sphere_hits.h"
 #include "penumbra/render/renderer.h"
@@ -126,20 +126,20 @@ TEST(SphereSoftShadows, RoundLightMatchesTheClosedForm) {
   set.spheres = {{{0, 1, 0}, 0.2f}};
   set.colors = {pack_rgba8(Rgb(0.8f))};
   SphereBvh bvh(set);
-  ParticleScene view;
-  view.particles = &set;
-  view.bvh = &bvh;
-  view.bounds = set.bounds();
+  ShadowCasters view(Scene{}, {});
+  view.set_spheres(CastingSpheres{&set, &bvh, set.bounds()});
   const float light_deg = 10;
   const int rays = 256;
   Light light;
   light.direction = {0, -1, 0};
-  RayTracedSphereShadows soft(light_deg, rays);
+  RayTracedShadows soft(light_deg, rays);
   soft.build(view, light);
   std::vector<SurfacePoint> pts;
   for (int i = 0; i <= 120; ++i) pts.push_back({{0.005f * static_cast<float>(i), 0, 0.0013f * static_cast<float>(i % 7)}, {0, 1, 0}, kNoSphere});
-  std::vector<float> got(pts.size());
-  soft.light_fraction(pts, got);
+  std::vector<Rgb> got_rgb(pts.size());
+  soft.transmittance(std::span<const SurfacePoint>(pts), std::span<Rgb>(got_rgb));
+  std::vector<float> got;
+  for (const Rgb& c : got_rgb) got.push_back(c.r);
   int umbra = 0, penumbra = 0, lit = 0;
   double signed_sum = 0, var_sum = 0;
   for (std::size_t i = 0; i < pts.size(); ++i) {

@@ -41,18 +41,22 @@ struct CacheBench {
   CacheBench(const Scene& s, int resolution) : scene(s) {
     const VolumeObject& v = *scene.visible_volume();
     grid = std::make_unique<MacrocellGrid>(*v.volume);
-    medium = std::make_unique<ShadowMedium>(scene, *grid);
+    // the visible volume casts with its macrocells; the scene's other volumes are not drawn
+    grids.assign(scene.volumes.size(), nullptr);
+    grids.at(static_cast<std::size_t>(&v - scene.volumes.data())) = grid.get();
+    medium = std::make_unique<ShadowCasters>(scene, grids);
     sat = std::make_unique<ExtinctionSat>(*v.volume, v.shadow_tf(), v.compositing, v.reference_step(), resolution, false);
     medium->attach_extinction_sat(sat.get());
   }
   const Scene& scene;
   std::unique_ptr<MacrocellGrid> grid;
-  std::unique_ptr<ShadowMedium> medium;
+  std::vector<const MacrocellGrid*> grids;  // per scene volume
+  std::unique_ptr<ShadowCasters> medium;
   std::unique_ptr<ExtinctionSat> sat;
 };
 
 // What Table 3's "1 shadow ray" column times: the light cache filled by one exact shadow ray per cell.
-void hard_ray_cache(const ShadowMedium& medium, const ExtinctionSat& sat, const Light& light) {
+void hard_ray_cache(const ShadowCasters& medium, const ExtinctionSat& sat, const Light& light) {
   const auto& d = sat.dims();
   std::vector<float> cache(sat.cell_count());
   parallel_for(static_cast<std::size_t>(d[2]) * d[1], [&](std::size_t r0, std::size_t r1) {

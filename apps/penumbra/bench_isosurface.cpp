@@ -17,8 +17,11 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/image_io.h"
+#include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/render/isosurface_frame.h"
+#include "penumbra/render/light_shadows.h"
+#include "penumbra/render/surface_frame.h"
 #include "penumbra/scene/scene_file.h"
 
 namespace penumbra::cli {
@@ -77,28 +80,59 @@ Camera framed(const Box3& box, const View& v, const Vec3& up, int size) {
 struct Run {
   double cull_ms = 0, shadow_ms = 0, render_ms = 0;
   std::size_t points = 0, light_points = 0, holes = 0;
-  SurfaceLayer layer;
-  std::vector<float> fraction;  // per receiver, the first light's
+  Image image;
+  VisibleSurfaces surfaces;     // the shaded points (isosurface and planes), in pixel order
+  std::vector<float> fraction;  // per receiver, the first light's transmittance
   double total() const { return cull_ms + shadow_ms + render_ms; }
 };
 
-// The fastest of `repeats` frames.
-Run run_frames(const Scene& scene, const Camera& camera, PreparedIsosurface& iso, int repeats) {
+// The fastest of `repeats` frames of the one isosurface `iso` (the scene's isosurface 0), as the
+// renderer draws them: the eye pass (cull), each light's shadows built and fitted to the frame's
+// receivers (shadow: paper 002 §4, the light pass answers only for the eye's points), then the
+// visible surfaces picked and shaded under those shadows (render).
+Run run_frames(const Scene& scene_in, const Camera& camera, PreparedIsosurface& iso, int repeats) {
+  Scene scene = scene_in;  // the volumes are shared, not copied
+  scene.isosurfaces = {*iso.object};
+  const std::vector<const MacrocellGrid*> no_grids(scene.volumes.size(), nullptr);  // the volume is not drawn
+  ShadowCasters casters(scene, no_grids);
+  casters.add_isosurface(iso.raycaster, *iso.tree, 0);
   Run best;
   for (int r = 0; r < repeats; ++r) {
-    std::vector<std::unique_ptr<IsoShadowTechnique>> shadows;
     IsosurfaceFrameStats stats;
     Run run;
-    PreparedIsosurface* isos[] = {&iso};
-    run.layer = render_isosurface_frame(scene, camera, isos, scene.lights, shadows, stats);
+    const IsoPoints eye = isosurface_eye_points(camera, iso, stats);
     run.cull_ms = stats.extract_ms;
-    run.shadow_ms = stats.shadow_ms;
-    run.render_ms = stats.shade_ms;
-    run.points = stats.points;
-    run.light_points = stats.light_points;
-    run.holes = stats.holes;
-    run.fraction.assign(run.layer.receivers.size(), 1.0f);
-    if (!shadows.empty()) shadows[0]->light_fraction(run.layer.receivers, run.fraction);
+    run.points = eye.size();
+    Timer shade;
+    const SurfaceInputs in{&scene, &camera, nullptr, {}, {}, nullptr, std::span<const IsoPoints>(&eye, 1)};
+    run.surfaces = visible_surfaces(in);
+    run.render_ms = shade.elapsed_ms();
+    Timer shadow_timer;
+    std::vector<std::unique_ptr<LightShadows>> shadows;
+    ShadowStats shadow_stats;
+    for (const Light& light : scene.lights) {
+      shadows.push_back(std::make_unique<LightShadows>(scene, casters, light));
+      shadows.back()->fit_to_receivers(run.surfaces.points, false);
+      shadows.back()->add_stats(shadow_stats);
+    }
+    run.shadow_ms = shadow_timer.elapsed_ms();
+    run.light_points = shadow_stats.light_points;
+    run.holes = shadow_stats.holes;
+    shade.reset();
+    std::vector<const LightShadows*> shadow_ptrs;
+    for (const auto& l : shadows) shadow_ptrs.push_back(l.get());
+    run.image = shade_surfaces(scene, camera, run.surfaces, scene.lights, shadow_ptrs, nullptr);
+    run.render_ms += shade.elapsed_ms();
+    // the first light's transmittance at every receiver, for the comparison (not timed)
+    const std::vector<SurfacePoint>& pts = run.surfaces.points;
+    run.fraction.assign(pts.size(), 1.0f);
+    if (!shadows.empty()) {
+      std::vector<Rgb> t(pts.size());
+      parallel_for(pts.size(), [&](std::size_t b, std::size_t e) {
+        shadows[0]->transmittance(std::span<const SurfacePoint>(pts).subspan(b, e - b), std::span<Rgb>(t).subspan(b, e - b));
+      }, 1024);
+      for (std::size_t i = 0; i < pts.size(); ++i) run.fraction[i] = t[i].max_component();
+    }
     if (r == 0 || run.total() < best.total()) best = std::move(run);
   }
   return best;
@@ -114,18 +148,18 @@ struct Agreement {
 
 Agreement compare(const Run& points, const Run& reference, const Light& light, float voxel) {
   Agreement a;
-  a.map = Image(points.layer.image.width(), points.layer.image.height(), Rgb(0.0f));
+  a.map = Image(points.image.width(), points.image.height(), Rgb(0.0f));
   std::unordered_map<std::uint32_t, std::size_t> ref;
-  for (std::size_t i = 0; i < reference.layer.receivers.size(); ++i) ref[reference.layer.receivers[i].pixel] = i;
+  for (std::size_t i = 0; i < reference.surfaces.points.size(); ++i) ref[reference.surfaces.pixel[i]] = i;
   std::size_t common = 0, facing = 0, differ = 0;
   std::vector<float> depth;
-  for (std::size_t i = 0; i < points.layer.receivers.size(); ++i) {
-    const IsoPoint& p = points.layer.receivers[i];
-    const auto it = ref.find(p.pixel);
+  for (std::size_t i = 0; i < points.surfaces.points.size(); ++i) {
+    const std::uint32_t pixel = points.surfaces.pixel[i];
+    const auto it = ref.find(pixel);
     if (it == ref.end()) continue;
     ++common;
-    const IsoPoint& q = reference.layer.receivers[it->second];
-    depth.push_back(std::abs(p.distance - q.distance) / voxel);
+    const SurfacePoint& q = reference.surfaces.points[it->second];
+    depth.push_back(std::abs(points.surfaces.distance[pixel] - reference.surfaces.distance[pixel]) / voxel);
     Vec3 to_light;
     float d;
     light.towards(q.position, to_light, d);
@@ -134,12 +168,12 @@ Agreement compare(const Run& points, const Run& reference, const Light& light, f
     const bool lit = points.fraction[i] > 0, lit_ref = reference.fraction[it->second] > 0;
     differ += lit != lit_ref;
     const int w = a.map.width();
-    a.map.at(static_cast<int>(p.pixel % static_cast<std::uint32_t>(w)), static_cast<int>(p.pixel / static_cast<std::uint32_t>(w))) =
+    a.map.at(static_cast<int>(pixel % static_cast<std::uint32_t>(w)), static_cast<int>(pixel / static_cast<std::uint32_t>(w))) =
         lit == lit_ref ? Rgb(lit ? 0.8f : 0.35f) : (lit_ref ? Rgb(1, 0.1f, 0.1f) : Rgb(0.2f, 0.4f, 1));
   }
   const double n = static_cast<double>(std::max<std::size_t>(ref.size(), 1));
   a.coverage = static_cast<double>(common) / n;
-  a.extra = static_cast<double>(points.layer.receivers.size() - common) / n;
+  a.extra = static_cast<double>(points.surfaces.points.size() - common) / n;
   if (!depth.empty()) {
     std::nth_element(depth.begin(), depth.begin() + static_cast<std::ptrdiff_t>(depth.size() / 2), depth.end());
     a.depth_voxels = depth[depth.size() / 2];
@@ -184,7 +218,10 @@ void bench_dataset(const IsosurfaceBenchOptions& o, const Dataset& d, std::ostri
   jd["grid_tree_bytes"] = tree->memory_bytes();
   jd["voxels"] = volume.voxel_count();
   for (const Isovalue& iso : d.isovalues) {
-    IsosurfaceObject points_obj{0, iso.value, IsosurfaceMethod::Points, {0.92f, 0.88f, 0.80f}, true};
+    IsosurfaceObject points_obj;  // volume 0, casts and receives shadows, collapse
+    points_obj.value = iso.value;
+    points_obj.method = IsosurfaceMethod::Points;
+    points_obj.color = {0.92f, 0.88f, 0.80f};
     IsosurfaceObject ray_obj = points_obj;
     ray_obj.method = IsosurfaceMethod::Raycast;
     IsosurfaceObject mesh_obj = points_obj;
@@ -209,18 +246,16 @@ void bench_dataset(const IsosurfaceBenchOptions& o, const Dataset& d, std::ostri
       if (o.mesh) {
         s.shadows.technique = "none";
         IsosurfaceFrameStats ms;
-        std::vector<std::unique_ptr<IsoShadowTechnique>> none;
-        PreparedIsosurface* isos[] = {&mesh};
-        render_isosurface_frame(s, cam, isos, s.lights, none, ms);
+        (void)isosurface_eye_points(cam, mesh, ms);  // marching cubes on the first view, then rasterisation
         if (ms.mesh_ms > 0) mc_ms = ms.mesh_ms;
         meshed.cull_ms = ms.extract_ms;
         meshed.points = ms.triangles;
       }
       const Agreement a = compare(shadowed, exact, s.lights[0], voxel);
       const std::string stem = o.dir + "/iso_" + d.name + "_" + iso.name + "_" + v.name;
-      write_image(stem + "_points.png", plain.layer.image);
-      write_image(stem + "_light_pass.png", shadowed.layer.image);
-      write_image(stem + "_ray_traced.png", exact.layer.image);
+      write_image(stem + "_points.png", plain.image);
+      write_image(stem + "_light_pass.png", shadowed.image);
+      write_image(stem + "_ray_traced.png", exact.image);
       write_image(stem + "_disagreement.png", a.map);
       for (const Run* r : {&plain, &shadowed}) {
         const bool sh = r == &shadowed;

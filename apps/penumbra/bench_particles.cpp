@@ -22,13 +22,13 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/particles/implicit_sphere_shadow_map.h"
-#include "penumbra/particles/ray_traced_spheres.h"
 #include "penumbra/particles/sphere_bvh.h"
 #include "penumbra/particles/sphere_hits.h"
-#include "penumbra/render/particle_frame.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/render/surface_frame.h"
 #include "penumbra/scene/demo_scenes.h"
 #include "penumbra/scene/scene_file.h"
+#include "penumbra/shadows/ray_traced.h"
 
 namespace penumbra::cli {
 namespace {
@@ -249,7 +249,10 @@ Disagreement shadow_disagreement(const Scene& scene, const ParticleSet& set, int
   const Camera& cam = scene.camera;
   const SphereHits hits = splat_spheres(set, cam);
   const Light& light = scene.lights.at(0);
-  const ParticleFrameInputs in{&scene, &cam, &set, &hits, std::span<const Light>(scene.lights), {}, nullptr};
+  // `set` as one segment of the frame's particle set: the scene's particle object 0
+  const std::uint32_t offsets[] = {0, static_cast<std::uint32_t>(set.size())};
+  const std::uint32_t objects[] = {0};
+  const SurfaceInputs in{&scene, &cam, &set, offsets, objects, &hits, {}};
   VisibleSurfaces vs = visible_surfaces(in);
   std::vector<SurfacePoint> pts;
   pts.reserve(vs.points.size());
@@ -259,28 +262,32 @@ Disagreement shadow_disagreement(const Scene& scene, const ParticleSet& set, int
     light.towards(p.position, to_light, distance);
     if (p.self != kNoSphere && dot(p.normal, to_light) > 0) pts.push_back(p);
   }
+  // the spheres alone cast, for the map and for the exact rays alike
   const SphereBvh bvh(set);
-  const ParticleScene ps{&set, &bvh, set.bounds()};
+  const std::vector<const MacrocellGrid*> no_grids(scene.volumes.size(), nullptr);
+  ShadowCasters all(scene, no_grids);
+  all.set_spheres(CastingSpheres{&set, &bvh, set.bounds()});
+  const ShadowCasters spheres = all.restricted_to(kind_bit(ObjectKind::Spheres));
   ImplicitSphereShadowMap issm(IssmParams{scene.shadows.resolution, rings, 0, 1, 10});
-  issm.build(ps, light);
-  RayTracedSphereShadows exact(0, 1);
-  exact.build(ps, light);
-  std::vector<float> ray(pts.size()), map1(pts.size()), map0(pts.size());
+  issm.build(spheres, light);
+  RayTracedShadows exact(0, 1);
+  exact.build(spheres, light);
+  std::vector<Rgb> ray(pts.size()), map1(pts.size()), map0(pts.size());
   parallel_for(pts.size(), [&](std::size_t b, std::size_t e) {
     const std::span<const SurfacePoint> p(pts.data() + b, e - b);
-    exact.light_fraction(p, std::span<float>(ray.data() + b, e - b));
-    issm.light_fraction(p, std::span<float>(map1.data() + b, e - b));
+    exact.transmittance(p, std::span<Rgb>(ray.data() + b, e - b));
+    issm.transmittance(p, std::span<Rgb>(map1.data() + b, e - b));
   }, 1024);
   issm.set_rings(0);
   parallel_for(pts.size(), [&](std::size_t b, std::size_t e) {
-    issm.light_fraction(std::span<const SurfacePoint>(pts.data() + b, e - b), std::span<float>(map0.data() + b, e - b));
+    issm.transmittance(std::span<const SurfacePoint>(pts.data() + b, e - b), std::span<Rgb>(map0.data() + b, e - b));
   }, 1024);
   Disagreement d;
   d.points = pts.size();
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    const bool lit = ray[i] >= 0.5f;
+    const bool lit = ray[i].r >= 0.5f;  // grey: spheres pass no light
     for (int k = 0; k < 2; ++k) {
-      const bool map_lit = (k == 0 ? map1[i] : map0[i]) >= 0.5f;
+      const bool map_lit = (k == 0 ? map1[i] : map0[i]).r >= 0.5f;
       if (map_lit && !lit) ++d.missed[k];
       if (!map_lit && lit) ++d.spurious[k];
     }

@@ -35,17 +35,19 @@ std::string frame_path(const std::string& output, int frame) {
 // paper 002 Fig. 2 (the eye pass's final visibility mask) and Fig. 6 (the view from the light).
 void write_isosurface_buffers(const std::string& dir, const Renderer& renderer, const Camera& camera) {
   write_image(dir + "/eye_visibility.png", coverage_image(renderer.isosurface_eye_points(), camera.width, camera.height));
-  const auto& shadows = renderer.isosurface_shadows();  // per light, one per isosurface
-  const std::size_t surfaces = renderer.isosurfaces().size();
-  for (std::size_t k = 0; k < shadows.size(); ++k) {
-    const auto* pass = dynamic_cast<const LightPass*>(shadows[k].get());
-    if (!pass) continue;
-    std::string stem = dir + "/light" + std::to_string(k / surfaces);
-    if (surfaces > 1) stem += "_iso" + std::to_string(k % surfaces);
-    write_image(stem + "_holes.png", visibility_image(pass->holes()));
-    write_image(stem + "_points.png",
-                distance_image(pass->light_points().points, pass->light_view().width, pass->light_view().height));
-  }
+  const auto& lights = renderer.light_shadows();
+  for (std::size_t l = 0; l < lights.size(); ++l)
+    for (const auto& technique : lights[l]->techniques()) {
+      const auto* pass = dynamic_cast<const LightPass*>(technique.get());  // the buffers only the light pass has
+      if (!pass) continue;
+      const auto& passes = pass->passes();
+      for (std::size_t k = 0; k < passes.size(); ++k) {
+        std::string stem = dir + "/light" + std::to_string(l);
+        if (passes.size() > 1) stem += "_iso" + std::to_string(k);
+        write_image(stem + "_holes.png", visibility_image(passes[k].holes));
+        write_image(stem + "_points.png", distance_image(passes[k].light_points.points, passes[k].view.width, passes[k].view.height));
+      }
+    }
 }
 
 void check_output_path(const std::string& output) {

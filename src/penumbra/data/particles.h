@@ -13,6 +13,9 @@
 
 namespace penumbra {
 
+// The index that names no sphere (background pixels, points on other surfaces).
+constexpr std::uint32_t kNoSphere = 0xffffffffu;
+
 struct Sphere {
   Vec3 center;
   float radius;

@@ -96,40 +96,53 @@ ViewProjection fit_light_view(const Light& light, std::span<const IsoPoint> rece
   return v;
 }
 
-void LightPass::build(const IsoShadowInputs& in, const Light& light) {
+void LightPass::build(const ShadowCasters& casters, const Light& light) {
+  casters_ = &casters;
+  light_ = light;
+  passes_.clear();
+}
+
+void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples) {
   Timer timer;
-  const Volume& volume = in.tree->volume();
   // Only receivers facing the light need an answer (the others get no light whatever lies in front of
   // them): the frustum is fitted to them and only they punch holes.
   std::vector<IsoPoint> facing;
-  facing.reserve(in.receivers.size());
-  for (const IsoPoint& p : in.receivers) {
+  facing.reserve(receivers.size());
+  for (const SurfacePoint& p : receivers) {
     Vec3 to_light;
     float distance;
-    light.towards(p.position, to_light, distance);
-    if (dot(p.normal, to_light) > 0) facing.push_back(p);
+    light_.towards(p.position, to_light, distance);
+    if (dot(p.normal, to_light) > 0) facing.push_back(IsoPoint{p.position, p.normal, 0, 0, p.error});
   }
-  view_ = fit_light_view(light, facing, volume.bounds(), settings_);
-  // §4.2: all non-visible, then one hole per receiver's light pixel.
-  holes_ = VisibilityBuffer(view_.width, view_.height, false);
-  for (const IsoPoint& p : facing) {
-    float px, py;
-    if (!view_.project(p.position, px, py)) continue;
-    const int x = static_cast<int>(std::floor(px)), y = static_cast<int>(std::floor(py));
-    if (x < 0 || y < 0 || x >= view_.width || y >= view_.height) continue;
-    holes_.set_visible(x, y);
-  }
-  hole_count_ = holes_.visible_count();
-  ExtractionOptions options;
-  options.collapse = false;  // §4.3: a far-subvolume point would shadow the receivers around it
-  options.normals = false;
-  options.start = &holes_;
-  light_points_ = extract_points(*in.tree, in.isovalue, view_, options);
-  depth_.assign(static_cast<std::size_t>(view_.width) * static_cast<std::size_t>(view_.height), kInfinity);
-  depth_error_.assign(depth_.size(), 0);
-  for (const IsoPoint& p : light_points_.points) {  // one point per pixel
-    depth_[p.pixel] = p.distance;
-    depth_error_[p.pixel] = p.error;
+  LightPassSettings settings = settings_;
+  if (volume_samples) settings.frustum = LightFrustum::Volume;
+  passes_.assign(casters_->isosurfaces().size(), IsosurfaceLightPass{});
+  for (std::size_t s = 0; s < passes_.size(); ++s) {
+    const CastingIsosurface& iso = casters_->isosurfaces()[s];
+    IsosurfaceLightPass& pass = passes_[s];
+    pass.view = fit_light_view(light_, facing, iso.bounds, settings);
+    // §4.2: all non-visible, then one hole per receiver's light pixel (every pixel for volume samples).
+    pass.holes = VisibilityBuffer(pass.view.width, pass.view.height, volume_samples);
+    if (!volume_samples)
+      for (const IsoPoint& p : facing) {
+        float px, py;
+        if (!pass.view.project(p.position, px, py)) continue;
+        const int x = static_cast<int>(std::floor(px)), y = static_cast<int>(std::floor(py));
+        if (x < 0 || y < 0 || x >= pass.view.width || y >= pass.view.height) continue;
+        pass.holes.set_visible(x, y);
+      }
+    pass.hole_count = pass.holes.visible_count();
+    ExtractionOptions options;
+    options.collapse = false;  // §4.3: a far-subvolume point would shadow the receivers around it
+    options.normals = false;
+    options.start = &pass.holes;
+    pass.light_points = extract_points(*iso.tree, iso.isovalue, pass.view, options);
+    pass.depth.assign(static_cast<std::size_t>(pass.view.width) * static_cast<std::size_t>(pass.view.height), kInfinity);
+    pass.depth_error.assign(pass.depth.size(), 0);
+    for (const IsoPoint& p : pass.light_points.points) {  // one point per pixel
+      pass.depth[p.pixel] = p.distance;
+      pass.depth_error[p.pixel] = p.error;
+    }
   }
   build_ms_ = timer.elapsed_ms();
 }
@@ -140,32 +153,54 @@ void LightPass::build(const IsoShadowInputs& in, const Light& light) {
 // tan(theta) — we allow a whole pixel (measured on the CT bone surfaces: 0.5 leaves 3 % of the lit
 // points in false shadow on the cranium, 1.0 0.3 %); and a point from a sub-pixel cell (or a collapsed node) is on the surface only to within
 // that cell, which each point carries as its `error`. The bias covers both.
-float LightPass::bias(float distance, float cos_theta, float error, float light_error) const {
+float LightPass::bias(const ViewProjection& view, float distance, float cos_theta, float error, float light_error) const {
   if (settings_.bias >= 0) return settings_.bias;
   const float c = std::max(std::abs(cos_theta), 0.1f);
   const float tan_theta = std::sqrt(std::max(0.0f, 1 - c * c)) / c;
-  return kErrorShare * (error + light_error) + view_.pixel_size(distance) * tan_theta;
+  return kErrorShare * (error + light_error) + view.pixel_size(distance) * tan_theta;
 }
 
-void LightPass::light_fraction(std::span<const IsoPoint> points, std::span<float> out) const {
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const IsoPoint& p = points[i];
-    out[i] = 1;
+float LightPass::light_at(const Vec3& position, float cos_theta, float error) const {
+  for (const IsosurfaceLightPass& pass : passes_) {
     float px, py;
-    if (!view_.project(p.position, px, py)) continue;
+    if (!pass.view.project(position, px, py)) continue;
     const int x = static_cast<int>(std::floor(px)), y = static_cast<int>(std::floor(py));
-    if (x < 0 || y < 0 || x >= view_.width || y >= view_.height) continue;
-    const std::size_t k = static_cast<std::size_t>(y) * static_cast<std::size_t>(view_.width) + static_cast<std::size_t>(x);
-    if (depth_[k] == kInfinity) continue;
-    const float d = view_.distance(p.position);
-    const Vec3 to_light = view_.orthographic ? view_.frame.w : normalize(view_.eye - p.position);
-    if (d > depth_[k] + bias(d, dot(p.normal, to_light), p.error, depth_error_[k])) out[i] = 0;
+    if (x < 0 || y < 0 || x >= pass.view.width || y >= pass.view.height) continue;
+    const std::size_t k = static_cast<std::size_t>(y) * static_cast<std::size_t>(pass.view.width) + static_cast<std::size_t>(x);
+    if (pass.depth[k] == kInfinity) continue;
+    const float d = pass.view.distance(position);
+    if (d > pass.depth[k] + bias(pass.view, d, cos_theta, error, pass.depth_error[k])) return 0;
+  }
+  return 1;
+}
+
+void LightPass::transmittance(std::span<const Vec3> points, std::span<Rgb> out) const {
+  for (std::size_t i = 0; i < points.size(); ++i) out[i] = Rgb(light_at(points[i], 1, 0));
+}
+
+void LightPass::transmittance(std::span<const SurfacePoint> points, std::span<Rgb> out) const {
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const SurfacePoint& p = points[i];
+    Vec3 to_light;
+    float distance;
+    light_.towards(p.position, to_light, distance);
+    out[i] = Rgb(light_at(p.position, dot(p.normal, to_light), p.error));
+  }
+}
+
+void LightPass::add_stats(ShadowStats& stats) const {
+  for (const IsosurfaceLightPass& pass : passes_) {
+    stats.light_points += pass.light_points.points.size();
+    stats.holes += pass.hole_count;
   }
 }
 
 std::size_t LightPass::memory_bytes() const {
-  return depth_.size() * sizeof(float) + light_points_.points.size() * sizeof(IsoPoint) +
-         static_cast<std::size_t>(view_.width) * static_cast<std::size_t>(view_.height) / 8;
+  std::size_t bytes = 0;
+  for (const IsosurfaceLightPass& pass : passes_)
+    bytes += pass.depth.size() * 2 * sizeof(float) + pass.light_points.points.size() * sizeof(IsoPoint) +
+             static_cast<std::size_t>(pass.view.width) * static_cast<std::size_t>(pass.view.height) / 8;
+  return bytes;
 }
 
 }  // namespace penumbra

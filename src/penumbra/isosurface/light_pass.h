@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "penumbra/isosurface/iso_shadow_technique.h"
 #include "penumbra/isosurface/point_extraction.h"
+#include "penumbra/shadows/shadow_technique.h"
 #include "penumbra/isosurface/view_projection.h"
 #include "penumbra/isosurface/visibility_buffer.h"
 
@@ -40,31 +40,48 @@ struct LightPassSettings {
 ViewProjection fit_light_view(const Light& light, std::span<const IsoPoint> receivers, const Box3& volume_box,
                               const LightPassSettings& settings);
 
-class LightPass final : public IsoShadowTechnique {
+// One isosurface seen from one light for one frame's receivers: the light pass proper.
+struct IsosurfaceLightPass {
+  ViewProjection view;
+  VisibilityBuffer holes;        // the buffer the light pass started from
+  Extraction light_points;
+  std::vector<float> depth;        // per light pixel: nearest light distance found; infinity: none
+  std::vector<float> depth_error;  // per light pixel: that point's position error
+  std::size_t hole_count = 0;
+};
+
+// Takes isosurfaces only (the catalogue): one light pass per isosurface, a receiver's light the
+// product of theirs. When volume samples receive too (a visible volume in the scene), every light pixel
+// is open and the frustum is the isosurface's volume box: the pass can no longer be limited to the
+// eye's points, since any sample of the volume may ask.
+class LightPass final : public ShadowTechnique {
 public:
+  using ShadowTechnique::transmittance;
   explicit LightPass(LightPassSettings settings) : settings_(settings) {}
-  void build(const IsoShadowInputs& in, const Light& light) override;
-  void light_fraction(std::span<const IsoPoint> points, std::span<float> out) const override;
+  void build(const ShadowCasters& casters, const Light& light) override;
+  void fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples) override;
+  bool view_dependent() const override { return true; }
+  void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
+  void transmittance(std::span<const SurfacePoint> points, std::span<Rgb> out) const override;
+  Vec3 surface_receiver(const Vec3& p, const Vec3&) const override { return p; }  // the bias is applied per query
+  void add_stats(ShadowStats& stats) const override;
   std::size_t memory_bytes() const override;
   std::string_view name() const override { return "light_pass"; }
 
-  const ViewProjection& light_view() const { return view_; }
-  const VisibilityBuffer& holes() const { return holes_; }  // the buffer the light pass started from
-  const Extraction& light_points() const { return light_points_; }
-  std::size_t hole_count() const { return hole_count_; }
+  const std::vector<IsosurfaceLightPass>& passes() const { return passes_; }  // one per isosurface
   double build_ms() const { return build_ms_; }
   // The bias for a receiver at light distance d, placed to within `error` of the surface, whose normal
   // makes cos_theta with the light direction, against a light point placed to within `light_error`.
-  float bias(float distance, float cos_theta, float error, float light_error) const;
+  float bias(const ViewProjection& view, float distance, float cos_theta, float error, float light_error) const;
 
 private:
+  // 1 when lit, 0 when an isosurface is in front (cos_theta: the receiver's normal against the light).
+  float light_at(const Vec3& p, float cos_theta, float error) const;
+
   LightPassSettings settings_;
-  ViewProjection view_;
-  VisibilityBuffer holes_;
-  Extraction light_points_;
-  std::vector<float> depth_;  // per light pixel: nearest light distance found; infinity: none
-  std::vector<float> depth_error_;  // per light pixel: that point's position error
-  std::size_t hole_count_ = 0;
+  const ShadowCasters* casters_ = nullptr;
+  Light light_;
+  std::vector<IsosurfaceLightPass> passes_;
   double build_ms_ = 0;
 };
 

@@ -7,10 +7,11 @@
 
 namespace penumbra {
 
-void ImplicitSphereShadowMap::build(const ParticleScene& scene, const Light& light) {
-  particles_ = scene.particles;
+void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& light) {
+  static const ParticleSet kNoSpheres;
+  particles_ = casters.spheres().set ? casters.spheres().set : &kNoSpheres;
   light_ = light;
-  projection_ = LightProjection::fit(light, scene.bounds);
+  projection_ = LightProjection::fit(light, casters.spheres().set ? casters.spheres().bounds : casters.bounds());
   const int n = params_.resolution;
   const float fn = static_cast<float>(n);
   // the smallest texel of the map: at the near side for a perspective light
@@ -78,12 +79,12 @@ void ImplicitSphereShadowMap::build(const ParticleScene& scene, const Light& lig
       });
 }
 
-float ImplicitSphereShadowMap::light_at(const SurfacePoint& p) const {
+float ImplicitSphereShadowMap::light_at(const Vec3& position, std::uint32_t self) const {
   float u, v, depth;
-  if (!projection_.project(p.position, u, v, depth)) return 1.0f;  // outside the map: nothing casts
+  if (!projection_.project(position, u, v, depth)) return 1.0f;  // outside the map: nothing casts
   Vec3 to_light;
   float light_distance;
-  light_.towards(p.position, to_light, light_distance);
+  light_.towards(position, to_light, light_distance);
   const int n = params_.resolution;
   const int ci = std::min(n - 1, static_cast<int>(u * static_cast<float>(n)));
   const int cj = std::min(n - 1, static_cast<int>(v * static_cast<float>(n)));
@@ -93,11 +94,11 @@ float ImplicitSphereShadowMap::light_at(const SurfacePoint& p) const {
   for (int j = std::max(0, cj - t); j <= std::min(n - 1, cj + t); ++j) {
     for (int i = std::max(0, ci - t); i <= std::min(n - 1, ci + t); ++i) {
       const std::uint32_t id = texel(i, j);
-      if (id == kNoSphere || id == p.self) continue;
+      if (id == kNoSphere || id == self) continue;
       const Sphere& s = particles_->spheres[id];
       // Fig. 4: k is the distance along the shadow ray to the plane through the centre normal to it,
       // d the distance from that point to the centre, s' = d − r the ray's clearance of the surface.
-      const Vec3 oc = s.center - p.position;
+      const Vec3 oc = s.center - position;
       const float k = dot(oc, to_light);
       if (k <= 0 || k >= light_distance) continue;  // behind the receiver or beyond the light
       const float d = std::sqrt(std::max(dot(oc, oc) - k * k, 0.0f));
@@ -114,8 +115,40 @@ float ImplicitSphereShadowMap::light_at(const SurfacePoint& p) const {
   return light;
 }
 
-void ImplicitSphereShadowMap::light_fraction(std::span<const SurfacePoint> points, std::span<float> out) const {
-  for (std::size_t i = 0; i < points.size(); ++i) out[i] = light_at(points[i]);
+void ImplicitSphereShadowMap::transmittance(std::span<const Vec3> points, std::span<Rgb> out) const {
+  for (std::size_t i = 0; i < points.size(); ++i) out[i] = Rgb(light_at(points[i], kNoSphere));
+}
+
+void ImplicitSphereShadowMap::transmittance(std::span<const SurfacePoint> points, std::span<Rgb> out) const {
+  for (std::size_t i = 0; i < points.size(); ++i)
+    out[i] = Rgb(light_at(points[i].position, points[i].self));
+}
+
+void ImplicitSphereShadowMap::fit_to_receivers(std::span<const SurfacePoint> receivers, bool) {
+  if (automatic_rings_) choose_rings(receivers);
+}
+
+int ImplicitSphereShadowMap::choose_rings(std::span<const SurfacePoint> points, int max_rings, double max_changed) {
+  std::vector<Rgb> previous(points.size()), current(points.size());
+  auto evaluate = [&](std::vector<Rgb>& out) {
+    parallel_for(points.size(), [&](std::size_t b, std::size_t e) {
+      transmittance(points.subspan(b, e - b), std::span<Rgb>(out.data() + b, e - b));
+    }, 4096);
+  };
+  set_rings(0);
+  evaluate(previous);
+  for (int t = 1; t <= max_rings; ++t) {
+    set_rings(t);
+    evaluate(current);
+    std::size_t changed = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) changed += std::abs(current[i].r - previous[i].r) > 1.0f / 255.0f;
+    if (static_cast<double>(changed) <= max_changed * static_cast<double>(points.size())) {
+      set_rings(t - 1);  // t − 1 rings already gave this image
+      return t - 1;
+    }
+    previous.swap(current);
+  }
+  return max_rings;
 }
 
 }  // namespace penumbra

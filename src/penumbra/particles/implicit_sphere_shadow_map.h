@@ -21,7 +21,7 @@
 #include <algorithm>
 #include <vector>
 
-#include "penumbra/particles/sphere_shadow_technique.h"
+#include "penumbra/shadows/shadow_technique.h"
 #include "penumbra/scene/light_projection.h"
 
 namespace penumbra {
@@ -36,11 +36,21 @@ struct IssmParams {
   float soft_distance;  // b: occluder distance (world units) of full softness
 };
 
-class ImplicitSphereShadowMap final : public SphereShadowTechnique {
+// Takes spheres only (the catalogue); any point can receive: a volume sample or a point on a plane or
+// an isosurface is shadowed by the spheres it looks past, a point on a sphere by every other sphere.
+class ImplicitSphereShadowMap final : public ShadowTechnique {
 public:
-  explicit ImplicitSphereShadowMap(const IssmParams& params) : params_(params) {}
-  void build(const ParticleScene& scene, const Light& light) override;
-  void light_fraction(std::span<const SurfacePoint> points, std::span<float> out) const override;
+  using ShadowTechnique::transmittance;
+  // params.rings < 0: automatic (§4), chosen every frame for its receivers.
+  explicit ImplicitSphereShadowMap(const IssmParams& params) : params_(params), automatic_rings_(params.rings < 0) {
+    if (automatic_rings_) params_.rings = 0;
+  }
+  void build(const ShadowCasters& casters, const Light& light) override;
+  void fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples) override;
+  void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
+  void transmittance(std::span<const SurfacePoint> points, std::span<Rgb> out) const override;
+  Vec3 surface_receiver(const Vec3& p, const Vec3&) const override { return p; }  // self by identity
+  void add_stats(ShadowStats& stats) const override { stats.issm_rings = rings(); }
   std::size_t memory_bytes() const override { return map_.capacity() * sizeof(std::uint32_t); }
   std::string_view name() const override { return "issm"; }
 
@@ -53,10 +63,17 @@ public:
   std::uint32_t texel(int i, int j) const { return map_[static_cast<std::size_t>(j) * static_cast<std::size_t>(params_.resolution) + static_cast<std::size_t>(i)]; }
   int resolution() const { return params_.resolution; }
 
+  // The automatic choice of t (paper 003 §4): t grows from 0 until the light fractions of `points`
+  // stop changing — at most `max_changed` of them change by more than 1/255 — or t reaches max_rings.
+  // Leaves the map at the chosen t and returns it.
+  int choose_rings(std::span<const SurfacePoint> points, int max_rings = 8, double max_changed = 1e-4);
+
 private:
-  float light_at(const SurfacePoint& p) const;
+  // `self`: the receiver's sphere, kNoSphere for points on anything else.
+  float light_at(const Vec3& p, std::uint32_t self) const;
 
   IssmParams params_;
+  bool automatic_rings_;
   const ParticleSet* particles_ = nullptr;
   Light light_;
   LightProjection projection_;

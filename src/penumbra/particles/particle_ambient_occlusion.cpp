@@ -8,10 +8,11 @@
 
 namespace penumbra {
 
-void ParticleAmbientOcclusion::build(const ParticleScene& scene) {
-  const ParticleSet& ps = *scene.particles;
-  particles_ = scene.particles;
-  Box3 b = scene.bounds;
+void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
+  static const ParticleSet kNoSpheres;
+  particles_ = occluders.spheres().set ? occluders.spheres().set : &kNoSpheres;
+  const ParticleSet& ps = *particles_;
+  Box3 b = occluders.spheres().set ? occluders.spheres().bounds : occluders.bounds();
   if (b.empty()) b = Box3{{-1, -1, -1}, {1, 1, 1}};
   const Vec3 e = b.extent();
   const float longest = std::max(e.x, std::max(e.y, e.z));
@@ -231,17 +232,26 @@ float ParticleAmbientOcclusion::sphere_cone(std::uint32_t sphere, std::size_t co
   return static_cast<float>(q) * (1.0f / 255.0f);
 }
 
-void ParticleAmbientOcclusion::ambient(std::span<const SurfacePoint> points, std::span<float> out) const {
+void ParticleAmbientOcclusion::ambient(std::span<const SurfacePoint> points, std::span<Rgb> out) const {
   for (std::size_t i = 0; i < points.size(); ++i) {
     const SurfacePoint& p = points[i];
+    const bool own_sphere = p.self < particles_->size();
     float sum = 0, weights = 0;
     for (std::size_t c = 0; c < cone_dirs_.size(); ++c) {
       const float w = dot(p.normal, cone_dirs_[c]);  // cosine weight over the normal's hemisphere
       if (w <= 0) continue;
-      sum += w * (p.self != kNoSphere ? sphere_cone(p.self, c) : occlusion(p.position, cone_dirs_[c], 0));
+      sum += w * (own_sphere ? sphere_cone(p.self, c) : occlusion(p.position, cone_dirs_[c], 0));
       weights += w;
     }
-    out[i] = weights > 0 ? 1.0f - sum / weights : 1.0f;
+    out[i] = Rgb(weights > 0 ? 1.0f - sum / weights : 1.0f);
+  }
+}
+
+void ParticleAmbientOcclusion::ambient(std::span<const Vec3> points, std::span<Rgb> out) const {
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    float sum = 0;
+    for (const Vec3& d : cone_dirs_) sum += occlusion(points[i], d, 0);
+    out[i] = Rgb(cone_dirs_.empty() ? 1.0f : 1.0f - sum / static_cast<float>(cone_dirs_.size()));
   }
 }
 

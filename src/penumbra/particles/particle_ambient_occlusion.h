@@ -26,16 +26,19 @@
 
 #include "penumbra/core/math.h"
 #include "penumbra/scene/scene.h"
-#include "penumbra/particles/sphere_shadow_technique.h"
+#include "penumbra/shadows/ambient_technique.h"
 
 namespace penumbra {
 
-class ParticleAmbientOcclusion final : public ParticleAmbientTechnique {
+// Only the occluders' spheres enter the density volume; a volume sample (no normal) averages the cones
+// of the whole sphere of directions.
+class ParticleAmbientOcclusion final : public AmbientTechnique {
 public:
   explicit ParticleAmbientOcclusion(const AmbientSettings& s)
       : directions_(s.directions), max_distance_fraction_(s.max_distance), grid_(s.grid) {}
-  void build(const ParticleScene& scene) override;
-  void ambient(std::span<const SurfacePoint> points, std::span<float> out) const override;
+  void build(const ShadowCasters& occluders) override;
+  void ambient(std::span<const Vec3> points, std::span<Rgb> out) const override;
+  void ambient(std::span<const SurfacePoint> points, std::span<Rgb> out) const override;
   std::size_t memory_bytes() const override;
   std::string_view name() const override { return "particle_ao"; }
 

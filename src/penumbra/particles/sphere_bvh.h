@@ -15,7 +15,6 @@
 
 namespace penumbra {
 
-constexpr std::uint32_t kNoSphere = std::numeric_limits<std::uint32_t>::max();
 
 struct SphereHit {
   float t = kInfinity;

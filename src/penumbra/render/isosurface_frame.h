@@ -1,10 +1,7 @@
-// A frame of an isosurface scene (paper 002): the eye pass finds the visible surface points — by
-// view-dependent point extraction (`points`), by ray casting (`raycast`, the exact reference) or by
-// rasterising the marching-cubes mesh (`mesh`, the baseline) — planes nearer than the isosurface take
-// their pixels, and every point is shaded with Blinn–Phong under each light, the light's direct term
-// scaled by its IsoShadowTechnique (built for this frame's points: the light pass is view-dependent).
-// The result carries each pixel's distance, so that a volume can be composited in front of it
-// (render_volume_frame's OpaqueLayer).
+// The eye pass of an isosurface (paper 002): its visible surface points — by view-dependent point
+// extraction (`points`), by ray casting (`raycast`, the exact reference) or by rasterising the
+// marching-cubes mesh (`mesh`, the baseline). The frame (surface_frame.h) then takes per pixel the
+// nearest of these points, the spheres and the planes, and shades them.
 #pragma once
 
 #include <memory>
@@ -13,7 +10,6 @@
 
 #include "penumbra/core/image.h"
 #include "penumbra/isosurface/grid_tree.h"
-#include "penumbra/isosurface/iso_shadow_technique.h"
 #include "penumbra/isosurface/isosurface_raycaster.h"
 #include "penumbra/isosurface/marching_cubes.h"
 #include "penumbra/isosurface/point_extraction.h"
@@ -51,20 +47,6 @@ struct IsosurfaceFrameStats {
     extraction.add(o.extraction);
   }
 };
-
-struct SurfaceLayer {
-  Image image;
-  std::vector<float> distance;  // per pixel; infinity: background
-  IsoPoints receivers;          // the shaded points (isosurface and planes), in pixel order
-  IsoPoints eye_points;         // the isosurfaces' eye passes, as extracted
-};
-
-// `shadows` receives, for each light in turn, one technique per isosurface, built for this frame
-// (kept for inspection).
-SurfaceLayer render_isosurface_frame(const Scene& scene, const Camera& camera, std::span<PreparedIsosurface* const> isos,
-                                     std::span<const Light> lights,
-                                     std::vector<std::unique_ptr<IsoShadowTechnique>>& shadows,
-                                     IsosurfaceFrameStats& stats);
 
 // The eye pass alone: the isosurface's visible points for `camera` by the object's method.
 IsoPoints isosurface_eye_points(const Camera& camera, PreparedIsosurface& iso, IsosurfaceFrameStats& stats);

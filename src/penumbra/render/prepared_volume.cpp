@@ -37,11 +37,11 @@ std::vector<std::array<std::int8_t, 4>> gradient_volume(const Volume& vol, float
 
 }  // namespace
 
-PreparedVolume::PreparedVolume(const VolumeObject& o)
+PreparedVolume::PreparedVolume(const VolumeObject& o, float step_world)
     : object(&o),
       volume(o.volume.get()),
-      step(o.step_world()),
-      lut(o.transfer_function, o.volume->min_value(), o.volume->max_value(), o.step, 4096, o.compositing),
+      step(step_world),
+      lut(o.transfer_function, o.volume->min_value(), o.volume->max_value(), step_world / o.reference_step(), 4096, o.compositing),
       grid(*o.volume),
       empty(grid.empty_cells(lut)),
       gradients(gradient_volume(*o.volume, o.reference_step() /

@@ -21,7 +21,9 @@ namespace penumbra {
 constexpr float kFullShadingGradient = 0.03f;
 
 struct PreparedVolume {
-  explicit PreparedVolume(const VolumeObject& object);
+  // `step_world`: the eye's sampling step (the object's own; the finest of them where volumes overlap).
+  explicit PreparedVolume(const VolumeObject& o) : PreparedVolume(o, o.step_world()) {}
+  PreparedVolume(const VolumeObject& o, float step_world);
 
   // Interpolated gradient direction (world space, not normalised) and shading weight in [0, 1] at
   // continuous voxel coordinates v (inside the grid).

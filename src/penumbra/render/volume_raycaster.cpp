@@ -21,6 +21,7 @@ struct SampleBatch {
   std::array<float, kBatch> shaded;   // 0..1: how much of Blinn–Phong applies (gradient strength)
   std::array<Rgb, kBatch> color;      // transfer-function colour
   std::array<float, kBatch> weight;   // (1 − A)·α
+  std::array<bool, kBatch> receives;  // the sample's volume receives shadows
   std::size_t size = 0;
 };
 
@@ -48,7 +49,7 @@ struct Shader {
         Vec3 to_light;
         float distance;
         light.towards(b.position[i], to_light, distance);
-        const Rgb e = light.emitted(to_light) * T[i];
+        const Rgb e = light.emitted(to_light) * (b.receives[i] ? T[i] : Rgb(1.0f));
         const float ndotl = dot(b.normal[i], to_light);
         const float diffuse = (1 - b.shaded[i]) + b.shaded[i] * std::max(ndotl, 0.0f);
         float spec = 0;
@@ -64,80 +65,126 @@ struct Shader {
     b.size = 0;
   }
 
-  Rgb shade_plane(const Plane& plane, const Vec3& p) const {
-    const Vec3 n = dot(plane.normal, view) >= 0 ? plane.normal : -plane.normal;
-    Rgb lit = plane.color * k.ambient;
-    if (in.ambient) lit *= in.ambient->ambient(p);
-    for (std::size_t l = 0; l < in.lights.size(); ++l) {
-      Vec3 to_light;
-      float distance;
-      in.lights[l].towards(p, to_light, distance);
-      const float ndotl = dot(n, to_light);
-      if (ndotl <= 0) continue;
-      const Rgb T = in.shadows[l]->transmittance(in.shadows[l]->surface_receiver(p, n));
-      lit += in.lights[l].emitted(to_light) * T * plane.color * (k.diffuse * ndotl);
-    }
-    return lit;
+  // Queues a classified sample of `pv` at p (voxel coordinates v) with compositing weight w.
+  void add(SampleBatch& batch, Rgb& color, const PreparedVolume& pv, const Vec3& p, const Vec3& v, const Rgb& rgb, float w) const {
+    Vec3 g;
+    float shaded;
+    pv.normal_at(v, g, shaded);
+    const float g_len = length(g);
+    const std::size_t i = batch.size++;
+    batch.position[i] = p;
+    batch.normal[i] = g_len > 0 ? (dot(g, view) >= 0 ? g / g_len : -g / g_len) : view;
+    batch.shaded[i] = g_len > 0 ? shaded : 0.0f;
+    batch.color[i] = rgb;
+    batch.weight[i] = w;
+    batch.receives[i] = pv.object->receives_shadows;
+    if (batch.size == kBatch) flush(batch, color);
   }
 };
 
-Rgb trace(const RayCastInputs& in, const Shader& shader, const Ray& ray, float jitter, SampleBatch& batch, int x, int y) {
-  float t_surface = kInfinity;
-  const Plane* plane = nullptr;
-  if (in.opaque) {
-    t_surface = (*in.opaque->distance)[static_cast<std::size_t>(y) * static_cast<std::size_t>(in.camera->width) + static_cast<std::size_t>(x)];
-  } else {
-    plane = nearest_plane(in.scene->planes, ray, t_surface);
-  }
-  Rgb color(0.0f);
+// One volume: the lattice walk with macrocell skipping.
+float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, float jitter, float t_surface,
+                SampleBatch& batch, Rgb& color) {
   float opacity = 0;
-  if (const PreparedVolume* pv = in.volume) {
-    float t0, t1;
-    if (pv->volume->bounds().clip(ray, t0, t1, 0, t_surface)) {
-      const Volume& vol = *pv->volume;
-      const float dt = pv->step;
-      const EmptySpaceSkipper skipper(vol, pv->grid, pv->empty);
-      std::size_t last_cell = SIZE_MAX;
-      // sample k sits at t = (k + jitter)·Δ; integer indices, so t advances however far the volume is
-      for (auto k = static_cast<std::int64_t>(std::ceil(t0 / dt - jitter));; ++k) {
-        const float t = (static_cast<float>(k) + jitter) * dt;
-        if (t > t1) break;
-        const Vec3 p = ray.at(t);
-        const Vec3 v = vol.to_voxel(p);
-        const std::size_t cell = skipper.cell_of(v);
-        if (cell != last_cell) {
-          last_cell = cell;
-          if (skipper.empty(cell)) {  // continue with the first lattice sample past the cell
-            const float exit = skipper.cell_exit(ray, t, v);
-            k = std::max(k, static_cast<std::int64_t>(std::ceil(exit / dt - jitter)) - 1);
-            last_cell = SIZE_MAX;
-            continue;
-          }
-        }
-        const Rgba s = pv->lut.lookup(vol.sample_voxel(v));
-        if (s.a <= 0) continue;
-        const float w = (1 - opacity) * s.a;
-        opacity += w;
-        Vec3 g;
-        float shaded;
-        pv->normal_at(v, g, shaded);
-        const float g_len = length(g);
-        const std::size_t i = batch.size++;
-        batch.position[i] = p;
-        batch.normal[i] = g_len > 0 ? (dot(g, shader.view) >= 0 ? g / g_len : -g / g_len) : shader.view;
-        batch.shaded[i] = g_len > 0 ? shaded : 0.0f;
-        batch.color[i] = s.rgb;
-        batch.weight[i] = w;
-        if (batch.size == kBatch) shader.flush(batch, color);
-        if (opacity >= kEarlyTermination) break;
+  float t0, t1;
+  if (!pv.volume->bounds().clip(ray, t0, t1, 0, t_surface)) return opacity;
+  const Volume& vol = *pv.volume;
+  const float dt = pv.step;
+  const EmptySpaceSkipper skipper(vol, pv.grid, pv.empty);
+  std::size_t last_cell = SIZE_MAX;
+  // sample k sits at t = (k + jitter)·Δ; integer indices, so t advances however far the volume is
+  for (auto k = static_cast<std::int64_t>(std::ceil(t0 / dt - jitter));; ++k) {
+    const float t = (static_cast<float>(k) + jitter) * dt;
+    if (t > t1) break;
+    const Vec3 p = ray.at(t);
+    const Vec3 v = vol.to_voxel(p);
+    const std::size_t cell = skipper.cell_of(v);
+    if (cell != last_cell) {
+      last_cell = cell;
+      if (skipper.empty(cell)) {  // continue with the first lattice sample past the cell
+        const float exit = skipper.cell_exit(ray, t, v);
+        k = std::max(k, static_cast<std::int64_t>(std::ceil(exit / dt - jitter)) - 1);
+        last_cell = SIZE_MAX;
+        continue;
       }
-      shader.flush(batch, color);
+    }
+    const Rgba s = pv.lut.lookup(vol.sample_voxel(v));
+    if (s.a <= 0) continue;
+    const float w = (1 - opacity) * s.a;
+    opacity += w;
+    shader.add(batch, color, pv, p, v, s.rgb, w);
+    if (opacity >= kEarlyTermination) break;
+  }
+  shader.flush(batch, color);
+  return opacity;
+}
+
+// Several volumes on one lattice: every volume that holds a sample classifies it; space is skipped
+// only where every volume is empty (or absent).
+float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& shader, const Ray& ray, float jitter,
+                 float t_surface, SampleBatch& batch, Rgb& color) {
+  float opacity = 0;
+  float t0 = kInfinity, t1 = -kInfinity;
+  for (const PreparedVolume* pv : volumes) {
+    float a, b;
+    if (pv->volume->bounds().clip(ray, a, b, 0, t_surface)) {
+      t0 = std::min(t0, a);
+      t1 = std::max(t1, b);
     }
   }
-  const Rgb behind = in.opaque ? in.opaque->color->at(x, y)
-                     : plane   ? shader.shade_plane(*plane, ray.at(t_surface))
-                               : in.scene->background;
-  return color + behind * (1 - opacity);
+  if (!(t0 <= t1)) return opacity;
+  const float dt = volumes.front()->step;  // the renderer gives every volume the same step
+  constexpr std::size_t kMaxOverlap = 8;
+  std::array<Rgba, kMaxOverlap> sample;
+  std::array<Vec3, kMaxOverlap> voxel;
+  std::array<const PreparedVolume*, kMaxOverlap> holder;
+  for (auto k = static_cast<std::int64_t>(std::ceil(t0 / dt - jitter));; ++k) {
+    const float t = (static_cast<float>(k) + jitter) * dt;
+    if (t > t1) break;
+    const Vec3 p = ray.at(t);
+    std::size_t n = 0;
+    float skip_to = kInfinity;
+    bool occupied = false;
+    for (const PreparedVolume* pv : volumes) {
+      float a0, a1;
+      if (!pv->volume->bounds().clip(ray, a0, a1, t, t1)) continue;
+      if (a0 > t) {
+        skip_to = std::min(skip_to, a0);
+        continue;
+      }
+      const Vec3 v = pv->volume->to_voxel(p);
+      const EmptySpaceSkipper skipper(*pv->volume, pv->grid, pv->empty);
+      const std::size_t cell = skipper.cell_of(v);
+      if (skipper.empty(cell)) {
+        skip_to = std::min(skip_to, skipper.cell_exit(ray, t, v));
+        continue;
+      }
+      occupied = true;
+      const Rgba s = pv->lut.lookup(pv->volume->sample_voxel(v));
+      if (s.a <= 0 || n == kMaxOverlap) continue;
+      sample[n] = s;
+      voxel[n] = v;
+      holder[n] = pv;
+      ++n;
+    }
+    if (!occupied) {
+      if (skip_to == kInfinity) break;
+      k = std::max(k, static_cast<std::int64_t>(std::ceil(skip_to / dt - jitter)) - 1);
+      continue;
+    }
+    if (n == 0) continue;
+    float clear = 1, alpha_sum = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      clear *= 1 - sample[i].a;
+      alpha_sum += sample[i].a;
+    }
+    const float w = (1 - opacity) * (1 - clear);
+    opacity += w;
+    for (std::size_t i = 0; i < n; ++i) shader.add(batch, color, *holder[i], p, voxel[i], sample[i].rgb, w * sample[i].a / alpha_sum);
+    if (opacity >= kEarlyTermination) break;
+  }
+  shader.flush(batch, color);
+  return opacity;
 }
 
 }  // namespace
@@ -146,7 +193,8 @@ Image render_volume_frame(const RayCastInputs& in) {
   const Camera& cam = *in.camera;
   Image image(cam.width, cam.height);
   Progress progress("render", static_cast<std::size_t>(cam.height));
-  const bool jittered = in.volume && in.volume->object->jitter;
+  bool jittered = false;
+  for (const PreparedVolume* pv : in.volumes) jittered = jittered || pv->object->jitter;
   const float specular_cutoff = std::pow(1e-4f, 1.0f / in.scene->shading.shininess);
   const PrimaryRays rays(cam);
   parallel_for_tiles(cam.width, cam.height, kTileSize, [&](const Tile& tile) {
@@ -156,7 +204,14 @@ Image render_volume_frame(const RayCastInputs& in) {
         const Ray ray = rays.ray(x, y);
         const Shader shader{in, in.scene->shading, -ray.direction, specular_cutoff};
         const float jitter = jittered ? uniform_float(0x6a177e5, static_cast<std::uint64_t>(x), static_cast<std::uint64_t>(y)) : 0.0f;
-        image.at(x, y) = trace(in, shader, ray, jitter, batch, x, y);
+        const std::size_t pixel = static_cast<std::size_t>(y) * static_cast<std::size_t>(cam.width) + static_cast<std::size_t>(x);
+        const float t_surface = in.opaque ? (*in.opaque->distance)[pixel] : kInfinity;
+        Rgb color(0.0f);
+        float opacity = 0;
+        if (in.volumes.size() == 1) opacity = trace_one(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color);
+        else if (!in.volumes.empty()) opacity = trace_many(in.volumes, shader, ray, jitter, t_surface, batch, color);
+        const Rgb behind = in.opaque ? in.opaque->color->at(x, y) : in.scene->background;
+        image.at(x, y) = color + behind * (1 - opacity);
       }
     }
     if (tile.x1 == cam.width) progress.advance(static_cast<std::size_t>(tile.y1 - tile.y0));

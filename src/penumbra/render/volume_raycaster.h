@@ -1,12 +1,19 @@
 // Direct volume rendering by ray casting (Levoy 1988; Max 1995's emission–absorption model): one ray
-// per pixel from a perspective camera, clipped to the volume's box and to the nearest opaque plane,
-// sampled every Δ, classified by the transfer-function table, shaded with gradient Blinn–Phong under
-// every light (each light's transmittance from its ShadowTechnique) and composited front to back.
+// per pixel from a perspective camera, clipped to the visible volumes' boxes and to the opaque layer
+// (the spheres, isosurfaces and planes drawn before), sampled every Δ, classified by each volume's
+// transfer-function table, shaded with gradient Blinn–Phong under every light (each light's
+// transmittance from its LightShadows) and composited front to back over the opaque layer's colour.
 // Each ray's samples sit on the lattice t = (k + j)·Δ with a per-pixel offset j (hashed, so
-// deterministic) when the volume asks for jitter: this trades the wood-grain rings of thin opaque
-// structures for fine noise, as VTK's UseJittering does. Empty macrocells are skipped and a ray stops once its opacity reaches kEarlyTermination. Planes are
-// shaded as Lambertian receivers of the same lights and shadows. An ambient technique, when given,
-// scales every sample's ambient term (ambient occlusion and colour bleeding).
+// deterministic) when a volume asks for jitter: this trades the wood-grain rings of thin opaque
+// structures for fine noise, as VTK's UseJittering does. Empty macrocells are skipped and a ray stops
+// once its opacity reaches kEarlyTermination. An ambient technique, when given, scales every sample's
+// ambient term (ambient occlusion and colour bleeding).
+//
+// Overlapping volumes share one lattice (Δ the finest of their steps, every volume tabulated for it)
+// and are sampled at the same positions: a sample's opacity is 1 − Π(1 − α_v), shared among the
+// volumes in proportion to their α_v, each part shaded with its own colour and gradient — so two
+// volumes with disjoint support render as one volume holding both. Compositing modes mix: each
+// volume's α_v is read in its own mode (alpha or extinction) before they combine.
 #pragma once
 
 #include <span>
@@ -14,16 +21,15 @@
 
 #include "penumbra/core/cutoffs.h"
 #include "penumbra/core/image.h"
+#include "penumbra/render/light_shadows.h"
 #include "penumbra/render/prepared_volume.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadows/ambient_technique.h"
-#include "penumbra/shadows/shadow_technique.h"
 
 namespace penumbra {
 
-// Opaque surfaces drawn by another pass (spheres and planes): per pixel the distance along the primary
-// ray and the shaded colour. Rays stop there and composite over that colour; the planes are then not
-// drawn again.
+// Opaque surfaces drawn by another pass (spheres, isosurfaces and planes): per pixel the distance along
+// the primary ray and the shaded colour. Rays stop there and composite over that colour.
 struct OpaqueLayer {
   const std::vector<float>* distance;  // infinity: nothing opaque (the background shows)
   const Image* color;
@@ -32,11 +38,11 @@ struct OpaqueLayer {
 struct RayCastInputs {
   const Scene* scene;
   const Camera* camera;
-  const PreparedVolume* volume;                       // may be null (planes only)
+  std::span<const PreparedVolume* const> volumes;    // the visible volumes, on one lattice step
   std::span<const Light> lights;
-  std::span<const ShadowTechnique* const> shadows;    // one per light
+  std::span<const LightShadows* const> shadows;      // one per light
   const AmbientTechnique* ambient = nullptr;          // scales the ambient term; null: unoccluded
-  const OpaqueLayer* opaque = nullptr;                // null: the planes are traced here
+  const OpaqueLayer* opaque = nullptr;
 };
 
 Image render_volume_frame(const RayCastInputs& in);

@@ -13,6 +13,22 @@ std::string to_string(LightType type) {
   return "?";
 }
 
+std::string to_string(ObjectKind kind) {
+  switch (kind) {
+    case ObjectKind::Volume: return "volumes";
+    case ObjectKind::Spheres: return "spheres";
+    case ObjectKind::Isosurface: return "isosurfaces";
+    case ObjectKind::Plane: return "planes";
+  }
+  return "?";
+}
+
+ObjectKind object_kind_from_string(const std::string& name) {
+  for (int i = 0; i < kObjectKinds; ++i)
+    if (to_string(static_cast<ObjectKind>(i)) == name) return static_cast<ObjectKind>(i);
+  throw Error("unknown kind of object '" + name + "' (expected volumes, spheres, isosurfaces or planes)");
+}
+
 std::string to_string(IsosurfaceMethod method) {
   switch (method) {
     case IsosurfaceMethod::Points: return "points";

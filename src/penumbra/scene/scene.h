@@ -2,6 +2,7 @@
 // lights, and the shadow and ambient settings (docs/scene-file.md lists every key).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -17,7 +18,24 @@
 
 namespace penumbra {
 
-struct VolumeObject {
+// The kinds of object a scene holds. Every kind casts shadows on and receives them from every other
+// (each object can opt out with casts_shadows / receives_shadows); a technique declares which kinds of
+// caster it takes (technique_catalog.h).
+enum class ObjectKind { Volume, Spheres, Isosurface, Plane };
+constexpr int kObjectKinds = 4;
+using KindMask = unsigned;
+constexpr KindMask kind_bit(ObjectKind k) { return 1u << static_cast<unsigned>(k); }
+constexpr KindMask kAllKinds = (1u << kObjectKinds) - 1;
+std::string to_string(ObjectKind kind);          // "volumes", "spheres", "isosurfaces", "planes"
+ObjectKind object_kind_from_string(const std::string& name);  // Error listing the names
+
+// Whether an object darkens others and is darkened by them (ChimeraX-style per-object shadow control).
+struct ShadowFlags {
+  bool casts_shadows = true;
+  bool receives_shadows = true;
+};
+
+struct VolumeObject : ShadowFlags {
   std::shared_ptr<const Volume> volume;
   std::string source;                   // file path or "procedural:<name>", for messages and stats
   TransferFunction transfer_function;
@@ -43,7 +61,7 @@ struct VolumeObject {
 
 // Spheres (atoms, particles) from one file or generator; world units are the file's (ångström for
 // molecules).
-struct ParticleObject {
+struct ParticleObject : ShadowFlags {
   std::shared_ptr<const ParticleSet> set;
   std::string source;  // file path or "procedural:random-spheres", for messages and stats
 };
@@ -55,7 +73,7 @@ std::string to_string(IsosurfaceMethod method);
 IsosurfaceMethod isosurface_method_from_string(const std::string& name);  // "points", "raycast", "mesh"
 
 // The surface {x : f(x) = value} of one of the scene's volumes; inside is f >= value.
-struct IsosurfaceObject {
+struct IsosurfaceObject : ShadowFlags {
   std::size_t volume = 0;   // index into Scene::volumes
   float value = 0;          // isovalue in the volume's data units
   IsosurfaceMethod method = IsosurfaceMethod::Points;
@@ -69,7 +87,7 @@ std::string to_string(SphereRasterizer r);
 SphereRasterizer sphere_rasterizer_from_string(const std::string& s);  // Error listing the names
 
 // An opaque plane: a square of edge `size` centred at `point`, or infinite when size is 0.
-struct Plane {
+struct Plane : ShadowFlags {
   Vec3 point{0, -0.6f, 0};
   Vec3 normal{0, 1, 0};
   Rgb color{0.8f, 0.8f, 0.8f};
@@ -134,6 +152,9 @@ struct ShadowSettings {
   float light_angle = 0;          // ray_traced on spheres: angular radius of the light in degrees (0: a point)
   int area_rays = 64;             // ray_traced on spheres with light_angle > 0: shadow rays per receiver
   std::string light_frustum = "tight";  // light_pass: "tight" (fitted to the eye points, paper 002 §4.3) or "volume"
+  // shadows.volumes, .spheres, .isosurfaces, .planes: the technique covering that kind of caster;
+  // empty: shadows.technique when it takes the kind, else the kind's default (technique_catalog.h).
+  std::array<std::string, kObjectKinds> by_kind;
 };
 
 struct AmbientSettings {
@@ -169,10 +190,10 @@ struct Scene {
   // ends print them.
   std::vector<std::string> unread_keys;
 
-  // The box light frusta are fitted to: the visible volumes, the volumes of isosurfaces and the spheres
-  // (finite planes when there are none).
+  // The box of what the scene shows: the visible volumes, the volumes of isosurfaces and the spheres
+  // (finite planes when there are none); default cameras and lights frame it.
   Box3 caster_bounds() const;
-  // The volume the ray caster draws (the first visible one), or nullptr.
+  // The first visible volume, or nullptr.
   const VolumeObject* visible_volume() const;
   bool has_particles() const { return !particles.empty(); }
   bool has_isosurfaces() const { return !isosurfaces.empty(); }

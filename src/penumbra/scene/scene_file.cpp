@@ -77,6 +77,12 @@ Light read_light(const nlohmann::json& j, const std::string& path, const Box3& b
   return l;
 }
 
+// casts_shadows / receives_shadows (default true) of any object that is drawn.
+void read_shadow_flags(JsonReader& r, ShadowFlags& f) {
+  f.casts_shadows = r.boolean("casts_shadows", f.casts_shadows);
+  f.receives_shadows = r.boolean("receives_shadows", f.receives_shadows);
+}
+
 Plane read_plane(const nlohmann::json& j, const std::string& path) {
   JsonReader r(j, path);
   Plane p;
@@ -85,6 +91,7 @@ Plane read_plane(const nlohmann::json& j, const std::string& path) {
   if (length(p.normal) == 0) r.fail("normal", "must not be the zero vector");
   p.color = r.color("color", p.color);
   p.size = r.number("size", p.size, 0);
+  read_shadow_flags(r, p);
   r.finish();
   return p;
 }
@@ -145,6 +152,10 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   else if (comp == "extinction") v.compositing = Compositing::Extinction;
   else r.fail("compositing", "unknown value '" + comp + "' (expected alpha or extinction)");
   v.jitter = r.boolean("jitter", true);
+  if (!v.visible)
+    for (const char* key : {"casts_shadows", "receives_shadows"})
+      if (r.has(key)) r.fail(key, "the volume is not visible ('visible': false): it neither casts nor receives shadows");
+  read_shadow_flags(r, v);
   r.finish();
   v.volume = std::move(volume);
   return v;
@@ -209,6 +220,7 @@ ParticleObject read_particles(const nlohmann::json& j, const std::string& path, 
     p.set = std::move(moved);
   }
   if (p.set->size() == 0) r.fail(has_file ? "file" : "procedural", "holds no particles");
+  read_shadow_flags(r, p);
   r.finish();
   return p;
 }
@@ -231,6 +243,7 @@ IsosurfaceObject read_isosurface(const nlohmann::json& j, const std::string& pat
   o.method = with_context(r.key_path("method"), [&] { return isosurface_method_from_string(r.string("method", "points")); });
   o.color = r.color("color", o.color);
   o.collapse = r.boolean("collapse", o.collapse);
+  read_shadow_flags(r, o);
   r.finish();
   return o;
 }
@@ -272,6 +285,16 @@ ShadowSettings read_shadows(const nlohmann::json& j) {
   s.light_frustum = r.string("light_frustum", s.light_frustum);
   if (s.light_frustum != "tight" && s.light_frustum != "volume")
     r.fail("light_frustum", "unknown value '" + s.light_frustum + "' (expected tight or volume)");
+  for (int i = 0; i < kObjectKinds; ++i) {  // shadows.volumes, .spheres, .isosurfaces, .planes
+    const auto kind = static_cast<ObjectKind>(i);
+    const std::string key = to_string(kind);
+    if (!r.has(key)) continue;
+    const std::string name = r.string(key, "");
+    const std::vector<std::string> takes = technique_names(TechniqueFamily::Shadow, kind);
+    if (std::find(takes.begin(), takes.end(), name) == takes.end())
+      r.fail(key, "technique '" + name + "' does not take " + key + " as casters (expected one of: " + join(takes) + ")");
+    s.by_kind[static_cast<std::size_t>(i)] = name;
+  }
   r.finish();
   return s;
 }
@@ -294,43 +317,58 @@ AmbientSettings read_ambient(const nlohmann::json& j) {
   return a;
 }
 
-// A scene with particles takes the sphere techniques; one with isosurfaces the isosurface techniques;
-// any other, the volume techniques (scene_kind).
+// Every technique must take the kinds it is asked to cover; an ambient technique needs occluders it
+// takes; the extinction techniques read one volume's SAT.
 void check_techniques_fit_objects(JsonReader& r, const Scene& s) {
-  if (s.has_isosurfaces() && s.has_particles())
-    r.fail("isosurfaces", "a scene holds isosurfaces or particles, not both (in this build)");
-  const SceneKind kind = scene_kind(s);
-  const std::string scene = "a " + to_string(kind) + " scene";
-  // The kinds of scene that do take a technique of this name, for the message.
-  auto kinds_of = [](TechniqueFamily family, const std::string& name) {
+  auto kinds_of = [](KindMask mask) {
     std::vector<std::string> kinds;
-    for (const auto& t : technique_catalog())
-      if (t.family == family && t.name == name) kinds.push_back(to_string(t.kind) + " scenes");
+    for (int i = 0; i < kObjectKinds; ++i)
+      if (mask & kind_bit(static_cast<ObjectKind>(i))) kinds.push_back(to_string(static_cast<ObjectKind>(i)));
     return join(kinds);
   };
-  if (!find_technique(TechniqueFamily::Shadow, kind, s.shadows.technique))
-    r.fail("shadows", "technique '" + s.shadows.technique + "' is for " + kinds_of(TechniqueFamily::Shadow, s.shadows.technique) +
-                          "; " + scene + " uses one of: " + join(technique_names(TechniqueFamily::Shadow, kind)));
-  if (!find_technique(TechniqueFamily::Ambient, kind, s.ambient.technique))
-    r.fail("ambient", "technique '" + s.ambient.technique + "' is for " + kinds_of(TechniqueFamily::Ambient, s.ambient.technique) +
-                          "; " + scene + " uses one of: " + join(technique_names(TechniqueFamily::Ambient, kind)));
+  if (needs_extinction_sat(s) && !s.visible_volume())
+    r.fail(s.shadows.technique == "sat_cone" ? "shadows" : "ambient",
+           "the extinction techniques (sat_cone, sat_shells, sampled_ao) need a visible volume");
+  // shadows.technique must take at least one kind of caster the scene has (the others get their
+  // defaults or shadows.<kind>)
+  const TechniqueInfo* shadow = find_technique(TechniqueFamily::Shadow, s.shadows.technique);
+  const KindMask casting = casting_kinds(s);
+  if (shadow && casting != 0 && !(shadow->casters & casting))
+    r.fail("shadows", "technique '" + s.shadows.technique + "' is for " + kinds_of(shadow->casters) + "; this scene's casters are " +
+                          kinds_of(casting) + " (each kind can name its own technique: shadows." + to_string(ObjectKind::Volume) +
+                          ", shadows.spheres, shadows.isosurfaces, shadows.planes)");
+  const TechniqueInfo* ambient = find_technique(TechniqueFamily::Ambient, s.ambient.technique);
+  if (ambient && s.ambient.technique != "none" && ambient_occluders(s) == 0)
+    r.fail("ambient", "technique '" + s.ambient.technique + "' is for " + kinds_of(ambient->casters) + " (its occluders); the scene has none");
+  int visible = 0;
+  for (const auto& v : s.volumes) visible += v.visible ? 1 : 0;
+  if (needs_extinction_sat(s) && visible > 1)
+    r.fail("volumes", "the extinction techniques (sat_cone, sat_shells, sampled_ao) read one volume's summed area table; "
+                      "the scene has " + std::to_string(visible) + " visible volumes");
 }
 
-// One line for every key of `section` ("shadows" or "ambient") that the scene's chosen technique does
-// not read: the key, the technique, and the techniques that would read it.
-void note_unread_keys(const nlohmann::json& j, const std::string& section, TechniqueFamily family, const std::string& chosen,
-                      SceneKind kind, std::vector<std::string>& notes) {
+// One line for every key of `section` ("shadows" or "ambient") that none of the scene's chosen
+// techniques reads: the key, the techniques, and the techniques that would read it.
+void note_unread_keys(const nlohmann::json& j, const std::string& section, TechniqueFamily family,
+                      const std::vector<std::string>& chosen, std::vector<std::string>& notes) {
   if (!j.is_object()) return;
-  const TechniqueInfo* info = find_technique(family, kind, chosen);
   for (const auto& [key, value] : j.items()) {
     if (key == "technique" || value.is_null()) continue;
-    if (info && std::find(info->keys.begin(), info->keys.end(), key) != info->keys.end()) continue;
+    if (family == TechniqueFamily::Shadow && key != "technique") {
+      bool kind_key = false;
+      for (int i = 0; i < kObjectKinds; ++i) kind_key = kind_key || key == to_string(static_cast<ObjectKind>(i));
+      if (kind_key) continue;
+    }
+    bool read = false;
+    for (const auto& name : chosen)
+      if (const TechniqueInfo* info = find_technique(family, name))
+        read = read || std::find(info->keys.begin(), info->keys.end(), key) != info->keys.end();
+    if (read) continue;
     std::vector<std::string> readers;
     for (const auto& t : technique_catalog())
-      if (t.family == family && std::find(t.keys.begin(), t.keys.end(), key) != t.keys.end())
-        readers.push_back(std::string(t.name) + (t.kind == kind ? "" : " (" + to_string(t.kind) + " scenes)"));
-    notes.push_back(section + "." + key + " is not read by " + section + ".technique " + chosen + " in a " +
-                    to_string(kind) + " scene; " + (readers.empty() ? std::string("no technique reads it") : "it is read by: " + join(readers)));
+      if (t.family == family && std::find(t.keys.begin(), t.keys.end(), key) != t.keys.end()) readers.emplace_back(t.name);
+    notes.push_back(section + "." + key + " is not read by " + (chosen.empty() ? std::string("any technique of this scene") : join(chosen)) +
+                    "; " + (readers.empty() ? std::string("no technique reads it") : "it is read by: " + join(readers)));
   }
 }
 
@@ -415,9 +453,6 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir, const Sc
     for (std::size_t i = 0; i < vols.size(); ++i)
       s.volumes.push_back(read_volume(vols[i], "volumes." + std::to_string(i), base_dir));
   }
-  int visible = 0;
-  for (const auto& v : s.volumes) visible += v.visible ? 1 : 0;
-  if (visible > 1) r.fail("volumes", "more than one visible volume; the ray caster draws one (set 'visible': false on the others)");
   if (r.has("particles")) {
     const auto& parts = array_at(r, "particles");
     for (std::size_t i = 0; i < parts.size(); ++i)
@@ -451,14 +486,14 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir, const Sc
     lc.finish();
   }
   check_techniques_fit_objects(r, s);
-  if (needs_extinction_sat(s) && !s.visible_volume())
-    r.fail(s.shadows.technique == "sat_cone" ? "shadows" : "ambient",
-           "the extinction techniques (sat_cone, sat_shells, sampled_ao) need a visible volume");
   s.background = r.color("background", s.background);
   r.finish();
-  const SceneKind kind = scene_kind(s);
-  if (r.has("shadows")) note_unread_keys(j["shadows"], "shadows", TechniqueFamily::Shadow, s.shadows.technique, kind, s.unread_keys);
-  if (r.has("ambient")) note_unread_keys(j["ambient"], "ambient", TechniqueFamily::Ambient, s.ambient.technique, kind, s.unread_keys);
+  if (r.has("shadows")) {
+    std::vector<std::string> used;
+    for (const auto& a : shadow_assignments(s)) used.push_back(a.technique);
+    note_unread_keys(j["shadows"], "shadows", TechniqueFamily::Shadow, used, s.unread_keys);
+  }
+  if (r.has("ambient")) note_unread_keys(j["ambient"], "ambient", TechniqueFamily::Ambient, {s.ambient.technique}, s.unread_keys);
   if (r.has("light_cache") && !needs_extinction_sat(s))
     s.unread_keys.push_back("light_cache is not read: only the extinction techniques (sat_cone, sat_shells, sampled_ao) use it");
   if (options.strict && !s.unread_keys.empty()) {

@@ -1,6 +1,7 @@
-// The interface of ambient-occlusion techniques (DESIGN.md): build() looks at the scene's absorbers once
-// (per transfer function), ambient() answers, for a batch of points, which fraction of the ambient light
-// of each colour reaches them. The ray caster multiplies its ambient term by it.
+// The interface of ambient-occlusion techniques (DESIGN.md), for every kind of occluder and receiver:
+// build() looks at the scene's occluders once (per transfer function, per particle set), ambient()
+// answers, for a batch of volume samples or of surface points, which fraction of the ambient light of
+// each colour reaches them. The ray caster and the surface shader multiply their ambient term by it.
 #pragma once
 
 #include <cstddef>
@@ -9,15 +10,24 @@
 
 #include "penumbra/core/color.h"
 #include "penumbra/core/math.h"
-#include "penumbra/shadows/shadow_medium.h"
+#include "penumbra/shadows/shadow_casters.h"
+#include "penumbra/shadows/surface_point.h"
 
 namespace penumbra {
 
 class AmbientTechnique {
 public:
   virtual ~AmbientTechnique() = default;
-  virtual void build(const ShadowMedium& medium) = 0;
+  // `occluders` must outlive the technique's queries.
+  virtual void build(const ShadowCasters& occluders) = 0;
   virtual void ambient(std::span<const Vec3> points, std::span<Rgb> out) const = 0;
+  // Points on opaque surfaces; by default queried at their positions as volume samples.
+  virtual void ambient(std::span<const SurfacePoint> points, std::span<Rgb> out) const {
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const Vec3 p = points[i].position;
+      ambient(std::span<const Vec3>(&p, 1), out.subspan(i, 1));
+    }
+  }
   virtual std::size_t memory_bytes() const = 0;
   virtual std::string_view name() const = 0;
 

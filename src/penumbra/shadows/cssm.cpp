@@ -30,7 +30,7 @@ ColoredStochasticShadowMap::ColoredStochasticShadowMap(const ShadowSettings& s)
   }
 }
 
-void ColoredStochasticShadowMap::build_map(const ShadowMedium& medium) {
+void ColoredStochasticShadowMap::build_map(const ShadowCasters& medium) {
   depth_.assign(static_cast<std::size_t>(resolution_) * resolution_ * 3, kInfinity);
   for_each_texel([&](int ix, int iy, const Ray& ray) {
     const std::size_t texel = texel_index(ix, iy);

@@ -41,7 +41,7 @@ public:
   float depth_at(int ix, int iy, int channel) const { return depth_[texel_index(ix, iy) * 3 + channel]; }
 
 private:
-  void build_map(const ShadowMedium& medium) override;
+  void build_map(const ShadowCasters& medium) override;
   std::uint64_t seed_;
   std::span<const std::pair<int, int>> offsets_;
   std::vector<std::ptrdiff_t> linear_offsets_;  // the offsets as distances in depth_ (floats)

@@ -75,7 +75,7 @@ DsmLayout parse_dsm_layout(const std::string& name) {
 DeepShadowMap::DeepShadowMap(const ShadowSettings& s)
     : LightSpaceMap(s), nodes_(s.nodes), layout_(parse_dsm_layout(s.dsm_layout)) {}
 
-void DeepShadowMap::build_map(const ShadowMedium& medium) {
+void DeepShadowMap::build_map(const ShadowCasters& medium) {
   const std::size_t texels = static_cast<std::size_t>(resolution_) * resolution_;
   const bool shared = layout_ == DsmLayout::SharedDepth;
   const std::size_t depths = texels * nodes_ * (shared ? 1 : 3);

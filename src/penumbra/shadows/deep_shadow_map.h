@@ -61,7 +61,7 @@ public:
   float node_depth(int ix, int iy, int channel, int j) const;
 
 private:
-  void build_map(const ShadowMedium& medium) override;
+  void build_map(const ShadowCasters& medium) override;
   Rgb evaluate_shared(std::size_t texel, float z) const;
   // per_channel: [texel][channel][node]; shared_depth: depths [texel][node], values [texel][node][channel]
   std::size_t slot(std::size_t texel, int channel) const {

@@ -5,7 +5,7 @@
 
 namespace penumbra {
 
-void LightSpaceMap::build(const ShadowMedium& medium, const Light& light) {
+void LightSpaceMap::build(const ShadowCasters& medium, const Light& light) {
   light_ = light;
   projection_ = LightProjection::fit(light, medium.bounds());
   // Default bias: one shadow step, the depth extent of one segment (a sample must not shadow itself).

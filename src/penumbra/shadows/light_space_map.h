@@ -15,7 +15,7 @@ class LightSpaceMap : public ShadowTechnique {
 public:
   explicit LightSpaceMap(const ShadowSettings& settings) : resolution_(settings.resolution), bias_setting_(settings.bias) {}
 
-  void build(const ShadowMedium& medium, const Light& light) final;
+  void build(const ShadowCasters& medium, const Light& light) final;
   Vec3 surface_receiver(const Vec3& p, const Vec3& n) const final;
 
   int resolution() const { return resolution_; }
@@ -23,13 +23,13 @@ public:
 
 protected:
   // Fills the map: called once per build after the projection is fitted.
-  virtual void build_map(const ShadowMedium& medium) = 0;
+  virtual void build_map(const ShadowCasters& medium) = 0;
   // Calls texel(ix, iy, ray) for every texel, rows in parallel; `ray` goes from the light through the
   // texel centre with t = light depth.
   void for_each_texel(const std::function<void(int ix, int iy, const Ray& ray)>& texel) const;
   // Light depth of the first opaque surface on a texel ray (projection().caster_t_begin() onwards), or
   // infinity: the depth every map technique stops its walk at.
-  float first_surface(const ShadowMedium& medium, const Ray& ray) const {
+  float first_surface(const ShadowCasters& medium, const Ray& ray) const {
     return medium.surface_hit(ray, projection_.caster_t_begin(), kInfinity);
   }
   // Texel of p and its biased depth; false when p is outside the map (then it is lit: nothing that

@@ -1,8 +1,18 @@
-// The exact reference: for every receiver, march a shadow ray to the light through the volume and
-// multiply the colour model's per-segment transmittance 1 − α_i·(1 − t_{i,λ}) (DESIGN.md colour model);
-// an opaque plane on the way gives zero. Segments are the lattice [kΔ, (k+1)Δ] from the receiver,
-// sampled at their midpoints, the last one opacity-corrected for its length, so a homogeneous medium
-// gives exactly (1 − α)^(L/Δ_ref). Nothing is built; every query costs a full ray march.
+// The exact reference, for every kind of caster at once: for every receiver, a shadow ray to the light
+// through the volumes (the colour model's per-segment transmittance 1 − α_i·(1 − t_{i,λ}), multiplied,
+// DESIGN.md), zero when a sphere, an isosurface (the first root of its trilinear interpolant) or a
+// plane lies on the way. Segments are the lattice [kΔ, (k+1)Δ] from the receiver, sampled at their
+// midpoints, the last one opacity-corrected for its length, so a homogeneous medium gives exactly
+// (1 − α)^(L/Δ_ref). A surface point's ray starts just off its own surface (ShadowCasters::ray_origin).
+// With light_angle > 0 the light is a round source of that angular radius (for point and spot lights
+// a ball subtending it at the casters' centre) and `area_rays` rays spread uniformly over its solid
+// angle (a rotated Fibonacci lattice, ray_sampling.h) are averaged: soft shadows. Nothing is built;
+// every query costs full ray marches.
+//
+// | parameter             | default  | meaning                                                    |
+// | shadows.step          | 1 voxel  | light-ray sampling step in voxels                           |
+// | shadows.light_angle   | 0        | angular radius of the light, degrees (0: a point)           |
+// | shadows.area_rays     | 64       | shadow rays per receiver when light_angle > 0               |
 #pragma once
 
 #include "penumbra/shadows/shadow_technique.h"
@@ -12,38 +22,37 @@ namespace penumbra {
 class RayTracedShadows final : public ShadowTechnique {
 public:
   using ShadowTechnique::transmittance;  // keep the one-point overload visible
-  void build(const ShadowMedium& medium, const Light& light) override {
-    medium_ = &medium;
-    light_ = light;
-    const Box3& b = medium.bounds();
-    epsilon_ = 1e-4f * (b.empty() ? 1.0f : std::max(b.radius(), 1e-6f));
-  }
-  void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override {
-    for (std::size_t i = 0; i < points.size(); ++i) {
-      Vec3 to_light;
-      float distance;
-      light_.towards(points[i], to_light, distance);
-      out[i] = medium_->transmittance(Ray{points[i], to_light}, 0, distance);
-    }
-  }
+  explicit RayTracedShadows(float light_angle_deg = 0, int area_rays = 64) : light_angle_deg_(light_angle_deg), area_rays_(area_rays) {}
+  void build(const ShadowCasters& casters, const Light& light) override;
+  void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
+  void transmittance(std::span<const SurfacePoint> points, std::span<Rgb> out) const override;
   Vec3 surface_receiver(const Vec3& p, const Vec3& n) const override {
-    return offset_towards_light(light_, p, n, epsilon_);
+    return offset_towards_light(light_, p, n, casters_->epsilon());
   }
-  std::size_t memory_bytes() const override { return 0; }
+  std::size_t memory_bytes() const override { return 0; }  // a shared BVH is counted by the renderer
   std::string_view name() const override { return "ray_traced"; }
 
 private:
-  const ShadowMedium* medium_ = nullptr;
+  // The light reaching `origin` (a receiver at `key`, which keys the sample pattern).
+  Rgb exact(const Vec3& origin, const Vec3& key) const;
+
+  float light_angle_deg_;
+  int area_rays_;
+  const ShadowCasters* casters_ = nullptr;
   Light light_;
-  float epsilon_ = 1e-4f;
+  float tan_light_radius_ = 0;
+  Vec3 centre_;
 };
 
 // No shadows: every point receives the full light.
 class NoShadows final : public ShadowTechnique {
 public:
   using ShadowTechnique::transmittance;  // keep the one-point overload visible
-  void build(const ShadowMedium&, const Light&) override {}
+  void build(const ShadowCasters&, const Light&) override {}
   void transmittance(std::span<const Vec3>, std::span<Rgb> out) const override {
+    for (auto& o : out) o = Rgb(1.0f);
+  }
+  void transmittance(std::span<const SurfacePoint>, std::span<Rgb> out) const override {
     for (auto& o : out) o = Rgb(1.0f);
   }
   Vec3 surface_receiver(const Vec3& p, const Vec3&) const override { return p; }

@@ -1,10 +1,9 @@
-// Factories of the volume shadow and ambient techniques (their names and keys are in
-// scene/technique_catalog.h).
+// The one registry of shadow and ambient techniques, for every kind of caster (their names, the kinds
+// they take and the keys they read are in scene/technique_catalog.h).
 #pragma once
 
 #include <memory>
 #include <string>
-#include <vector>
 
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadows/ambient_technique.h"
@@ -12,7 +11,10 @@
 
 namespace penumbra {
 
-std::unique_ptr<ShadowTechnique> make_shadow_technique(const ShadowSettings& settings);
+std::unique_ptr<ShadowTechnique> make_shadow_technique(const std::string& name, const ShadowSettings& settings);
+inline std::unique_ptr<ShadowTechnique> make_shadow_technique(const ShadowSettings& settings) {
+  return make_shadow_technique(settings.technique, settings);
+}
 
 // nullptr for "none".
 std::unique_ptr<AmbientTechnique> make_ambient_technique(const AmbientSettings& settings);

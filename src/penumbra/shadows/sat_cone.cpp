@@ -31,7 +31,7 @@ float SatConeShadows::attenuation(const Vec3& p) const {
   return static_cast<float>(std::exp(-cone_optical_depth(*sat_, p, to_light, distance, sampling_)));
 }
 
-void SatConeShadows::build(const ShadowMedium& medium, const Light& light) {
+void SatConeShadows::build(const ShadowCasters& medium, const Light& light) {
   medium_ = &medium;
   sat_ = &medium.extinction_sat();
   light_ = light;
@@ -59,7 +59,7 @@ Vec3 SatConeShadows::surface_receiver(const Vec3& p, const Vec3& n) const {
   return offset_towards_light(light_, p, n, epsilon_);
 }
 
-float sampled_cone_transmittance(const ShadowMedium& medium, const Light& light, const Vec3& p, float half_angle,
+float sampled_cone_transmittance(const ShadowCasters& medium, const Light& light, const Vec3& p, float half_angle,
                                  int rays) {
   Vec3 to_light;
   float distance;
@@ -79,7 +79,7 @@ float sampled_cone_transmittance(const ShadowMedium& medium, const Light& light,
   return static_cast<float>(std::exp(-depth / std::max(1, rays)));
 }
 
-void SampledConeShadows::build(const ShadowMedium& medium, const Light& light) {
+void SampledConeShadows::build(const ShadowCasters& medium, const Light& light) {
   medium_ = &medium;
   light_ = light;
   const Box3& b = medium.bounds();

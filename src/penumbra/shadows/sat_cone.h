@@ -24,7 +24,7 @@ class SatConeShadows final : public ShadowTechnique {
 public:
   using ShadowTechnique::transmittance;
   explicit SatConeShadows(const ShadowSettings& settings);
-  void build(const ShadowMedium& medium, const Light& light) override;
+  void build(const ShadowCasters& medium, const Light& light) override;
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
   Vec3 surface_receiver(const Vec3& p, const Vec3& n) const override;
   std::size_t memory_bytes() const override { return cache_.memory_bytes(); }
@@ -36,19 +36,19 @@ public:
 
 private:
   ConeSampling sampling_;
-  const ShadowMedium* medium_ = nullptr;
+  const ShadowCasters* medium_ = nullptr;
   const ExtinctionSat* sat_ = nullptr;
   Light light_;
   CellField<float> cache_;
   float epsilon_ = 1e-4f;
 };
 
-// The densely sampled cone, reference of sat_cone: `rays` exact shadow rays (ShadowMedium::transmittance,
+// The densely sampled cone, reference of sat_cone: `rays` exact shadow rays (ShadowCasters::transmittance,
 // full data resolution) spread evenly over the cone's solid angle (a golden-angle spiral on the cap of
 // half-angle `half_angle` about the direction to the light), each running as far as the light.
 // Returns exp(−mean optical depth) — the quantity the cuboids approximate (paper Eq. 7 with h the mean
 // over the cone's cross-section); a ray blocked by a plane or below 10⁻⁴ counts as depth 9.21.
-float sampled_cone_transmittance(const ShadowMedium& medium, const Light& light, const Vec3& p, float half_angle,
+float sampled_cone_transmittance(const ShadowCasters& medium, const Light& light, const Vec3& p, float half_angle,
                                  int rays);
 
 // `shadows.technique = sampled_cone`: sampled_cone_transmittance at every receiver (nothing cached; the
@@ -57,7 +57,7 @@ class SampledConeShadows final : public ShadowTechnique {
 public:
   using ShadowTechnique::transmittance;
   explicit SampledConeShadows(const ShadowSettings& s) : half_angle_(radians(s.cone_angle)), rays_(s.cone_rays) {}
-  void build(const ShadowMedium& medium, const Light& light) override;
+  void build(const ShadowCasters& medium, const Light& light) override;
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
   Vec3 surface_receiver(const Vec3& p, const Vec3& n) const override;
   std::size_t memory_bytes() const override { return 0; }
@@ -66,7 +66,7 @@ public:
 private:
   float half_angle_;
   int rays_;
-  const ShadowMedium* medium_ = nullptr;
+  const ShadowCasters* medium_ = nullptr;
   Light light_;
   float epsilon_ = 1e-4f;
 };

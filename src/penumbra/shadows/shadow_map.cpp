@@ -2,7 +2,7 @@
 
 namespace penumbra {
 
-void ClassicShadowMap::build_map(const ShadowMedium& medium) {
+void ClassicShadowMap::build_map(const ShadowCasters& medium) {
   depth_.assign(static_cast<std::size_t>(resolution_) * resolution_, kInfinity);
   for_each_texel([&](int ix, int iy, const Ray& ray) {
     float depth = first_surface(medium, ray);

@@ -25,7 +25,7 @@ public:
   float depth_at(int ix, int iy) const { return depth_[texel_index(ix, iy)]; }
 
 private:
-  void build_map(const ShadowMedium& medium) override;
+  void build_map(const ShadowCasters& medium) override;
   int pcf_;
   std::vector<float> depth_;
 };

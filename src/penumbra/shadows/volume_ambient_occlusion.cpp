@@ -28,7 +28,7 @@ float VolumeAmbientOcclusion::radius_cells() const {
   return settings_.radius * static_cast<float>(std::max(d[0], std::max(d[1], d[2])));
 }
 
-void VolumeAmbientOcclusion::build(const ShadowMedium& medium) {
+void VolumeAmbientOcclusion::build(const ShadowCasters& medium) {
   sat_ = &medium.extinction_sat();
   if (settings_.bleeding > 0 && !sat_->has_colour())
     throw Error("ambient.bleeding needs the colour table of the extinction SAT");

@@ -40,7 +40,7 @@ std::vector<int> shell_half_sizes(int shells, float radius_cells);
 class VolumeAmbientOcclusion : public AmbientTechnique {
 public:
   using AmbientTechnique::ambient;
-  void build(const ShadowMedium& medium) override;
+  void build(const ShadowCasters& medium) override;
   void ambient(std::span<const Vec3> points, std::span<Rgb> out) const override;
   std::size_t memory_bytes() const override { return cache_.memory_bytes(); }
 

@@ -1,0 +1,149 @@
+#include "penumbra/render/surface_frame.h"
+
+#include <algorithm>
+#include <array>
+
+#include "penumbra/core/parallel.h"
+#include "penumbra/render/surface_shading.h"
+
+namespace penumbra {
+namespace {
+
+constexpr std::size_t kBatch = 64;  // points whose shadow and ambient queries are issued together
+constexpr std::uint32_t kNoPoint = 0xffffffffu;
+
+}  // namespace
+
+VisibleSurfaces visible_surfaces(const SurfaceInputs& in) {
+  const Camera& cam = *in.camera;
+  const Scene& scene = *in.scene;
+  const int w = cam.width, h = cam.height;
+  const auto pixels = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+  // per pixel the nearest isosurface point (isosurface, point)
+  struct Nearest {
+    std::uint32_t surface = kNoPoint, point = kNoPoint;
+  };
+  std::vector<Nearest> iso_at;
+  if (!in.isosurface_points.empty()) {
+    iso_at.resize(pixels);
+    for (std::size_t s = 0; s < in.isosurface_points.size(); ++s) {
+      const IsoPoints& pts = in.isosurface_points[s];
+      for (std::size_t i = 0; i < pts.size(); ++i) {
+        Nearest& n = iso_at[pts[i].pixel];
+        if (n.point == kNoPoint || pts[i].distance < in.isosurface_points[n.surface][n.point].distance)
+          n = {static_cast<std::uint32_t>(s), static_cast<std::uint32_t>(i)};
+      }
+    }
+  }
+  VisibleSurfaces vs;
+  vs.distance.assign(pixels, kInfinity);
+  // per row: the points in pixel order, so the list is the same for any thread count
+  struct Row {
+    std::vector<SurfacePoint> points;
+    std::vector<std::uint32_t> pixel;
+    std::vector<Rgb> albedo;
+    std::vector<std::uint8_t> receives;
+  };
+  std::vector<Row> rows(static_cast<std::size_t>(h));
+  const PrimaryRays rays(cam);
+  parallel_for(static_cast<std::size_t>(h), [&](std::size_t y0, std::size_t y1) {
+    for (std::size_t y = y0; y < y1; ++y) {
+      Row& row = rows[y];
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = y * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
+        const bool sphere = in.hits && in.hits->id[i] != kNoSphere;
+        const Nearest iso = iso_at.empty() ? Nearest{} : iso_at[i];
+        if (!sphere && iso.point == kNoPoint && scene.planes.empty()) continue;  // background
+        float t = sphere ? in.hits->t[i] : kInfinity;
+        bool is_iso = false;
+        if (iso.point != kNoPoint && in.isosurface_points[iso.surface][iso.point].distance < t) {
+          t = in.isosurface_points[iso.surface][iso.point].distance;
+          is_iso = true;
+        }
+        const Ray ray = rays.ray(x, static_cast<int>(y));
+        const Plane* plane = nearest_plane(scene.planes, ray, t);
+        if (t == kInfinity) continue;
+        vs.distance[i] = t;
+        SurfacePoint sp;
+        Rgb albedo;
+        bool receives = true;
+        if (plane) {
+          sp.position = ray.at(t);
+          sp.normal = plane->facing_normal(ray.direction);
+          sp.kind = ObjectKind::Plane;
+          sp.object = static_cast<std::uint32_t>(plane - scene.planes.data());
+          albedo = plane->color;
+          receives = plane->receives_shadows;
+        } else if (is_iso) {
+          const IsoPoint& p = in.isosurface_points[iso.surface][iso.point];
+          sp.position = p.position;
+          sp.normal = p.normal;
+          sp.kind = ObjectKind::Isosurface;
+          sp.object = iso.surface;
+          sp.error = p.error;
+          const IsosurfaceObject& o = scene.isosurfaces[iso.surface];
+          albedo = o.color;
+          receives = o.receives_shadows;
+        } else {
+          const std::uint32_t id = in.hits->id[i];
+          const Sphere& s = in.particles->spheres[id];
+          const Vec3 pos = ray.at(t);
+          sp.normal = normalize(pos - s.center);
+          sp.position = s.center + sp.normal * s.radius;  // on the surface to the last bit that matters
+          sp.kind = ObjectKind::Spheres;
+          sp.self = id;
+          const auto segment = std::upper_bound(in.particle_offsets.begin(), in.particle_offsets.end(), id) - in.particle_offsets.begin() - 1;
+          sp.object = in.particle_objects[static_cast<std::size_t>(segment)];
+          albedo = unpack_rgb8(in.particles->colors[id]);
+          receives = scene.particles[sp.object].receives_shadows;
+        }
+        row.points.push_back(sp);
+        row.pixel.push_back(static_cast<std::uint32_t>(i));
+        row.albedo.push_back(albedo);
+        row.receives.push_back(receives ? 1 : 0);
+      }
+    }
+  });
+  for (const Row& row : rows) {
+    vs.points.insert(vs.points.end(), row.points.begin(), row.points.end());
+    vs.pixel.insert(vs.pixel.end(), row.pixel.begin(), row.pixel.end());
+    vs.albedo.insert(vs.albedo.end(), row.albedo.begin(), row.albedo.end());
+    vs.receives.insert(vs.receives.end(), row.receives.begin(), row.receives.end());
+  }
+  return vs;
+}
+
+Image shade_surfaces(const Scene& scene, const Camera& cam, const VisibleSurfaces& vs, std::span<const Light> lights,
+                     std::span<const LightShadows* const> shadows, const AmbientTechnique* ambient) {
+  const ShadingParams& k = scene.shading;
+  Image image(cam.width, cam.height, scene.background);
+  const SurfaceShading shading(k);
+  parallel_for(vs.points.size(), [&](std::size_t begin, std::size_t end) {
+    std::array<Rgb, kBatch> T, ao, lit;
+    for (std::size_t b0 = begin; b0 < end; b0 += kBatch) {
+      const std::size_t n = std::min(kBatch, end - b0);
+      const auto pts = std::span<const SurfacePoint>(vs.points.data() + b0, n);
+      if (ambient) ambient->ambient(pts, std::span<Rgb>(ao.data(), n));
+      else std::fill(ao.begin(), ao.begin() + static_cast<std::ptrdiff_t>(n), Rgb(1.0f));
+      for (std::size_t i = 0; i < n; ++i) lit[i] = vs.albedo[b0 + i] * ao[i] * k.ambient;
+      for (std::size_t l = 0; l < lights.size(); ++l) {
+        shadows[l]->transmittance(pts, std::span<Rgb>(T.data(), n));
+        for (std::size_t i = 0; i < n; ++i) {
+          const Rgb t = vs.receives[b0 + i] ? T[i] : Rgb(1.0f);
+          if (t.max_component() <= 0) continue;  // fully shadowed: ambient only
+          const SurfacePoint& p = pts[i];
+          const bool sphere = p.kind == ObjectKind::Spheres;
+          const float diffuse_scale = sphere ? (ao[i].r + ao[i].g + ao[i].b) / 3.0f : 1.0f;
+          lit[i] += shading.direct(lights[l], p.position, p.normal, cam.eye, vs.albedo[b0 + i], p.kind != ObjectKind::Plane, diffuse_scale) * t;
+        }
+      }
+      for (std::size_t i = 0; i < n; ++i) {
+        const std::uint32_t px = vs.pixel[b0 + i];
+        image.at(static_cast<int>(px % static_cast<std::uint32_t>(cam.width)), static_cast<int>(px / static_cast<std::uint32_t>(cam.width))) = lit[i];
+      }
+    }
+  }, 1024);
+  return image;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,48 @@
+// The opaque surfaces of a frame — spheres, isosurfaces and planes — found per pixel and shaded.
+// visible_surfaces() takes, per pixel, the nearest of the sphere hit (SphereHits), the isosurfaces' eye
+// points and the planes, and lists it as a SurfacePoint (in pixel order, the same for any thread
+// count). shade_surfaces() shades them in batches with Blinn–Phong under every light, each light's
+// direct term scaled by its LightShadows' per-channel transmittance (coloured where translucent
+// volumes cast), the ambient term by the ambient technique; for spheres the diffuse term too (paper 003
+// §4 adds AO "in completely unshadowed" regions). Isosurfaces and spheres get a highlight, planes are
+// Lambertian. The result carries each pixel's distance, so that the volumes are then ray cast in front
+// of it (render_volume_frame's OpaqueLayer).
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "penumbra/core/image.h"
+#include "penumbra/isosurface/iso_point.h"
+#include "penumbra/particles/sphere_hits.h"
+#include "penumbra/render/light_shadows.h"
+#include "penumbra/scene/scene.h"
+#include "penumbra/shadows/ambient_technique.h"
+
+namespace penumbra {
+
+struct VisibleSurfaces {
+  std::vector<SurfacePoint> points;
+  std::vector<std::uint32_t> pixel;  // pixel index of each point
+  std::vector<Rgb> albedo;
+  std::vector<std::uint8_t> receives;  // the object receives shadows
+  std::vector<float> distance;         // per pixel: distance to the opaque surface; infinity: background
+};
+
+struct SurfaceInputs {
+  const Scene* scene;
+  const Camera* camera;
+  const ParticleSet* particles = nullptr;   // the frame's spheres (casting objects first)
+  std::span<const std::uint32_t> particle_offsets;  // first sphere of each segment of the set, then the total
+  std::span<const std::uint32_t> particle_objects;  // the scene's particle object of each segment
+  const SphereHits* hits = nullptr;
+  std::span<const IsoPoints> isosurface_points;  // one eye pass per scene isosurface
+};
+
+VisibleSurfaces visible_surfaces(const SurfaceInputs& in);
+
+// The shaded surfaces over the background.
+Image shade_surfaces(const Scene& scene, const Camera& camera, const VisibleSurfaces& surfaces, std::span<const Light> lights,
+                     std::span<const LightShadows* const> shadows, const AmbientTechnique* ambient);
+
+}  // namespace penumbra
