@@ -78,8 +78,14 @@ float ShadowCasters::surface_hit(const Ray& r, float t0, float t1) const {
   for (const auto& p : planes_) best = std::min(best, p.intersect(r, t0, best));
   if (spheres_.set) {
     if (!spheres_.bvh) throw Error("internal: spheres cast shadows by rays but no BVH was built");
-    const SphereHit h = spheres_.bvh->first_hit(r, t0, best);
-    if (h.id != kNoSphere) best = std::min(best, h.t);
+    // Embree takes tnear >= 0: a ray that starts behind its origin (a directional map's texel line)
+    // restarts where it enters the spheres' box
+    float a = t0, b = best;
+    if (spheres_.bounds.clip(r, a, b, t0, best)) {
+      const float shift = a < 0 ? a : 0.0f;
+      const SphereHit h = spheres_.bvh->first_hit(Ray{r.at(shift), r.direction}, a - shift, best - shift);
+      if (h.id != kNoSphere) best = std::min(best, h.t + shift);
+    }
   }
   for (const auto& iso : isosurfaces_) {
     const float t = iso.raycaster->first_hit(r, t0, best);
