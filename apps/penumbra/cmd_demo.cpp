@@ -4,12 +4,15 @@
 // against the exact ray-traced shadows. Then the same for spheres (random spheres over a floor, and
 // 1AON when it is there): local lighting | ISSM | ISSM + particle AO | ray-traced shadows + AO. Then a
 // point-based isosurface of the procedural ct-body CT: points | points + light-pass shadows |
-// marching-cubes mesh | ray-cast isosurface with exact shadow rays. `--quick` renders every scene
+// marching-cubes mesh | ray-cast isosurface with exact shadow rays. Then two mixed scenes (a CT with
+// metal implants; GroEL in its density map with an isosurface and a floor) with every map technique
+// against ray_traced. `--quick` renders every scene
 // test-sized (64² images, 128² maps, small volumes): a smoke test of the same code in seconds.
 #include <cstdio>
 #include <filesystem>
 
 #include "commands.h"
+#include "penumbra/core/error.h"
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
@@ -130,6 +133,35 @@ void demo_isosurface(const std::string& dir, bool quick) {
               dir.c_str());
 }
 
+// Mixed scenes (every caster shadows every receiver): the cranium CT under a bone transfer function with
+// six metal spheres (dental implants, skull screws), and GroEL's atoms inside their own density map with
+// an isosurface of its dense cores. The spheres go to a small .xyz file in `dir`.
+nlohmann::json ct_implants_scene(const std::string& ct, const std::string& dir) {
+  const std::string xyz = dir + "/ct-implants.xyz";
+  std::FILE* f = std::fopen(xyz.c_str(), "w");
+  if (!f) throw Error(xyz + ": cannot write the demo's implants");
+  std::fputs("6\nmetal implants (mm, cranium_ct.nrrd's frame)\nTi 105 190 18\nTi 118 197 18\nTi 132 197 18\n"
+             "Ti 145 190 18\nTi 95 150 140\nTi 150 150 140\n", f);
+  std::fclose(f);
+  nlohmann::json j = cranium_scene(ct);
+  j["volumes"][0]["transfer_function"] = {{"preset", "ct-bone"}};
+  j["particles"] = nlohmann::json::array({{{"file", xyz}, {"radius", 6}, {"color_by", "uniform"}, {"color", {0.75, 0.78, 0.82}}}});
+  return j;
+}
+
+nlohmann::json groel_density_scene(const std::string& molecule) {
+  return {
+      {"volumes", {{{"procedural", {{"name", "molecular-density"}, {"file", molecule}, {"spacing", 2.0}, {"sigma", 2.5}}},
+                    {"transfer_function", {{"points", {{0, 0.3, 0.45, 0.9, 0}, {6, 0.3, 0.45, 0.9, 0}, {9, 0.35, 0.5, 0.95, 0.04},
+                                                       {20, 0.4, 0.55, 1.0, 0.08}, {60, 0.5, 0.6, 1.0, 0.12}}}}}}}},
+      {"isosurfaces", {{{"volume", 0}, {"value", 70}, {"color", {0.95, 0.8, 0.35}}}}},
+      {"particles", {{{"file", molecule}, {"color_by", "chain"}, {"radius_scale", 0.4}}}},
+      {"planes", {{{"point", {0, 0, -150}}, {"normal", {0, 0, 1}}, {"color", {0.9, 0.9, 0.9}}, {"size", 900}}}},
+      {"lights", {{{"type", "directional"}, {"direction", {-0.3, -0.4, -1.0}}}}},
+      {"camera", {{"direction", {1, 0.4, 0.25}}, {"up", {0, 0, 1}}, {"fov_deg", 30}, {"zoom", 1.5}, {"width", 800}, {"height", 600}}},
+      {"background", {1, 1, 1}}};
+}
+
 }  // namespace
 
 void add_demo_command(CLI::App& app) {
@@ -159,6 +191,11 @@ void add_demo_command(CLI::App& app) {
     if (std::filesystem::exists(groel)) demo_particles("1aon", q ? sized(molecule_scene(groel), 64, 64) : molecule_scene(groel), o->dir);
     else std::printf("\n(%s not found: the molecule scene is skipped)\n", groel.c_str());
     demo_isosurface(o->dir, q);
+    // one scene of every kind: each map technique takes the spheres, isosurfaces and planes too
+    if (std::filesystem::exists(ct))
+      demo_scene("ct-implants", q ? sized(ct_implants_scene(ct, o->dir), 64, 64) : ct_implants_scene(ct, o->dir), o->dir, maps);
+    if (std::filesystem::exists(groel))
+      demo_scene("groel-density", q ? sized(groel_density_scene(groel), 64, 48) : groel_density_scene(groel), o->dir, maps);
   });
 }
 
