@@ -11,6 +11,8 @@
 
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/particles/sphere_bvh.h"
+#include "penumbra/scene/camera.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/scene_file.h"
 #include "image_check.h"
@@ -139,6 +141,151 @@ TEST(MixedScene, EveryCasterKindShadowsEveryReceiverKind) {
       // (the caster too, so that its own self-shadowing plays no part)
       const json deaf = with_flag(with_flag(base, rp, "receives_shadows", false), cp, "receives_shadows", false);
       EXPECT_EQ(render_json(deaf).pixels(), render_json(with_flag(deaf, cp, "casts_shadows", false)).pixels());
+    }
+}
+
+namespace {
+
+// Where exact shadow rays say a caster of the pair scenes shadows a receiver, from the analytic shapes
+// (independent of the renderer): per pixel, Shadowed when the receiver point the pixel shows lies in
+// the caster's shadow by a margin, Lit when it lies outside by a margin, Unknown on the margin, where
+// the pixel shows the caster, or where the receiver faces away from the light.
+enum class Expect { Shadowed, Lit, Unknown };
+
+constexpr float kMargin = 0.06f;  // about one and a half voxels of the 24³ procedural volumes
+const Vec3 kToLight = normalize(Vec3{-0.05f, 1.0f, -0.03f});
+
+// How far inside (negative) or outside (positive) the caster's shadow the ray p + t·kToLight passes.
+float shadow_clearance(ObjectKind caster, const Vec3& p) {
+  const Vec3 c{0, 0.6f, 0};
+  if (caster == ObjectKind::Plane) {  // the square of side 0.6 at y = 0.6
+    const float t = (0.6f - p.y) / kToLight.y;
+    if (t <= 0) return 1;
+    const Vec3 h = p + kToLight * t;
+    return std::max(std::abs(h.x), std::abs(h.z)) - 0.3f;
+  }
+  const Vec3 oc = c - p;  // a ball of radius 0.3
+  const float t = dot(oc, kToLight);
+  if (t <= 0) return 1;
+  return length(oc - kToLight * t) - 0.3f;
+}
+
+// Whether the primary ray reaches the caster's shape (grown by the margin) before distance tmax.
+bool shows_caster(ObjectKind caster, const Ray& r, float tmax) {
+  if (caster == ObjectKind::Plane) {
+    if (std::abs(r.direction.y) < 1e-6f) return false;
+    const float t = (0.6f - r.origin.y) / r.direction.y;
+    const Vec3 h = r.at(t);
+    return t > 0 && t < tmax && std::max(std::abs(h.x), std::abs(h.z)) < 0.3f + kMargin;
+  }
+  const Sphere ball{{0, 0.6f, 0}, 0.3f + kMargin};
+  return intersect_sphere(r, ball, 0, tmax) < kInfinity;
+}
+
+Expect classify(float clearance) {
+  if (clearance < -kMargin) return Expect::Shadowed;
+  if (clearance > kMargin) return Expect::Lit;
+  return Expect::Unknown;
+}
+
+// The receiver point (and normal) the primary ray meets first, for the receivers of pair_scene; false
+// where it meets none. Volume receivers: the ray's entry into the slab.
+bool receiver_hit(ObjectKind receiver, const Ray& r, Vec3& p, Vec3& n, float& t) {
+  t = kInfinity;
+  auto slab_top = [&](float y, float half) {  // the plane y, within |x|, |z| <= half
+    if (std::abs(r.direction.y) < 1e-6f) return false;
+    const float tp = (y - r.origin.y) / r.direction.y;
+    const Vec3 h = r.at(tp);
+    if (!(tp > 0) || std::abs(h.x) > half || std::abs(h.z) > half) return false;
+    t = tp;
+    p = h;
+    n = {0, 1, 0};
+    return true;
+  };
+  switch (receiver) {
+    case ObjectKind::Plane: return slab_top(-0.4f, 1.0f);
+    case ObjectKind::Isosurface:
+    case ObjectKind::Volume: return slab_top(-0.25f, 0.5f - kMargin);
+    case ObjectKind::Spheres:
+      for (int i = -3; i <= 3; ++i)
+        for (int k = -3; k <= 3; ++k) {
+          const Sphere s{{0.13f * static_cast<float>(i), -0.4f, 0.13f * static_cast<float>(k)}, 0.06f};
+          const float ts = intersect_sphere(r, s, 0, t);
+          if (ts < t) {
+            t = ts;
+            p = r.at(ts);
+            n = normalize(p - s.center);
+          }
+        }
+      return t < kInfinity;
+  }
+  return false;
+}
+
+}  // namespace
+
+// The pixel masks: toggling the caster changes exactly the pixels whose receiver point exact shadow
+// rays put in its shadow (by a margin of a voxel and a half), and none of those they put outside.
+TEST(MixedScene, ShadowsFallExactlyWhereShadowRaysSay) {
+  const ObjectKind kinds[] = {ObjectKind::Volume, ObjectKind::Spheres, ObjectKind::Isosurface, ObjectKind::Plane};
+  for (ObjectKind caster : kinds)
+    for (ObjectKind receiver : kinds) {
+      SCOPED_TRACE(to_string(caster) + " on " + to_string(receiver));
+      ScratchDir dir;
+      std::string cp, rp;
+      const json base = pair_scene(caster, receiver, dir, cp, rp);
+      const Scene scene = build_scene(base, "");
+      const Image lit = render_json(with_flag(base, cp, "casts_shadows", false));
+      const Image shadowed = render_json(base);
+      const PrimaryRays rays(scene.camera);
+      std::size_t expected_shadowed = 0, missed = 0, extra = 0;
+      Image mask(kSize, kSize, Rgb(0.0f));  // red: missed, blue: extra, grey: agreed shadow
+      for (int y = 0; y < kSize; ++y)
+        for (int x = 0; x < kSize; ++x) {
+          const Ray ray = rays.ray(x, y);
+          Vec3 p, n;
+          float t;
+          Expect e = Expect::Lit;  // background: nothing to shadow
+          if (receiver == ObjectKind::Volume) {
+            // every sample along the ray inside the slab may be shadowed: lit only if all are clear,
+            // shadowed if the entry (where the slab's opacity shows) is
+            const Box3 slab{{-0.5f, -0.55f, -0.5f}, {0.5f, -0.25f, 0.5f}};
+            float t0, t1;
+            t = kInfinity;
+            if (slab.clip(ray, t0, t1)) {
+              t = t0;
+              float nearest = kInfinity;
+              for (int k = 0; k <= 32; ++k)
+                nearest = std::min(nearest, shadow_clearance(caster, ray.at(t0 + (t1 - t0) * static_cast<float>(k) / 32.0f)));
+              const float entry = shadow_clearance(caster, ray.at(t0 + 0.02f));
+              e = nearest > kMargin ? Expect::Lit : entry < -kMargin ? Expect::Shadowed : Expect::Unknown;
+            }
+          } else if (receiver_hit(receiver, ray, p, n, t)) {
+            e = classify(shadow_clearance(caster, p));
+            if (dot(n, kToLight) <= 0.05f) e = Expect::Unknown;
+          }
+          if (shows_caster(caster, ray, t)) e = Expect::Unknown;
+          const Rgb a = lit.at(x, y), b = shadowed.at(x, y);
+          const bool changed = std::abs(a.r - b.r) + std::abs(a.g - b.g) + std::abs(a.b - b.b) > 1e-6f;
+          if (e == Expect::Shadowed) {
+            ++expected_shadowed;
+            if (!changed) {
+              ++missed;
+              mask.at(x, y) = Rgb(1, 0, 0);
+            } else {
+              mask.at(x, y) = Rgb(0.5f);
+            }
+          } else if (e == Expect::Lit && changed) {
+            ++extra;
+            mask.at(x, y) = Rgb(0, 0, 1);
+          }
+        }
+      FailureImages keep;
+      keep.add("mask_" + to_string(caster) + "_on_" + to_string(receiver), mask, Image{});
+      keep.add("frames_" + to_string(caster) + "_on_" + to_string(receiver), shadowed, lit);
+      EXPECT_GT(expected_shadowed, 20u) << "the test scene has no shadow to check";
+      EXPECT_EQ(missed, 0u) << "pixels in the caster's shadow that did not change";
+      EXPECT_EQ(extra, 0u) << "pixels outside the caster's shadow that changed";
     }
 }
 
