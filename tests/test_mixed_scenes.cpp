@@ -10,7 +10,9 @@
 #include <vector>
 
 #include "penumbra/core/image_io.h"
+#include "penumbra/accel/extinction_sat.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/particles/particle_ambient_occlusion.h"
 #include "penumbra/particles/sphere_bvh.h"
 #include "penumbra/scene/camera.h"
 #include "penumbra/render/renderer.h"
@@ -357,7 +359,9 @@ TEST(MixedScene, ARedSlabCastsARedShadowOnSpheres) {
   for (int s = 1; s <= seeds; ++s) {
     json c = j;
     c["shadows"] = {{"technique", "cssm"}, {"resolution", 128}, {"seed", s}};
-    for (const Rgb& p : render_json(c).pixels()) {
+    const Image im = render_json(c);
+    for (const Rgb& p : im.pixels()) {
+      ASSERT_TRUE(p.max_component() >= 0 && p.max_component() < 10) << "seed " << s << ": " << p.r << " " << p.g << " " << p.b;
       cr += p.r / seeds;
       cg += p.g / seeds;
     }
@@ -428,4 +432,52 @@ TEST(MixedScene, OneAndTwoThreadsAreByteIdentical) {
     two = render_json(j);
   }
   EXPECT_EQ(one.pixels(), two.pixels());
+}
+
+// Ambient occlusion across kinds, approximately: spheres enter the extinction SAT (sat_shells,
+// sampled_ao, sat_cone) with τ_s = kOpaqueDepth / (2r) over the cells they fill, and the volumes'
+// opacity enters particle_ao's density grid.
+TEST(MixedScene, SpheresEnterTheExtinctionSat) {
+  const Volume empty(ScalarType::Float32, {33, 33, 33}, {1.0f / 32, 1.0f / 32, 1.0f / 32}, {-0.5f, -0.5f, -0.5f});
+  TransferFunction none;  // nothing in the volume absorbs
+  ParticleSet set;
+  const float r = 0.2f;
+  set.spheres = {{{0.05f, -0.1f, 0.0f}, r}};
+  set.colors = {pack_rgba8(Rgb(1.0f))};
+  const ExtinctionSat without(empty, none, Compositing::Alpha, 1.0f / 32, 64, false);
+  const ExtinctionSat with(empty, none, Compositing::Alpha, 1.0f / 32, 64, false, &set);
+  const CellBox all{{0, 0, 0}, with.dims()};
+  EXPECT_EQ(without.sum(all), 0.0);
+  // Σ τ · V_cell = τ_s · (4/3)πr³, to the ramp's discretisation (a few per cent at 12.8 cells a radius)
+  const double expected = kOpaqueDepth / (2 * r) * 4.0 / 3.0 * 3.14159265358979 * r * r * r;
+  EXPECT_NEAR(with.sum(all) * with.cell_volume(), expected, 0.03 * expected);
+  // and it sits where the sphere is: nothing in the upper half of the box
+  const int mid = static_cast<int>(with.to_cell({0, -0.1f + r, 0}).y) + 2;
+  EXPECT_EQ(with.sum(CellBox{{0, mid, 0}, with.dims()}), 0.0);
+}
+
+TEST(MixedScene, ParticleAoSeesTheVolumes) {
+  MediumHolder slab(volume_scene({{"name", "slab"}, {"size", 24}, {"thickness", 0.2}}, step_tf(0.9)));
+  AmbientSettings s;
+  s.max_distance = 0.5f;
+  ParticleAmbientOcclusion ao(s);
+  ao.build(*slab.medium);
+  // a point just above the slab, facing it, is occluded; one far from it is not
+  SurfacePoint near, far;
+  near.position = {0, 0.15f, 0};
+  near.normal = {0, -1, 0};
+  far.position = {0, 0.15f, 0};
+  far.normal = {0, 1, 0};
+  const std::vector<SurfacePoint> pts{near, far};
+  std::vector<Rgb> out(2);
+  ao.ambient(std::span<const SurfacePoint>(pts), std::span<Rgb>(out));
+  EXPECT_LT(out[0].r, 0.5f) << "facing the slab";
+  EXPECT_GT(out[1].r, out[0].r + 0.3f) << "facing away from it";
+  // the same slab fully transparent occludes nothing
+  MediumHolder clear(volume_scene({{"name", "slab"}, {"size", 24}, {"thickness", 0.2}}, step_tf(0.0)));
+  ParticleAmbientOcclusion none(s);
+  none.build(*clear.medium);
+  none.ambient(std::span<const SurfacePoint>(pts), std::span<Rgb>(out));
+  EXPECT_EQ(out[0].r, 1.0f);
+  EXPECT_EQ(out[1].r, 1.0f);
 }

@@ -138,6 +138,7 @@ void check_demo(const std::string& data_dir, const DemoFiles& expected, bool dat
     for (const auto& p : parts) want.insert(scene + "_" + p + ".png");
     want.insert(scene + "_comparison.png");
   }
+  if (data_scenes) want.insert("ct-implants.xyz");  // the demo's implants, beside its images
   std::set<std::string> have;
   for (const auto& e : fs::directory_iterator(out)) have.insert(e.path().filename().string());
   EXPECT_EQ(have, want);
@@ -183,12 +184,15 @@ TEST(Demo, QuickModeWritesTheImagesItNames) {
   check_demo(empty.path().string(), kProceduralDemo, false);
 }
 
-// The same with the data sets: the head CT (volume techniques) and 1AON (sphere techniques) join.
+// The same with the data sets: the head CT (volume techniques), 1AON (sphere techniques) and the two
+// mixed scenes join.
 TEST(Demo, QuickModeWithTheDataSetsWritesTheirImagesToo) {
   if (!shared_data_present() || !fs::exists(fs::path(PENUMBRA_SHARED_DATA_DIR) / "1aon.pdb.gz")) GTEST_SKIP() << "no ../shared/data";
   DemoFiles all = kProceduralDemo;
   all["cranium"] = all["test-spheres"];
   all["1aon"] = all["spheres-floor"];
+  all["ct-implants"] = all["test-spheres"];    // the mixed scenes: every map technique and ray_traced
+  all["groel-density"] = all["test-spheres"];
   check_demo(PENUMBRA_SHARED_DATA_DIR, all, true);
 }
 

@@ -22,6 +22,7 @@
 
 #include "penumbra/core/color.h"
 #include "penumbra/core/math.h"
+#include "penumbra/data/particles.h"
 #include "penumbra/data/transfer_function.h"
 #include "penumbra/data/volume.h"
 
@@ -45,8 +46,12 @@ class ExtinctionSat {
 public:
   // `reference_step`: the world length the transfer function's opacities refer to (one voxel).
   // `with_colour`: also build the table of τ·c (colour bleeding), in the same pass.
+  // `spheres` (optional): opaque spheres that enter the table too, each cell by the fraction of it a
+  // sphere fills (a ramp one cell wide across the surface) times τ_s = kOpaqueDepth / (2r), so that a
+  // ray through a sphere's diameter loses all but 10⁻⁴ of its light (spheres outside the volume's box
+  // are not in the table).
   ExtinctionSat(const Volume& volume, const TransferFunction& tf, Compositing compositing, float reference_step,
-                int resolution, bool with_colour);
+                int resolution, bool with_colour, const ParticleSet* spheres = nullptr);
 
   const std::array<int, 3>& dims() const { return dims_; }
   const Box3& bounds() const { return bounds_; }
@@ -94,6 +99,7 @@ public:
   }
 
 private:
+  void add_spheres(const ParticleSet& spheres);
   bool clip(const CellBox& box, std::array<int, 3>& lo, std::array<int, 3>& hi) const {
     for (int a = 0; a < 3; ++a) {
       lo[a] = std::clamp(box.lo[a], 0, dims_[a]);

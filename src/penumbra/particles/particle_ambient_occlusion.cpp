@@ -12,7 +12,7 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
   static const ParticleSet kNoSpheres;
   particles_ = occluders.spheres().set ? occluders.spheres().set : &kNoSpheres;
   const ParticleSet& ps = *particles_;
-  Box3 b = occluders.spheres().set ? occluders.spheres().bounds : occluders.bounds();
+  Box3 b = occluders.bounds();  // the spheres' and the volumes' box
   if (b.empty()) b = Box3{{-1, -1, -1}, {1, 1, 1}};
   const Vec3 e = b.extent();
   const float longest = std::max(e.x, std::max(e.y, e.z));
@@ -87,6 +87,25 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
       base.value[i] = 1.0f - std::pow(1.0f - std::min(v, 1.0f), cell_exponent);
     }
   }, 1 << 14);
+  // The volumes' opacity across one cell, from their shadow transfer functions at the cell centre
+  // (opacity per shadow step Δ, so 1 − (1 − α)^(cell/Δ)), composed with the spheres'.
+  if (occluders.has_volume()) {
+    const float steps_per_cell = cell / occluders.step();
+    parallel_for(static_cast<std::size_t>(base.nz), [&](std::size_t z0, std::size_t z1) {
+      for (std::size_t z = z0; z < z1; ++z)
+        for (int y = 0; y < base.ny; ++y)
+          for (int x = 0; x < base.nx; ++x) {
+            const Vec3 p = origin_ + Vec3{static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f, static_cast<float>(z) + 0.5f} * cell;
+            float clear = 1.0f - base.value[index(x, y, static_cast<int>(z))];
+            for (const auto& cv : occluders.volumes()) {
+              if (!cv->box.contains(p)) continue;
+              const float a = cv->lut.lookup(cv->volume->sample_voxel(cv->volume->to_voxel(p))).a;
+              if (a > 0) clear *= std::pow(1.0f - std::min(a, 0.9999f), steps_per_cell);
+            }
+            base.value[index(x, y, static_cast<int>(z))] = 1.0f - clear;
+          }
+    });
+  }
 
   pyramid_.clear();
   pyramid_.push_back(std::move(base));

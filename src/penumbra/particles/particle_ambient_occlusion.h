@@ -30,8 +30,9 @@
 
 namespace penumbra {
 
-// Only the occluders' spheres enter the density volume; a volume sample (no normal) averages the cones
-// of the whole sphere of directions.
+// Occluders of every kind it takes (spheres and volumes): the volumes' opacity across a cell (their
+// shadow transfer functions sampled at the cell centres) is composed into the base level with the
+// spheres'. A volume sample (no normal) averages the cones of the whole sphere of directions.
 class ParticleAmbientOcclusion final : public AmbientTechnique {
 public:
   explicit ParticleAmbientOcclusion(const AmbientSettings& s)

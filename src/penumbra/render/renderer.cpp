@@ -141,8 +141,10 @@ FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lig
       const VolumeObject* v = scene_.visible_volume();
       if (!v) throw Error("shadows.technique / ambient.technique: the extinction techniques need a visible volume");
       Timer t;
+      // the casting spheres enter the table too (approximate ambient occlusion and cone shadows by spheres)
       sat_ = std::make_unique<ExtinctionSat>(*v->volume, v->shadow_tf(), v->compositing, v->reference_step(),
-                                             scene_.light_cache.resolution, needs_extinction_colour(scene_));
+                                             scene_.light_cache.resolution, needs_extinction_colour(scene_),
+                                             casting_particles_.get());
       frame.sat_ms = t.elapsed_ms();
       frame.rebuilt.push_back("sat");
     }

@@ -39,9 +39,9 @@ std::span<const TechniqueInfo> technique_catalog() {
       {"issm", F::Shadow, kSpheres, {"resolution", "rings", "soft_radius", "soft_exponent", "soft_distance"}},
       {"light_pass", F::Shadow, kIsosurfaces, {"resolution", "bias", "light_frustum"}},
       {"none", F::Ambient, kAllKinds, {}},
-      {"sat_shells", F::Ambient, kVolumes, {"shells", "radius", "bleeding"}, true},
-      {"sampled_ao", F::Ambient, kVolumes, {"radius", "bleeding"}, true},
-      {"particle_ao", F::Ambient, kSpheres, {"directions", "max_distance", "grid"}},
+      {"sat_shells", F::Ambient, kVolumes | kSpheres, {"shells", "radius", "bleeding"}, true},
+      {"sampled_ao", F::Ambient, kVolumes | kSpheres, {"radius", "bleeding"}, true},
+      {"particle_ao", F::Ambient, kSpheres | kVolumes, {"directions", "max_distance", "grid"}},
       {"ray_traced_ao", F::Ambient, kAllKinds, {"max_distance", "rays"}, false, true},
   };
   return catalog;
