@@ -132,8 +132,7 @@ Image shade_surfaces(const Scene& scene, const Camera& cam, const VisibleSurface
           const Rgb t = vs.receives[b0 + i] ? T[i] : Rgb(1.0f);
           if (t.max_component() <= 0) continue;  // fully shadowed: ambient only
           const SurfacePoint& p = pts[i];
-          const bool sphere = p.kind == ObjectKind::Spheres;
-          const float diffuse_scale = sphere ? (ao[i].r + ao[i].g + ao[i].b) / 3.0f : 1.0f;
+          const float diffuse_scale = (ao[i].r + ao[i].g + ao[i].b) / 3.0f;
           lit[i] += shading.direct(lights[l], p.position, p.normal, cam.eye, vs.albedo[b0 + i], p.kind != ObjectKind::Plane, diffuse_scale) * t;
         }
       }

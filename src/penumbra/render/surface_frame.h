@@ -3,8 +3,8 @@
 // points and the planes, and lists it as a SurfacePoint (in pixel order, the same for any thread
 // count). shade_surfaces() shades them in batches with Blinn–Phong under every light, each light's
 // direct term scaled by its LightShadows' per-channel transmittance (coloured where translucent
-// volumes cast), the ambient term by the ambient technique; for spheres the diffuse term too (paper 003
-// §4 adds AO "in completely unshadowed" regions). Isosurfaces and spheres get a highlight, planes are
+// volumes cast), the ambient term by the ambient technique and the diffuse term by its grey mean (paper
+// 003 §4 adds AO "in completely unshadowed" regions too). Isosurfaces and spheres get a highlight, planes are
 // Lambertian. The result carries each pixel's distance, so that the volumes are then ray cast in front
 // of it (render_volume_frame's OpaqueLayer).
 #pragma once
