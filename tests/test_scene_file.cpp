@@ -216,6 +216,9 @@ TEST(SceneFile, VolumeSourceAndTransferFunctionErrors) {
   expect_error(with(j, "shadows.technique", "sat_cone"), {"volumes", "sat_cone", "2 visible volumes"});
   j["volumes"][1]["visible"] = false;
   EXPECT_NO_THROW(build_scene(j, ""));
+  // objects that have no shadow flags
+  expect_error(with(j, "lights.0.casts_shadows", "false"), {"lights.0.casts_shadows"});
+  expect_error(with(j, "camera.receives_shadows", "false"), {"camera.receives_shadows"});
   // an invisible volume has no shadow flags
   expect_error(with(j, "volumes.1.casts_shadows", "true"), {"volumes.1.casts_shadows", "not visible"});
 }

@@ -13,6 +13,7 @@
 #include "penumbra/render/isosurface_buffers.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/scene_file.h"
+#include "penumbra/scene/technique_catalog.h"
 #include "stats.h"
 
 namespace penumbra::cli {
@@ -101,6 +102,15 @@ void run_render(const RenderOptions& o) {
     if (o.orbit > 0) camera = camera.orbited(angle);
     if (o.light_orbit > 0 && !lights.empty()) lights[0] = orbit_light(lights[0], scene.caster_bounds().center(), scene.camera.up, angle);
     const FrameResult frame = renderer.render(camera, lights);
+    // which technique covers which kind of caster, e.g. "issm (spheres) + cssm (volumes)"
+    std::string techniques;
+    for (const ShadowAssignment& a : shadow_assignments(scene)) {
+      std::string kinds;
+      for (int k = 0; k < kObjectKinds; ++k)
+        if (a.casters & kind_bit(static_cast<ObjectKind>(k))) kinds += (kinds.empty() ? "" : ", ") + to_string(static_cast<ObjectKind>(k));
+      techniques += (techniques.empty() ? "" : " + ") + a.technique + " (" + kinds + ")";
+    }
+    if (techniques.empty()) techniques = "none";
     const std::string path = sequence ? frame_path(o.output, f) : o.output;
     write_image(path, frame.image);
     if (f == 0) stats = render_stats(scene, renderer, frame, ThreadLimit::current_max());
@@ -111,7 +121,7 @@ void run_render(const RenderOptions& o) {
     std::string rebuilt;
     for (const auto& r : frame.rebuilt) rebuilt += (rebuilt.empty() ? " (rebuilt " : ", ") + r;
     std::fprintf(stderr, "%s: %s, sat %.1f ms, ambient %.1f ms, shadows %.1f ms, render %.1f ms%s\n", path.c_str(),
-                 scene.shadows.technique.c_str(), frame.sat_ms, frame.ambient_ms, frame.build_ms, frame.render_ms,
+                 techniques.c_str(), frame.sat_ms, frame.ambient_ms, frame.build_ms, frame.render_ms,
                  rebuilt.empty() ? "" : (rebuilt + ")").c_str());
   }
   if (!o.stats.empty()) {

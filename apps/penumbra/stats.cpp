@@ -6,6 +6,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/particles/sphere_hits.h"
+#include "penumbra/scene/technique_catalog.h"
 
 namespace penumbra::cli {
 
@@ -25,6 +26,11 @@ nlohmann::json frame_stats(const FrameResult& frame) {
 nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const FrameResult& first, int threads) {
   nlohmann::json j;
   j["technique"] = scene.shadows.technique;
+  nlohmann::json by_kind = nlohmann::json::object();  // which technique covered which kind of caster
+  for (const ShadowAssignment& a : shadow_assignments(scene))
+    for (int k = 0; k < kObjectKinds; ++k)
+      if (a.casters & kind_bit(static_cast<ObjectKind>(k))) by_kind[to_string(static_cast<ObjectKind>(k))] = a.technique;
+  j["shadow_techniques"] = by_kind;
   j["ambient_technique"] = scene.ambient.technique;
   j["width"] = first.image.width();
   j["height"] = first.image.height();
