@@ -184,7 +184,8 @@ FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lig
   Timer shade;
   const SurfaceInputs surface_in{&scene_, &camera, particles_.get(), particle_offsets_, particle_objects_,
                                  particles_ ? &hits : nullptr, eye};
-  const VisibleSurfaces surfaces = visible_surfaces(surface_in);
+  visible_surfaces(surface_in, surfaces_);
+  const VisibleSurfaces& surfaces = surfaces_;
   frame.isosurface.shade_ms += shade.elapsed_ms();
 
   // View-dependent shadow work for this frame's receivers.

@@ -21,6 +21,7 @@
 #include "penumbra/render/isosurface_frame.h"
 #include "penumbra/render/light_shadows.h"
 #include "penumbra/render/prepared_volume.h"
+#include "penumbra/render/surface_frame.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadows/ambient_technique.h"
 #include "penumbra/shadows/shadow_casters.h"
@@ -95,6 +96,7 @@ private:
   bool particles_built_ = false;
   std::vector<std::unique_ptr<PreparedIsosurface>> isosurfaces_;  // sharing one GridTree per volume
   IsoPoints isosurface_eye_points_;  // the last frame's eye passes
+  VisibleSurfaces surfaces_;         // the last frame's opaque surfaces (buffers reused)
   bool transfer_function_changed_ = true;  // the SAT and ambient cache are stale
   double prepare_ms_ = 0;
 };

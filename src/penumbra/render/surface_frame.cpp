@@ -14,7 +14,7 @@ constexpr std::uint32_t kNoPoint = 0xffffffffu;
 
 }  // namespace
 
-VisibleSurfaces visible_surfaces(const SurfaceInputs& in) {
+void visible_surfaces(const SurfaceInputs& in, VisibleSurfaces& vs) {
   const Camera& cam = *in.camera;
   const Scene& scene = *in.scene;
   const int w = cam.width, h = cam.height;
@@ -35,82 +35,103 @@ VisibleSurfaces visible_surfaces(const SurfaceInputs& in) {
       }
     }
   }
-  VisibleSurfaces vs;
+  // Pass 1: each pixel's nearest surface — its distance and what it is (plane index, isosurface or
+  // sphere) — and the number of surface pixels per row. Pass 2 lists them in pixel order at each row's
+  // offset, so the list is the same for any thread count; the buffers keep their capacity across frames.
+  enum : std::uint32_t { kPlane = 0u << 30, kIso = 1u << 30, kSphere = 2u << 30, kNothing = 3u << 30, kKind = 3u << 30 };
   vs.distance.assign(pixels, kInfinity);
-  // per row: the points in pixel order, so the list is the same for any thread count
-  struct Row {
-    std::vector<SurfacePoint> points;
-    std::vector<std::uint32_t> pixel;
-    std::vector<Rgb> albedo;
-    std::vector<std::uint8_t> receives;
-  };
-  std::vector<Row> rows(static_cast<std::size_t>(h));
+  std::vector<std::uint32_t> what(pixels, kNothing);
+  std::vector<std::size_t> row_start(static_cast<std::size_t>(h) + 1, 0);
   const PrimaryRays rays(cam);
   parallel_for(static_cast<std::size_t>(h), [&](std::size_t y0, std::size_t y1) {
     for (std::size_t y = y0; y < y1; ++y) {
-      Row& row = rows[y];
+      std::size_t count = 0;
       for (int x = 0; x < w; ++x) {
         const std::size_t i = y * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
         const bool sphere = in.hits && in.hits->id[i] != kNoSphere;
         const Nearest iso = iso_at.empty() ? Nearest{} : iso_at[i];
         if (!sphere && iso.point == kNoPoint && scene.planes.empty()) continue;  // background
         float t = sphere ? in.hits->t[i] : kInfinity;
-        bool is_iso = false;
+        std::uint32_t kind = sphere ? kSphere : kNothing;
         if (iso.point != kNoPoint && in.isosurface_points[iso.surface][iso.point].distance < t) {
           t = in.isosurface_points[iso.surface][iso.point].distance;
-          is_iso = true;
+          kind = kIso;
         }
-        const Ray ray = rays.ray(x, static_cast<int>(y));
-        const Plane* plane = nearest_plane(scene.planes, ray, t);
-        if (t == kInfinity) continue;
+        if (!scene.planes.empty()) {
+          const Plane* plane = nearest_plane(scene.planes, rays.ray(x, static_cast<int>(y)), t);
+          if (plane) kind = kPlane | static_cast<std::uint32_t>(plane - scene.planes.data());
+        }
+        if (kind == kNothing) continue;
         vs.distance[i] = t;
+        what[i] = kind;
+        ++count;
+      }
+      row_start[y + 1] = count;
+    }
+  });
+  for (std::size_t y = 0; y < static_cast<std::size_t>(h); ++y) row_start[y + 1] += row_start[y];
+  const std::size_t n = row_start.back();
+  vs.points.resize(n);
+  vs.pixel.resize(n);
+  vs.albedo.resize(n);
+  vs.receives.resize(n);
+  parallel_for(static_cast<std::size_t>(h), [&](std::size_t y0, std::size_t y1) {
+    for (std::size_t y = y0; y < y1; ++y) {
+      std::size_t k = row_start[y];
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = y * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
+        if (what[i] == kNothing) continue;
+        const float t = vs.distance[i];
         SurfacePoint sp;
         Rgb albedo;
         bool receives = true;
-        if (plane) {
-          sp.position = ray.at(t);
-          sp.normal = plane->facing_normal(ray.direction);
-          sp.kind = ObjectKind::Plane;
-          sp.object = static_cast<std::uint32_t>(plane - scene.planes.data());
-          albedo = plane->color;
-          receives = plane->receives_shadows;
-        } else if (is_iso) {
-          const IsoPoint& p = in.isosurface_points[iso.surface][iso.point];
-          sp.position = p.position;
-          sp.normal = p.normal;
-          sp.kind = ObjectKind::Isosurface;
-          sp.object = iso.surface;
-          sp.error = p.error;
-          const IsosurfaceObject& o = scene.isosurfaces[iso.surface];
-          albedo = o.color;
-          receives = o.receives_shadows;
-        } else {
-          const std::uint32_t id = in.hits->id[i];
-          const Sphere& s = in.particles->spheres[id];
-          const Vec3 pos = ray.at(t);
-          sp.normal = normalize(pos - s.center);
-          sp.position = s.center + sp.normal * s.radius;  // on the surface to the last bit that matters
-          sp.kind = ObjectKind::Spheres;
-          sp.self = id;
-          const auto segment = std::upper_bound(in.particle_offsets.begin(), in.particle_offsets.end(), id) - in.particle_offsets.begin() - 1;
-          sp.object = in.particle_objects[static_cast<std::size_t>(segment)];
-          albedo = unpack_rgb8(in.particles->colors[id]);
-          receives = scene.particles[sp.object].receives_shadows;
+        switch (what[i] & kKind) {
+          case kPlane: {
+            const Plane& plane = scene.planes[what[i] & ~kKind];
+            const Ray ray = rays.ray(x, static_cast<int>(y));
+            sp.position = ray.at(t);
+            sp.normal = plane.facing_normal(ray.direction);
+            sp.kind = ObjectKind::Plane;
+            sp.object = what[i] & ~kKind;
+            albedo = plane.color;
+            receives = plane.receives_shadows;
+            break;
+          }
+          case kIso: {
+            const Nearest iso = iso_at[i];
+            const IsoPoint& p = in.isosurface_points[iso.surface][iso.point];
+            sp.position = p.position;
+            sp.normal = p.normal;
+            sp.kind = ObjectKind::Isosurface;
+            sp.object = iso.surface;
+            sp.error = p.error;
+            const IsosurfaceObject& o = scene.isosurfaces[iso.surface];
+            albedo = o.color;
+            receives = o.receives_shadows;
+            break;
+          }
+          default: {  // a sphere
+            const std::uint32_t id = in.hits->id[i];
+            const Sphere& s = in.particles->spheres[id];
+            const Vec3 pos = rays.ray(x, static_cast<int>(y)).at(t);
+            sp.normal = normalize(pos - s.center);
+            sp.position = s.center + sp.normal * s.radius;  // on the surface to the last bit that matters
+            sp.kind = ObjectKind::Spheres;
+            sp.self = id;
+            const auto segment = std::upper_bound(in.particle_offsets.begin(), in.particle_offsets.end(), id) - in.particle_offsets.begin() - 1;
+            sp.object = in.particle_objects[static_cast<std::size_t>(segment)];
+            albedo = unpack_rgb8(in.particles->colors[id]);
+            receives = scene.particles[sp.object].receives_shadows;
+          }
         }
-        row.points.push_back(sp);
-        row.pixel.push_back(static_cast<std::uint32_t>(i));
-        row.albedo.push_back(albedo);
-        row.receives.push_back(receives ? 1 : 0);
+        vs.points[k] = sp;
+        vs.pixel[k] = static_cast<std::uint32_t>(i);
+        vs.albedo[k] = albedo;
+        vs.receives[k] = receives ? 1 : 0;
+        ++k;
       }
     }
   });
-  for (const Row& row : rows) {
-    vs.points.insert(vs.points.end(), row.points.begin(), row.points.end());
-    vs.pixel.insert(vs.pixel.end(), row.pixel.begin(), row.pixel.end());
-    vs.albedo.insert(vs.albedo.end(), row.albedo.begin(), row.albedo.end());
-    vs.receives.insert(vs.receives.end(), row.receives.begin(), row.receives.end());
-  }
-  return vs;
 }
 
 Image shade_surfaces(const Scene& scene, const Camera& cam, const VisibleSurfaces& vs, std::span<const Light> lights,

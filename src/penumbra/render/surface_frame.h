@@ -39,7 +39,13 @@ struct SurfaceInputs {
   std::span<const IsoPoints> isosurface_points;  // one eye pass per scene isosurface
 };
 
-VisibleSurfaces visible_surfaces(const SurfaceInputs& in);
+// Fills `out` (reusing its buffers: a renderer keeps one across frames).
+void visible_surfaces(const SurfaceInputs& in, VisibleSurfaces& out);
+inline VisibleSurfaces visible_surfaces(const SurfaceInputs& in) {
+  VisibleSurfaces out;
+  visible_surfaces(in, out);
+  return out;
+}
 
 // The shaded surfaces over the background.
 Image shade_surfaces(const Scene& scene, const Camera& camera, const VisibleSurfaces& surfaces, std::span<const Light> lights,
