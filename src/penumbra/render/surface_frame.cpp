@@ -40,7 +40,8 @@ void visible_surfaces(const SurfaceInputs& in, VisibleSurfaces& vs) {
   // offset, so the list is the same for any thread count; the buffers keep their capacity across frames.
   enum : std::uint32_t { kPlane = 0u << 30, kIso = 1u << 30, kSphere = 2u << 30, kNothing = 3u << 30, kKind = 3u << 30 };
   vs.distance.assign(pixels, kInfinity);
-  std::vector<std::uint32_t> what(pixels, kNothing);
+  std::vector<std::uint32_t>& what = vs.what;
+  what.assign(pixels, kNothing);
   std::vector<std::size_t> row_start(static_cast<std::size_t>(h) + 1, 0);
   const PrimaryRays rays(cam);
   parallel_for(static_cast<std::size_t>(h), [&](std::size_t y0, std::size_t y1) {

@@ -27,6 +27,7 @@ struct VisibleSurfaces {
   std::vector<Rgb> albedo;
   std::vector<std::uint8_t> receives;  // the object receives shadows
   std::vector<float> distance;         // per pixel: distance to the opaque surface; infinity: background
+  std::vector<std::uint32_t> what;     // per pixel: what it shows (kind in the top two bits; plane index)
 };
 
 struct SurfaceInputs {
