@@ -209,12 +209,12 @@ FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lig
   std::vector<const LightShadows*> shadow_ptrs;
   for (const auto& s : shadows_) shadow_ptrs.push_back(s.get());
   shade.reset();
-  const Image opaque = shade_surfaces(scene_, camera, surfaces, lights, shadow_ptrs, ambient_.get());
+  Image opaque = shade_surfaces(scene_, camera, surfaces, lights, shadow_ptrs, ambient_.get());
   frame.isosurface.shade_ms += shade.elapsed_ms();
 
   // The volumes in front of them.
   if (volumes_.empty()) {
-    frame.image = opaque;
+    frame.image = std::move(opaque);
   } else {
     std::vector<const PreparedVolume*> volume_ptrs;
     for (const auto& v : volumes_) volume_ptrs.push_back(v.get());
