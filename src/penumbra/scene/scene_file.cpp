@@ -354,7 +354,7 @@ void note_unread_keys(const nlohmann::json& j, const std::string& section, Techn
   if (!j.is_object()) return;
   for (const auto& [key, value] : j.items()) {
     if (key == "technique" || value.is_null()) continue;
-    if (family == TechniqueFamily::Shadow && key != "technique") {
+    if (family == TechniqueFamily::Shadow) {  // shadows.volumes, .spheres, ...: read by the reader itself
       bool kind_key = false;
       for (int i = 0; i < kObjectKinds; ++i) kind_key = kind_key || key == to_string(static_cast<ObjectKind>(i));
       if (kind_key) continue;

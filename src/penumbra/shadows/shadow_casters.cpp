@@ -64,15 +64,6 @@ ShadowCasters ShadowCasters::restricted_to(KindMask kinds) const {
   return c;
 }
 
-KindMask ShadowCasters::kinds() const {
-  KindMask k = 0;
-  if (!volumes_.empty()) k |= kind_bit(ObjectKind::Volume);
-  if (spheres_.set) k |= kind_bit(ObjectKind::Spheres);
-  if (!isosurfaces_.empty()) k |= kind_bit(ObjectKind::Isosurface);
-  if (!planes_.empty()) k |= kind_bit(ObjectKind::Plane);
-  return k;
-}
-
 float ShadowCasters::surface_hit(const Ray& r, float t0, float t1) const {
   float best = t1;
   for (const auto& p : planes_) best = std::min(best, p.intersect(r, t0, best));
@@ -103,12 +94,6 @@ Vec3 ShadowCasters::ray_origin(const SurfacePoint& p, const Vec3& towards) const
     for (const auto& iso : isosurfaces_)
       if (iso.object == p.object) off = std::max(off, iso.offset);
   return p.position + n * off;
-}
-
-std::size_t ShadowCasters::memory_bytes() const {
-  std::size_t bytes = 0;
-  for (const auto& v : volumes_) bytes += v->empty.size();
-  return bytes;
 }
 
 const ExtinctionSat& ShadowCasters::extinction_sat() const {

@@ -85,10 +85,8 @@ public:
 
   // A copy holding only the casters of the given kinds (what one technique covers).
   ShadowCasters restricted_to(KindMask kinds) const;
-  KindMask kinds() const;  // the kinds present
 
   bool has_volume() const { return !volumes_.empty(); }
-  bool has_opaque() const { return !planes_.empty() || spheres_.set || !isosurfaces_.empty(); }
   float step() const { return step_; }            // Δ, world units
   const Box3& bounds() const { return bounds_; }  // what light frusta are fitted to
   const std::vector<Plane>& planes() const { return planes_; }
@@ -124,8 +122,6 @@ public:
   // epsilon for planes), to the side of `towards`.
   Vec3 ray_origin(const SurfacePoint& p, const Vec3& towards) const;
   float epsilon() const { return epsilon_; }  // 1e-4 of the bounds' radius
-
-  std::size_t memory_bytes() const;
 
   // The extinction SAT of the visible volume, attached by the renderer for the techniques that need it.
   void attach_extinction_sat(const ExtinctionSat* sat) { sat_ = sat; }
