@@ -118,6 +118,9 @@ TEST(FuzzFindings, NrrdHeadersTeemLeaksOnAreRefused) {
       {kNrrdFields + "units: \"mm\" mm\n", "double-quoted strings"},
       {kNrrdFields + "space dimension: 3\nspace units: \"mm\" \"mm\" \"mm\n", "no closing"},
       {kNrrdFields + "space units: \"mm\" \"mm\" \"mm\"\n", "comes before 'space'"},
+      // Found by fuzz_nrrd (2026-12-02): one string too many leaks the others
+      {kNrrdFields + "space: left-posterior-superior\nspace units: \"mm\" \"\" \"mm\" \"mm\"\n", "found more"},
+      {kNrrdFields + "labels: \"x\" \"y\" \"z\" \"w\"\n", "found more"},
       // Found by fuzz_nrrd: teem reads a line only up to a NUL byte and ends lines at a lone '\r', so it
       // saw an unterminated unit where the checks saw a complete one.
       {kNrrdFields + "space dimension: 3\nspace units: \"mm\" \"m\t" + std::string(3, '\0') + "m\" \"mm\"\n", "NUL byte"},

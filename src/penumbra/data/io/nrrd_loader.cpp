@@ -78,9 +78,9 @@ void check_comment(std::string_view line, std::size_t line_no) {
               ": a comment made only of control or non-ASCII bytes (teem cannot read such a comment safely)");
 }
 
-// The value of "labels", "units" and "space units" must be `count` double-quoted strings: teem leaks
-// memory on an unterminated string, so the quotes are checked here the way teem scans them (a
-// backslash before a quote escapes it).
+// The value of "labels", "units" and "space units" must be exactly `count` double-quoted strings: teem
+// leaks memory on an unterminated string and on too many strings, so the quotes are checked here the way
+// teem scans them (a backslash before a quote escapes it).
 void check_quoted_strings(std::string_view value, std::size_t count, const std::string& where) {
   std::size_t i = 0;
   for (std::size_t k = 0; k < count; ++k) {
@@ -92,6 +92,10 @@ void check_quoted_strings(std::string_view value, std::size_t count, const std::
     if (i == value.size()) throw Error(where + " string " + std::to_string(k + 1) + " has no closing '\"'");
     ++i;
   }
+  // teem leaks the strings it has read when more follow (found by fuzz_nrrd)
+  while (i < value.size() && (value[i] == ' ' || value[i] == '\t')) ++i;
+  if (i != value.size())
+    throw Error(where + " expected " + std::to_string(count) + " double-quoted strings, found more: '" + printable(value, 80) + "'");
 }
 
 bool is_per_axis(int field) {
