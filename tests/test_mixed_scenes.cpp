@@ -113,20 +113,36 @@ json with_flag(json j, const std::string& object, const std::string& flag, bool 
   return j;
 }
 
+const ObjectKind kKinds[] = {ObjectKind::Volume, ObjectKind::Spheres, ObjectKind::Isosurface, ObjectKind::Plane};
+
+// A pair scene rendered with the caster casting and not casting.
+struct PairFrames {
+  json scene;
+  std::string caster, receiver;  // their paths in the scene file ("volumes.1", ...)
+  Image lit, shadowed;
+};
+
+PairFrames render_pair(ObjectKind caster, ObjectKind receiver, const ScratchDir& dir) {
+  PairFrames f;
+  f.scene = pair_scene(caster, receiver, dir, f.caster, f.receiver);
+  f.lit = render_json(with_flag(f.scene, f.caster, "casts_shadows", false));
+  f.shadowed = render_json(f.scene);
+  return f;
+}
+
 }  // namespace
 
 // For every (caster kind, receiver kind): the caster's shadow darkens the receiver where it falls and
 // changes nothing else; with receives_shadows off the receiver does not change at all.
 TEST(MixedScene, EveryCasterKindShadowsEveryReceiverKind) {
-  const ObjectKind kinds[] = {ObjectKind::Volume, ObjectKind::Spheres, ObjectKind::Isosurface, ObjectKind::Plane};
-  for (ObjectKind caster : kinds)
-    for (ObjectKind receiver : kinds) {
+  for (ObjectKind caster : kKinds)
+    for (ObjectKind receiver : kKinds) {
       SCOPED_TRACE(to_string(caster) + " on " + to_string(receiver));
       ScratchDir dir;
-      std::string cp, rp;
-      const json base = pair_scene(caster, receiver, dir, cp, rp);
-      const Image lit = render_json(with_flag(base, cp, "casts_shadows", false));
-      const Image shadowed = render_json(base);
+      const PairFrames f = render_pair(caster, receiver, dir);
+      const json& base = f.scene;
+      const std::string &cp = f.caster, &rp = f.receiver;
+      const Image &lit = f.lit, &shadowed = f.shadowed;
       FailureImages keep;
       keep.add(to_string(caster) + "_on_" + to_string(receiver), shadowed, lit);
       std::size_t darker = 0, brighter = 0;
@@ -229,16 +245,13 @@ bool receiver_hit(ObjectKind receiver, const Ray& r, Vec3& p, Vec3& n, float& t)
 // The pixel masks: toggling the caster changes exactly the pixels whose receiver point exact shadow
 // rays put in its shadow (by a margin of a voxel and a half), and none of those they put outside.
 TEST(MixedScene, ShadowsFallExactlyWhereShadowRaysSay) {
-  const ObjectKind kinds[] = {ObjectKind::Volume, ObjectKind::Spheres, ObjectKind::Isosurface, ObjectKind::Plane};
-  for (ObjectKind caster : kinds)
-    for (ObjectKind receiver : kinds) {
+  for (ObjectKind caster : kKinds)
+    for (ObjectKind receiver : kKinds) {
       SCOPED_TRACE(to_string(caster) + " on " + to_string(receiver));
       ScratchDir dir;
-      std::string cp, rp;
-      const json base = pair_scene(caster, receiver, dir, cp, rp);
-      const Scene scene = build_scene(base, "");
-      const Image lit = render_json(with_flag(base, cp, "casts_shadows", false));
-      const Image shadowed = render_json(base);
+      const PairFrames f = render_pair(caster, receiver, dir);
+      const Scene scene = build_scene(f.scene, "");
+      const Image &lit = f.lit, &shadowed = f.shadowed;
       const PrimaryRays rays(scene.camera);
       std::size_t expected_shadowed = 0, missed = 0, extra = 0;
       Image mask(kSize, kSize, Rgb(0.0f));  // red: missed, blue: extra, grey: agreed shadow

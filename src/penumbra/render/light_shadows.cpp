@@ -26,12 +26,11 @@ namespace {
 template <class Point>
 void product(const std::vector<std::unique_ptr<ShadowTechnique>>& techniques, std::span<const Point> points,
              std::span<Rgb> out) {
-  for (auto& o : out) o = Rgb(1.0f);
-  if (techniques.empty()) return;
-  if (techniques.size() == 1) {
+  if (techniques.size() == 1) {  // the common case: no product to form
     techniques.front()->transmittance(points, out);
     return;
   }
+  for (auto& o : out) o = Rgb(1.0f);
   std::array<Rgb, 64> one;
   for (std::size_t b = 0; b < points.size(); b += one.size()) {
     const std::size_t n = std::min(one.size(), points.size() - b);

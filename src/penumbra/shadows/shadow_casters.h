@@ -130,6 +130,19 @@ public:
 private:
   void update_bounds();
 
+  // Segment k of the lattice, [kΔ, (k+1)Δ], cut to [t0, t1] (only the first and last are cut); false
+  // once it starts past t1.
+  bool lattice_segment(std::int64_t k, float t0, float t1, float& seg0, float& seg1) const {
+    const float lo = static_cast<float>(k) * step_, hi = lo + step_;
+    seg0 = lo < t0 ? t0 : lo;
+    seg1 = hi > t1 ? t1 : hi;
+    return seg0 < t1;
+  }
+  // The opacity of a part of length `len` of a segment whose full opacity is `a`.
+  float part_opacity(float a, float len) const {
+    return len >= step_ * 0.9999f ? a : 1.0f - std::pow(1.0f - a, len / step_);
+  }
+
   template <class Visit>
   void march_one(const CastingVolume& cv, const Ray& r, float t_begin, float t_end, Visit& visit) const {
     float t0, t1;
@@ -138,12 +151,8 @@ private:
     std::size_t last_cell = SIZE_MAX;
     std::int64_t k = static_cast<std::int64_t>(std::floor(t0 / step_));
     while (true) {
-      // segment k is [kΔ, (k+1)Δ]; only the first and last are cut by the box
-      const float lo = static_cast<float>(k) * step_;
-      const float seg0 = lo < t0 ? t0 : lo;
-      const float hi = lo + step_;
-      const float seg1 = hi > t1 ? t1 : hi;
-      if (seg0 >= t1) return;
+      float seg0, seg1;
+      if (!lattice_segment(k, t0, t1, seg0, seg1)) return;
       if (seg1 <= seg0) { ++k; continue; }
       const float tm = 0.5f * (seg0 + seg1);
       const Vec3 p = r.at(tm);
@@ -160,8 +169,7 @@ private:
       }
       const Rgba s = cv.lut.lookup(cv.volume->sample_voxel(v));
       if (s.a > 0) {
-        const float len = seg1 - seg0;
-        const float a = len >= step_ * 0.9999f ? s.a : 1.0f - std::pow(1.0f - s.a, len / step_);
+        const float a = part_opacity(s.a, seg1 - seg0);
         if (!visit(MediumSegment{k, tm, seg0, seg1, a, cv.achromatic ? Rgb(0.0f) : s.rgb})) return;
       }
       ++k;
@@ -183,11 +191,8 @@ private:
     if (!(t0 <= t1)) return;
     std::int64_t k = static_cast<std::int64_t>(std::floor(t0 / step_));
     while (true) {
-      const float lo = static_cast<float>(k) * step_;
-      const float seg0 = lo < t0 ? t0 : lo;
-      const float hi = lo + step_;
-      const float seg1 = hi > t1 ? t1 : hi;
-      if (seg0 >= t1) return;
+      float seg0, seg1;
+      if (!lattice_segment(k, t0, t1, seg0, seg1)) return;
       if (seg1 <= seg0) { ++k; continue; }
       const float tm = 0.5f * (seg0 + seg1);
       const Vec3 p = r.at(tm);
@@ -214,7 +219,7 @@ private:
         occupied = true;
         const Rgba s = cv.lut.lookup(cv.volume->sample_voxel(v));
         if (s.a <= 0) continue;
-        const float a = len >= step_ * 0.9999f ? s.a : 1.0f - std::pow(1.0f - s.a, len / step_);
+        const float a = part_opacity(s.a, len);
         pass *= Rgb(1.0f) - (Rgb(1.0f) - (cv.achromatic ? Rgb(0.0f) : s.rgb)) * a;
         clear *= 1 - a;
       }
