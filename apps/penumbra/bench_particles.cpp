@@ -157,7 +157,7 @@ void run_interleaved(const std::vector<Timing*>& timings, int repeats) {
       std::vector<Light> lights = t->scene.lights;
       lights[0] = turned(lights[0], static_cast<float>(i));
       const FrameResult f = t->renderer->render(t->scene.camera, lights);
-      if (std::find(f.rebuilt.begin(), f.rebuilt.end(), "shadows") == f.rebuilt.end())
+      if (std::find(f.rebuilt.begin(), f.rebuilt.end(), "lights.0.shadows") == f.rebuilt.end())
         throw Error("bench particles: a moved light did not rebuild the shadows");
       t->moving.push_back(f.total_ms);
       t->build.push_back(f.build_ms);

@@ -1,5 +1,7 @@
 // Parallel loops over image tiles and index ranges (oneTBB). Work is split by position, never by
 // thread, and every result is written to its own slot, so the output is the same for any thread count.
+// Both loops can be cancelled (cancel.h): once the flag is set they start no more chunks and throw
+// Cancelled when they end.
 #pragma once
 
 #include <cstddef>

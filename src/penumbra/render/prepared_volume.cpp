@@ -37,16 +37,31 @@ std::vector<std::array<std::int8_t, 4>> gradient_volume(const Volume& vol, float
 
 }  // namespace
 
-PreparedVolume::PreparedVolume(const VolumeObject& o, float step_world)
-    : object(&o),
-      volume(o.volume.get()),
-      step(step_world),
-      lut(o.transfer_function, o.volume->min_value(), o.volume->max_value(), step_world / o.reference_step(), 4096, o.compositing),
-      grid(*o.volume),
-      empty(grid.empty_cells(lut)),
-      gradients(gradient_volume(*o.volume, o.reference_step() /
-                                               std::max(o.volume->max_value() - o.volume->min_value(), 1e-20f) /
-                                               kFullShadingGradient)) {}
+PreparedVolume::PreparedVolume(const VolumeObject& o, float step_world) : object(&o), volume(o.volume.get()) {
+  update_gradients();
+  update_grid();
+  update_lut(step_world);
+  update_empty();
+}
+
+void PreparedVolume::update_gradients() {
+  volume = object->volume.get();
+  gradients = gradient_volume(*volume, object->reference_step() / std::max(volume->max_value() - volume->min_value(), 1e-20f) /
+                                           kFullShadingGradient);
+}
+
+void PreparedVolume::update_grid() {
+  volume = object->volume.get();
+  grid = MacrocellGrid(*volume);
+}
+
+void PreparedVolume::update_lut(float step_world) {
+  step = step_world;
+  lut = TransferLut(object->transfer_function, volume->min_value(), volume->max_value(), step_world / object->reference_step(), 4096,
+                    object->compositing);
+}
+
+void PreparedVolume::update_empty() { empty = grid.empty_cells(lut); }
 
 void PreparedVolume::normal_at(const Vec3& v, Vec3& direction, float& weight) const {
   const TrilinearCell cell = volume->trilinear_cell(v);

@@ -20,10 +20,18 @@ namespace penumbra {
 // is noise. Keeps homogeneous interiors from speckling.
 constexpr float kFullShadingGradient = 0.03f;
 
+// Each part can be rebuilt in place (the renderer does so after an edit): the gradients and the min/max
+// grid depend only on the data, the table on the transfer function and the step, the empty cells on
+// the transfer function.
 struct PreparedVolume {
   // `step_world`: the eye's sampling step (the object's own; the finest of them where volumes overlap).
   explicit PreparedVolume(const VolumeObject& o) : PreparedVolume(o, o.step_world()) {}
   PreparedVolume(const VolumeObject& o, float step_world);
+
+  void update_gradients();
+  void update_grid();
+  void update_lut(float step_world);  // the object's transfer function tabulated for this step
+  void update_empty();                // the cells the table makes invisible
 
   // Interpolated gradient direction (world space, not normalised) and shading weight in [0, 1] at
   // continuous voxel coordinates v (inside the grid).

@@ -1,8 +1,9 @@
 #include "penumbra/render/renderer.h"
 
 #include <algorithm>
-#include <map>
+#include <cmath>
 
+#include "penumbra/core/cancel.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/particles/sphere_hits.h"
@@ -12,83 +13,288 @@
 #include "penumbra/shadows/registry.h"
 
 namespace penumbra {
+namespace {
 
-Renderer::Renderer(Scene scene) : scene_(std::move(scene)) {
-  Timer timer;
-  prepare_volumes();
-  prepare_particles();
-  prepare_isosurfaces();
-  prepare_ms_ = timer.elapsed_ms();
+std::string indexed(const char* kind, std::size_t i, const char* what) {
+  return std::string(kind) + "." + std::to_string(i) + "." + what;
 }
 
-void Renderer::prepare_volumes() {
-  // one lattice for all visible volumes: the finest of their steps
+// The scene's settings for a preview: half-resolution maps and light cache, steps twice as long, a
+// quarter of the rays of the ray-traced techniques.
+Scene preview_settings(const Scene& scene) {
+  Scene s = scene;
+  ShadowSettings& sh = s.shadows;
+  sh.resolution = std::max(16, sh.resolution / 2);
+  sh.step = 2 * (sh.step > 0 ? sh.step : kDefaultShadowStepVoxels);
+  sh.cone_rays = std::max(1, sh.cone_rays / 4);
+  sh.area_rays = std::max(1, sh.area_rays / 4);
+  s.light_cache.resolution = std::max(kMinSatResolution, s.light_cache.resolution / 2);
+  s.ambient.rays = std::max(1, s.ambient.rays / 4);
+  for (auto& v : s.volumes) v.step = std::min(8.0f, v.step * 2);
+  return s;
+}
+
+// The eye lattice step shared by the visible volumes: the finest of their steps.
+float shared_step(const Scene& s) {
   float step = kInfinity;
-  for (const auto& v : scene_.volumes)
+  for (const auto& v : s.volumes)
     if (v.visible) step = std::min(step, v.step_world());
-  volumes_.clear();
-  grids_.clear();
-  grids_.resize(scene_.volumes.size());
-  for (std::size_t i = 0; i < scene_.volumes.size(); ++i) {
-    const VolumeObject& v = scene_.volumes[i];
-    if (!v.visible) continue;
-    volumes_.push_back(std::make_unique<PreparedVolume>(v, step));
-  }
+  return step;
 }
 
-void Renderer::prepare_particles() {
-  if (!scene_.has_particles()) return;
+bool reads_seed(const Scene& s) {
+  for (const ShadowAssignment& a : shadow_assignments(s))
+    if (const TechniqueInfo* t = find_technique(TechniqueFamily::Shadow, a.technique))
+      if (std::find(t->keys.begin(), t->keys.end(), "seed") != t->keys.end()) return true;
+  return false;
+}
+
+// The image (and alpha, depth) rendered at 1/divisor of each side, enlarged to width × height by
+// repeating each pixel.
+template <class T>
+std::vector<T> enlarged(const std::vector<T>& small, int sw, int sh, int width, int height) {
+  std::vector<T> out(static_cast<std::size_t>(width) * static_cast<std::size_t>(height));
+  for (int y = 0; y < height; ++y) {
+    const int sy = std::min(sh - 1, y * sh / height);
+    for (int x = 0; x < width; ++x) {
+      const int sx = std::min(sw - 1, x * sw / width);
+      out[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)] =
+          small[static_cast<std::size_t>(sy) * static_cast<std::size_t>(sw) + static_cast<std::size_t>(sx)];
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string to_string(Quality q) { return q == Quality::Preview ? "preview" : "full"; }
+
+bool same_shadow_geometry(const Light& a, const Light& b) {
+  return a.type == b.type && a.position == b.position && a.direction == b.direction && a.angle_deg == b.angle_deg &&
+         a.softness == b.softness;
+}
+
+Renderer::Renderer(Scene scene) : scene_(std::move(scene)) { mark_all_stale(); }
+
+void Renderer::mark_all_stale() {
+  for (std::size_t i = 0; i < scene_.volumes.size(); ++i)
+    for (const char* what : {"gradients", "minmax", "lut", "empty_space", "hierarchy"}) stale_.insert(indexed("volumes", i, what));
+  for (std::size_t i = 0; i < scene_.isosurfaces.size(); ++i)
+    for (const char* what : {"surface", "mesh"}) stale_.insert(indexed("isosurfaces", i, what));
+  for (const char* what : {"spheres", "spheres.colors", "bvh", "casters", "sat", "ambient"}) stale_.insert(what);
+  for (std::size_t i = 0; i < scene_.lights.size(); ++i) stale_.insert(indexed("lights", i, "shadows"));
+}
+
+void Renderer::apply_edit(const Scene& edited, const std::vector<std::string>& stale) {
+  if (edited.volumes.size() != scene_.volumes.size() || edited.particles.size() != scene_.particles.size() ||
+      edited.isosurfaces.size() != scene_.isosurfaces.size() || edited.planes.size() != scene_.planes.size())
+    throw Error("Renderer::apply_edit: the edit changes the number of objects (make a new renderer)");
+  // in place, so that what stays valid keeps pointing at the same objects
+  for (std::size_t i = 0; i < edited.volumes.size(); ++i) scene_.volumes[i] = edited.volumes[i];
+  for (std::size_t i = 0; i < edited.particles.size(); ++i) scene_.particles[i] = edited.particles[i];
+  for (std::size_t i = 0; i < edited.isosurfaces.size(); ++i) scene_.isosurfaces[i] = edited.isosurfaces[i];
+  for (std::size_t i = 0; i < edited.planes.size(); ++i) scene_.planes[i] = edited.planes[i];
+  scene_.camera = edited.camera;
+  scene_.lights = edited.lights;
+  scene_.sphere_rasterizer = edited.sphere_rasterizer;
+  scene_.shadows = edited.shadows;
+  scene_.ambient = edited.ambient;
+  scene_.light_cache = edited.light_cache;
+  scene_.shading = edited.shading;
+  scene_.background = edited.background;
+  scene_.unread_keys = edited.unread_keys;
+  stale_.insert(stale.begin(), stale.end());
+}
+
+void Renderer::set_transfer_function(const TransferFunction& tf) {
+  const VolumeObject* visible = scene_.visible_volume();
+  if (!visible) throw Error("set_transfer_function: the scene has no visible volume");
+  Scene edited = scene_;
+  const auto i = static_cast<std::size_t>(visible - scene_.volumes.data());
+  edited.volumes[i].transfer_function = tf;
+  std::vector<std::string> stale{indexed("volumes", i, "lut"), indexed("volumes", i, "empty_space"), "casters", "sat", "ambient"};
+  for (std::size_t l = 0; l < scene_.lights.size(); ++l) stale.push_back(indexed("lights", l, "shadows"));
+  apply_edit(edited, stale);
+}
+
+void Renderer::rebuilt(const std::string& name, Quality quality, FrameResult& frame) {
+  stale_.erase(name);
+  built_at_[name] = quality;
+  if (std::find(frame.rebuilt.begin(), frame.rebuilt.end(), name) == frame.rebuilt.end()) frame.rebuilt.push_back(name);
+}
+
+std::vector<std::string> Renderer::structures() const {
+  std::vector<std::string> names;
+  for (std::size_t k = 0; k < volumes_.size(); ++k) {
+    const auto i = static_cast<std::size_t>(volume_index_[k]);
+    for (const char* what : {"gradients", "minmax", "lut", "empty_space"}) names.push_back(indexed("volumes", i, what));
+  }
+  for (const auto& [i, tree] : trees_) names.push_back(indexed("volumes", i, "hierarchy"));
+  for (std::size_t i = 0; i < isosurfaces_.size(); ++i) {
+    names.push_back(indexed("isosurfaces", i, "surface"));
+    if (isosurfaces_[i]->mesh) names.push_back(indexed("isosurfaces", i, "mesh"));
+  }
+  if (particles_) {
+    names.push_back("spheres");
+    names.push_back("spheres.colors");
+  }
+  if (bvh_) names.push_back("bvh");
+  if (casters_) names.push_back("casters");
+  if (sat_) names.push_back("sat");
+  if (ambient_) names.push_back("ambient");
+  for (std::size_t i = 0; i < shadows_.size(); ++i)
+    if (!shadow_assignments(scene_).empty()) names.push_back(indexed("lights", i, "shadows"));
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+void Renderer::prepare_volumes(FrameResult& frame) {
+  const float step = shared_step(settings_);
+  if (volumes_.empty() && !scene_.volumes.empty()) {  // first frame: one prepared volume per visible one
+    for (std::size_t i = 0; i < scene_.volumes.size(); ++i) {
+      if (!scene_.volumes[i].visible) continue;
+      volumes_.push_back(std::make_unique<PreparedVolume>(scene_.volumes[i], step));
+      volume_index_.push_back(static_cast<int>(i));
+      for (const char* what : {"gradients", "minmax", "empty_space"}) rebuilt(indexed("volumes", i, what), Quality::Full, frame);
+      rebuilt(indexed("volumes", i, "lut"), building_, frame);
+    }
+  }
+  for (std::size_t k = 0; k < volumes_.size(); ++k) {
+    const auto i = static_cast<std::size_t>(volume_index_[k]);
+    PreparedVolume& pv = *volumes_[k];
+    pv.object = &scene_.volumes[i];
+    if (stale(indexed("volumes", i, "gradients"))) {
+      pv.update_gradients();
+      rebuilt(indexed("volumes", i, "gradients"), Quality::Full, frame);
+    }
+    if (stale(indexed("volumes", i, "minmax"))) {
+      pv.update_grid();
+      rebuilt(indexed("volumes", i, "minmax"), Quality::Full, frame);
+      stale_.insert(indexed("volumes", i, "empty_space"));  // read from the grid
+      stale_.insert("casters");                              // they point at it
+    }
+    if (stale(indexed("volumes", i, "lut")) || pv.step != step) {
+      pv.update_lut(step);
+      rebuilt(indexed("volumes", i, "lut"), building_, frame);
+    }
+    if (stale(indexed("volumes", i, "empty_space"))) {
+      pv.update_empty();
+      rebuilt(indexed("volumes", i, "empty_space"), Quality::Full, frame);
+    }
+  }
+  // hidden volumes have nothing prepared
+  for (std::size_t i = 0; i < scene_.volumes.size(); ++i)
+    if (!scene_.volumes[i].visible)
+      for (const char* what : {"gradients", "minmax", "lut", "empty_space"}) stale_.erase(indexed("volumes", i, what));
+}
+
+void Renderer::prepare_particles(FrameResult& frame) {
+  if (!scene_.has_particles()) {
+    for (const char* what : {"spheres", "spheres.colors", "bvh"}) stale_.erase(what);
+    return;
+  }
   // casting objects first, so that the casting spheres are a prefix with the same indices
   std::vector<std::uint32_t> order;
   for (int pass = 0; pass < 2; ++pass)
     for (std::size_t i = 0; i < scene_.particles.size(); ++i)
       if (scene_.particles[i].casts_shadows == (pass == 0)) order.push_back(static_cast<std::uint32_t>(i));
-  std::size_t casting = 0;
-  for (const auto& p : scene_.particles)
-    if (p.casts_shadows) casting += p.set->size();
-  if (order.size() == 1) {
-    particles_ = scene_.particles.front().set;
-  } else {  // several objects: one set, so that every sphere shadows every other
-    auto merged = std::make_shared<ParticleSet>();
+  if (stale("spheres") || !particles_) {
+    std::size_t casting = 0;
+    for (const auto& p : scene_.particles)
+      if (p.casts_shadows) casting += p.set->size();
+    auto merged = std::make_shared<ParticleSet>();  // one set, so that every sphere shadows every other
     for (std::uint32_t i : order) {
       const ParticleSet& s = *scene_.particles[i].set;
       merged->spheres.insert(merged->spheres.end(), s.spheres.begin(), s.spheres.end());
       merged->colors.insert(merged->colors.end(), s.colors.begin(), s.colors.end());
     }
     particles_ = std::move(merged);
-  }
-  std::uint32_t offset = 0;
-  for (std::uint32_t i : order) {
+    particle_offsets_.clear();
+    particle_objects_.clear();
+    std::uint32_t offset = 0;
+    for (std::uint32_t i : order) {
+      particle_offsets_.push_back(offset);
+      particle_objects_.push_back(i);
+      offset += static_cast<std::uint32_t>(scene_.particles[i].set->size());
+    }
     particle_offsets_.push_back(offset);
-    particle_objects_.push_back(i);
-    offset += static_cast<std::uint32_t>(scene_.particles[i].set->size());
+    casting_particles_.reset();
+    if (casting == particles_->size()) {
+      casting_particles_ = particles_;
+    } else if (casting > 0) {
+      auto prefix = std::make_shared<ParticleSet>();
+      prefix->spheres.assign(particles_->spheres.begin(), particles_->spheres.begin() + static_cast<std::ptrdiff_t>(casting));
+      prefix->colors.assign(particles_->colors.begin(), particles_->colors.begin() + static_cast<std::ptrdiff_t>(casting));
+      casting_particles_ = std::move(prefix);
+    }
+    rebuilt("spheres", Quality::Full, frame);
+    rebuilt("spheres.colors", Quality::Full, frame);
+    stale_.insert("bvh");      // it points at the set
+    stale_.insert("casters");  // so do they
+  } else if (stale("spheres.colors")) {  // new colours, same spheres: in place
+    for (std::size_t s = 0; s < order.size(); ++s) {
+      const ParticleSet& set = *scene_.particles[order[s]].set;
+      std::copy(set.colors.begin(), set.colors.end(), particles_->colors.begin() + particle_offsets_[s]);
+      if (casting_particles_ && casting_particles_ != particles_ && particle_offsets_[s] < casting_particles_->size())
+        std::copy(set.colors.begin(), set.colors.end(), casting_particles_->colors.begin() + particle_offsets_[s]);
+    }
+    rebuilt("spheres.colors", Quality::Full, frame);
   }
-  particle_offsets_.push_back(offset);
-  if (casting == particles_->size()) {
-    casting_particles_ = particles_;
-  } else if (casting > 0) {
-    auto prefix = std::make_shared<ParticleSet>();
-    prefix->spheres.assign(particles_->spheres.begin(), particles_->spheres.begin() + static_cast<std::ptrdiff_t>(casting));
-    prefix->colors.assign(particles_->colors.begin(), particles_->colors.begin() + static_cast<std::ptrdiff_t>(casting));
-    casting_particles_ = std::move(prefix);
+  const bool wants_bvh = needs_sphere_bvh(scene_);
+  if (wants_bvh && (stale("bvh") || !bvh_)) {
+    Timer t;
+    bvh_ = std::make_unique<SphereBvh>(*particles_);
+    casting_bvh_.reset();
+    if (casting_particles_ && casting_particles_ != particles_) casting_bvh_ = std::make_unique<SphereBvh>(*casting_particles_);
+    frame.bvh_ms = t.elapsed_ms();
+    rebuilt("bvh", Quality::Full, frame);
+    stale_.insert("casters");  // the casters take the BVH
+  } else if (!wants_bvh) {
+    if (bvh_ && stale("bvh")) stale_.insert("casters");
+    bvh_.reset();
+    casting_bvh_.reset();
+    stale_.erase("bvh");
   }
 }
 
-void Renderer::prepare_isosurfaces() {
-  std::map<std::size_t, std::shared_ptr<const GridTree>> trees;  // one hierarchy per volume
-  for (const IsosurfaceObject& o : scene_.isosurfaces) {
-    auto& tree = trees[o.volume];
-    if (!tree) tree = std::make_shared<const GridTree>(*scene_.volumes[o.volume].volume);
-    isosurfaces_.push_back(std::make_unique<PreparedIsosurface>(tree, o));
+void Renderer::prepare_isosurfaces(FrameResult& frame) {
+  for (std::size_t i = 0; i < scene_.volumes.size(); ++i) {
+    const std::string name = indexed("volumes", i, "hierarchy");
+    bool used = false;
+    for (const auto& o : scene_.isosurfaces) used = used || o.volume == i;
+    if (!used) {
+      trees_.erase(i);
+      stale_.erase(name);
+      continue;
+    }
+    if (stale(name) || !trees_.count(i)) {
+      trees_[i] = std::make_shared<const GridTree>(*scene_.volumes[i].volume);
+      rebuilt(name, Quality::Full, frame);
+      for (std::size_t s = 0; s < scene_.isosurfaces.size(); ++s)
+        if (scene_.isosurfaces[s].volume == i) stale_.insert(indexed("isosurfaces", s, "surface"));
+    }
+  }
+  isosurfaces_.resize(scene_.isosurfaces.size());
+  for (std::size_t s = 0; s < scene_.isosurfaces.size(); ++s) {
+    const IsosurfaceObject& o = scene_.isosurfaces[s];
+    if (stale(indexed("isosurfaces", s, "surface")) || !isosurfaces_[s]) {
+      isosurfaces_[s] = std::make_unique<PreparedIsosurface>(trees_.at(o.volume), o);
+      rebuilt(indexed("isosurfaces", s, "surface"), Quality::Full, frame);
+      stale_.insert("casters");  // they point at the ray caster
+      stale_.insert(indexed("isosurfaces", s, "mesh"));
+    }
+    isosurfaces_[s]->object = &o;
+    if (stale(indexed("isosurfaces", s, "mesh"))) {
+      isosurfaces_[s]->mesh.reset();  // the eye pass extracts it again when the method is mesh
+      stale_.erase(indexed("isosurfaces", s, "mesh"));
+    }
   }
 }
 
 void Renderer::prepare_casters() {
   std::vector<const MacrocellGrid*> grids(scene_.volumes.size(), nullptr);
-  std::size_t visible = 0;
-  for (std::size_t i = 0; i < scene_.volumes.size(); ++i)
-    if (scene_.volumes[i].visible) grids[i] = &volumes_[visible++]->grid;
-  casters_ = std::make_unique<ShadowCasters>(scene_, grids);
+  for (std::size_t k = 0; k < volumes_.size(); ++k) grids[static_cast<std::size_t>(volume_index_[k])] = &volumes_[k]->grid;
+  casters_ = std::make_unique<ShadowCasters>(settings_, grids);
   if (casting_particles_) {
     const SphereBvh* bvh = casting_particles_ == particles_ ? bvh_.get() : casting_bvh_.get();
     casters_->set_spheres(CastingSpheres{casting_particles_.get(), bvh, casting_particles_->bounds()});
@@ -97,17 +303,6 @@ void Renderer::prepare_casters() {
     if (scene_.isosurfaces[i].casts_shadows)
       casters_->add_isosurface(isosurfaces_[i]->raycaster, *isosurfaces_[i]->tree, static_cast<std::uint32_t>(i));
   if (sat_) casters_->attach_extinction_sat(sat_.get());
-  // the ambient technique's occluders: every object of its kinds, casting or not
-  occluders_ = std::make_unique<ShadowCasters>(casters_->restricted_to(ambient_occluders(scene_)));
-}
-
-void Renderer::set_transfer_function(const TransferFunction& tf) {
-  const VolumeObject* visible = scene_.visible_volume();
-  if (!visible) throw Error("set_transfer_function: the scene has no visible volume");
-  for (auto& v : scene_.volumes)
-    if (&v == visible) v.transfer_function = tf;
-  prepare_volumes();
-  transfer_function_changed_ = true;
 }
 
 std::size_t Renderer::voxel_count() const {
@@ -121,49 +316,128 @@ std::size_t Renderer::bvh_memory_bytes() const {
   return (bvh_ ? bvh_->memory_bytes() : 0) + (casting_bvh_ ? casting_bvh_->memory_bytes() : 0);
 }
 
-FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lights) {
-  FrameResult frame;
-  Timer total;
-  if (scene_.has_particles() && !particles_built_) {
-    if (needs_sphere_bvh(scene_)) {
-      Timer t;
-      bvh_ = std::make_unique<SphereBvh>(*particles_);
-      if (casting_particles_ && casting_particles_ != particles_) casting_bvh_ = std::make_unique<SphereBvh>(*casting_particles_);
-      frame.bvh_ms = t.elapsed_ms();
-      frame.rebuilt.push_back("bvh");
-    }
-    particles_built_ = true;
-    transfer_function_changed_ = true;  // the casters take the BVH
+void Renderer::prepare(Quality quality, FrameResult& frame) {
+  settings_ = quality == Quality::Preview ? preview_settings(scene_) : scene_;
+  building_ = quality;
+  // a full frame rebuilds what a preview built coarser
+  if (quality == Quality::Full) {
+    const std::vector<std::string> held = structures();
+    for (const auto& [name, q] : built_at_)
+      if (q == Quality::Preview && std::find(held.begin(), held.end(), name) != held.end()) stale_.insert(name);
   }
-  if (transfer_function_changed_) {
+  Timer prep;
+  prepare_volumes(frame);
+  check_cancelled();
+  prepare_particles(frame);
+  prepare_isosurfaces(frame);
+  frame.prepare_ms = prep.elapsed_ms() - frame.bvh_ms;
+  check_cancelled();
+  // the structures that hang off each other: SAT → casters → ambient and every light's shadows
+  const bool wants_sat = needs_extinction_sat(scene_);
+  if (stale("sat") || (wants_sat && !sat_) || (!wants_sat && sat_)) {
+    stale_.insert("casters");
     sat_.reset();
-    if (needs_extinction_sat(scene_)) {
+    if (wants_sat) {
       const VolumeObject* v = scene_.visible_volume();
       if (!v) throw Error("shadows.technique / ambient.technique: the extinction techniques need a visible volume");
       Timer t;
       // the casting spheres enter the table too (approximate ambient occlusion and cone shadows by spheres)
       sat_ = std::make_unique<ExtinctionSat>(*v->volume, v->shadow_tf(), v->compositing, v->reference_step(),
-                                             scene_.light_cache.resolution, needs_extinction_colour(scene_),
+                                             settings_.light_cache.resolution, needs_extinction_colour(scene_),
                                              casting_particles_.get());
       frame.sat_ms = t.elapsed_ms();
-      frame.rebuilt.push_back("sat");
+      rebuilt("sat", quality, frame);
     }
-    shadows_.clear();
-    built_for_.clear();
-    ambient_.reset();
+    stale_.erase("sat");
+  }
+  if (stale("casters") || !casters_) {
     prepare_casters();
-    if (auto ambient = make_ambient_technique(scene_.ambient)) {
+    rebuilt("casters", quality, frame);
+    stale_.insert("ambient");
+    for (std::size_t l = 0; l < scene_.lights.size(); ++l) stale_.insert(indexed("lights", l, "shadows"));
+  }
+  if (stale("ambient")) {
+    ambient_.reset();
+    if (auto ambient = make_ambient_technique(settings_.ambient)) {
       Timer t;
+      // the ambient technique's occluders: every object of its kinds, casting or not
+      occluders_ = std::make_unique<ShadowCasters>(casters_->restricted_to(ambient_occluders(scene_)));
       ambient->build(*occluders_);
       ambient_ = std::move(ambient);
       frame.ambient_ms = t.elapsed_ms();
-      frame.rebuilt.push_back("ambient");
+      rebuilt("ambient", quality, frame);
     }
-    transfer_function_changed_ = false;
+    stale_.erase("ambient");
   }
+}
+
+void Renderer::update_shadows(const std::vector<Light>& lights, Quality quality, std::uint32_t sample, FrameResult& frame) {
+  if (shadows_.size() != lights.size()) {
+    shadows_.clear();
+    built_for_.clear();
+    seed_of_.clear();
+  }
+  const bool any = !shadow_assignments(scene_).empty();
+  const std::uint64_t seed = scene_.shadows.seed + sample;
+  const bool seeded = reads_seed(scene_);
+  Scene with_seed;
+  const Scene* settings = &settings_;
+  if (seeded && sample > 0) {
+    with_seed = settings_;
+    with_seed.shadows.seed = seed;
+    settings = &with_seed;
+  }
+  for (std::size_t i = 0; i < lights.size(); ++i) {
+    const std::string name = indexed("lights", i, "shadows");
+    const bool have = i < shadows_.size();
+    if (have && !stale(name) && same_shadow_geometry(built_for_[i], lights[i]) && (!seeded || seed_of_[i] == seed)) continue;
+    auto s = std::make_unique<LightShadows>(*settings, *casters_, lights[i]);
+    if (have) {
+      shadows_[i] = std::move(s);
+      built_for_[i] = lights[i];
+      seed_of_[i] = seed;
+    } else {
+      shadows_.push_back(std::move(s));
+      built_for_.push_back(lights[i]);
+      seed_of_.push_back(seed);
+    }
+    if (any) rebuilt(name, quality, frame);
+    stale_.erase(name);
+    check_cancelled();
+  }
+  for (auto it = stale_.begin(); it != stale_.end();)  // lights that are gone
+    it = it->rfind("lights.", 0) == 0 ? stale_.erase(it) : std::next(it);
+}
+
+FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lights, const FrameRequest& request) {
+  const CancelScope scope(request.cancel);
+  if (request.quality == Quality::Full || request.preview_divisor <= 1) return render_at(camera, lights, request);
+  Camera small = camera;
+  const int d = request.preview_divisor;
+  small.width = std::max(1, (camera.width + d - 1) / d);
+  small.height = std::max(1, (camera.height + d - 1) / d);
+  FrameResult f = render_at(small, lights, request);
+  Image full(camera.width, camera.height);
+  full.pixels() = enlarged(f.image.pixels(), small.width, small.height, camera.width, camera.height);
+  f.image = std::move(full);
+  f.alpha = enlarged(f.alpha, small.width, small.height, camera.width, camera.height);
+  f.depth = enlarged(f.depth, small.width, small.height, camera.width, camera.height);
+  return f;
+}
+
+FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& lights, const FrameRequest& request) {
+  FrameResult frame;
+  frame.quality = request.quality;
+  frame.sample = request.sample;
+  Timer total;
+  prepare(request.quality, frame);
   Timer build;
-  if (update_shadows(lights)) frame.rebuilt.push_back("shadows");
+  update_shadows(lights, request.quality, request.sample, frame);
   frame.build_ms = build.elapsed_ms();
+  if (first_frame_) {
+    prepare_ms_ = frame.prepare_ms;
+    first_frame_ = false;
+  }
 
   Timer render;
   // The opaque surfaces: spheres, isosurfaces, planes.
@@ -177,10 +451,13 @@ FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lig
   std::vector<IsoPoints> eye(isosurfaces_.size());
   for (std::size_t s = 0; s < isosurfaces_.size(); ++s) {
     IsosurfaceFrameStats one;
+    const bool had_mesh = isosurfaces_[s]->mesh != nullptr;
     eye[s] = penumbra::isosurface_eye_points(camera, *isosurfaces_[s], one);
+    if (!had_mesh && isosurfaces_[s]->mesh) rebuilt(indexed("isosurfaces", s, "mesh"), Quality::Full, frame);
     frame.isosurface.add(one);
     frame.isosurface.points += eye[s].size();
   }
+  check_cancelled();
   Timer shade;
   const SurfaceInputs surface_in{&scene_, &camera, particles_.get(), particle_offsets_, particle_objects_,
                                  particles_ ? &hits : nullptr, eye};
@@ -192,35 +469,45 @@ FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lig
   Timer fit;
   bool volume_samples = false;
   for (const auto& v : volumes_) volume_samples = volume_samples || v->object->receives_shadows;
-  bool view_dependent = false;
   ShadowStats stats;
   for (auto& s : shadows_) {
     s->fit_to_receivers(surfaces.points, volume_samples);
     s->add_stats(stats);
-    for (const auto& t : s->techniques()) view_dependent = view_dependent || t->view_dependent();
+    for (const auto& t : s->techniques()) frame.refit = frame.refit || t->view_dependent();
   }
   frame.isosurface.shadow_ms = fit.elapsed_ms();
   frame.isosurface.light_points = stats.light_points;
   frame.isosurface.holes = stats.holes;
   frame.issm_rings = stats.issm_rings;
-  if (view_dependent && std::find(frame.rebuilt.begin(), frame.rebuilt.end(), "shadows") == frame.rebuilt.end())
-    frame.rebuilt.push_back("shadows");
+  check_cancelled();
 
   std::vector<const LightShadows*> shadow_ptrs;
   for (const auto& s : shadows_) shadow_ptrs.push_back(s.get());
   shade.reset();
   Image opaque = shade_surfaces(scene_, camera, surfaces, lights, shadow_ptrs, ambient_.get());
   frame.isosurface.shade_ms += shade.elapsed_ms();
+  check_cancelled();
 
   // The volumes in front of them.
+  const std::size_t pixels = surfaces.distance.size();
+  frame.depth = surfaces.distance;
+  frame.alpha.assign(pixels, 0.0f);
+  for (std::size_t p = 0; p < pixels; ++p) frame.alpha[p] = std::isfinite(surfaces.distance[p]) ? 1.0f : 0.0f;
   if (volumes_.empty()) {
     frame.image = std::move(opaque);
   } else {
     std::vector<const PreparedVolume*> volume_ptrs;
     for (const auto& v : volumes_) volume_ptrs.push_back(v.get());
     const OpaqueLayer layer{&surfaces.distance, &opaque};
-    frame.image = render_volume_frame(RayCastInputs{&scene_, &camera, volume_ptrs, lights, shadow_ptrs, ambient_.get(), &layer});
+    VolumeFrame vf = render_volume_frame(
+        RayCastInputs{&scene_, &camera, volume_ptrs, lights, shadow_ptrs, ambient_.get(), &layer, request.sample});
+    frame.image = std::move(vf.image);
+    for (std::size_t p = 0; p < pixels; ++p) {
+      frame.alpha[p] = frame.alpha[p] + (1 - frame.alpha[p]) * vf.opacity[p];
+      frame.depth[p] = std::min(frame.depth[p], vf.half_depth[p]);
+    }
   }
+  check_cancelled();
   if (eye.size() == 1) isosurface_eye_points_ = std::move(eye.front());
   else {
     isosurface_eye_points_.clear();
@@ -229,27 +516,6 @@ FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lig
   frame.render_ms = render.elapsed_ms();
   frame.total_ms = total.elapsed_ms();
   return frame;
-}
-
-bool Renderer::update_shadows(const std::vector<Light>& lights) {
-  if (shadows_.size() != lights.size()) {
-    shadows_.clear();
-    built_for_.clear();
-  }
-  bool rebuilt = false;
-  for (std::size_t i = 0; i < lights.size(); ++i) {
-    if (i < shadows_.size() && built_for_[i] == lights[i]) continue;
-    auto s = std::make_unique<LightShadows>(scene_, *casters_, lights[i]);
-    if (i < shadows_.size()) {
-      shadows_[i] = std::move(s);
-      built_for_[i] = lights[i];
-    } else {
-      shadows_.push_back(std::move(s));
-      built_for_.push_back(lights[i]);
-    }
-    rebuilt = true;
-  }
-  return rebuilt && !shadows_.empty() && !shadow_assignments(scene_).empty();
 }
 
 std::size_t Renderer::shadow_memory_bytes() const {

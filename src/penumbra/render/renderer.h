@@ -1,17 +1,22 @@
 // Renders frames of a scene — any mix of volumes, isosurfaces, spheres and planes — and keeps what can
 // be reused between frames (paper 001, Algorithm 1). One pipeline for every kind:
 //   1. the casters (ShadowCasters: every object that casts, with its acceleration structures) and,
-//      per light, a LightShadows (one technique per group of caster kinds), rebuilt only when that
-//      light or the transfer function changed;
+//      per light, a LightShadows (one technique per group of caster kinds);
 //   2. the opaque surfaces: each pixel's nearest sphere (splatting or Embree), isosurface point (the
 //      eye pass) or plane, shaded under the lights' shadows (surface_frame.h);
 //   3. the visible volumes ray cast in front of them, every sample shadowed by the same LightShadows.
-// The prepared volumes (transfer-function tables, macrocells, gradients) and the extinction SAT live
-// until the transfer function changes, the ambient cache too; the sphere BVH and the isosurfaces'
-// hierarchies for the renderer's life. Frames report what they rebuilt and how long it took.
+//
+// Every cached structure has a name (Structures below), and a frame rebuilds only the structures that
+// are stale: those an edit invalidated (apply_edit, with the names engine/invalidation.h declares for
+// the edited paths), those built for a preview when a full frame is asked for, and those the scene
+// newly needs. FrameResult::rebuilt lists them. Edits replace the scene's values in place, so the
+// structures that stay valid keep pointing at the same objects.
 #pragma once
 
+#include <atomic>
+#include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -28,11 +33,30 @@
 
 namespace penumbra {
 
+// A preview follows the user's hand: a reduced image (Renderer::preview_divisor), shadow maps and the
+// light cache at half resolution, and eye and light steps twice as long. Full is the scene as given.
+enum class Quality { Preview, Full };
+std::string to_string(Quality q);
+
+struct FrameRequest {
+  Quality quality = Quality::Full;
+  int preview_divisor = 2;   // Preview: the image is rendered at 1/divisor of each side, then enlarged
+  // Accumulation: sample 0 is the batch frame; sample k > 0 moves every pixel's jitter and the cssm
+  // seed (shadows.seed + k), so that the mean of samples 0 … n−1 converges (Engine accumulates).
+  std::uint32_t sample = 0;
+  // Set from another thread to cancel the frame: render() then throws Cancelled soon after.
+  const std::atomic<bool>* cancel = nullptr;
+};
+
 struct FrameResult {
-  Image image;
+  Image image;                // linear RGB over the background, the camera's size
+  std::vector<float> alpha;   // per pixel: coverage (1 where an opaque surface shows, else the volumes' opacity)
+  std::vector<float> depth;   // per pixel: distance along the primary ray to the first opaque surface or to
+                              // where the volumes' accumulated opacity reaches 1/2; infinity: background
   double sat_ms = 0;      // extinction volume + summed area table, when rebuilt this frame
   double ambient_ms = 0;  // ambient-occlusion cache, when rebuilt this frame
   double build_ms = 0;    // shadow structures of the lights rebuilt this frame (and view-dependent ones)
+  double prepare_ms = 0;  // transfer-function tables, empty space, gradients, min/max, hierarchies, sphere set
   double render_ms = 0;   // surfaces and ray casting
   double bvh_ms = 0;      // spheres: Embree BVH, when built this frame
   double hits_ms = 0;     // spheres: each pixel's nearest sphere (splatting or Embree rays)
@@ -40,20 +64,33 @@ struct FrameResult {
   std::size_t sphere_pixels = 0;  // pixels showing a sphere
   IsosurfaceFrameStats isosurface;  // isosurfaces: eye pass, shadow passes, counts
   double total_ms = 0;
-  std::vector<std::string> rebuilt;  // "sat", "ambient", "bvh", "shadows": what this frame had to rebuild
+  Quality quality = Quality::Full;
+  std::uint32_t sample = 0;
+  // The structures this frame rebuilt (Structures names, e.g. "volumes.0.lut", "lights.1.shadows").
+  std::vector<std::string> rebuilt;
+  bool refit = false;  // view-dependent shadow work (light pass, automatic ISSM rings) redone for this view
 };
 
 class Renderer {
 public:
   explicit Renderer(Scene scene);  // keeps its own copy (volumes are shared, not copied)
 
-  // Renders with the given camera and lights (the scene's by default).
-  FrameResult render(const Camera& camera, const std::vector<Light>& lights);
-  FrameResult render() { return render(scene_.camera, scene_.lights); }
+  // Renders with the given camera and lights (the scene's by default). A light that differs from the
+  // one its shadows were built for (in what shadows depend on) rebuilds them.
+  FrameResult render(const Camera& camera, const std::vector<Light>& lights, const FrameRequest& request = {});
+  FrameResult render(const FrameRequest& request = {}) { return render(scene_.camera, scene_.lights, request); }
+
+  // Takes the edited scene (same number of objects of each kind) and marks `stale` (Structures names)
+  // for rebuilding on the next frame. The caller (Engine) says what is stale; the renderer keeps every
+  // other structure as it is.
+  void apply_edit(const Scene& edited, const std::vector<std::string>& stale);
 
   // Replaces the first visible volume's transfer function (its shadow transfer function too, unless it
-  // has a separate one): the next frame rebuilds the SAT, the ambient cache and every light's shadows.
+  // has a separate one): the next frame rebuilds what depends on it.
   void set_transfer_function(const TransferFunction& tf);
+
+  // Names of the structures this renderer holds now (built by the last frame).
+  std::vector<std::string> structures() const;
 
   const Scene& scene() const { return scene_; }
   std::size_t shadow_memory_bytes() const;
@@ -63,7 +100,7 @@ public:
   std::size_t sphere_count() const { return particles_ ? particles_->size() : 0; }
   std::size_t particle_memory_bytes() const { return particles_ ? particles_->memory_bytes() : 0; }
   std::size_t bvh_memory_bytes() const;
-  double prepare_ms() const { return prepare_ms_; }
+  double prepare_ms() const { return prepare_ms_; }  // the first frame's preparation
   // Each isosurface with its min/max hierarchy; each light's shadows of the last frame; the last
   // frame's isosurface eye points (all isosurfaces, in order).
   const std::vector<std::unique_ptr<PreparedIsosurface>>& isosurfaces() const { return isosurfaces_; }
@@ -71,34 +108,47 @@ public:
   const IsoPoints& isosurface_eye_points() const { return isosurface_eye_points_; }
 
 private:
-  void prepare_volumes();    // prepared volumes for the current transfer functions
-  void prepare_particles();  // one particle set of all the scene's particle objects, casting ones first
-  void prepare_isosurfaces();
-  void prepare_casters();    // the ShadowCasters of everything that casts
-  // Rebuilds the shadows of the lights that changed; true when any was rebuilt.
-  bool update_shadows(const std::vector<Light>& lights);
+  // Rebuilds the stale structures for `quality` (settings_ holds the scene's settings at that quality).
+  void prepare(Quality quality, FrameResult& frame);
+  void prepare_volumes(FrameResult& frame);
+  void prepare_particles(FrameResult& frame);
+  void prepare_isosurfaces(FrameResult& frame);
+  void prepare_casters();
+  void update_shadows(const std::vector<Light>& lights, Quality quality, std::uint32_t sample, FrameResult& frame);
+  bool stale(const std::string& name) const { return stale_.count(name) != 0; }
+  void rebuilt(const std::string& name, Quality quality, FrameResult& frame);
+  void mark_all_stale();
+  FrameResult render_at(const Camera& camera, const std::vector<Light>& lights, const FrameRequest& request);
 
   Scene scene_;
+  Scene settings_;  // scene_ with the settings of the quality being built (preview: coarser)
+  std::set<std::string> stale_;                // structures to rebuild before the next frame
+  std::map<std::string, Quality> built_at_;    // the quality each structure was built at
+  Quality building_ = Quality::Full;           // the quality of the frame being prepared
   std::vector<std::unique_ptr<PreparedVolume>> volumes_;  // the visible volumes, one lattice step
-  std::vector<std::unique_ptr<MacrocellGrid>> grids_;     // per scene volume (null when not visible)
+  std::vector<int> volume_index_;                         // scene volume of each prepared volume
   std::unique_ptr<ShadowCasters> casters_;
   std::unique_ptr<ShadowCasters> occluders_;              // the ambient technique's kinds
   std::unique_ptr<ExtinctionSat> sat_;
   std::unique_ptr<AmbientTechnique> ambient_;
   std::vector<std::unique_ptr<LightShadows>> shadows_;
   std::vector<Light> built_for_;
-  std::shared_ptr<const ParticleSet> particles_;          // every sphere drawn, casting objects first
-  std::shared_ptr<const ParticleSet> casting_particles_;  // the casting prefix (particles_ when all cast)
+  std::vector<std::uint64_t> seed_of_;                    // the cssm seed each light's shadows were built with
+  std::shared_ptr<ParticleSet> particles_;                // every sphere drawn, casting objects first (own copy)
+  std::shared_ptr<ParticleSet> casting_particles_;        // the casting prefix (particles_ when all cast)
   std::vector<std::uint32_t> particle_offsets_;           // first sphere of each segment of particles_, then the total
   std::vector<std::uint32_t> particle_objects_;           // the scene's particle object of each segment
   std::unique_ptr<SphereBvh> bvh_;                        // over particles_ (Embree rasterizer, rays)
   std::unique_ptr<SphereBvh> casting_bvh_;                // over casting_particles_ when it differs
-  bool particles_built_ = false;
+  std::map<std::size_t, std::shared_ptr<const GridTree>> trees_;  // min/max hierarchy per scene volume
   std::vector<std::unique_ptr<PreparedIsosurface>> isosurfaces_;  // sharing one GridTree per volume
   IsoPoints isosurface_eye_points_;  // the last frame's eye passes
   VisibleSurfaces surfaces_;         // the last frame's opaque surfaces (buffers reused)
-  bool transfer_function_changed_ = true;  // the SAT and ambient cache are stale
+  bool first_frame_ = true;
   double prepare_ms_ = 0;
 };
+
+// Whether two lights cast the same shadows (colour and intensity do not change them).
+bool same_shadow_geometry(const Light& a, const Light& b);
 
 }  // namespace penumbra

@@ -83,8 +83,9 @@ struct Shader {
 };
 
 // One volume: the lattice walk with macrocell skipping.
+// `half` becomes the ray parameter where the opacity first reaches 1/2 (left as it is when it never does).
 float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, float jitter, float t_surface,
-                SampleBatch& batch, Rgb& color) {
+                SampleBatch& batch, Rgb& color, float& half) {
   float opacity = 0;
   float t0, t1;
   if (!pv.volume->bounds().clip(ray, t0, t1, 0, t_surface)) return opacity;
@@ -112,6 +113,7 @@ float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, 
     if (s.a <= 0) continue;
     const float w = (1 - opacity) * s.a;
     opacity += w;
+    if (opacity >= 0.5f && half == kInfinity) half = t;
     shader.add(batch, color, pv, p, v, s.rgb, w);
     if (opacity >= kEarlyTermination) break;
   }
@@ -122,7 +124,7 @@ float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, 
 // Several volumes on one lattice: every volume that holds a sample classifies it; space is skipped
 // only where every volume is empty (or absent).
 float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& shader, const Ray& ray, float jitter,
-                 float t_surface, SampleBatch& batch, Rgb& color) {
+                 float t_surface, SampleBatch& batch, Rgb& color, float& half) {
   float opacity = 0;
   float t0 = kInfinity, t1 = -kInfinity;
   for (const PreparedVolume* pv : volumes) {
@@ -180,6 +182,7 @@ float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& s
     }
     const float w = (1 - opacity) * (1 - clear);
     opacity += w;
+    if (opacity >= 0.5f && half == kInfinity) half = t;
     for (std::size_t i = 0; i < n; ++i) shader.add(batch, color, *holder[i], p, voxel[i], sample[i].rgb, w * sample[i].a / alpha_sum);
     if (opacity >= kEarlyTermination) break;
   }
@@ -189,34 +192,38 @@ float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& s
 
 }  // namespace
 
-Image render_volume_frame(const RayCastInputs& in) {
+VolumeFrame render_volume_frame(const RayCastInputs& in) {
   const Camera& cam = *in.camera;
-  Image image(cam.width, cam.height);
+  const std::size_t pixels = static_cast<std::size_t>(cam.width) * static_cast<std::size_t>(cam.height);
+  VolumeFrame out{Image(cam.width, cam.height), std::vector<float>(pixels, 0.0f), std::vector<float>(pixels, kInfinity)};
   Progress progress("render", static_cast<std::size_t>(cam.height));
   bool jittered = false;
   for (const PreparedVolume* pv : in.volumes) jittered = jittered || pv->object->jitter;
   const float specular_cutoff = std::pow(1e-4f, 1.0f / in.scene->shading.shininess);
   const PrimaryRays rays(cam);
+  const std::uint64_t jitter_key = 0x6a177e5 + static_cast<std::uint64_t>(in.sample) * 0x9e3779b97f4a7c15ull;
   parallel_for_tiles(cam.width, cam.height, kTileSize, [&](const Tile& tile) {
     SampleBatch batch;
     for (int y = tile.y0; y < tile.y1; ++y) {
       for (int x = tile.x0; x < tile.x1; ++x) {
         const Ray ray = rays.ray(x, y);
         const Shader shader{in, in.scene->shading, -ray.direction, specular_cutoff};
-        const float jitter = jittered ? uniform_float(0x6a177e5, static_cast<std::uint64_t>(x), static_cast<std::uint64_t>(y)) : 0.0f;
+        const float jitter = jittered ? uniform_float(jitter_key, static_cast<std::uint64_t>(x), static_cast<std::uint64_t>(y)) : 0.0f;
         const std::size_t pixel = static_cast<std::size_t>(y) * static_cast<std::size_t>(cam.width) + static_cast<std::size_t>(x);
         const float t_surface = in.opaque ? (*in.opaque->distance)[pixel] : kInfinity;
         Rgb color(0.0f);
         float opacity = 0;
-        if (in.volumes.size() == 1) opacity = trace_one(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color);
-        else if (!in.volumes.empty()) opacity = trace_many(in.volumes, shader, ray, jitter, t_surface, batch, color);
+        float& half = out.half_depth[pixel];
+        if (in.volumes.size() == 1) opacity = trace_one(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color, half);
+        else if (!in.volumes.empty()) opacity = trace_many(in.volumes, shader, ray, jitter, t_surface, batch, color, half);
         const Rgb behind = in.opaque ? in.opaque->color->at(x, y) : in.scene->background;
-        image.at(x, y) = color + behind * (1 - opacity);
+        out.image.at(x, y) = color + behind * (1 - opacity);
+        out.opacity[pixel] = opacity;
       }
     }
     if (tile.x1 == cam.width) progress.advance(static_cast<std::size_t>(tile.y1 - tile.y0));
   });
-  return image;
+  return out;
 }
 
 }  // namespace penumbra

@@ -43,8 +43,15 @@ struct RayCastInputs {
   std::span<const LightShadows* const> shadows;      // one per light
   const AmbientTechnique* ambient = nullptr;          // scales the ambient term; null: unoccluded
   const OpaqueLayer* opaque = nullptr;
+  std::uint32_t sample = 0;  // accumulation sample: 0 the batch frame; others move every pixel's jitter
 };
 
-Image render_volume_frame(const RayCastInputs& in);
+struct VolumeFrame {
+  Image image;                     // the volumes composited over the opaque layer (or the background)
+  std::vector<float> opacity;      // per pixel: the volumes' accumulated opacity in front of the opaque layer
+  std::vector<float> half_depth;   // per pixel: where that opacity first reaches 1/2; infinity: never
+};
+
+VolumeFrame render_volume_frame(const RayCastInputs& in);
 
 }  // namespace penumbra

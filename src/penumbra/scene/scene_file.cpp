@@ -115,24 +115,43 @@ RawVolumeOptions read_raw_options(const nlohmann::json& j, const std::string& pa
   return o;
 }
 
-VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const std::string& base_dir) {
+// What defines an object's data (the keys `keys` of it, with the folder relative files resolve against).
+std::string data_key(const nlohmann::json& j, const std::string& base_dir, std::initializer_list<const char*> keys, bool all_but = false) {
+  nlohmann::json k = nlohmann::json::object();
+  k["base_dir"] = base_dir;
+  for (const auto& [key, value] : j.items()) {
+    const bool listed = std::find_if(keys.begin(), keys.end(), [&](const char* n) { return key == n; }) != keys.end();
+    if (listed != all_but) k[key] = value;
+  }
+  return k.dump();
+}
+
+VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const std::string& base_dir, SceneDataCache* cache) {
   JsonReader r(j, path);
   VolumeObject v;
   const bool has_file = r.has("file"), has_proc = r.has("procedural");
   if (has_file == has_proc) r.fail(has_file ? "procedural" : "file", "give exactly one of 'file' and 'procedural'");
-  std::shared_ptr<Volume> volume;
+  std::optional<Vec3> origin;
+  if (r.has("origin")) origin = r.vec3("origin", {});
+  std::function<Volume()> load;
   if (has_file) {
     const std::string file = resolve(base_dir, r.required_string("file"));
     std::optional<RawVolumeOptions> raw;
     if (r.has("raw")) raw = read_raw_options(r.raw("raw"), r.key_path("raw"));
-    volume = std::make_shared<Volume>(with_context(r.key_path("file"), [&] { return load_volume(file, raw); }));
+    load = [&r, file, raw] { return with_context(r.key_path("file"), [&] { return load_volume(file, raw); }); };
     v.source = file;
   } else {
     const auto& spec = r.raw("procedural");
-    volume = std::make_shared<Volume>(with_context(r.key_path("procedural"), [&] { return make_procedural_volume(spec, base_dir); }));
+    load = [&r, &spec, &base_dir] { return with_context(r.key_path("procedural"), [&] { return make_procedural_volume(spec, base_dir); }); };
     v.source = "procedural:" + (spec.contains("name") && spec["name"].is_string() ? spec["name"].get<std::string>() : "?");
   }
-  if (r.has("origin")) volume->set_origin(r.vec3("origin", {}));
+  auto load_placed = [&] {
+    Volume vol = load();
+    if (origin) vol.set_origin(*origin);
+    return vol;
+  };
+  const std::shared_ptr<Volume> volume = cache ? cache->volume(data_key(j, base_dir, {"file", "raw", "procedural", "origin"}), load_placed)
+                                               : std::make_shared<Volume>(load_placed());
   v.visible = r.boolean("visible", true);
   // A hidden volume (one only isosurfaces are drawn from) needs no transfer function.
   if (!r.has("transfer_function") && v.visible) r.fail("transfer_function", "missing (e.g. {\"preset\": \"ct-bone\"})");
@@ -161,7 +180,17 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   return v;
 }
 
-ParticleObject read_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir) {
+ParticleObject read_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir, SceneDataCache* cache) {
+  if (cache && j.is_object()) {  // everything but the shadow flags defines the spheres and their colours
+    JsonReader r(j, path);
+    ParticleObject p;
+    p.set = cache->particles(data_key(j, base_dir, {"casts_shadows", "receives_shadows"}, true), [&] {
+      return ParticleSet(*read_particles(j, path, base_dir, nullptr).set);
+    });
+    p.source = r.has("file") ? resolve(base_dir, r.required_string("file")) : "procedural:random-spheres";
+    read_shadow_flags(r, p);
+    return p;
+  }
   JsonReader r(j, path);
   ParticleObject p;
   const bool has_file = r.has("file"), has_proc = r.has("procedural");
@@ -392,6 +421,26 @@ const nlohmann::json& array_at(JsonReader& r, const std::string& key) {
 }  // namespace
 
 
+std::shared_ptr<Volume> SceneDataCache::volume(const std::string& key, const std::function<Volume()>& load) {
+  used_.insert("v" + key);
+  auto& v = volumes_[key];
+  if (!v) v = std::make_shared<Volume>(load());
+  return v;
+}
+
+std::shared_ptr<const ParticleSet> SceneDataCache::particles(const std::string& key, const std::function<ParticleSet()>& load) {
+  used_.insert("p" + key);
+  auto& p = particles_[key];
+  if (!p) p = std::make_shared<const ParticleSet>(load());
+  return p;
+}
+
+void SceneDataCache::drop_unused() {
+  std::erase_if(volumes_, [&](const auto& e) { return !used_.count("v" + e.first); });
+  std::erase_if(particles_, [&](const auto& e) { return !used_.count("p" + e.first); });
+  used_.clear();
+}
+
 nlohmann::json read_json_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": cannot open the file");
@@ -403,7 +452,11 @@ nlohmann::json read_json_file(const std::string& path) {
 void apply_override(nlohmann::json& scene, const std::string& path, const std::string& value) {
   if (path.empty()) throw Error("--set: empty key");
   check_utf8(path, "--set: the key");
-  nlohmann::json parsed = override_value(value, "--set " + path);
+  set_path(scene, path, override_value(value, "--set " + path));
+}
+
+void set_path(nlohmann::json& scene, const std::string& path, nlohmann::json parsed) {
+  if (path.empty()) throw Error("--set: empty key");
   nlohmann::json* node = &scene;
   std::string walked;
   std::size_t start = 0;
@@ -431,7 +484,7 @@ void apply_override(nlohmann::json& scene, const std::string& path, const std::s
       next = &(*node)[part];
     }
     if (dot == std::string::npos) {
-      *next = parsed;
+      *next = std::move(parsed);
       return;
     }
     node = next;
@@ -451,12 +504,12 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir, const Sc
   if (r.has("volumes")) {
     const auto& vols = array_at(r, "volumes");
     for (std::size_t i = 0; i < vols.size(); ++i)
-      s.volumes.push_back(read_volume(vols[i], "volumes." + std::to_string(i), base_dir));
+      s.volumes.push_back(read_volume(vols[i], "volumes." + std::to_string(i), base_dir, options.cache));
   }
   if (r.has("particles")) {
     const auto& parts = array_at(r, "particles");
     for (std::size_t i = 0; i < parts.size(); ++i)
-      s.particles.push_back(read_particles(parts[i], "particles." + std::to_string(i), base_dir));
+      s.particles.push_back(read_particles(parts[i], "particles." + std::to_string(i), base_dir, options.cache));
   }
   s.sphere_rasterizer = with_context("sphere_renderer", [&] { return sphere_rasterizer_from_string(r.string("sphere_renderer", "splat")); });
   if (r.has("isosurfaces")) {

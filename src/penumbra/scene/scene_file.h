@@ -3,6 +3,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <functional>
+#include <map>
+#include <memory>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -19,10 +23,29 @@ nlohmann::json read_json_file(const std::string& path);
 // scene reader then rejects names it does not know); an index past an array's end is an error.
 void apply_override(nlohmann::json& scene, const std::string& path, const std::string& value);
 void apply_override(nlohmann::json& scene, const std::string& assignment);  // "path=value"
+// The same walk with a JSON value (what the engine's edits use).
+void set_path(nlohmann::json& scene, const std::string& path, nlohmann::json value);
+
+// The volumes and particle sets a scene read loaded, by what defines them (the file and its reading
+// options, or the generator and its parameters), so that reading an edited scene again loads only the
+// data whose definition changed (engine/engine.h).
+class SceneDataCache {
+public:
+  std::shared_ptr<Volume> volume(const std::string& key, const std::function<Volume()>& load);
+  std::shared_ptr<const ParticleSet> particles(const std::string& key, const std::function<ParticleSet()>& load);
+  // Forgets what the reads since the last call did not use.
+  void drop_unused();
+
+private:
+  std::map<std::string, std::shared_ptr<Volume>> volumes_;
+  std::map<std::string, std::shared_ptr<const ParticleSet>> particles_;
+  std::set<std::string> used_;
+};
 
 struct SceneReadOptions {
   // Keys that the chosen techniques do not read (Scene::unread_keys) are an error, not a note.
   bool strict = false;
+  SceneDataCache* cache = nullptr;  // reuse data loaded before (null: load everything)
 };
 
 // Builds the scene; relative file paths are resolved against base_dir. Every error names the key.

@@ -1,0 +1,178 @@
+#include "penumbra/engine/engine.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "penumbra/core/error.h"
+#include "penumbra/engine/invalidation.h"
+#include "penumbra/scene/json_reader.h"
+
+namespace penumbra {
+namespace {
+
+// A preview aims at this much ray-casting time (render time grows with the pixels).
+constexpr double kPreviewTargetMs = 40;
+
+bool same_objects(const Scene& a, const Scene& b) {
+  if (a.volumes.size() != b.volumes.size() || a.particles.size() != b.particles.size() ||
+      a.isosurfaces.size() != b.isosurfaces.size() || a.planes.size() != b.planes.size())
+    return false;
+  for (std::size_t i = 0; i < a.volumes.size(); ++i)
+    if (a.volumes[i].volume != b.volumes[i].volume || a.volumes[i].visible != b.volumes[i].visible) return false;
+  return true;
+}
+
+}  // namespace
+
+Engine::Engine(nlohmann::json document, std::string base_dir) : document_(std::move(document)), base_dir_(std::move(base_dir)) {
+  renderer_ = std::make_unique<Renderer>(build_scene(document_, base_dir_, SceneReadOptions{false, &cache_}));
+  cache_.drop_unused();
+}
+
+Engine Engine::open(const std::string& scene_file, const std::vector<std::string>& overrides) {
+  nlohmann::json j = read_json_file(scene_file);
+  with_context(scene_file, [&] { for (const auto& o : overrides) apply_override(j, o); });
+  return with_context(scene_file, [&] { return Engine(std::move(j), std::filesystem::path(scene_file).parent_path().string()); });
+}
+
+nlohmann::json Engine::get(const std::string& path) const {
+  const nlohmann::json* node = &document_;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t dot = path.find('.', start);
+    const std::string part = path.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
+    if (node->is_array()) {
+      const bool index = !part.empty() && std::all_of(part.begin(), part.end(), [](char c) { return c >= '0' && c <= '9'; });
+      if (!index || std::stoul(part) >= node->size()) throw Error(path + ": no such element (the array has " + std::to_string(node->size()) + ")");
+      node = &(*node)[std::stoul(part)];
+    } else if (node->is_object() && node->contains(part)) {
+      node = &(*node)[part];
+    } else {
+      throw Error(path + ": not set in the scene (its default applies)");
+    }
+    if (dot == std::string::npos) return *node;
+    start = dot + 1;
+  }
+}
+
+void Engine::edit(const std::vector<std::pair<std::string, nlohmann::json>>& edits) {
+  nlohmann::json edited = document_;
+  for (const auto& [path, value] : edits) {
+    check_utf8(path, "edit: the path");
+    if (!invalidation_rule(path))
+      throw Error(path + ": not a scene path (expected camera, lights.N, volumes.N, particles.N, isosurfaces.N, planes.N, "
+                         "shadows, ambient, light_cache, shading, background or sphere_renderer, then a key of docs/scene-file.md)");
+    with_context(path, [&] { set_path(edited, path, value); });
+  }
+  // read exactly like a scene file; the engine keeps its scene when this throws
+  Scene scene = with_context("edit refused", [&] { return build_scene(edited, base_dir_, SceneReadOptions{false, &cache_}); });
+  std::vector<std::string> stale;
+  bool new_scene = !same_objects(scene, renderer_->scene());
+  for (const auto& [path, value] : edits) {
+    const std::vector<std::string> s = invalidated_by(path, scene);
+    if (s.size() == 1 && s.front() == "scene") new_scene = true;
+    for (const auto& name : s)
+      if (!causes_.count(name)) causes_[name] = path;
+    stale.insert(stale.end(), s.begin(), s.end());
+  }
+  if (new_scene) {
+    renderer_ = std::make_unique<Renderer>(std::move(scene));
+    new_renderer_ = true;
+    causes_.clear();
+    causes_["scene"] = edits.empty() ? "" : edits.front().first;
+  } else {
+    renderer_->apply_edit(scene, stale);
+  }
+  document_ = std::move(edited);
+  cache_.drop_unused();
+  for (const auto& e : edits) edits_.push_back(e.first);
+  samples_ = 0;
+}
+
+EngineFrame Engine::render(const FrameOptions& options) {
+  FrameRequest request;
+  request.quality = options.quality;
+  request.cancel = options.cancel;
+  if (options.quality == Quality::Preview)
+    request.preview_divisor = std::clamp(static_cast<int>(std::ceil(std::sqrt(full_render_ms_ / kPreviewTargetMs))), 2, 8);
+  const bool accumulating = options.quality == Quality::Full && options.accumulate && samples_ > 0 && last_quality_ == Quality::Full;
+  request.sample = accumulating ? static_cast<std::uint32_t>(samples_) : 0;
+
+  EngineFrame out;
+  out.frame = renderer_->render(request);  // Cancelled propagates; nothing below has changed then
+  const FrameResult& f = out.frame;
+  for (const auto& name : f.rebuilt) {
+    std::string cause;
+    if (new_renderer_) cause = causes_.count("scene") && !causes_["scene"].empty() ? causes_["scene"] : "first frame";
+    else if (causes_.count(name)) cause = causes_[name];
+    else if (request.sample > 0) cause = "sample";
+    else if (f.quality == Quality::Full && last_quality_ == Quality::Preview) cause = "refine";
+    else cause = "needed";
+    out.rebuilt.push_back({name, cause});
+  }
+  for (const auto& name : f.rebuilt) causes_.erase(name);
+  if (f.quality == Quality::Full) {
+    causes_.clear();
+    new_renderer_ = false;
+    full_render_ms_ = f.render_ms;
+  }
+  out.edits = std::move(edits_);
+  edits_.clear();
+  last_quality_ = f.quality;
+
+  // accumulation
+  if (f.quality == Quality::Full && options.accumulate) {
+    if (request.sample == 0) {
+      sum_ = f.image.pixels();
+      samples_ = 1;
+    } else {
+      for (std::size_t i = 0; i < sum_.size(); ++i) sum_[i] += f.image.pixels()[i];
+      ++samples_;
+    }
+    out.image = Image(f.image.width(), f.image.height());
+    const float inv = 1.0f / static_cast<float>(samples_);
+    for (std::size_t i = 0; i < sum_.size(); ++i) out.image.pixels()[i] = sum_[i] * inv;
+    out.samples = samples_;
+  } else {
+    samples_ = 0;
+    out.image = f.image;
+  }
+  if (options.buffers) write_frame_buffers(out.image, f, scene().background, *options.buffers);
+  return out;
+}
+
+void write_frame_buffers(const Image& image, const FrameResult& frame, const Rgb& background, FrameBuffers& out) {
+  const std::size_t n = image.pixels().size();
+  auto check = [&](std::size_t size, std::size_t per_pixel, const char* name) {
+    if (size != 0 && size != n * per_pixel)
+      throw Error(std::string("frame buffers: ") + name + " holds " + std::to_string(size) + " values; expected " +
+                  std::to_string(n * per_pixel) + " (" + std::to_string(image.width()) + " x " + std::to_string(image.height()) + " x " +
+                  std::to_string(per_pixel) + ")");
+  };
+  check(out.rgba.size(), 4, "rgba");
+  check(out.srgb8.size(), 4, "srgb8");
+  check(out.depth.size(), 1, "depth");
+  for (std::size_t i = 0; i < n; ++i) {
+    const float a = out.transparent_background ? frame.alpha[i] : 1.0f;
+    // the image is colour + background·(1 − alpha); without the background it is premultiplied
+    const Rgb c = out.transparent_background ? image.pixels()[i] - background * (1 - frame.alpha[i]) : image.pixels()[i];
+    if (!out.rgba.empty()) {
+      out.rgba[4 * i] = c.r;
+      out.rgba[4 * i + 1] = c.g;
+      out.rgba[4 * i + 2] = c.b;
+      out.rgba[4 * i + 3] = a;
+    }
+    if (!out.srgb8.empty()) {
+      const float inv = a > 0 ? 1 / a : 0;
+      auto byte = [](float v) { return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); };
+      out.srgb8[4 * i] = byte(linear_to_srgb(std::clamp(c.r * inv, 0.0f, 1.0f)));
+      out.srgb8[4 * i + 1] = byte(linear_to_srgb(std::clamp(c.g * inv, 0.0f, 1.0f)));
+      out.srgb8[4 * i + 2] = byte(linear_to_srgb(std::clamp(c.b * inv, 0.0f, 1.0f)));
+      out.srgb8[4 * i + 3] = byte(a);
+    }
+    if (!out.depth.empty()) out.depth[i] = frame.depth[i];
+  }
+}
+
+}  // namespace penumbra

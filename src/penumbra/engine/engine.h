@@ -1,0 +1,102 @@
+// The interactive engine: a scene that changes while frames keep coming. What the viewer and the
+// Python module drive.
+//
+//   Engine engine = Engine::open("scenes/cranium.json");
+//   engine.edit({{"lights.0.direction", {0, -1, 0.3}}});    // validated like the scene file
+//   EngineFrame preview = engine.render({Quality::Preview}); // follows the user's hand
+//   EngineFrame full = engine.render();                      // full quality; later calls accumulate
+//
+// Edits name scene paths exactly as `--set` does, with JSON values. The edited document is read again
+// by the scene reader (so an edit is checked exactly like a scene file; data whose definition did not
+// change is not loaded again), and an edit that the reader refuses leaves the engine as it was. The
+// invalidation table (invalidation.h) says which of the renderer's structures each path makes stale;
+// the next frame rebuilds those and reports each with the edit that caused it.
+//
+// While nothing changes, full-quality frames accumulate: sample k moves each pixel's jitter and the
+// cssm seed, and the engine returns the mean of the samples so far, converging to the noise-free image.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "penumbra/render/renderer.h"
+#include "penumbra/scene/scene_file.h"
+
+namespace penumbra {
+
+// Caller-owned outputs of a frame, each width × height pixels in row order (empty spans are skipped).
+struct FrameBuffers {
+  std::span<float> rgba;           // linear RGB and alpha, premultiplied, 4 floats a pixel
+  std::span<std::uint8_t> srgb8;   // sRGB-encoded RGBA (straight alpha), 4 bytes a pixel
+  std::span<float> depth;          // distance along the primary ray (FrameResult::depth); infinity: nothing
+  bool transparent_background = false;  // the background is alpha 0 instead of the scene's colour
+};
+
+struct FrameOptions {
+  Quality quality = Quality::Full;
+  bool accumulate = true;                       // full frames of an unchanged scene average their samples
+  const std::atomic<bool>* cancel = nullptr;   // set from another thread: render() throws Cancelled
+  FrameBuffers* buffers = nullptr;
+};
+
+struct RebuiltStructure {
+  std::string structure;  // render/renderer.h's name, e.g. "lights.0.shadows"
+  std::string cause;      // the edited path, "refine" (built coarser for a preview), "sample" (a new cssm
+                          // seed), "first frame", or "needed" (the edited scene asks for it)
+};
+
+struct EngineFrame {
+  Image image;                   // the mean of the accumulated samples (the frame itself when one)
+  FrameResult frame;             // the last sample's frame: timings, alpha, depth, stats
+  int samples = 1;               // how many samples the image averages
+  std::vector<RebuiltStructure> rebuilt;
+  std::vector<std::string> edits;  // the paths edited since the previous frame
+};
+
+class Engine {
+public:
+  // A scene document and the folder its relative paths resolve against.
+  Engine(nlohmann::json document, std::string base_dir);
+  static Engine open(const std::string& scene_file, const std::vector<std::string>& overrides = {});
+
+  // Applies the edits together (paths as `--set`; values JSON). Error naming the path and what was
+  // expected when a path is unknown or the edited scene is invalid; the engine then keeps its scene.
+  void edit(const std::vector<std::pair<std::string, nlohmann::json>>& edits);
+  void set(const std::string& path, const nlohmann::json& value) { edit({{path, value}}); }
+  // The document's value at a path (Error when there is none).
+  nlohmann::json get(const std::string& path) const;
+
+  EngineFrame render(const FrameOptions& options = {});
+
+  const Scene& scene() const { return renderer_->scene(); }
+  const nlohmann::json& document() const { return document_; }
+  const Renderer& renderer() const { return *renderer_; }
+  int accumulated_samples() const { return samples_; }
+
+private:
+  nlohmann::json document_;
+  std::string base_dir_;
+  SceneDataCache cache_;
+  std::unique_ptr<Renderer> renderer_;
+  std::map<std::string, std::string> causes_;  // stale structure → the path that made it stale
+  std::vector<std::string> edits_;             // paths edited since the last frame
+  bool new_renderer_ = true;
+  // accumulation
+  std::vector<Rgb> sum_;
+  int samples_ = 0;
+  Quality last_quality_ = Quality::Full;
+  double full_render_ms_ = 0;  // the last full frame's render time: sizes the preview
+};
+
+// Writes a frame's image, alpha and depth into the caller's buffers.
+void write_frame_buffers(const Image& image, const FrameResult& frame, const Rgb& background, FrameBuffers& out);
+
+}  // namespace penumbra
