@@ -213,3 +213,193 @@ TEST(Engine, RefusedEditsChangeNothing) {
   const Image after = engine.render({Quality::Full, false}).image;
   EXPECT_EQ(std::memcmp(before.pixels().data(), after.pixels().data(), before.pixels().size() * sizeof(Rgb)), 0);
 }
+
+namespace {
+
+// A small cssm volume over a plane: noisy per seed, so accumulation has something to average.
+json cssm_scene(int size = 32) {
+  json j = volume_scene({{"name", "test-spheres"}, {"size", 24}}, {{"preset", "test-spheres"}, {"opacity_scale", 3}});
+  j["planes"] = json::array({{{"point", {0, -0.6, 0}}, {"normal", {0, 1, 0}}, {"size", 3}}});
+  j["shadows"] = {{"technique", "cssm"}, {"resolution", 48}};
+  j["camera"] = {{"width", size}, {"height", size}};
+  return j;
+}
+
+double mean_squared_difference(const std::vector<Rgb>& a, const std::vector<Rgb>& b) {
+  double s = 0;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    for (int c = 0; c < 3; ++c) s += std::pow(double(a[i][c]) - double(b[i][c]), 2);
+  return s / (3.0 * static_cast<double>(a.size()));
+}
+
+}  // namespace
+
+// Proves accumulation averages independent samples: the engine's image after k samples is the mean of
+// the k sample frames, and its squared distance to the mean of all N falls as σ²(1/k − 1/N), with σ²
+// each pixel's variance over the N samples — the 1/√k convergence of an unbiased estimator (new cssm
+// seeds and new jitter each sample).
+TEST(Engine, AccumulatedCssmConvergesLikeOneOverRootFrames) {
+  Engine engine(cssm_scene(), "");
+  constexpr int kSamples = 32;
+  std::vector<std::vector<Rgb>> samples, means;
+  for (int k = 0; k < kSamples; ++k) {
+    const EngineFrame f = engine.render();
+    ASSERT_EQ(f.samples, k + 1);
+    samples.push_back(f.frame.image.pixels());
+    means.push_back(f.image.pixels());
+    if (k > 0) {  // the only rebuild is the new seed's shadows
+      ASSERT_EQ(f.rebuilt.size(), 1u);
+      EXPECT_EQ(f.rebuilt.front().structure, "lights.0.shadows");
+      EXPECT_EQ(f.rebuilt.front().cause, "sample");
+    }
+  }
+  EXPECT_NE(samples[0], samples[1]) << "samples do not differ: nothing to accumulate";
+  const std::size_t n = samples[0].size();
+  std::vector<Rgb> mean(n, Rgb(0.0f));
+  for (const auto& s : samples)
+    for (std::size_t i = 0; i < n; ++i) mean[i] += s[i] * (1.0f / kSamples);
+  double variance = 0;  // mean over pixels and channels of the per-pixel sample variance
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) {
+      double v = 0;
+      for (const auto& s : samples) v += std::pow(double(s[i][c]) - double(mean[i][c]), 2);
+      variance += v / (kSamples - 1);
+    }
+  variance /= 3.0 * static_cast<double>(n);
+  ASSERT_GT(variance, 1e-6);
+  for (int k : {1, 2, 4, 8, 16}) {
+    const double measured = mean_squared_difference(means[static_cast<std::size_t>(k - 1)], mean);
+    const double expected = variance * (1.0 / k - 1.0 / kSamples);
+    EXPECT_GT(measured / expected, 0.6) << k << " samples";
+    EXPECT_LT(measured / expected, 1.6) << k << " samples";
+  }
+  // an edit starts again from one sample
+  engine.set("lights.0.direction", {0.2, -1, 0.1});
+  EXPECT_EQ(engine.render().samples, 1);
+}
+
+// Same samples for one and two threads, accumulation and an edit included.
+TEST(Engine, AccumulationIsTheSameForAnyThreadCount) {
+  auto run = [](int threads) {
+    ThreadLimit limit(threads);
+    Engine engine(mixed_scene(), "");
+    for (int k = 0; k < 3; ++k) engine.render();
+    engine.set("isosurfaces.0.value", 0.4);
+    engine.render({Quality::Preview});
+    engine.render();
+    return engine.render().image.pixels();
+  };
+  const auto one = run(1), two = run(2);
+  ASSERT_EQ(one.size(), two.size());
+  EXPECT_EQ(std::memcmp(one.data(), two.data(), one.size() * sizeof(Rgb)), 0);
+}
+
+// A preview is smaller, rebuilds the edited structures coarser, and the next full frame refines them;
+// a camera move's preview rebuilds nothing.
+TEST(Engine, PreviewsRebuildCoarserAndFullFramesRefine) {
+  json j = cssm_scene(48);
+  j["shadows"]["resolution"] = 256;
+  Engine engine(j, "");
+  engine.render();
+  engine.set("camera.direction", {1, 0.3, 0.5});
+  const EngineFrame camera = engine.render({Quality::Preview});
+  EXPECT_TRUE(camera.rebuilt.empty());
+  EXPECT_GE(camera.divisor, 2);
+  EXPECT_EQ(camera.image.width(), 48);
+  engine.set("lights.0.direction", {0.3, -1, 0.2});
+  const EngineFrame preview = engine.render({Quality::Preview});
+  ASSERT_EQ(preview.rebuilt.size(), 1u);
+  EXPECT_EQ(preview.rebuilt[0].structure, "lights.0.shadows");
+  EXPECT_EQ(preview.rebuilt[0].cause, "lights.0.direction");
+  const std::size_t preview_bytes = engine.renderer().shadow_memory_bytes();
+  const EngineFrame full = engine.render();
+  ASSERT_EQ(full.rebuilt.size(), 1u);
+  EXPECT_EQ(full.rebuilt[0].structure, "lights.0.shadows");
+  EXPECT_EQ(full.rebuilt[0].cause, "refine");
+  EXPECT_LT(preview_bytes, engine.renderer().shadow_memory_bytes());  // coarser maps
+  const Image fresh = Renderer(build_scene(engine.document(), "")).render().image;
+  EXPECT_EQ(std::memcmp(full.image.pixels().data(), fresh.pixels().data(), fresh.pixels().size() * sizeof(Rgb)), 0);
+}
+
+// Proves a frame in flight stops soon after its flag is set (a generous bound here; the figure is in
+// docs/BENCHMARKS.md), throws Cancelled, and leaves the engine able to render the right image.
+TEST(Engine, CancelledFrameReturnsPromptlyAndTheEngineRecovers) {
+  json j = cssm_scene(160);
+  j["shadows"] = {{"technique", "ray_traced"}, {"light_angle", 5}, {"area_rays", 256}};  // seconds a frame
+  j["ambient"] = {{"technique", "ray_traced_ao"}, {"rays", 256}};
+  Engine engine(j, "");
+  std::atomic<bool> cancel{false};
+  std::chrono::steady_clock::time_point set_at;
+  std::thread canceller([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    set_at = std::chrono::steady_clock::now();
+    cancel = true;
+  });
+  bool cancelled = false;
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    engine.render({Quality::Full, true, &cancel});
+  } catch (const Cancelled&) {
+    cancelled = true;
+  }
+  const auto end = std::chrono::steady_clock::now();
+  canceller.join();
+  ASSERT_TRUE(cancelled) << "the frame finished before it was cancelled (" << std::chrono::duration<double, std::milli>(end - start).count() << " ms)";
+  const double after_ms = std::chrono::duration<double, std::milli>(end - set_at).count();
+  EXPECT_LT(after_ms, sanitize_scale() ? 2000 : 500);
+  // a cancelled frame leaves nothing half-built: a smaller edited frame is still exact
+  engine.edit({{"camera.width", 24}, {"camera.height", 24}, {"shadows.area_rays", 4}, {"ambient.rays", 4}});
+  const EngineFrame f = engine.render();
+  const Image fresh = Renderer(build_scene(engine.document(), "")).render().image;
+  EXPECT_EQ(std::memcmp(f.image.pixels().data(), fresh.pixels().data(), fresh.pixels().size() * sizeof(Rgb)), 0);
+}
+
+// The caller's buffers: premultiplied linear RGBA (alpha 0 on the background when asked), 8-bit sRGB,
+// and the depth of what each pixel shows.
+TEST(Engine, FrameBuffersHoldPremultipliedColourSrgbAndDepth) {
+  json j = cssm_scene(40);
+  j["planes"][0]["size"] = 0.8;  // leaves background around it
+  j["background"] = {0.2, 0.4, 0.6};
+  Engine engine(j, "");
+  const std::size_t n = 40 * 40;
+  std::vector<float> rgba(4 * n), depth(n);
+  std::vector<std::uint8_t> srgb(4 * n);
+  FrameBuffers buffers{rgba, srgb, depth, true};
+  FrameOptions options;
+  options.buffers = &buffers;
+  const EngineFrame f = engine.render(options);
+  const Scene& s = engine.scene();
+  const PrimaryRays rays(s.camera);
+  int background = 0, plane = 0, volume = 0;
+  for (int y = 0; y < 40; ++y)
+    for (int x = 0; x < 40; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * 40 + static_cast<std::size_t>(x);
+      const float a = rgba[4 * i + 3];
+      // premultiplied over the background gives the image
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(rgba[4 * i + c] + s.background[c] * (1 - a), f.image.at(x, y)[c], 1e-5f);
+      const Ray r = rays.ray(x, y);
+      const float t_plane = s.planes[0].intersect(r, 0, kInfinity);
+      if (t_plane < kInfinity) {
+        ++plane;
+        EXPECT_EQ(a, 1.0f);
+        EXPECT_LE(depth[i], t_plane * (1 + 1e-5f));  // the plane, or volume in front of it
+      } else if (a == 0) {
+        ++background;
+        EXPECT_TRUE(std::isinf(depth[i]));
+        EXPECT_EQ(srgb[4 * i + 3], 0);
+      } else {
+        ++volume;
+        const std::uint8_t r8 = static_cast<std::uint8_t>(std::lround(linear_to_srgb(std::clamp(rgba[4 * i] / a, 0.0f, 1.0f)) * 255));
+        EXPECT_NEAR(srgb[4 * i], r8, 1);
+        EXPECT_NEAR(srgb[4 * i + 3], std::lround(a * 255), 1);
+      }
+    }
+  EXPECT_GT(background, 0);
+  EXPECT_GT(plane, 0);
+  EXPECT_GT(volume, 0);
+  // a wrong size is refused before anything is written
+  std::vector<float> small(3);
+  FrameBuffers bad{small, {}, {}, false};
+  options.buffers = &bad;
+  EXPECT_THROW(engine.render(options), Error);
+}

@@ -1,5 +1,8 @@
 // `penumbra render SCENE.json -o OUT.png [--width W --height H] [--set key=value ...] [--stats S.json]
-//  [--threads N] [--orbit N | --light-orbit N] [--strict]`
+//  [--threads N] [--orbit N | --light-orbit N | --edits FILE] [--strict]`
+// Every frame goes through the interactive engine (engine/engine.h): an orbit edits camera.eye or the
+// first light each frame, and --edits replays a recorded interaction.
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -11,6 +14,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/isosurface/light_pass.h"
 #include "penumbra/render/isosurface_buffers.h"
+#include "penumbra/engine/engine.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene/scene_file.h"
 #include "penumbra/scene/technique_catalog.h"
@@ -20,7 +24,7 @@ namespace penumbra::cli {
 namespace {
 
 struct RenderOptions {
-  std::string scene, output, stats, buffers;
+  std::string scene, output, stats, buffers, edits;
   int width = 0, height = 0, threads = 0, orbit = 0, light_orbit = 0;
   bool strict = false;
   std::vector<std::string> sets;
@@ -72,8 +76,98 @@ Light orbit_light(const Light& l, const Vec3& centre, const Vec3& up, float angl
   return out;
 }
 
+// "issm (spheres) + cssm (volumes)": which technique covers which kind of caster.
+std::string technique_line(const Scene& scene) {
+  std::string techniques;
+  for (const ShadowAssignment& a : shadow_assignments(scene)) {
+    std::string kinds;
+    for (int k = 0; k < kObjectKinds; ++k)
+      if (a.casters & kind_bit(static_cast<ObjectKind>(k))) kinds += (kinds.empty() ? "" : ", ") + to_string(static_cast<ObjectKind>(k));
+    techniques += (techniques.empty() ? "" : " + ") + a.technique + " (" + kinds + ")";
+  }
+  return techniques.empty() ? "none" : techniques;
+}
+
+nlohmann::json vec3_json(const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
+
+nlohmann::json rebuilt_json(const std::vector<RebuiltStructure>& rebuilt) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const auto& r : rebuilt) a.push_back({{"structure", r.structure}, {"cause", r.cause}});
+  return a;
+}
+
+// One step of an --edits file: the edits and how long to let the image refine afterwards.
+struct EditStep {
+  std::vector<std::pair<std::string, nlohmann::json>> set;
+  double idle_ms = 0;
+};
+
+std::vector<EditStep> read_edit_steps(const std::string& path) {
+  const nlohmann::json j = read_json_file(path);
+  if (!j.is_array()) throw Error(path + ": expected a JSON list of steps, each {\"set\": {\"PATH\": VALUE, ...}, \"idle_ms\": N}");
+  std::vector<EditStep> steps;
+  for (std::size_t i = 0; i < j.size(); ++i) {
+    const std::string where = path + ": step " + std::to_string(i);
+    const nlohmann::json& s = j[i];
+    if (!s.is_object()) throw Error(where + ": expected an object {\"set\": {...}, \"idle_ms\": N}");
+    EditStep step;
+    for (const auto& [key, value] : s.items()) {
+      if (key == "set") {
+        if (!value.is_object() || value.empty()) throw Error(where + ": 'set' must be an object of one or more {\"PATH\": VALUE}");
+        for (const auto& [p, v] : value.items()) step.set.emplace_back(p, v);
+      } else if (key == "idle_ms") {
+        if (!value.is_number() || value.get<double>() < 0 || value.get<double>() > 600000)
+          throw Error(where + ": 'idle_ms' must be a number of milliseconds in [0, 600000]");
+        step.idle_ms = value.get<double>();
+      } else {
+        throw Error(where + ": unknown key '" + key + "' (expected set, idle_ms)");
+      }
+    }
+    if (step.set.empty()) throw Error(where + ": no 'set'");
+    steps.push_back(std::move(step));
+  }
+  return steps;
+}
+
+// Replays an interaction: each step's edits, then a preview and the full-quality frame (what a viewer
+// shows while the hand moves and once it stops), then accumulated samples while `idle_ms` lasts.
+nlohmann::json replay_edits(Engine& engine, const std::vector<EditStep>& steps, const std::string& file, Image& last) {
+  nlohmann::json out = nlohmann::json::array();
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    const EditStep& step = steps[i];
+    const auto start = std::chrono::steady_clock::now();
+    auto since = [&] { return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count(); };
+    with_context(file + ": step " + std::to_string(i), [&] { engine.edit(step.set); });
+    const EngineFrame preview = engine.render({Quality::Preview});
+    const double preview_ms = since();
+    const EngineFrame full = engine.render({Quality::Full});
+    const double full_ms = since();
+    int samples = full.samples;
+    Image image = full.image;
+    while (since() < full_ms + step.idle_ms) {
+      const EngineFrame more = engine.render({Quality::Full});
+      samples = more.samples;
+      image = more.image;
+    }
+    nlohmann::json paths = nlohmann::json::array();
+    for (const auto& [p, v] : step.set) paths.push_back(p);
+    out.push_back({{"paths", paths},
+                   {"rebuilt", rebuilt_json(preview.rebuilt)},
+                   {"refined", rebuilt_json(full.rebuilt)},
+                   {"preview_ms", preview_ms},
+                   {"full_ms", full_ms},
+                   {"preview_divisor", preview.divisor},
+                   {"samples", samples}});
+    std::fprintf(stderr, "step %zu: %s: preview %.1f ms, full %.1f ms%s\n", i, paths.dump().c_str(), preview_ms, full_ms,
+                 samples > 1 ? (", " + std::to_string(samples) + " samples").c_str() : "");
+    last = std::move(image);
+  }
+  return out;
+}
+
 void run_render(const RenderOptions& o) {
   if (o.orbit > 0 && o.light_orbit > 0) throw Error("--orbit and --light-orbit cannot be combined");
+  if (!o.edits.empty() && (o.orbit > 0 || o.light_orbit > 0)) throw Error("--edits cannot be combined with --orbit or --light-orbit");
   check_output_path(o.output);
   if (!o.buffers.empty() && !std::filesystem::is_directory(o.buffers))
     throw Error("--buffers " + o.buffers + ": not a directory");
@@ -82,47 +176,51 @@ void run_render(const RenderOptions& o) {
     if (!dir.empty() && !std::filesystem::is_directory(dir))
       throw Error("--stats " + o.stats + ": directory '" + dir.string() + "' does not exist");
   }
+  const std::vector<EditStep> steps = o.edits.empty() ? std::vector<EditStep>{} : read_edit_steps(o.edits);
   std::vector<std::string> sets;
   if (o.width > 0) sets.push_back("camera.width=" + std::to_string(o.width));
   if (o.height > 0) sets.push_back("camera.height=" + std::to_string(o.height));
   sets.insert(sets.end(), o.sets.begin(), o.sets.end());
   ThreadLimit limit(o.threads);
-  const Scene scene = load_scene(o.scene, sets, SceneReadOptions{o.strict});
+  Engine engine = Engine::open(o.scene, sets, SceneReadOptions{o.strict});
+  const Scene& scene = engine.scene();
   for (const auto& note : scene.unread_keys) std::fprintf(stderr, "penumbra: note: %s\n", note.c_str());
   if (!o.buffers.empty() && !scene.has_isosurfaces()) throw Error("--buffers: " + o.scene + " has no isosurface");
-  Renderer renderer(scene);
   const int frames = std::max({1, o.orbit, o.light_orbit});
   const bool sequence = o.orbit > 0 || o.light_orbit > 0;
+  const Camera camera0 = scene.camera;
+  const std::vector<Light> lights0 = scene.lights;
+  const Vec3 centre = scene.caster_bounds().center();
   nlohmann::json stats;
   nlohmann::json frame_list = nlohmann::json::array();
   for (int f = 0; f < frames; ++f) {
-    Camera camera = scene.camera;
-    std::vector<Light> lights = scene.lights;
     const float angle = 2.0f * kPi * static_cast<float>(f) / static_cast<float>(frames);
-    if (o.orbit > 0) camera = camera.orbited(angle);
-    if (o.light_orbit > 0 && !lights.empty()) lights[0] = orbit_light(lights[0], scene.caster_bounds().center(), scene.camera.up, angle);
-    const FrameResult frame = renderer.render(camera, lights);
-    // which technique covers which kind of caster, e.g. "issm (spheres) + cssm (volumes)"
-    std::string techniques;
-    for (const ShadowAssignment& a : shadow_assignments(scene)) {
-      std::string kinds;
-      for (int k = 0; k < kObjectKinds; ++k)
-        if (a.casters & kind_bit(static_cast<ObjectKind>(k))) kinds += (kinds.empty() ? "" : ", ") + to_string(static_cast<ObjectKind>(k));
-      techniques += (techniques.empty() ? "" : " + ") + a.technique + " (" + kinds + ")";
+    if (f > 0 && o.orbit > 0) engine.set("camera.eye", vec3_json(camera0.orbited(angle).eye));
+    if (f > 0 && o.light_orbit > 0 && !lights0.empty()) {
+      const Light l = orbit_light(lights0[0], centre, camera0.up, angle);
+      std::vector<std::pair<std::string, nlohmann::json>> edit{{"lights.0.direction", vec3_json(l.direction)}};
+      if (l.type != LightType::Directional) edit.emplace_back("lights.0.position", vec3_json(l.position));
+      engine.edit(edit);
     }
-    if (techniques.empty()) techniques = "none";
+    const EngineFrame ef = engine.render({Quality::Full, false});
+    const FrameResult& frame = ef.frame;
     const std::string path = sequence ? frame_path(o.output, f) : o.output;
-    write_image(path, frame.image);
-    if (f == 0) stats = render_stats(scene, renderer, frame, ThreadLimit::current_max());
-    if (f == 0 && !o.buffers.empty()) write_isosurface_buffers(o.buffers, renderer, camera);
+    if (steps.empty()) write_image(path, frame.image);
+    if (f == 0) stats = render_stats(engine.scene(), engine.renderer(), frame, ThreadLimit::current_max());
+    if (f == 0 && !o.buffers.empty()) write_isosurface_buffers(o.buffers, engine.renderer(), engine.scene().camera);
     nlohmann::json fs = frame_stats(frame);
     fs["file"] = path;
     frame_list.push_back(fs);
     std::string rebuilt;
     for (const auto& r : frame.rebuilt) rebuilt += (rebuilt.empty() ? " (rebuilt " : ", ") + r;
     std::fprintf(stderr, "%s: %s, sat %.1f ms, ambient %.1f ms, shadows %.1f ms, render %.1f ms%s\n", path.c_str(),
-                 techniques.c_str(), frame.sat_ms, frame.ambient_ms, frame.build_ms, frame.render_ms,
-                 rebuilt.empty() ? "" : (rebuilt + ")").c_str());
+                 technique_line(engine.scene()).c_str(), frame.sat_ms, frame.ambient_ms, frame.build_ms, frame.render_ms,
+                 rebuilt.empty() || f == 0 ? "" : (rebuilt + ")").c_str());
+  }
+  if (!steps.empty()) {
+    Image last;
+    stats["edits"] = replay_edits(engine, steps, o.edits, last);
+    write_image(o.output, last);
   }
   if (!o.stats.empty()) {
     if (sequence) stats["frames"] = frame_list;
@@ -148,6 +246,9 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
   cmd->add_option("--orbit", o->orbit, "Render N frames with the camera turning once around its target")->check(CLI::Range(1, 100000));
   cmd->add_option("--light-orbit", o->light_orbit, "Render N frames with the first light turning once around the scene")->check(CLI::Range(1, 100000));
+  cmd->add_option("--edits", o->edits,
+                  "Replay an interaction: a JSON list of steps {\"set\": {\"PATH\": VALUE, ...}, \"idle_ms\": N}; each step's "
+                  "preview and full-quality times (and what it rebuilt) go to --stats under 'edits'; -o gets the last image");
   cmd->callback([o] { run_render(*o); });
 }
 

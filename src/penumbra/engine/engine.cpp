@@ -25,15 +25,16 @@ bool same_objects(const Scene& a, const Scene& b) {
 
 }  // namespace
 
-Engine::Engine(nlohmann::json document, std::string base_dir) : document_(std::move(document)), base_dir_(std::move(base_dir)) {
-  renderer_ = std::make_unique<Renderer>(build_scene(document_, base_dir_, SceneReadOptions{false, &cache_}));
+Engine::Engine(nlohmann::json document, std::string base_dir, const SceneReadOptions& options)
+    : document_(std::move(document)), base_dir_(std::move(base_dir)), strict_(options.strict) {
+  renderer_ = std::make_unique<Renderer>(build_scene(document_, base_dir_, SceneReadOptions{strict_, &cache_}));
   cache_.drop_unused();
 }
 
-Engine Engine::open(const std::string& scene_file, const std::vector<std::string>& overrides) {
+Engine Engine::open(const std::string& scene_file, const std::vector<std::string>& overrides, const SceneReadOptions& options) {
   nlohmann::json j = read_json_file(scene_file);
   with_context(scene_file, [&] { for (const auto& o : overrides) apply_override(j, o); });
-  return with_context(scene_file, [&] { return Engine(std::move(j), std::filesystem::path(scene_file).parent_path().string()); });
+  return with_context(scene_file, [&] { return Engine(std::move(j), std::filesystem::path(scene_file).parent_path().string(), options); });
 }
 
 nlohmann::json Engine::get(const std::string& path) const {
@@ -66,7 +67,7 @@ void Engine::edit(const std::vector<std::pair<std::string, nlohmann::json>>& edi
     with_context(path, [&] { set_path(edited, path, value); });
   }
   // read exactly like a scene file; the engine keeps its scene when this throws
-  Scene scene = with_context("edit refused", [&] { return build_scene(edited, base_dir_, SceneReadOptions{false, &cache_}); });
+  Scene scene = with_context("edit refused", [&] { return build_scene(edited, base_dir_, SceneReadOptions{strict_, &cache_}); });
   std::vector<std::string> stale;
   bool new_scene = !same_objects(scene, renderer_->scene());
   for (const auto& [path, value] : edits) {
@@ -100,6 +101,7 @@ EngineFrame Engine::render(const FrameOptions& options) {
   request.sample = accumulating ? static_cast<std::uint32_t>(samples_) : 0;
 
   EngineFrame out;
+  out.divisor = options.quality == Quality::Preview ? request.preview_divisor : 1;
   out.frame = renderer_->render(request);  // Cancelled propagates; nothing below has changed then
   const FrameResult& f = out.frame;
   for (const auto& name : f.rebuilt) {

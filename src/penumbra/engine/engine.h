@@ -57,6 +57,7 @@ struct EngineFrame {
   Image image;                   // the mean of the accumulated samples (the frame itself when one)
   FrameResult frame;             // the last sample's frame: timings, alpha, depth, stats
   int samples = 1;               // how many samples the image averages
+  int divisor = 1;               // a preview's image was rendered at 1/divisor of each side
   std::vector<RebuiltStructure> rebuilt;
   std::vector<std::string> edits;  // the paths edited since the previous frame
 };
@@ -64,8 +65,9 @@ struct EngineFrame {
 class Engine {
 public:
   // A scene document and the folder its relative paths resolve against.
-  Engine(nlohmann::json document, std::string base_dir);
-  static Engine open(const std::string& scene_file, const std::vector<std::string>& overrides = {});
+  // `options.strict` holds for every edit too (options.cache is the engine's own).
+  Engine(nlohmann::json document, std::string base_dir, const SceneReadOptions& options = {});
+  static Engine open(const std::string& scene_file, const std::vector<std::string>& overrides = {}, const SceneReadOptions& options = {});
 
   // Applies the edits together (paths as `--set`; values JSON). Error naming the path and what was
   // expected when a path is unknown or the edited scene is invalid; the engine then keeps its scene.
@@ -84,6 +86,7 @@ public:
 private:
   nlohmann::json document_;
   std::string base_dir_;
+  bool strict_ = false;
   SceneDataCache cache_;
   std::unique_ptr<Renderer> renderer_;
   std::map<std::string, std::string> causes_;  // stale structure → the path that made it stale

@@ -1,5 +1,6 @@
 #include "penumbra/render/prepared_volume.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "penumbra/core/parallel.h"
@@ -56,9 +57,20 @@ void PreparedVolume::update_grid() {
 }
 
 void PreparedVolume::update_lut(float step_world) {
-  step = step_world;
-  lut = TransferLut(object->transfer_function, volume->min_value(), volume->max_value(), step_world / object->reference_step(), 4096,
-                    object->compositing);
+  full_step = step_world;
+  preview_step = std::max(step_world, std::min(2 * step_world, 8 * object->reference_step()));
+  auto table = [&](float s) {
+    return TransferLut(object->transfer_function, volume->min_value(), volume->max_value(), s / object->reference_step(), 4096,
+                       object->compositing);
+  };
+  full_lut = table(full_step);
+  preview_lut = preview_step == full_step ? full_lut : table(preview_step);
+  use(false);
+}
+
+void PreparedVolume::use(bool preview) {
+  step = preview ? preview_step : full_step;
+  lut = preview ? preview_lut : full_lut;
 }
 
 void PreparedVolume::update_empty() { empty = grid.empty_cells(lut); }

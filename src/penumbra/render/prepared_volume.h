@@ -30,7 +30,10 @@ struct PreparedVolume {
 
   void update_gradients();
   void update_grid();
-  void update_lut(float step_world);  // the object's transfer function tabulated for this step
+  // The object's transfer function tabulated for this step and for a preview's (twice as long, at
+  // most 8 voxels); use() picks one.
+  void update_lut(float step_world);
+  void use(bool preview);
   void update_empty();                // the cells the table makes invisible
 
   // Interpolated gradient direction (world space, not normalised) and shading weight in [0, 1] at
@@ -41,8 +44,10 @@ struct PreparedVolume {
 
   const VolumeObject* object;
   const Volume* volume;
-  float step;  // world units
-  TransferLut lut;
+  float step;  // world units: the step in use
+  TransferLut lut;  // the table in use
+  float full_step = 0, preview_step = 0;
+  TransferLut full_lut, preview_lut;
   MacrocellGrid grid;
   std::vector<std::uint8_t> empty;
   std::vector<std::array<std::int8_t, 4>> gradients;  // (nx, ny, nz) · 127, weight · 127

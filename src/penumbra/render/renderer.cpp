@@ -19,19 +19,19 @@ std::string indexed(const char* kind, std::size_t i, const char* what) {
   return std::string(kind) + "." + std::to_string(i) + "." + what;
 }
 
-// The scene's settings for a preview: half-resolution maps and light cache, steps twice as long, a
-// quarter of the rays of the ray-traced techniques.
+// The scene's settings for a preview: quarter-resolution shadow maps, a half-resolution light cache,
+// light steps twice as long, a quarter of the rays of the ray-traced techniques. (The eye step doubles
+// too: PreparedVolume's preview table.)
 Scene preview_settings(const Scene& scene) {
   Scene s = scene;
   ShadowSettings& sh = s.shadows;
-  sh.resolution = std::max(16, sh.resolution / 2);
+  sh.resolution = std::min(sh.resolution, std::max(64, sh.resolution / 4));
   sh.step = 2 * (sh.step > 0 ? sh.step : kDefaultShadowStepVoxels);
   sh.cone_rays = std::max(1, sh.cone_rays / 4);
   sh.area_rays = std::max(1, sh.area_rays / 4);
   s.light_cache.resolution = std::max(kMinSatResolution, s.light_cache.resolution / 2);
   s.ambient.rays = std::max(1, s.ambient.rays / 4);
-  for (auto& v : s.volumes) v.step = std::min(8.0f, v.step * 2);
-  return s;
+  return s;  // the eye step: PreparedVolume keeps a preview table
 }
 
 // The eye lattice step shared by the visible volumes: the finest of their steps.
@@ -149,14 +149,14 @@ std::vector<std::string> Renderer::structures() const {
 }
 
 void Renderer::prepare_volumes(FrameResult& frame) {
-  const float step = shared_step(settings_);
+  const float step = shared_step(scene_);
   if (volumes_.empty() && !scene_.volumes.empty()) {  // first frame: one prepared volume per visible one
     for (std::size_t i = 0; i < scene_.volumes.size(); ++i) {
       if (!scene_.volumes[i].visible) continue;
       volumes_.push_back(std::make_unique<PreparedVolume>(scene_.volumes[i], step));
       volume_index_.push_back(static_cast<int>(i));
       for (const char* what : {"gradients", "minmax", "empty_space"}) rebuilt(indexed("volumes", i, what), Quality::Full, frame);
-      rebuilt(indexed("volumes", i, "lut"), building_, frame);
+      rebuilt(indexed("volumes", i, "lut"), Quality::Full, frame);
     }
   }
   for (std::size_t k = 0; k < volumes_.size(); ++k) {
@@ -173,10 +173,11 @@ void Renderer::prepare_volumes(FrameResult& frame) {
       stale_.insert(indexed("volumes", i, "empty_space"));  // read from the grid
       stale_.insert("casters");                              // they point at it
     }
-    if (stale(indexed("volumes", i, "lut")) || pv.step != step) {
+    if (stale(indexed("volumes", i, "lut")) || pv.full_step != step) {
       pv.update_lut(step);
-      rebuilt(indexed("volumes", i, "lut"), building_, frame);
+      rebuilt(indexed("volumes", i, "lut"), Quality::Full, frame);
     }
+    pv.use(building_ == Quality::Preview);
     if (stale(indexed("volumes", i, "empty_space"))) {
       pv.update_empty();
       rebuilt(indexed("volumes", i, "empty_space"), Quality::Full, frame);

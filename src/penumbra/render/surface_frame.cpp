@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 
+#include "penumbra/core/cancel.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/render/surface_shading.h"
 
@@ -143,6 +144,7 @@ Image shade_surfaces(const Scene& scene, const Camera& cam, const VisibleSurface
   parallel_for(vs.points.size(), [&](std::size_t begin, std::size_t end) {
     std::array<Rgb, kBatch> T, ao, lit;
     for (std::size_t b0 = begin; b0 < end; b0 += kBatch) {
+      if (cancel_requested()) return;  // shadow rays can make a chunk long: stop between batches
       const std::size_t n = std::min(kBatch, end - b0);
       const auto pts = std::span<const SurfacePoint>(vs.points.data() + b0, n);
       if (ambient) ambient->ambient(pts, std::span<Rgb>(ao.data(), n));

@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 
+#include "penumbra/core/cancel.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/rng.h"
@@ -205,6 +206,7 @@ VolumeFrame render_volume_frame(const RayCastInputs& in) {
   parallel_for_tiles(cam.width, cam.height, kTileSize, [&](const Tile& tile) {
     SampleBatch batch;
     for (int y = tile.y0; y < tile.y1; ++y) {
+      if (cancel_requested()) return;  // a row can take long (ray-traced shadows): stop between rows
       for (int x = tile.x0; x < tile.x1; ++x) {
         const Ray ray = rays.ray(x, y);
         const Shader shader{in, in.scene->shading, -ray.direction, specular_cutoff};
