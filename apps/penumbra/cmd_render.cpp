@@ -198,7 +198,8 @@ void run_render(const RenderOptions& o) {
     if (f > 0 && o.orbit > 0) engine.set("camera.eye", vec3_json(camera0.orbited(angle).eye));
     if (f > 0 && o.light_orbit > 0 && !lights0.empty()) {
       const Light l = orbit_light(lights0[0], centre, camera0.up, angle);
-      std::vector<std::pair<std::string, nlohmann::json>> edit{{"lights.0.direction", vec3_json(l.direction)}};
+      std::vector<std::pair<std::string, nlohmann::json>> edit;  // a point light has no direction
+      if (l.type != LightType::Point) edit.emplace_back("lights.0.direction", vec3_json(l.direction));
       if (l.type != LightType::Directional) edit.emplace_back("lights.0.position", vec3_json(l.position));
       engine.edit(edit);
     }
