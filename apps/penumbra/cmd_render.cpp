@@ -2,13 +2,16 @@
 //  [--threads N] [--orbit N | --light-orbit N | --edits FILE] [--strict]`
 // Every frame goes through the interactive engine (engine/engine.h): an orbit edits camera.eye or the
 // first light each frame, and --edits replays a recorded interaction.
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "commands.h"
+#include "penumbra/core/cancel.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/parallel.h"
@@ -25,7 +28,7 @@ namespace {
 
 struct RenderOptions {
   std::string scene, output, stats, buffers, edits;
-  int width = 0, height = 0, threads = 0, orbit = 0, light_orbit = 0;
+  int width = 0, height = 0, threads = 0, orbit = 0, light_orbit = 0, accumulate = 1;
   bool strict = false;
   std::vector<std::string> sets;
 };
@@ -100,7 +103,31 @@ nlohmann::json rebuilt_json(const std::vector<RebuiltStructure>& rebuilt) {
 struct EditStep {
   std::vector<std::pair<std::string, nlohmann::json>> set;
   double idle_ms = 0;
+  double cancel_after_ms = -1;  // >= 0: first start a full frame and cancel it after this long
 };
+
+// Starts a full frame, cancels it after `after_ms` from another thread, and returns how long the frame
+// took to return once the flag was set (negative when it finished first).
+double cancel_latency_ms(Engine& engine, double after_ms) {
+  std::atomic<bool> cancel{false};
+  std::chrono::steady_clock::time_point set_at;
+  std::atomic<bool> was_set{false};
+  std::thread canceller([&] {
+    std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(after_ms));
+    set_at = std::chrono::steady_clock::now();
+    was_set = true;
+    cancel = true;
+  });
+  bool cancelled = false;
+  try {
+    engine.render({Quality::Full, false, &cancel});
+  } catch (const Cancelled&) {
+    cancelled = true;
+  }
+  const auto end = std::chrono::steady_clock::now();
+  canceller.join();
+  return cancelled ? std::chrono::duration<double, std::milli>(end - set_at).count() : -1.0;
+}
 
 std::vector<EditStep> read_edit_steps(const std::string& path) {
   const nlohmann::json j = read_json_file(path);
@@ -115,12 +142,16 @@ std::vector<EditStep> read_edit_steps(const std::string& path) {
       if (key == "set") {
         if (!value.is_object() || value.empty()) throw Error(where + ": 'set' must be an object of one or more {\"PATH\": VALUE}");
         for (const auto& [p, v] : value.items()) step.set.emplace_back(p, v);
+      } else if (key == "cancel_after_ms") {
+        if (!value.is_number() || value.get<double>() < 0 || value.get<double>() > 600000)
+          throw Error(where + ": 'cancel_after_ms' must be a number of milliseconds in [0, 600000]");
+        step.cancel_after_ms = value.get<double>();
       } else if (key == "idle_ms") {
         if (!value.is_number() || value.get<double>() < 0 || value.get<double>() > 600000)
           throw Error(where + ": 'idle_ms' must be a number of milliseconds in [0, 600000]");
         step.idle_ms = value.get<double>();
       } else {
-        throw Error(where + ": unknown key '" + key + "' (expected set, idle_ms)");
+        throw Error(where + ": unknown key '" + key + "' (expected set, idle_ms, cancel_after_ms)");
       }
     }
     if (step.set.empty()) throw Error(where + ": no 'set'");
@@ -138,6 +169,12 @@ nlohmann::json replay_edits(Engine& engine, const std::vector<EditStep>& steps, 
     const auto start = std::chrono::steady_clock::now();
     auto since = [&] { return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count(); };
     with_context(file + ": step " + std::to_string(i), [&] { engine.edit(step.set); });
+    nlohmann::json cancel;
+    if (step.cancel_after_ms >= 0) {
+      const double latency = cancel_latency_ms(engine, step.cancel_after_ms);
+      cancel = latency >= 0 ? nlohmann::json{{"after_ms", step.cancel_after_ms}, {"returned_ms", latency}}
+                            : nlohmann::json{{"after_ms", step.cancel_after_ms}, {"finished_first", true}};
+    }
     const EngineFrame preview = engine.render({Quality::Preview});
     const double preview_ms = since();
     const EngineFrame full = engine.render({Quality::Full});
@@ -158,6 +195,7 @@ nlohmann::json replay_edits(Engine& engine, const std::vector<EditStep>& steps, 
                    {"full_ms", full_ms},
                    {"preview_divisor", preview.divisor},
                    {"samples", samples}});
+    if (!cancel.is_null()) out.back()["cancel"] = cancel;
     std::fprintf(stderr, "step %zu: %s: preview %.1f ms, full %.1f ms%s\n", i, paths.dump().c_str(), preview_ms, full_ms,
                  samples > 1 ? (", " + std::to_string(samples) + " samples").c_str() : "");
     last = std::move(image);
@@ -165,9 +203,13 @@ nlohmann::json replay_edits(Engine& engine, const std::vector<EditStep>& steps, 
   return out;
 }
 
+bool sequence_requested(const RenderOptions& o) { return o.orbit > 0 || o.light_orbit > 0; }
+
 void run_render(const RenderOptions& o) {
   if (o.orbit > 0 && o.light_orbit > 0) throw Error("--orbit and --light-orbit cannot be combined");
   if (!o.edits.empty() && (o.orbit > 0 || o.light_orbit > 0)) throw Error("--edits cannot be combined with --orbit or --light-orbit");
+  if (o.accumulate > 1 && (sequence_requested(o) || !o.edits.empty()))
+    throw Error("--accumulate applies to a single frame (not with --orbit, --light-orbit or --edits)");
   check_output_path(o.output);
   if (!o.buffers.empty() && !std::filesystem::is_directory(o.buffers))
     throw Error("--buffers " + o.buffers + ": not a directory");
@@ -203,10 +245,11 @@ void run_render(const RenderOptions& o) {
       if (l.type != LightType::Directional) edit.emplace_back("lights.0.position", vec3_json(l.position));
       engine.edit(edit);
     }
-    const EngineFrame ef = engine.render({Quality::Full, false});
-    const FrameResult& frame = ef.frame;
+    EngineFrame ef = engine.render({Quality::Full, o.accumulate > 1});
+    const FrameResult frame = ef.frame;  // the first sample's stats
+    for (int k = 1; k < o.accumulate; ++k) ef = engine.render({Quality::Full, true});
     const std::string path = sequence ? frame_path(o.output, f) : o.output;
-    if (steps.empty()) write_image(path, frame.image);
+    if (steps.empty()) write_image(path, ef.image);
     if (f == 0) stats = render_stats(engine.scene(), engine.renderer(), frame, ThreadLimit::current_max());
     if (f == 0 && !o.buffers.empty()) write_isosurface_buffers(o.buffers, engine.renderer(), engine.scene().camera);
     nlohmann::json fs = frame_stats(frame);
@@ -247,6 +290,9 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
   cmd->add_option("--orbit", o->orbit, "Render N frames with the camera turning once around its target")->check(CLI::Range(1, 100000));
   cmd->add_option("--light-orbit", o->light_orbit, "Render N frames with the first light turning once around the scene")->check(CLI::Range(1, 100000));
+  cmd->add_option("--accumulate", o->accumulate,
+                  "Average N samples (new jitter and cssm seeds each): the image the viewer converges to while idle")
+      ->check(CLI::Range(1, 100000));
   cmd->add_option("--edits", o->edits,
                   "Replay an interaction: a JSON list of steps {\"set\": {\"PATH\": VALUE, ...}, \"idle_ms\": N}; each step's "
                   "preview and full-quality times (and what it rebuilt) go to --stats under 'edits'; -o gets the last image");

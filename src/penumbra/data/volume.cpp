@@ -95,9 +95,8 @@ TrilinearCell Volume::trilinear_cell(const Vec3& v) const {
 }
 
 template <class T>
-float Volume::sample_typed(const Vec3& v) const {
+float Volume::sample_typed(const TrilinearCell& c) const {
   const T* d = data_as<T>();
-  const TrilinearCell c = trilinear_cell(v);
   const std::size_t b = c.base;
   const float c000 = static_cast<float>(d[b]), c100 = static_cast<float>(d[b + c.sx]);
   const float c010 = static_cast<float>(d[b + c.sy]), c110 = static_cast<float>(d[b + c.sy + c.sx]);
@@ -109,15 +108,17 @@ float Volume::sample_typed(const Vec3& v) const {
   return c0 + (c1 - c0) * c.tz;
 }
 
-float Volume::sample_voxel(const Vec3& v) const {
+float Volume::sample_cell(const TrilinearCell& c) const {
   switch (type_) {
-    case ScalarType::UInt8: return sample_typed<std::uint8_t>(v);
-    case ScalarType::Int16: return sample_typed<std::int16_t>(v);
-    case ScalarType::UInt16: return sample_typed<std::uint16_t>(v);
-    case ScalarType::Float32: return sample_typed<float>(v);
+    case ScalarType::UInt8: return sample_typed<std::uint8_t>(c);
+    case ScalarType::Int16: return sample_typed<std::int16_t>(c);
+    case ScalarType::UInt16: return sample_typed<std::uint16_t>(c);
+    case ScalarType::Float32: return sample_typed<float>(c);
   }
   return 0;
 }
+
+float Volume::sample_voxel(const Vec3& v) const { return sample_cell(trilinear_cell(v)); }
 
 Vec3 Volume::gradient(const Vec3& p) const {
   const Vec3 v = to_voxel(p);

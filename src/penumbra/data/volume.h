@@ -99,6 +99,7 @@ public:
   float sample(const Vec3& p) const { return sample_voxel(to_voxel(p)); }
   float sample_voxel(const Vec3& v) const;
   TrilinearCell trilinear_cell(const Vec3& v) const;
+  float sample_cell(const TrilinearCell& c) const;  // the interpolant in a cell found before
   // World-space gradient by central differences of the trilinear interpolant, one voxel apart per axis.
   Vec3 gradient(const Vec3& p) const;
 
@@ -108,7 +109,7 @@ public:
   void recompute_range();  // also rejects NaN or infinite voxels with an Error (in parallel)
 
 private:
-  template <class T> float sample_typed(const Vec3& v) const;
+  template <class T> float sample_typed(const TrilinearCell& c) const;
 
   ScalarType type_ = ScalarType::Float32;
   std::array<int, 3> dims_{0, 0, 0};

@@ -75,8 +75,7 @@ void PreparedVolume::use(bool preview) {
 
 void PreparedVolume::update_empty() { empty = grid.empty_cells(lut); }
 
-void PreparedVolume::normal_at(const Vec3& v, Vec3& direction, float& weight) const {
-  const TrilinearCell cell = volume->trilinear_cell(v);
+void PreparedVolume::normal_at(const TrilinearCell& cell, Vec3& direction, float& weight) const {
   float acc[4] = {0, 0, 0, 0};
   const std::size_t offs[8] = {0, cell.sx, cell.sy, cell.sx + cell.sy, cell.sz, cell.sz + cell.sx, cell.sz + cell.sy,
                                cell.sz + cell.sx + cell.sy};

@@ -38,7 +38,8 @@ struct PreparedVolume {
 
   // Interpolated gradient direction (world space, not normalised) and shading weight in [0, 1] at
   // continuous voxel coordinates v (inside the grid).
-  void normal_at(const Vec3& v, Vec3& direction, float& weight) const;
+  void normal_at(const Vec3& v, Vec3& direction, float& weight) const { normal_at(volume->trilinear_cell(v), direction, weight); }
+  void normal_at(const TrilinearCell& cell, Vec3& direction, float& weight) const;  // the cell the sample's value came from
 
   std::size_t memory_bytes() const { return gradients.size() * sizeof(gradients[0]) + grid.memory_bytes() + empty.size(); }
 

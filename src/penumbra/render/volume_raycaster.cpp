@@ -66,11 +66,12 @@ struct Shader {
     b.size = 0;
   }
 
-  // Queues a classified sample of `pv` at p (voxel coordinates v) with compositing weight w.
-  void add(SampleBatch& batch, Rgb& color, const PreparedVolume& pv, const Vec3& p, const Vec3& v, const Rgb& rgb, float w) const {
+  // Queues a classified sample of `pv` at p (in `cell` of its volume) with compositing weight w.
+  void add(SampleBatch& batch, Rgb& color, const PreparedVolume& pv, const Vec3& p, const TrilinearCell& cell, const Rgb& rgb,
+           float w) const {
     Vec3 g;
     float shaded;
-    pv.normal_at(v, g, shaded);
+    pv.normal_at(cell, g, shaded);
     const float g_len = length(g);
     const std::size_t i = batch.size++;
     batch.position[i] = p;
@@ -110,12 +111,13 @@ float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, 
         continue;
       }
     }
-    const Rgba s = pv.lut.lookup(vol.sample_voxel(v));
+    const TrilinearCell tc = vol.trilinear_cell(v);  // shared by the value and the gradient
+    const Rgba s = pv.lut.lookup(vol.sample_cell(tc));
     if (s.a <= 0) continue;
     const float w = (1 - opacity) * s.a;
     opacity += w;
     if (opacity >= 0.5f && half == kInfinity) half = t;
-    shader.add(batch, color, pv, p, v, s.rgb, w);
+    shader.add(batch, color, pv, p, tc, s.rgb, w);
     if (opacity >= kEarlyTermination) break;
   }
   shader.flush(batch, color);
@@ -139,7 +141,7 @@ float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& s
   const float dt = volumes.front()->step;  // the renderer gives every volume the same step
   constexpr std::size_t kMaxOverlap = 8;
   std::array<Rgba, kMaxOverlap> sample;
-  std::array<Vec3, kMaxOverlap> voxel;
+  std::array<TrilinearCell, kMaxOverlap> cells;
   std::array<const PreparedVolume*, kMaxOverlap> holder;
   for (auto k = static_cast<std::int64_t>(std::ceil(t0 / dt - jitter));; ++k) {
     const float t = (static_cast<float>(k) + jitter) * dt;
@@ -163,10 +165,11 @@ float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& s
         continue;
       }
       occupied = true;
-      const Rgba s = pv->lut.lookup(pv->volume->sample_voxel(v));
+      const TrilinearCell tc = pv->volume->trilinear_cell(v);
+      const Rgba s = pv->lut.lookup(pv->volume->sample_cell(tc));
       if (s.a <= 0 || n == kMaxOverlap) continue;
       sample[n] = s;
-      voxel[n] = v;
+      cells[n] = tc;
       holder[n] = pv;
       ++n;
     }
@@ -184,7 +187,7 @@ float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& s
     const float w = (1 - opacity) * (1 - clear);
     opacity += w;
     if (opacity >= 0.5f && half == kInfinity) half = t;
-    for (std::size_t i = 0; i < n; ++i) shader.add(batch, color, *holder[i], p, voxel[i], sample[i].rgb, w * sample[i].a / alpha_sum);
+    for (std::size_t i = 0; i < n; ++i) shader.add(batch, color, *holder[i], p, cells[i], sample[i].rgb, w * sample[i].a / alpha_sum);
     if (opacity >= kEarlyTermination) break;
   }
   shader.flush(batch, color);
