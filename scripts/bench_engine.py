@@ -17,7 +17,8 @@ import json, math, os, statistics, subprocess, sys, tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 STEPS = 8  # edits per type
-DEFAULT_SCENES = ["cranium.json", "1aon.json", "ct-body.json", "ct-implants.json"]
+# NAME or NAME:WxH (the viewport)
+DEFAULT_SCENES = ["cranium.json", "1aon.json:1920x1200", "ct-body.json", "ct-implants.json"]
 ALTERNATIVE = {"cssm": "shadow_map", "shadow_map": "cssm", "deep_shadow_map": "cssm", "issm": "ray_traced",
                "light_pass": "ray_traced", "ray_traced": "shadow_map", "sat_cone": "cssm", "none": "shadow_map"}
 
@@ -71,13 +72,14 @@ def percentile(xs, p):
     return xs[lo] + (xs[hi] - xs[lo]) * (k - lo)
 
 
-def run_session(binary, scene_file, d):
+def run_session(binary, scene_file, size, d):
     scene = json.load(open(scene_file))
     steps = session(scene)
     edits = os.path.join(d, "edits.json")
     json.dump([s for _, s in steps], open(edits, "w"))
     stats = os.path.join(d, "stats.json")
-    subprocess.run([binary, "render", scene_file, "-o", os.path.join(d, "last.png"), "--edits", edits, "--stats", stats],
+    viewport = ["--width", str(size[0]), "--height", str(size[1])] if size else []
+    subprocess.run([binary, "render", scene_file, "-o", os.path.join(d, "last.png"), "--edits", edits, "--stats", stats] + viewport,
                    check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     s = json.load(open(stats))
     by_type = {}
@@ -86,9 +88,22 @@ def run_session(binary, scene_file, d):
     return s, by_type
 
 
-def psnr(a, b):
-    import numpy as np  # noqa: F401  (only for this part)
-    return a
+def accumulation_psnr(binary, scene_file, size=256, samples=(1, 4, 16, 64), reference_samples=64):
+    """PSNR of cssm after k accumulated samples against ray_traced averaged over as many samples (the
+    same jitter average: what is left is cssm's own error)."""
+    rows = []
+    with tempfile.TemporaryDirectory() as d:
+        common = ["--width", str(size), "--height", str(size)]
+        ref = os.path.join(d, "ref.pfm")
+        subprocess.run([binary, "render", scene_file, "-o", ref, "--set", "shadows.technique=ray_traced",
+                        "--accumulate", str(reference_samples)] + common, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        for k in samples:
+            img = os.path.join(d, f"cssm{k}.pfm")
+            subprocess.run([binary, "render", scene_file, "-o", img, "--set", "shadows.technique=cssm", "--accumulate", str(k)] + common,
+                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            out = subprocess.run([binary, "compare", img, ref], check=True, capture_output=True, text=True).stdout
+            rows.append((k, out.strip().replace("\n", ", ")))
+    return rows
 
 
 def main():
@@ -96,10 +111,12 @@ def main():
     scenes = sys.argv[2:] or DEFAULT_SCENES
     print("| scene | edit | n | preview median / p95 ms | full median / p95 ms | rebuilt (first step) |")
     print("|---|---|---:|---:|---:|---|")
-    for name in scenes:
+    for spec in scenes:
+        name, _, wh = spec.partition(":")
+        size = tuple(int(x) for x in wh.split("x")) if wh else None
         path = name if os.path.exists(name) else os.path.join(ROOT, "scenes", name)
         with tempfile.TemporaryDirectory() as d:
-            s, by_type = run_session(binary, path, d)
+            s, by_type = run_session(binary, path, size, d)
         first = s["timings_ms"]["total"]
         print(f"| {os.path.basename(path)} ({s['width']}×{s['height']}) | first frame | 1 | | {first:.0f} | everything |")
         for kind, es in by_type.items():
@@ -115,6 +132,17 @@ def main():
             print(f"| | {kind} | {len(es)} | {statistics.median(p):.0f} / {percentile(p, 95):.0f} | "
                   f"{statistics.median(f):.0f} / {percentile(f, 95):.0f} | {rebuilt} |")
         sys.stdout.flush()
+    for spec in scenes:
+        name = spec.partition(":")[0]
+        path = name if os.path.exists(name) else os.path.join(ROOT, "scenes", name)
+        scene = json.load(open(path))
+        if scene.get("shadows", {}).get("technique") == "cssm" and scene.get("volumes"):
+            print(f"\n{os.path.basename(path)}, 256×256: cssm after k accumulated samples against ray_traced (64 samples)\n")
+            print("| samples | cssm vs ray_traced |")
+            print("|---:|---|")
+            for k, line in accumulation_psnr(binary, path):
+                print(f"| {k} | {line} |")
+            break
 
 
 if __name__ == "__main__":

@@ -284,3 +284,36 @@ TEST(SceneFile, ParticleRadiusSetsEverySphere) {
   j["particles"][0]["radius"] = -1;
   expect_error(j, {"particles.0.radius"});
 }
+
+// A scene built in code gets the reader's checks across objects from validate_scene, each naming the key.
+TEST(SceneFile, ValidateSceneChecksASceneBuiltInCode) {
+  Scene s = build_scene(volume_scene({{"name", "sphere"}, {"size", 16}}, step_tf(0.5)), "");
+  EXPECT_NO_THROW(validate_scene(s));
+  auto refused = [](Scene bad, const std::string& key) {
+    try {
+      validate_scene(bad);
+      ADD_FAILURE() << key << " accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(key + ":", 0), 0u) << e.what();
+    }
+  };
+  Scene iso = s;
+  IsosurfaceObject o;
+  o.value = 1e6f;
+  iso.isosurfaces.push_back(o);
+  refused(iso, "isosurfaces.0.value");
+  iso.isosurfaces[0].volume = 3;
+  refused(iso, "isosurfaces.0.volume");
+  Scene technique = s;
+  technique.shadows.technique = "issm";  // takes spheres; the scene has a volume
+  refused(technique, "shadows");
+  technique.shadows.technique = "magic";
+  refused(technique, "shadows.technique");
+  Scene sat = s;
+  sat.shadows.technique = "sat_cone";
+  sat.volumes.push_back(sat.volumes[0]);
+  refused(sat, "volumes");
+  Scene light = s;
+  light.lights[0].direction = {0, 0, 0};
+  refused(light, "lights.0.direction");
+}

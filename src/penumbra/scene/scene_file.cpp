@@ -346,36 +346,6 @@ AmbientSettings read_ambient(const nlohmann::json& j) {
   return a;
 }
 
-// Every technique must take the kinds it is asked to cover; an ambient technique needs occluders it
-// takes; the extinction techniques read one volume's SAT.
-void check_techniques_fit_objects(JsonReader& r, const Scene& s) {
-  auto kinds_of = [](KindMask mask) {
-    std::vector<std::string> kinds;
-    for (int i = 0; i < kObjectKinds; ++i)
-      if (mask & kind_bit(static_cast<ObjectKind>(i))) kinds.push_back(to_string(static_cast<ObjectKind>(i)));
-    return join(kinds);
-  };
-  if (needs_extinction_sat(s) && !s.visible_volume())
-    r.fail(s.shadows.technique == "sat_cone" ? "shadows" : "ambient",
-           "the extinction techniques (sat_cone, sat_shells, sampled_ao) need a visible volume");
-  // shadows.technique must take at least one kind of caster the scene has (the others get their
-  // defaults or shadows.<kind>)
-  const TechniqueInfo* shadow = find_technique(TechniqueFamily::Shadow, s.shadows.technique);
-  const KindMask casting = casting_kinds(s);
-  if (shadow && casting != 0 && !(shadow->casters & casting))
-    r.fail("shadows", "technique '" + s.shadows.technique + "' is for " + kinds_of(shadow->casters) + "; this scene's casters are " +
-                          kinds_of(casting) + " (each kind can name its own technique: shadows." + to_string(ObjectKind::Volume) +
-                          ", shadows.spheres, shadows.isosurfaces, shadows.planes)");
-  const TechniqueInfo* ambient = find_technique(TechniqueFamily::Ambient, s.ambient.technique);
-  if (ambient && s.ambient.technique != "none" && ambient_occluders(s) == 0)
-    r.fail("ambient", "technique '" + s.ambient.technique + "' is for " + kinds_of(ambient->casters) + " (its occluders); the scene has none");
-  int visible = 0;
-  for (const auto& v : s.volumes) visible += v.visible ? 1 : 0;
-  if (needs_extinction_sat(s) && visible > 1)
-    r.fail("volumes", "the extinction techniques (sat_cone, sat_shells, sampled_ao) read one volume's summed area table; "
-                      "the scene has " + std::to_string(visible) + " visible volumes");
-}
-
 // One line for every key of `section` ("shadows" or "ambient") that none of the scene's chosen
 // techniques reads: the key, the techniques, and the techniques that would read it.
 void note_unread_keys(const nlohmann::json& j, const std::string& section, TechniqueFamily family,
@@ -420,6 +390,55 @@ const nlohmann::json& array_at(JsonReader& r, const std::string& key) {
 
 }  // namespace
 
+void validate_scene(const Scene& s) {
+  auto fail = [](const std::string& key, const std::string& what) { throw Error(key + ": " + what); };
+  // what the readers check object by object, for scenes built in code
+  for (std::size_t i = 0; i < s.isosurfaces.size(); ++i) {
+    const IsosurfaceObject& o = s.isosurfaces[i];
+    const std::string key = "isosurfaces." + std::to_string(i);
+    if (o.volume >= s.volumes.size()) fail(key + ".volume", "index " + std::to_string(o.volume) + " but the scene has " + std::to_string(s.volumes.size()) + " volume(s)");
+    const Volume& v = *s.volumes[o.volume].volume;
+    if (!(o.value > v.min_value() && o.value <= v.max_value()))
+      fail(key + ".value", num(o.value) + " is outside the data range (" + num(v.min_value()) + ", " + num(v.max_value()) + "]: the isosurface would be empty");
+  }
+  for (std::size_t i = 0; i < s.volumes.size(); ++i)
+    if (!s.volumes[i].volume) fail("volumes." + std::to_string(i), "has no data");
+  for (std::size_t i = 0; i < s.particles.size(); ++i)
+    if (!s.particles[i].set || s.particles[i].set->size() == 0) fail("particles." + std::to_string(i), "holds no particles");
+  for (std::size_t i = 0; i < s.lights.size(); ++i)
+    if (s.lights[i].type != LightType::Point && length(s.lights[i].direction) == 0)
+      fail("lights." + std::to_string(i) + ".direction", "must not be the zero vector");
+  if (length(s.camera.eye - s.camera.target) == 0) fail("camera.eye", "must differ from target");
+  if (!find_technique(TechniqueFamily::Shadow, s.shadows.technique))
+    fail("shadows.technique", "unknown technique '" + s.shadows.technique + "' (expected one of: " + join(technique_names(TechniqueFamily::Shadow)) + ")");
+  if (!find_technique(TechniqueFamily::Ambient, s.ambient.technique))
+    fail("ambient.technique", "unknown technique '" + s.ambient.technique + "' (expected one of: " + join(technique_names(TechniqueFamily::Ambient)) + ")");
+  auto kinds_of = [](KindMask mask) {
+    std::vector<std::string> kinds;
+    for (int i = 0; i < kObjectKinds; ++i)
+      if (mask & kind_bit(static_cast<ObjectKind>(i))) kinds.push_back(to_string(static_cast<ObjectKind>(i)));
+    return join(kinds);
+  };
+  if (needs_extinction_sat(s) && !s.visible_volume())
+    fail(s.shadows.technique == "sat_cone" ? "shadows" : "ambient",
+           "the extinction techniques (sat_cone, sat_shells, sampled_ao) need a visible volume");
+  // shadows.technique must take at least one kind of caster the scene has (the others get their
+  // defaults or shadows.<kind>)
+  const TechniqueInfo* shadow = find_technique(TechniqueFamily::Shadow, s.shadows.technique);
+  const KindMask casting = casting_kinds(s);
+  if (shadow && casting != 0 && !(shadow->casters & casting))
+    fail("shadows", "technique '" + s.shadows.technique + "' is for " + kinds_of(shadow->casters) + "; this scene's casters are " +
+                          kinds_of(casting) + " (each kind can name its own technique: shadows." + to_string(ObjectKind::Volume) +
+                          ", shadows.spheres, shadows.isosurfaces, shadows.planes)");
+  const TechniqueInfo* ambient = find_technique(TechniqueFamily::Ambient, s.ambient.technique);
+  if (ambient && s.ambient.technique != "none" && ambient_occluders(s) == 0)
+    fail("ambient", "technique '" + s.ambient.technique + "' is for " + kinds_of(ambient->casters) + " (its occluders); the scene has none");
+  int visible = 0;
+  for (const auto& v : s.volumes) visible += v.visible ? 1 : 0;
+  if (needs_extinction_sat(s) && visible > 1)
+    fail("volumes", "the extinction techniques (sat_cone, sat_shells, sampled_ao) read one volume's summed area table; "
+                      "the scene has " + std::to_string(visible) + " visible volumes");
+}
 
 std::shared_ptr<Volume> SceneDataCache::volume(const std::string& key, const std::function<Volume()>& load) {
   used_.insert("v" + key);
@@ -538,7 +557,7 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir, const Sc
     s.light_cache.resolution = static_cast<int>(lc.integer("resolution", s.light_cache.resolution, kMinSatResolution, kMaxSatResolution));
     lc.finish();
   }
-  check_techniques_fit_objects(r, s);
+  validate_scene(s);
   s.background = r.color("background", s.background);
   r.finish();
   if (r.has("shadows")) {

@@ -53,6 +53,10 @@ struct SceneReadOptions {
 // the scene's unread_keys (technique_catalog.h says who reads what).
 Scene build_scene(const nlohmann::json& scene, const std::string& base_dir, const SceneReadOptions& options = {});
 
+// The checks across objects that build_scene makes (techniques that fit the scene's kinds, indices in
+// range, isovalues inside the data), public for scenes built in code: Error naming the key.
+void validate_scene(const Scene& scene);
+
 // read_json_file + overrides + build_scene, with the file name prepended to errors.
 Scene load_scene(const std::string& path, const std::vector<std::string>& overrides = {}, const SceneReadOptions& options = {});
 
