@@ -259,3 +259,63 @@ TEST(Cli, KeysTheTechniqueDoesNotReadAreReportedAndRefusedWithStrict) {
   EXPECT_FALSE(contains(clean.err, "is not read")) << clean.err;
   EXPECT_TRUE(fs::exists(dir.file("clean.png")));
 }
+
+// --edits replays a session: the last image, and per step the paths, what the preview rebuilt (with
+// the edit as cause) and what the full frame refined, and the two times.
+TEST(Cli, EditsReplayASessionIntoStats) {
+  ScratchDir dir;
+  const std::string scene = write_scene(dir, "scene.json", cli_scene());
+  const std::string edits = dir.file("edits.json");
+  std::ofstream(edits) << R"([
+    {"set": {"camera.direction": [0.3, 0.5, 1.0]}},
+    {"set": {"lights.0.position": [-0.7, 1.6, 0.9], "shading.ambient": 0.3}, "idle_ms": 30},
+    {"set": {"volumes.0.transfer_function.opacity_scale": 2}, "cancel_after_ms": 0}
+  ])";
+  const CliRun r = penumbra_cli("render " + quote(scene) + " -o " + quote(dir.file("last.png")) + " --edits " + quote(edits) +
+                                " --stats " + quote(dir.file("stats.json")));
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(read_image(dir.file("last.png")).width(), 32);
+  const nlohmann::json s = nlohmann::json::parse(slurp(dir.file("stats.json")));
+  const auto& steps = s.at("edits");
+  ASSERT_EQ(steps.size(), 3u);
+  EXPECT_EQ(steps[0].at("paths"), nlohmann::json::array({"camera.direction"}));
+  EXPECT_TRUE(steps[0].at("rebuilt").empty());
+  EXPECT_EQ(steps[1].at("paths"), nlohmann::json::array({"lights.0.position", "shading.ambient"}));
+  EXPECT_EQ(steps[1].at("rebuilt"), nlohmann::json::parse(R"([{"structure": "lights.0.shadows", "cause": "lights.0.position"}])"));
+  EXPECT_EQ(steps[1].at("refined"), nlohmann::json::parse(R"([{"structure": "lights.0.shadows", "cause": "refine"}])"));
+  EXPECT_GE(steps[1].at("samples").get<int>(), 1);
+  for (const auto& e : steps) {
+    EXPECT_GT(e.at("preview_ms").get<double>(), 0);
+    EXPECT_GE(e.at("full_ms").get<double>(), e.at("preview_ms").get<double>());
+  }
+  EXPECT_TRUE(steps[2].contains("cancel"));
+}
+
+// A bad step names the file, the step and the path; nothing is written.
+TEST(Cli, BadEditsFailWithAMessageAndLeaveNoOutput) {
+  ScratchDir dir;
+  const std::string scene = write_scene(dir, "scene.json", cli_scene());
+  auto run = [&](const std::string& text) {
+    const std::string edits = dir.file("edits.json");
+    std::ofstream(edits) << text;
+    return penumbra_cli("render " + quote(scene) + " -o " + quote(dir.file("out.png")) + " --edits " + quote(edits) + " --stats " +
+                        quote(dir.file("stats.json")));
+  };
+  const std::pair<const char*, const char*> cases[] = {
+      {R"({"set": {}})", "expected a JSON list of steps"},
+      {R"([{"set": {"camera.fov_deg": 40}}, {"set": {"lights.0.nonsense": 1}}])", "step 1"},
+      {R"([{"set": {"isosurfaces.0.value": 1}}])", "isosurfaces"},
+      {R"([{"set": {"camera.fov_deg": "wide"}}])", "camera.fov_deg"},
+      {R"([{"set": {"camera.fov_deg": 40}, "idle": 5}])", "unknown key 'idle'"},
+      {R"([{"idle_ms": 5}])", "no 'set'"},
+      {R"([{"set": {"camera.fov_deg": 40}, "idle_ms": -1}])", "idle_ms"},
+  };
+  for (const auto& [text, expect] : cases) {
+    const CliRun r = run(text);
+    EXPECT_NE(r.status, 0) << text;
+    EXPECT_TRUE(contains(r.err, expect)) << text << "\n" << r.err;
+    EXPECT_TRUE(contains(r.err, "edits.json")) << r.err;
+    EXPECT_FALSE(fs::exists(dir.file("out.png"))) << text;
+    EXPECT_FALSE(fs::exists(dir.file("stats.json"))) << text;
+  }
+}

@@ -29,7 +29,7 @@ namespace {
 struct RenderOptions {
   std::string scene, output, stats, buffers, edits;
   int width = 0, height = 0, threads = 0, orbit = 0, light_orbit = 0, accumulate = 1;
-  bool strict = false;
+  bool strict = false, preview = false;
   std::vector<std::string> sets;
 };
 
@@ -208,6 +208,7 @@ bool sequence_requested(const RenderOptions& o) { return o.orbit > 0 || o.light_
 void run_render(const RenderOptions& o) {
   if (o.orbit > 0 && o.light_orbit > 0) throw Error("--orbit and --light-orbit cannot be combined");
   if (!o.edits.empty() && (o.orbit > 0 || o.light_orbit > 0)) throw Error("--edits cannot be combined with --orbit or --light-orbit");
+  if (o.preview && (o.accumulate > 1 || !o.edits.empty())) throw Error("--preview renders one preview frame (not with --accumulate or --edits)");
   if (o.accumulate > 1 && (sequence_requested(o) || !o.edits.empty()))
     throw Error("--accumulate applies to a single frame (not with --orbit, --light-orbit or --edits)");
   check_output_path(o.output);
@@ -245,7 +246,7 @@ void run_render(const RenderOptions& o) {
       if (l.type != LightType::Directional) edit.emplace_back("lights.0.position", vec3_json(l.position));
       engine.edit(edit);
     }
-    EngineFrame ef = engine.render({Quality::Full, o.accumulate > 1});
+    EngineFrame ef = engine.render({o.preview ? Quality::Preview : Quality::Full, o.accumulate > 1});
     const FrameResult frame = ef.frame;  // the first sample's stats
     for (int k = 1; k < o.accumulate; ++k) ef = engine.render({Quality::Full, true});
     const std::string path = sequence ? frame_path(o.output, f) : o.output;
@@ -293,6 +294,7 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--accumulate", o->accumulate,
                   "Average N samples (new jitter and cssm seeds each): the image the viewer converges to while idle")
       ->check(CLI::Range(1, 100000));
+  cmd->add_flag("--preview", o->preview, "Render what the viewer shows while the hand moves: the engine's preview quality");
   cmd->add_option("--edits", o->edits,
                   "Replay an interaction: a JSON list of steps {\"set\": {\"PATH\": VALUE, ...}, \"idle_ms\": N}; each step's "
                   "preview and full-quality times (and what it rebuilt) go to --stats under 'edits'; -o gets the last image");
