@@ -391,7 +391,7 @@ TEST(Engine, FrameBuffersHoldPremultipliedColourSrgbAndDepth) {
         ++volume;
         const std::uint8_t r8 = static_cast<std::uint8_t>(std::lround(linear_to_srgb(std::clamp(rgba[4 * i] / a, 0.0f, 1.0f)) * 255));
         EXPECT_NEAR(srgb[4 * i], r8, 1);
-        EXPECT_NEAR(srgb[4 * i + 3], std::lround(a * 255), 1);
+        EXPECT_NEAR(srgb[4 * i + 3], static_cast<double>(std::lround(a * 255)), 1);
       }
     }
   EXPECT_GT(background, 0);

@@ -59,12 +59,13 @@ nlohmann::json Engine::get(const std::string& path) const {
 
 void Engine::edit(const std::vector<std::pair<std::string, nlohmann::json>>& edits) {
   nlohmann::json edited = document_;
-  for (const auto& [path, value] : edits) {
+  for (const auto& edit : edits) {
+    const std::string& path = edit.first;
     check_utf8(path, "edit: the path");
     if (!invalidation_rule(path))
       throw Error(path + ": not a scene path (expected camera, lights.N, volumes.N, particles.N, isosurfaces.N, planes.N, "
                          "shadows, ambient, light_cache, shading, background or sphere_renderer, then a key of docs/scene-file.md)");
-    with_context(path, [&] { set_path(edited, path, value); });
+    with_context(path, [&] { set_path(edited, path, edit.second); });
   }
   // read exactly like a scene file; the engine keeps its scene when this throws
   Scene scene = with_context("edit refused", [&] { return build_scene(edited, base_dir_, SceneReadOptions{strict_, &cache_}); });

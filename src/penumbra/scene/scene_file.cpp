@@ -119,9 +119,10 @@ RawVolumeOptions read_raw_options(const nlohmann::json& j, const std::string& pa
 std::string data_key(const nlohmann::json& j, const std::string& base_dir, std::initializer_list<const char*> keys, bool all_but = false) {
   nlohmann::json k = nlohmann::json::object();
   k["base_dir"] = base_dir;
-  for (const auto& [key, value] : j.items()) {
+  for (const auto& item : j.items()) {
+    const std::string& key = item.key();
     const bool listed = std::find_if(keys.begin(), keys.end(), [&](const char* n) { return key == n; }) != keys.end();
-    if (listed != all_but) k[key] = value;
+    if (listed != all_but) k[key] = item.value();
   }
   return k.dump();
 }
