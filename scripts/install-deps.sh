@@ -5,6 +5,7 @@ packages=(build-essential cmake ninja-build g++ pkg-config
           libtbb-dev libpng-dev zlib1g-dev nlohmann-json3-dev libcli11-dev
           libteem-dev libnifti2-dev libgtest-dev libbenchmark-dev
           gemmi-dev tao-pegtl-dev libembree-dev
+          python3-dev pybind11-dev python3-numpy python3-pytest  # the Python package (python/)
           clang-14 libfuzzer-14-dev libclang-rt-14-dev)  # the libFuzzer targets (scripts/fuzz.sh)
 missing=()
 for p in "${packages[@]}"; do

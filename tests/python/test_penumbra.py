@@ -1,0 +1,180 @@
+"""The Python package (python/penumbra): scenes as dicts and files, the engine's edits, frames as
+NumPy arrays, errors as exceptions. Run by ctest (the `python` test) with the built package on
+PYTHONPATH; PENUMBRA_CLI is the built command-line tool the images are checked against."""
+import json
+import os
+import subprocess
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import penumbra
+
+CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
+ROOT = os.environ.get("PENUMBRA_ROOT", os.path.join(os.path.dirname(__file__), "..", ".."))
+
+
+def small_scene(technique="cssm"):
+    return {
+        "volumes": [{"procedural": {"name": "test-spheres", "size": 24}, "transfer_function": {"preset": "test-spheres", "opacity_scale": 3}}],
+        "planes": [{"point": [0, -0.6, 0], "normal": [0, 1, 0], "size": 3}],
+        "lights": [{"type": "directional", "direction": [-0.3, -1, -0.2]}],
+        "shadows": {"technique": technique, "resolution": 64},
+        "camera": {"width": 40, "height": 32},
+    }
+
+
+def read_pfm(path):
+    with open(path, "rb") as f:
+        assert f.readline().strip() == b"PF"
+        w, h = map(int, f.readline().split())
+        assert float(f.readline()) < 0  # little-endian
+        data = np.frombuffer(f.read(), dtype="<f4").reshape(h, w, 3)
+    return data[::-1]  # PFM rows run bottom to top
+
+
+def test_dict_scene_renders_what_the_cli_renders_from_the_same_file(tmp_path):
+    scene = small_scene()
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(scene))
+    subprocess.run([CLI, "render", str(path), "-o", str(tmp_path / "cli.pfm")], check=True, capture_output=True)
+    cli = read_pfm(tmp_path / "cli.pfm")
+    image = penumbra.Renderer(penumbra.Scene(scene)).render(dtype="float32")
+    assert image.shape == (32, 40, 4)
+    assert np.all(image[..., 3] == 1)
+    assert np.array_equal(image[..., :3], cli), "the Python frame differs from the CLI's"
+    # a file loaded from Python is the same scene
+    loaded = penumbra.Renderer(penumbra.Scene.load(path)).render(dtype="float32")
+    assert np.array_equal(loaded, image)
+
+
+def test_load_applies_overrides_and_resolves_paths():
+    scene = penumbra.Scene.load(os.path.join(ROOT, "scenes", "test-spheres.json"), ["camera.width=24", "camera.height=20"])
+    assert scene.document["camera"]["width"] == 24
+    image = penumbra.Renderer(scene).render()
+    assert image.shape == (20, 24, 4) and image.dtype == np.uint8
+
+
+def test_edits_rebuild_what_they_change_and_match_a_fresh_renderer():
+    r = penumbra.Renderer(small_scene())
+    r.render()
+    r.set("lights.0.direction", [0.3, -1, 0.1])
+    edited = r.render(dtype="float32")
+    assert r.stats["rebuilt"] == [{"structure": "lights.0.shadows", "cause": "lights.0.direction"}]
+    assert r.stats["edits"] == ["lights.0.direction"]
+    fresh_scene = small_scene()
+    fresh_scene["lights"][0]["direction"] = [0.3, -1, 0.1]
+    assert np.array_equal(edited, penumbra.Renderer(fresh_scene).render(dtype="float32"))
+    r.set("camera.direction", [1, 0.2, 0.3])
+    r.render()
+    assert r.stats["rebuilt"] == []
+    assert r.get("camera.direction") == [1, 0.2, 0.3]
+
+
+def test_uint8_is_srgb_of_the_float_frame_and_shows_itself_in_jupyter():
+    r = penumbra.Renderer(small_scene())
+    linear = r.render(dtype="float32")
+    srgb = r.render(dtype="uint8")
+    expected = np.where(linear[..., :3] <= 0.0031308, 12.92 * linear[..., :3], 1.055 * np.power(np.clip(linear[..., :3], 0, 1), 1 / 2.4) - 0.055)
+    assert np.max(np.abs(srgb[..., :3].astype(float) - np.clip(expected, 0, 1) * 255)) <= 1.0
+    png = srgb._repr_png_()
+    assert png.startswith(b"\x89PNG\r\n\x1a\n") and len(png) > 100
+    assert penumbra.compare(srgb, srgb)["rmse"] == 0
+    assert penumbra.compare(linear, penumbra.Renderer(small_scene("none")).render(dtype="float32"))["psnr"] < 40
+
+
+def test_transparent_background_has_zero_alpha():
+    scene = small_scene()
+    scene["planes"] = []
+    image = penumbra.Renderer(scene).render(dtype="float32", transparent=True)
+    assert image[0, 0, 3] == 0 and np.all(image[0, 0, :3] == 0)
+    assert image[..., 3].max() > 0.5
+
+
+def test_size_arguments_resize_without_rebuilding():
+    r = penumbra.Renderer(small_scene())
+    r.render()
+    image = r.render(width=64, height=48)
+    assert image.shape == (48, 64, 4)
+    assert r.stats["rebuilt"] == []
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: penumbra.Renderer({"camera": {"nonsense": 1}}), "camera.nonsense"),
+    (lambda: penumbra.Renderer({"volumes": [{"procedural": {"name": "nope"}}]}), "volumes.0"),
+    (lambda: penumbra.Scene([1, 2]), "expected a dict"),
+    (lambda: penumbra.Scene.load("/no/such/scene.json"), "/no/such/scene.json"),
+    (lambda: penumbra.Scene.load(os.path.join(ROOT, "scenes", "test-spheres.json"), "camera.width=3"), "list of 'path=value'"),
+    (lambda: penumbra.Scene({"shadows": {"technique": "magic"}}).validate(), "shadows.technique"),
+    (lambda: penumbra.Renderer(small_scene()).set("nonsense.path", 1), "nonsense.path"),
+    (lambda: penumbra.Renderer(small_scene()).set("camera.fov_deg", "wide"), "camera.fov_deg"),
+    (lambda: penumbra.Renderer(small_scene()).set("camera.fov_deg", float("nan")), "camera.fov_deg"),
+    (lambda: penumbra.Renderer(small_scene()).set("camera.eye", object()), "camera.eye"),
+    (lambda: penumbra.Renderer(small_scene()).render(dtype="int64"), "dtype"),
+    (lambda: penumbra.Renderer(small_scene()).render(width=0), "width"),
+    (lambda: penumbra.Renderer(small_scene()).render(quality="best"), "quality"),
+    (lambda: penumbra.compare(np.zeros((4, 4, 3)), np.zeros((5, 4, 3))), "differ in size"),
+])
+def test_bad_input_raises_an_error_naming_it(make, message):
+    with pytest.raises(penumbra.Error) as e:
+        make()
+    assert message in str(e.value)
+    assert isinstance(e.value, ValueError)
+
+
+def test_a_refused_edit_leaves_the_renderer_as_it_was():
+    r = penumbra.Renderer(small_scene())
+    before = r.render(dtype="float32")
+    with pytest.raises(penumbra.Error):
+        r.edit({"camera.fov_deg": 40, "volumes.0.step": -3})
+    assert r.get("camera") == small_scene()["camera"]
+    assert np.array_equal(r.render(dtype="float32"), before)
+
+
+def test_the_gil_is_released_while_a_frame_renders():
+    scene = small_scene("ray_traced")
+    scene["camera"] = {"width": 200, "height": 200}
+    scene["shadows"] = {"technique": "ray_traced", "light_angle": 4, "area_rays": 128}
+    r = penumbra.Renderer(scene)
+    ticks = [0]
+    done = threading.Event()
+
+    def count():
+        while not done.is_set():
+            ticks[0] += 1
+
+    # the counter's rate alone, then during a frame: without the GIL released it would stop for the
+    # whole frame (it could run at most one switch interval, 5 ms)
+    t = threading.Thread(target=count)
+    t.start()
+    time.sleep(0.1)
+    rate = ticks[0] / 0.1
+    before = ticks[0]
+    start = time.perf_counter()
+    try:
+        r.render()
+    finally:
+        elapsed = time.perf_counter() - start
+        during = ticks[0] - before
+        done.set()
+        t.join()
+    assert elapsed > 0.2, f"the frame took {elapsed:.3f} s: too short to tell"
+    assert during > rate * 0.03, f"{during} ticks in a {elapsed:.2f} s frame (alone: {rate:.0f}/s): the GIL was held"
+
+
+def test_memory_stays_flat_over_many_renders():
+    def resident_kb():
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") // 1024
+
+    r = penumbra.Renderer(small_scene())
+    for _ in range(50):
+        r.render()
+    warm = resident_kb()
+    for i in range(1000):
+        if i % 100 == 0:
+            r.set("lights.0.direction", [0.1 * (i % 7) - 0.3, -1, 0.2])
+        r.render()
+    assert resident_kb() - warm < 20_000, "resident memory grew over 1000 renders"
