@@ -144,10 +144,10 @@ const InvalidationRule* invalidation_rule(const std::string& path) {
 
 std::vector<std::string> with_dependents(const std::vector<std::string>& names, const Scene& scene) {
   std::set<std::string> out(names.begin(), names.end());
-  std::vector<std::string> todo(names.begin(), names.end());
-  while (!todo.empty()) {
-    const std::string name = todo.back();
-    todo.pop_back();
+  std::vector<std::string> pending(names.begin(), names.end());  // worklist of the closure
+  while (!pending.empty()) {
+    const std::string name = pending.back();
+    pending.pop_back();
     const std::vector<std::string> parts = split(name);
     for (const auto& d : dependency_table()) {
       std::string index;
@@ -155,7 +155,7 @@ std::vector<std::string> with_dependents(const std::vector<std::string>& names, 
       std::set<std::string> deps;
       for (const char* dep : d.dependents) expand(dep, index, scene, deps);
       for (const auto& dep : deps)
-        if (out.insert(dep).second) todo.push_back(dep);
+        if (out.insert(dep).second) pending.push_back(dep);
     }
   }
   return {out.begin(), out.end()};
