@@ -1,20 +1,24 @@
 // The compiled half of the Python package (python/penumbra/__init__.py is the other): the interactive
 // engine (engine/engine.h) with NumPy buffers. Scene documents cross as JSON text, so the Python side
-// takes exactly the scene-file schema; frames are written straight into the NumPy array the caller
-// gets back (no copy of the frame); the GIL is released while a frame renders.
+// takes exactly the scene-file schema; the arrays its builders add cross as SceneArrays (a volume is a
+// view of the NumPy array, no copy; spheres are packed once); frames are written straight into the
+// NumPy array the caller gets back (no copy of the frame); the GIL is released while a frame renders.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <vector>
 
 #include "penumbra/core/cancel.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/image.h"
+#include "penumbra/data/elements.h"
 #include "penumbra/engine/engine.h"
 #include "penumbra/scene/json_reader.h"
 #include "penumbra/scene/scene_file.h"
@@ -42,9 +46,83 @@ nlohmann::json frame_stats(const EngineFrame& f) {
           {"height", f.image.height()}};
 }
 
+// A C-contiguous NumPy volume (axes z, y, x: x varies fastest) viewed in place. The volume holds a
+// reference to the array, released with the GIL held when the last copy of the volume goes.
+std::shared_ptr<const Volume> view_volume(const std::string& name, const py::array& a) {
+  const std::string where = "volume array \"" + name + "\"";
+  ScalarType type;
+  if (py::isinstance<py::array_t<std::uint8_t>>(a)) type = ScalarType::UInt8;
+  else if (py::isinstance<py::array_t<std::int16_t>>(a)) type = ScalarType::Int16;
+  else if (py::isinstance<py::array_t<std::uint16_t>>(a)) type = ScalarType::UInt16;
+  else if (py::isinstance<py::array_t<float>>(a)) type = ScalarType::Float32;
+  else throw Error(where + ": dtype " + py::str(a.dtype()).cast<std::string>() + " (expected uint8, int16, uint16 or float32 in native byte order)");
+  if (a.ndim() != 3) throw Error(where + ": " + std::to_string(a.ndim()) + " dimensions (expected 3: z, y, x)");
+  if (!(a.flags() & py::array::c_style)) throw Error(where + ": not C-contiguous");
+  for (int d = 0; d < 3; ++d)
+    if (a.shape(d) > std::numeric_limits<int>::max()) throw Error(where + ": axis " + std::to_string(d) + " is too long");
+  auto* held = new py::object(a);
+  std::shared_ptr<const void> owner(held->ptr(), [held](const void*) {
+    if (!Py_IsInitialized()) return;  // the interpreter is gone: nothing left to release
+    py::gil_scoped_acquire gil;
+    delete held;
+  });
+  const std::array<int, 3> dims{static_cast<int>(a.shape(2)), static_cast<int>(a.shape(1)), static_cast<int>(a.shape(0))};
+  return with_context(where, [&] {
+    return std::make_shared<const Volume>(Volume::view(type, dims, static_cast<const std::byte*>(a.data()), std::move(owner)));
+  });
+}
+
+using SphereArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+using ColorArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
+
+// Spheres (N, 4: x, y, z, radius) and linear RGB colours (N, 3) as a particle set (one copy).
+std::shared_ptr<const ParticleSet> pack_particles(const std::string& name, const SphereArray& spheres, const ColorArray& colors) {
+  const std::string where = "particle array \"" + name + "\"";
+  if (spheres.ndim() != 2 || spheres.shape(1) != 4) throw Error(where + ": expected (N, 4) spheres");
+  if (colors.ndim() != 2 || colors.shape(0) != spheres.shape(0) || colors.shape(1) != 3) throw Error(where + ": expected (N, 3) colours");
+  auto set = std::make_shared<ParticleSet>();
+  const auto n = static_cast<std::size_t>(spheres.shape(0));
+  set->spheres.resize(n);
+  set->colors.resize(n);
+  const float* rgb = colors.data();
+  for (std::size_t i = 0; i < n; ++i) set->colors[i] = pack_rgba8(Rgb(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]));
+  const float* xyzr = spheres.data();
+  for (std::size_t i = 0; i < n; ++i) {
+    Sphere& sp = set->spheres[i];
+    sp = Sphere{{xyzr[4 * i], xyzr[4 * i + 1], xyzr[4 * i + 2]}, xyzr[4 * i + 3]};
+    if (!is_finite(sp.center) || !std::isfinite(sp.radius) || !(sp.radius > 0))
+      throw Error(where + ": sphere " + std::to_string(i) + " has centre (" + std::to_string(sp.center.x) + ", " + std::to_string(sp.center.y) + ", " +
+                  std::to_string(sp.center.z) + ") and radius " + std::to_string(sp.radius) + " (expected finite numbers and a positive radius)");
+  }
+  return set;
+}
+
+// The builders' arrays by name: {name: ndarray} volumes, {name: (spheres, colours)} particles.
+SceneArrays scene_arrays(const py::dict& volumes, const py::dict& particles) {
+  SceneArrays a;
+  for (const auto& [name, array] : volumes) a.volumes[name.cast<std::string>()] = view_volume(name.cast<std::string>(), array.cast<py::array>());
+  for (const auto& [name, pair] : particles) {
+    const auto t = pair.cast<py::tuple>();
+    a.particles[name.cast<std::string>()] = pack_particles(name.cast<std::string>(), t[0].cast<SphereArray>(), t[1].cast<ColorArray>());
+  }
+  return a;
+}
+
+SceneReadOptions read_options(const SceneArrays& arrays) {
+  SceneReadOptions o;
+  o.arrays = &arrays;
+  return o;
+}
+
 class PyEngine {
 public:
-  PyEngine(const std::string& document, const std::string& base_dir) : engine_(parse(document, "scene"), base_dir) {}
+  PyEngine(const std::string& document, const std::string& base_dir, const py::dict& volumes, const py::dict& particles)
+      : engine_(parse(document, "scene"), base_dir, read_options(scene_arrays(volumes, particles))) {}
+
+  void replace_volume(const std::string& name, const py::array& array) { engine_.replace_array(name, view_volume(name, array)); }
+  void replace_particles(const std::string& name, const SphereArray& spheres, const ColorArray& colors) {
+    engine_.replace_array(name, pack_particles(name, spheres, colors));
+  }
 
   void edit(const std::vector<std::pair<std::string, std::string>>& edits) {
     std::vector<std::pair<std::string, nlohmann::json>> parsed;
@@ -52,6 +130,12 @@ public:
     engine_.edit(parsed);
   }
   std::string get(const std::string& path) const { return engine_.get(path).dump(); }
+  // Where the renderer reads volume `index`'s voxels (for checking that an array is shared, not copied).
+  std::uintptr_t volume_address(std::size_t index) const {
+    const auto& volumes = engine_.scene().volumes;
+    if (index >= volumes.size()) throw Error("volumes." + std::to_string(index) + ": no such volume (the scene has " + std::to_string(volumes.size()) + ")");
+    return reinterpret_cast<std::uintptr_t>(volumes[index].volume->data());
+  }
   std::string document() const { return engine_.document().dump(); }
   int width() const { return engine_.scene().camera.width; }
   int height() const { return engine_.scene().camera.height; }
@@ -107,14 +191,36 @@ PYBIND11_MODULE(_penumbra, m) {
     return py::make_tuple(j.dump(), std::filesystem::path(path).parent_path().string());
   });
   // Reads the document exactly as a scene file (loads the data); Error naming the key when invalid.
-  m.def("validate", [](const std::string& document, const std::string& base_dir) {
-    (void)build_scene(parse(document, "scene"), base_dir);
+  m.def("validate", [](const std::string& document, const std::string& base_dir, const py::dict& volumes, const py::dict& particles) {
+    const SceneArrays arrays = scene_arrays(volumes, particles);
+    (void)build_scene(parse(document, "scene"), base_dir, read_options(arrays));
+  }, py::arg("document"), py::arg("base_dir"), py::arg("volumes") = py::dict(), py::arg("particles") = py::dict());
+  // Van der Waals radius (Å) and CPK colour (linear RGB) of each element symbol; unknown: 1.7 Å, grey.
+  m.def("element_style", [](const std::vector<std::string>& symbols) {
+    py::array_t<float> radii(static_cast<py::ssize_t>(symbols.size()));
+    py::array_t<float> colors({static_cast<py::ssize_t>(symbols.size()), py::ssize_t{3}});
+    auto r = radii.mutable_unchecked<1>();
+    auto c = colors.mutable_unchecked<2>();
+    for (std::size_t i = 0; i < symbols.size(); ++i) {
+      const int e = element_from_symbol(symbols[i]);
+      const auto k = static_cast<py::ssize_t>(i);
+      r(k) = element_vdw_radius(e);
+      const Rgb rgb = element_color(e);
+      c(k, 0) = rgb.r;
+      c(k, 1) = rgb.g;
+      c(k, 2) = rgb.b;
+    }
+    return py::make_tuple(radii, colors);
   });
 
   py::class_<PyEngine>(m, "Engine")
-      .def(py::init<const std::string&, const std::string&>(), py::arg("document"), py::arg("base_dir"))
+      .def(py::init<const std::string&, const std::string&, const py::dict&, const py::dict&>(), py::arg("document"), py::arg("base_dir"),
+           py::arg("volumes") = py::dict(), py::arg("particles") = py::dict())
+      .def("replace_volume", &PyEngine::replace_volume, "The volume array of that name is now this one (or the same one, changed in place)")
+      .def("replace_particles", &PyEngine::replace_particles, "The particle array of that name is now these spheres and colours")
       .def("edit", &PyEngine::edit, "Edits [(path, JSON text)] together; Error naming the path when refused")
       .def("get", &PyEngine::get)
+      .def("volume_address", &PyEngine::volume_address)
       .def("document", &PyEngine::document)
       .def_property_readonly("width", &PyEngine::width)
       .def_property_readonly("height", &PyEngine::height)

@@ -403,3 +403,73 @@ TEST(Engine, FrameBuffersHoldPremultipliedColourSrgbAndDepth) {
   options.buffers = &bad;
   EXPECT_THROW(engine.render(options), Error);
 }
+
+// Data the caller holds ("array" in the document, SceneArrays): a volume is a view of the caller's
+// voxels, and replacing a particle array rebuilds the spheres and everything built from them, giving
+// the image a fresh engine over the new spheres gives.
+TEST(Engine, ReplacedArraysRebuildTheirObjectsAndMatchAFreshEngine) {
+  auto voxels = std::make_shared<std::vector<float>>(12 * 10 * 8);
+  for (std::size_t i = 0; i < voxels->size(); ++i) (*voxels)[i] = static_cast<float>((i * 7919) % 101) / 100.0f;
+  auto spheres = [](float shift) {
+    auto set = std::make_shared<ParticleSet>(random_spheres(40, 0.06f, 9));
+    for (auto& s : set->spheres) s.center.y += shift;
+    return std::shared_ptr<const ParticleSet>(std::move(set));
+  };
+  SceneArrays arrays;
+  arrays.volumes["v"] = std::make_shared<const Volume>(
+      Volume::view(ScalarType::Float32, {8, 10, 12}, reinterpret_cast<const std::byte*>(voxels->data()), voxels, {0.1f, 0.1f, 0.1f}));
+  arrays.particles["p"] = spheres(0);
+  json j;
+  j["volumes"] = json::array({{{"array", "v"}, {"spacing", {0.12, 0.1, 0.08}}, {"origin", {-1.5, -0.5, -0.5}}, {"transfer_function", step_tf(0.5, 0.9, 0.5, 0.3)}}});
+  j["particles"] = json::array({{{"array", "p"}}});
+  j["shadows"] = {{"technique", "ray_traced"}};
+  j["camera"] = {{"width", 32}, {"height", 28}};
+  SceneReadOptions options;
+  options.arrays = &arrays;
+  Engine engine(j, "", options);
+  EXPECT_EQ(engine.scene().volumes[0].volume->data(), reinterpret_cast<const std::byte*>(voxels->data()));  // not copied
+  EXPECT_EQ(engine.scene().volumes[0].volume->spacing().x, 0.12f);  // the document's spacing
+  engine.render();
+
+  engine.replace_array("p", spheres(0.2f));
+  const EngineFrame moved = engine.render();
+  std::vector<std::string> rebuilt;
+  for (const auto& r : moved.rebuilt) {
+    rebuilt.push_back(r.structure);
+    EXPECT_EQ(r.cause, "particles.0");
+  }
+  for (const char* s : {"spheres", "bvh", "casters"}) EXPECT_NE(std::find(rebuilt.begin(), rebuilt.end(), s), rebuilt.end()) << s;
+  arrays.particles["p"] = spheres(0.2f);
+  const Image fresh = Engine(j, "", options).render().image;
+  EXPECT_EQ(std::memcmp(moved.image.pixels().data(), fresh.pixels().data(), fresh.pixels().size() * sizeof(Rgb)), 0);
+  EXPECT_TRUE(non_trivial(fresh));
+
+  EXPECT_THROW(engine.replace_array("nope", spheres(0)), Error);
+  EXPECT_THROW(engine.replace_array("p", std::make_shared<const ParticleSet>()), Error);
+  // a reader without arrays refuses the name
+  try {
+    Engine without(j, "");
+    FAIL() << "an \"array\" without arrays was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("volumes.0.array"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Volume, AViewSharesTheVoxelsAndChecksThem) {
+  auto voxels = std::make_shared<std::vector<std::uint16_t>>(4 * 3 * 2, std::uint16_t{7});
+  (*voxels)[5] = 900;
+  const Volume v = Volume::view(ScalarType::UInt16, {4, 3, 2}, reinterpret_cast<const std::byte*>(voxels->data()), voxels);
+  EXPECT_TRUE(v.is_view());
+  EXPECT_EQ(v.memory_bytes(), 0u);
+  EXPECT_EQ(v.min_value(), 7.0f);
+  EXPECT_EQ(v.max_value(), 900.0f);
+  const Volume copy = v;  // a copy of a view shares the voxels
+  EXPECT_EQ(copy.data(), v.data());
+  EXPECT_EQ(voxels.use_count(), 3);
+  Volume owned(ScalarType::UInt8, {2, 2, 2});
+  const Volume owned_copy = owned;  // a copy of allocated voxels owns its own
+  EXPECT_NE(owned_copy.data(), owned.data());
+  auto nan = std::make_shared<std::vector<float>>(8, std::nanf(""));
+  EXPECT_THROW(Volume::view(ScalarType::Float32, {2, 2, 2}, reinterpret_cast<const std::byte*>(nan->data()), nan), Error);
+  EXPECT_THROW(Volume::view(ScalarType::Float32, {0, 2, 2}, reinterpret_cast<const std::byte*>(nan->data()), nan), Error);
+}

@@ -1,7 +1,8 @@
-"""penumbra from Python: scenes as dicts or files, the interactive engine, frames as NumPy arrays.
+"""penumbra from Python: scenes as dicts, files or NumPy arrays, the interactive engine, frames as arrays.
 
     import penumbra
     scene = penumbra.Scene.load("scenes/cranium.json", ["shadows.technique=cssm"])
+    # or: scene = penumbra.Scene(); scene.add_volume(ct, spacing=(2.5, 0.7, 0.7), transfer_function="ct-bone")
     r = penumbra.Renderer(scene)
     image = r.render(width=512, height=512)          # (512, 512, 4) uint8 sRGB RGBA, row 0 at the top
     r.set("lights.0.direction", [0.2, -1, -0.4])     # the engine's edits: the paths of --set
@@ -16,6 +17,7 @@ import copy
 import json
 import os
 import struct
+import warnings
 import zlib
 
 import numpy as np
@@ -26,9 +28,12 @@ Error = _penumbra.Error
 
 __all__ = ["Error", "Image", "Renderer", "Scene", "compare"]
 
+_VOLUME_DTYPES = (np.uint8, np.int16, np.uint16, np.float32)
+
 
 class Scene:
-    """A scene document: the scene file's schema as a dict, with the folder its relative paths use."""
+    """A scene document: the scene file's schema as a dict, with the folder its relative paths use, and
+    the NumPy arrays that its builders added (named in the document by "array")."""
 
     def __init__(self, document=None, base_dir="."):
         if document is None:
@@ -37,6 +42,8 @@ class Scene:
             raise Error(f"Scene: expected a dict with the scene file's keys (docs/scene-file.md), got {type(document).__name__}")
         self.document = copy.deepcopy(document)
         self.base_dir = os.fspath(base_dir)
+        self._volumes = {}    # array name -> the ndarray the renderer views
+        self._particles = {}  # array name -> (spheres (N, 4) float32, linear RGB colours (N, 3) float32)
 
     @classmethod
     def load(cls, path, overrides=()):
@@ -48,11 +55,91 @@ class Scene:
 
     def validate(self):
         """Reads the scene exactly as the scene-file reader does (loading its data); raises Error naming the key."""
-        _penumbra.validate(_dumps(self.document, "scene"), self.base_dir)
+        _penumbra.validate(_dumps(self.document, "scene"), self.base_dir, self._volumes, self._particles)
         return self
 
     def to_dict(self):
+        """The document (objects added from arrays name them by "array"; only a Renderer of this Scene knows them)."""
         return copy.deepcopy(self.document)
+
+    # ------------------------------------------------------------------------------------ builders
+    def add_volume(self, array, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), transfer_function=None, **keys):
+        """Adds a volume that views a 3-D NumPy array in place (no copy) and returns its path ("volumes.N").
+
+        The array's axes are (z, y, x), as napari, scikit-image and most Python imaging code hold them:
+        array[k, j, i] is voxel (i, j, k), at world position origin + (i, j, k) * spacing. `spacing` and
+        `origin` are given in the array's axis order too, (z, y, x), like napari's scale and translate.
+        dtype: uint8, int16, uint16 or float32 (anything else raises Error: convert with astype). A
+        C-contiguous array is shared, not copied: change it in place, then call
+        Renderer.update_volume(path). A non-contiguous one (a slice with steps, a transpose) is copied
+        once, with a warning. `transfer_function`: a preset name ("ct-bone"), a list of [value, r, g, b,
+        alpha] points, or the scene file's dict; default "grayscale" over the data's range. Other
+        keywords are the scene file's volume keys (step, compositing, visible, casts_shadows, ...)."""
+        a = _volume_array(array, "add_volume")
+        name = self._name("volume", self._volumes)
+        entry = {"array": name, "spacing": _axes_zyx(spacing, "spacing"), "origin": _axes_zyx(origin, "origin")}
+        if transfer_function is None and keys.get("visible", True):
+            transfer_function = "grayscale"
+        if transfer_function is not None:
+            entry["transfer_function"] = _transfer_function(transfer_function)
+        entry.update(keys)
+        self._volumes[name] = a
+        return self._append("volumes", entry)
+
+    def add_particles(self, positions, radii=1.0, colors=(0.8, 0.8, 0.8), **keys):
+        """Adds spheres and returns their path ("particles.N"). positions: (N, 3) world x, y, z; radii:
+        one number or N; colors: one colour or one per sphere, (N, 3) or (N, 4) floats in [0, 1] as
+        linear RGB (the scene file's colours) or uint8 as sRGB bytes (alpha is ignored). The spheres
+        are packed once (16 bytes each); Renderer.update_particles moves them, frame by frame.
+        Other keywords: casts_shadows, receives_shadows."""
+        name = self._name("particles", self._particles)
+        self._particles[name] = _pack_particles(positions, radii, colors, "add_particles")
+        entry = {"array": name}
+        entry.update(keys)
+        return self._append("particles", entry)
+
+    def add_atoms(self, atoms, radius_scale=1.0, hydrogens=True, **keys):
+        """Adds an MDAnalysis AtomGroup (anything with .positions and .elements or .types) as spheres with
+        van der Waals radii and CPK colours, and returns the path. For trajectories:
+        `for ts in u.trajectory: renderer.update_particles(path, atoms.positions)`."""
+        symbols = _element_symbols(atoms)
+        radii, colors = _penumbra.element_style(list(symbols))
+        keep = np.ones(len(symbols), dtype=bool) if hydrogens else ~np.isin(np.char.upper(symbols), ["H", "D", "T"])
+        positions = np.asarray(atoms.positions)[keep]
+        return self.add_particles(positions, radii[keep] * float(radius_scale), colors[keep], **keys)
+
+    def add_isosurface(self, volume, value, **keys):
+        """Adds the isosurface f = value of a volume (its path "volumes.N" or index) and returns its path.
+        Other keywords: method, color, collapse, casts_shadows, receives_shadows."""
+        entry = {"volume": _index_of(volume, "volumes", "add_isosurface"), "value": value}
+        entry.update(keys)
+        return self._append("isosurfaces", entry)
+
+    def add_plane(self, point=(0.0, -0.6, 0.0), normal=(0.0, 1.0, 0.0), **keys):
+        """Adds an opaque plane (keywords: color, size, casts_shadows, receives_shadows); returns its path."""
+        entry = {"point": point, "normal": normal}
+        entry.update(keys)
+        return self._append("planes", entry)
+
+    def add_light(self, type="directional", **keys):
+        """Adds a light (keywords: direction, position, color, intensity, angle_deg, softness) and returns
+        its path. The first one replaces the default light from above."""
+        entry = {"type": type}
+        entry.update(keys)
+        return self._append("lights", entry)
+
+    def _append(self, kind, entry):
+        items = self.document.setdefault(kind, [])
+        if not isinstance(items, list):
+            raise Error(f"{kind}: expected a list, got {type(items).__name__}")
+        items.append(entry)
+        return f"{kind}.{len(items) - 1}"
+
+    def _name(self, stem, taken):
+        i = len(taken)
+        while f"{stem}{i}" in taken:
+            i += 1
+        return f"{stem}{i}"
 
     def __repr__(self):
         kinds = [f"{len(self.document[k])} {k}" for k in ("volumes", "particles", "isosurfaces", "planes") if self.document.get(k)]
@@ -74,7 +161,9 @@ class Renderer:
             scene = Scene(scene)
         if not isinstance(scene, Scene):
             raise Error(f"Renderer: expected a penumbra.Scene or a dict, got {type(scene).__name__}")
-        self._engine = _penumbra.Engine(_dumps(scene.document, "scene"), scene.base_dir)
+        self._volumes = dict(scene._volumes)
+        self._particles = dict(scene._particles)
+        self._engine = _penumbra.Engine(_dumps(scene.document, "scene"), scene.base_dir, self._volumes, self._particles)
         self.stats = {}
 
     def set(self, path, value):
@@ -87,12 +176,50 @@ class Renderer:
             raise Error(f"edit: expected a dict {{path: value}}, got {type(edits).__name__}")
         self._engine.edit([(str(p), _dumps(v, p)) for p, v in edits.items()])
 
+    def update_particles(self, path, positions=None, radii=None, colors=None):
+        """New positions (N, 3), radii or colours for the spheres added at `path` ("particles.N"); the
+        sphere shadows and ambient occlusion are rebuilt for the next frame (a trajectory frame)."""
+        name = self._array_name(path, "particles")
+        spheres, packed = self._particles[name]
+        n = len(spheres)
+        new_spheres = spheres.copy()
+        if positions is not None:
+            p = _float_rows(positions, 3, "update_particles: positions")
+            if len(p) != n:
+                raise Error(f"update_particles: positions has {len(p)} rows; {path} has {n} spheres")
+            new_spheres[:, :3] = p
+        if radii is not None:
+            new_spheres[:, 3] = _radii(radii, n, "update_particles")
+        if colors is not None:
+            packed = _pack_colors(colors, n, "update_particles")
+        self._engine.replace_particles(name, new_spheres, packed)
+        self._particles[name] = (new_spheres, packed)
+
+    def update_volume(self, path, array=None):
+        """The volume at `path` ("volumes.N") after its array changed in place, or a new array for it
+        (same rules as Scene.add_volume); what depends on the data is rebuilt for the next frame."""
+        name = self._array_name(path, "volumes")
+        a = self._volumes[name] if array is None else _volume_array(array, "update_volume")
+        self._engine.replace_volume(name, a)
+        self._volumes[name] = a
+
+    def _array_name(self, path, kind):
+        index = _index_of(path, kind, f"update_{kind.rstrip('s')}" if kind == "volumes" else "update_particles")
+        try:
+            name = self.get(f"{kind}.{index}.array")
+        except Error:
+            raise Error(f"{kind}.{index}: not added from an array (its data comes from a file or a generator)") from None
+        return name
+
     def get(self, path):
         return json.loads(self._engine.get(path))
 
     @property
     def scene(self):
-        return Scene(json.loads(self._engine.document()))
+        """The scene as edited so far (with the arrays it views)."""
+        scene = Scene(json.loads(self._engine.document()))
+        scene._volumes, scene._particles = dict(self._volumes), dict(self._particles)
+        return scene
 
     def render(self, width=None, height=None, dtype="uint8", quality="full", accumulate=False, transparent=False):
         """A frame as an (H, W, 4) array, row 0 at the top: "uint8" sRGB RGBA (straight alpha) or
@@ -124,6 +251,111 @@ def _unit(a):
     if a.dtype == np.uint8:
         return a.astype(np.float32) / 255.0
     return a.astype(np.float32, copy=False)
+
+
+def _volume_array(array, where):
+    a = np.asarray(array)
+    if a.ndim != 3:
+        raise Error(f"{where}: the array has {a.ndim} dimensions, shape {a.shape} (expected 3: z, y, x)")
+    if a.dtype.newbyteorder("=") not in _VOLUME_DTYPES or not a.dtype.isnative:
+        raise Error(f"{where}: dtype {a.dtype} (expected uint8, int16, uint16 or float32 in native byte order; "
+                    f"convert with array.astype(np.float32))")
+    if not a.flags.c_contiguous:
+        warnings.warn(f"{where}: the array is not C-contiguous (strides {a.strides}); penumbra renders a copy "
+                      f"({a.nbytes / 2**20:.1f} MiB): pass np.ascontiguousarray(array) to share it", stacklevel=3)
+        a = np.ascontiguousarray(a)
+    return a
+
+
+def _axes_zyx(v, name):
+    t = np.asarray(v, dtype=np.float64).reshape(-1)
+    if t.size == 1:
+        t = np.repeat(t, 3)
+    if t.size != 3 or not np.all(np.isfinite(t)):
+        raise Error(f"add_volume: {name} {v!r} (expected three finite numbers in the array's axis order z, y, x)")
+    return [float(t[2]), float(t[1]), float(t[0])]
+
+
+def _transfer_function(tf):
+    if isinstance(tf, str):
+        return {"preset": tf}
+    if isinstance(tf, dict):
+        return tf
+    return {"points": np.asarray(tf, dtype=np.float64).tolist()}
+
+
+def _float_rows(values, columns, where):
+    a = np.asarray(values)
+    if a.dtype.kind not in "fiu":
+        raise Error(f"{where}: dtype {a.dtype} (expected numbers)")
+    if a.ndim != 2 or a.shape[1] != columns:
+        raise Error(f"{where}: shape {a.shape} (expected (N, {columns}))")
+    bad = ~np.all(np.isfinite(a), axis=1)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        raise Error(f"{where}: row {row} is {a[row].tolist()} (expected finite numbers; {int(bad.sum())} rows are not)")
+    return a.astype(np.float32)
+
+
+def _radii(radii, n, where):
+    r = np.asarray(radii, dtype=np.float64)
+    if r.ndim == 0:
+        r = np.full(n, float(r))
+    if r.shape != (n,):
+        raise Error(f"{where}: radii has shape {r.shape} (expected one number or {n})")
+    if not np.all(np.isfinite(r) & (r > 0)):
+        row = int(np.flatnonzero(~(np.isfinite(r) & (r > 0)))[0])
+        raise Error(f"{where}: radii[{row}] is {r[row]} (expected a positive number)")
+    return r.astype(np.float32)
+
+
+def _pack_colors(colors, n, where):
+    c = np.asarray(colors)
+    if c.ndim == 1:
+        c = np.broadcast_to(c, (n, c.shape[0]))
+    if c.ndim != 2 or c.shape[0] != n or c.shape[1] not in (3, 4):
+        raise Error(f"{where}: colors has shape {np.shape(colors)} (expected one colour (3,) or (N, 3|4) with N = {n})")
+    if c.dtype == np.uint8:  # sRGB bytes
+        s = c[:, :3].astype(np.float64) / 255.0
+        linear = np.where(s <= 0.04045, s / 12.92, ((s + 0.055) / 1.055) ** 2.4)
+    elif c.dtype.kind in "fiu":
+        linear = c[:, :3].astype(np.float64)
+        if not np.all(np.isfinite(linear)):
+            raise Error(f"{where}: colors holds NaN or infinite values (expected linear RGB in [0, 1])")
+    else:
+        raise Error(f"{where}: colors dtype {c.dtype} (expected floats in [0, 1] or uint8)")
+    return np.ascontiguousarray(linear, dtype=np.float32)
+
+
+def _pack_particles(positions, radii, colors, where):
+    p = _float_rows(positions, 3, f"{where}: positions")
+    if len(p) == 0:
+        raise Error(f"{where}: positions holds no particles")
+    spheres = np.empty((len(p), 4), dtype=np.float32)
+    spheres[:, :3] = p
+    spheres[:, 3] = _radii(radii, len(p), where)
+    return spheres, _pack_colors(colors, len(p), where)
+
+
+def _element_symbols(atoms):
+    for attr in ("elements", "types"):
+        try:
+            symbols = np.asarray(getattr(atoms, attr), dtype=str)
+        except Exception:  # MDAnalysis raises NoDataError (an AttributeError/ValueError) without the attribute
+            continue
+        if symbols.size == len(atoms.positions) and np.all(symbols != ""):
+            return symbols
+    raise Error("add_atoms: expected an AtomGroup with .positions and .elements (or .types) per atom")
+
+
+def _index_of(path_or_index, kind, where):
+    if isinstance(path_or_index, (int, np.integer)) and not isinstance(path_or_index, bool):
+        return int(path_or_index)
+    if isinstance(path_or_index, str):
+        head, _, tail = path_or_index.partition(".")
+        if head == kind and tail.isdigit():
+            return int(tail)
+    raise Error(f"{where}: {path_or_index!r} (expected \"{kind}.N\" or an index)")
 
 
 def _positive_int(v, name):

@@ -51,16 +51,69 @@ std::size_t checked_voxel_count(const std::array<std::int64_t, 3>& dims) {
 }
 
 Volume::Volume(ScalarType type, std::array<int, 3> dims, Vec3 spacing, Vec3 origin, VoxelFill fill)
-    : type_(type), dims_(dims), spacing_(spacing), origin_(origin) {
+    : type_(type), dims_(dims), origin_(origin) {
   const std::size_t count = checked_voxel_count({dims[0], dims[1], dims[2]});
+  set_spacing(spacing);
+  if (!is_finite(origin)) throw Error("origin is not finite");
+  owned_.resize(count * scalar_size(type));
+  data_ = owned_.data();
+  if (fill == VoxelFill::Zero)  // in parallel: zeroing is page faults first of all
+    parallel_for(owned_.size(), [&](std::size_t b, std::size_t e) { std::memset(data_ + b, 0, e - b); }, 1 << 20);
+}
+
+Volume Volume::view(ScalarType type, std::array<int, 3> dims, const std::byte* voxels, std::shared_ptr<const void> owner,
+                    Vec3 spacing, Vec3 origin) {
+  if (!voxels || !owner) throw Error("a viewed volume needs its voxels and their owner");
+  (void)checked_voxel_count({dims[0], dims[1], dims[2]});
+  Volume v;
+  v.type_ = type;
+  v.dims_ = dims;
+  v.set_spacing(spacing);
+  if (!is_finite(origin)) throw Error("origin is not finite");
+  v.origin_ = origin;
+  v.owner_ = std::move(owner);
+  v.data_ = const_cast<std::byte*>(voxels);  // never written: a view is read by the renderer only
+  v.recompute_range();
+  return v;
+}
+
+Volume::Volume(const Volume& o)
+    : type_(o.type_), dims_(o.dims_), spacing_(o.spacing_), inv_spacing_(o.inv_spacing_), origin_(o.origin_),
+      owned_(o.owned_), owner_(o.owner_), data_(o.owner_ ? o.data_ : owned_.data()), range_(o.range_) {}
+
+Volume::Volume(Volume&& o) noexcept
+    : type_(o.type_), dims_(o.dims_), spacing_(o.spacing_), inv_spacing_(o.inv_spacing_), origin_(o.origin_),
+      owned_(std::move(o.owned_)), owner_(std::move(o.owner_)), data_(o.data_), range_(o.range_) {
+  o.data_ = nullptr;
+  o.dims_ = {0, 0, 0};
+}
+
+Volume& Volume::operator=(const Volume& o) {
+  if (this != &o) *this = Volume(o);
+  return *this;
+}
+
+Volume& Volume::operator=(Volume&& o) noexcept {
+  type_ = o.type_;
+  dims_ = o.dims_;
+  spacing_ = o.spacing_;
+  inv_spacing_ = o.inv_spacing_;
+  origin_ = o.origin_;
+  owned_ = std::move(o.owned_);
+  owner_ = std::move(o.owner_);
+  data_ = o.data_;
+  range_ = o.range_;
+  o.data_ = nullptr;
+  o.dims_ = {0, 0, 0};
+  return *this;
+}
+
+void Volume::set_spacing(const Vec3& spacing) {
   for (int a = 0; a < 3; ++a)
     if (!(spacing[a] > 0) || !std::isfinite(spacing[a]))
       throw Error("spacing " + std::to_string(spacing[a]) + " on axis " + std::to_string(a) + " (expected a positive number)");
-  if (!is_finite(origin)) throw Error("origin is not finite");
+  spacing_ = spacing;
   inv_spacing_ = {1.0f / spacing.x, 1.0f / spacing.y, 1.0f / spacing.z};
-  bytes_.resize(count * scalar_size(type));
-  if (fill == VoxelFill::Zero)  // in parallel: zeroing is page faults first of all
-    parallel_for(bytes_.size(), [&](std::size_t b, std::size_t e) { std::memset(bytes_.data() + b, 0, e - b); }, 1 << 20);
 }
 
 Box3 Volume::bounds() const {

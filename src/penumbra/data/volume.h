@@ -60,21 +60,33 @@ public:
   // absurd dimensions or bad spacing.
   Volume(ScalarType type, std::array<int, 3> dims, Vec3 spacing = {1, 1, 1}, Vec3 origin = {0, 0, 0},
          VoxelFill fill = VoxelFill::Zero);
+  // Voxels that someone else owns (a NumPy array), viewed in place without a copy: `owner` keeps them
+  // alive as long as this volume or a copy of it lives. The renderer never writes them. Checks the
+  // dimensions and the voxels' range like a loaded volume (NaN or infinite voxels are an Error).
+  static Volume view(ScalarType type, std::array<int, 3> dims, const std::byte* voxels, std::shared_ptr<const void> owner,
+                     Vec3 spacing = {1, 1, 1}, Vec3 origin = {0, 0, 0});
+  // Copies own a copy of allocated voxels and share viewed ones.
+  Volume(const Volume& other);
+  Volume(Volume&& other) noexcept;
+  Volume& operator=(const Volume& other);
+  Volume& operator=(Volume&& other) noexcept;
 
   ScalarType type() const { return type_; }
   const std::array<int, 3>& dims() const { return dims_; }
   const Vec3& spacing() const { return spacing_; }
   const Vec3& origin() const { return origin_; }
   void set_origin(const Vec3& o) { origin_ = o; }
+  void set_spacing(const Vec3& spacing);  // Error unless positive and finite
   std::size_t voxel_count() const { return static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2]; }
-  std::size_t memory_bytes() const { return bytes_.size(); }
+  std::size_t memory_bytes() const { return owned_.size(); }  // what this volume allocated (a view: 0)
+  bool is_view() const { return static_cast<bool>(owner_); }
   Box3 bounds() const;  // world box through the first and last voxel centres
 
   // Raw storage in the volume's own type, x fastest.
-  std::byte* data() { return bytes_.data(); }
-  const std::byte* data() const { return bytes_.data(); }
-  template <class T> T* data_as() { return reinterpret_cast<T*>(bytes_.data()); }
-  template <class T> const T* data_as() const { return reinterpret_cast<const T*>(bytes_.data()); }
+  std::byte* data() { return data_; }
+  const std::byte* data() const { return data_; }
+  template <class T> T* data_as() { return reinterpret_cast<T*>(data_); }
+  template <class T> const T* data_as() const { return reinterpret_cast<const T*>(data_); }
 
   std::size_t index(int i, int j, int k) const {
     return (static_cast<std::size_t>(k) * dims_[1] + j) * dims_[0] + i;
@@ -114,7 +126,9 @@ private:
   ScalarType type_ = ScalarType::Float32;
   std::array<int, 3> dims_{0, 0, 0};
   Vec3 spacing_{1, 1, 1}, inv_spacing_{1, 1, 1}, origin_{0, 0, 0};
-  std::vector<std::byte, DefaultInitAllocator<std::byte>> bytes_;
+  std::vector<std::byte, DefaultInitAllocator<std::byte>> owned_;  // allocated voxels, or empty for a view
+  std::shared_ptr<const void> owner_;                               // a view's voxels stay alive through this
+  std::byte* data_ = nullptr;                                       // owned_.data() or the viewed voxels
   std::array<float, 2> range_{0, 0};
 };
 

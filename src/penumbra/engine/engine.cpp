@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <utility>
 
 #include "penumbra/core/error.h"
 #include "penumbra/engine/invalidation.h"
@@ -27,7 +28,8 @@ bool same_objects(const Scene& a, const Scene& b) {
 
 Engine::Engine(nlohmann::json document, std::string base_dir, const SceneReadOptions& options)
     : document_(std::move(document)), base_dir_(std::move(base_dir)), strict_(options.strict) {
-  renderer_ = std::make_unique<Renderer>(build_scene(document_, base_dir_, SceneReadOptions{strict_, &cache_}));
+  if (options.arrays) arrays_ = *options.arrays;
+  renderer_ = std::make_unique<Renderer>(build_scene(document_, base_dir_, read_options()));
   cache_.drop_unused();
 }
 
@@ -67,11 +69,17 @@ void Engine::edit(const std::vector<std::pair<std::string, nlohmann::json>>& edi
                          "shadows, ambient, light_cache, shading, background or sphere_renderer, then a key of docs/scene-file.md)");
     with_context(path, [&] { set_path(edited, path, edit.second); });
   }
+  std::vector<std::string> paths;
+  for (const auto& e : edits) paths.push_back(e.first);
+  apply(std::move(edited), paths);
+}
+
+void Engine::apply(nlohmann::json edited, const std::vector<std::string>& paths) {
   // read exactly like a scene file; the engine keeps its scene when this throws
-  Scene scene = with_context("edit refused", [&] { return build_scene(edited, base_dir_, SceneReadOptions{strict_, &cache_}); });
+  Scene scene = with_context("edit refused", [&] { return build_scene(edited, base_dir_, read_options()); });
   std::vector<std::string> stale;
   bool new_scene = !same_objects(scene, renderer_->scene());
-  for (const auto& [path, value] : edits) {
+  for (const auto& path : paths) {
     const std::vector<std::string> s = invalidated_by(path, scene);
     if (s.size() == 1 && s.front() == "scene") new_scene = true;
     for (const auto& name : s)
@@ -82,14 +90,48 @@ void Engine::edit(const std::vector<std::pair<std::string, nlohmann::json>>& edi
     renderer_ = std::make_unique<Renderer>(std::move(scene));
     new_renderer_ = true;
     causes_.clear();
-    causes_["scene"] = edits.empty() ? "" : edits.front().first;
+    causes_["scene"] = paths.empty() ? "" : paths.front();
   } else {
     renderer_->apply_edit(scene, stale);
   }
   document_ = std::move(edited);
   cache_.drop_unused();
-  for (const auto& e : edits) edits_.push_back(e.first);
+  edits_.insert(edits_.end(), paths.begin(), paths.end());
   samples_ = 0;
+}
+
+void Engine::replace_array(const std::string& name, std::shared_ptr<const ParticleSet> particles) {
+  if (!particles || particles->size() == 0) throw Error("particle array \"" + name + "\": holds no particles");
+  if (!arrays_ || !arrays_->particles.count(name)) throw Error("no particle array named \"" + name + "\" in this scene");
+  auto previous = std::exchange(arrays_->particles[name], std::move(particles));
+  try {
+    replace_array(name, "particles");
+  } catch (...) {
+    arrays_->particles[name] = std::move(previous);
+    throw;
+  }
+}
+
+void Engine::replace_array(const std::string& name, std::shared_ptr<const Volume> volume) {
+  if (!volume) throw Error("volume array \"" + name + "\": no volume");
+  if (!arrays_ || !arrays_->volumes.count(name)) throw Error("no volume array named \"" + name + "\" in this scene");
+  auto previous = std::exchange(arrays_->volumes[name], std::move(volume));
+  try {
+    replace_array(name, "volumes");
+  } catch (...) {
+    arrays_->volumes[name] = std::move(previous);
+    throw;
+  }
+}
+
+void Engine::replace_array(const std::string& name, const char* kind) {
+  std::vector<std::string> paths;  // the objects that name the array: as if their definition changed
+  if (document_.contains(kind) && document_[kind].is_array())
+    for (std::size_t i = 0; i < document_[kind].size(); ++i) {
+      const auto& object = document_[kind][i];
+      if (object.is_object() && object.contains("array") && object["array"] == name) paths.push_back(std::string(kind) + "." + std::to_string(i));
+    }
+  apply(document_, paths);
 }
 
 EngineFrame Engine::render(const FrameOptions& options) {

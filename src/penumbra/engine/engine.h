@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <utility>
@@ -65,7 +66,8 @@ struct EngineFrame {
 class Engine {
 public:
   // A scene document and the folder its relative paths resolve against.
-  // `options.strict` holds for every edit too (options.cache is the engine's own).
+  // `options.strict` holds for every edit too (options.cache is the engine's own; options.arrays is
+  // copied: the engine shares the arrays' data).
   Engine(nlohmann::json document, std::string base_dir, const SceneReadOptions& options = {});
   static Engine open(const std::string& scene_file, const std::vector<std::string>& overrides = {}, const SceneReadOptions& options = {});
 
@@ -73,6 +75,11 @@ public:
   // expected when a path is unknown or the edited scene is invalid; the engine then keeps its scene.
   void edit(const std::vector<std::pair<std::string, nlohmann::json>>& edits);
   void set(const std::string& path, const nlohmann::json& value) { edit({{path, value}}); }
+  // Replaces in-memory data that the document names by "array" (scene_file.h): every object naming it is
+  // rebuilt as after an edit of its definition (particles: spheres, BVH, shadows, ambient occlusion),
+  // the cause being "particles.N" or "volumes.N". What a trajectory player calls once a frame.
+  void replace_array(const std::string& name, std::shared_ptr<const ParticleSet> particles);
+  void replace_array(const std::string& name, std::shared_ptr<const Volume> volume);
   // The document's value at a path (Error when there is none).
   nlohmann::json get(const std::string& path) const;
 
@@ -84,10 +91,16 @@ public:
   int accumulated_samples() const { return samples_; }
 
 private:
+  // Reads the edited document and makes stale what the edited paths invalidate.
+  void apply(nlohmann::json edited, const std::vector<std::string>& paths);
+  void replace_array(const std::string& name, const char* kind);
+  SceneReadOptions read_options() { return SceneReadOptions{strict_, &cache_, arrays_ ? &*arrays_ : nullptr}; }
+
   nlohmann::json document_;
   std::string base_dir_;
   bool strict_ = false;
   SceneDataCache cache_;
+  std::optional<SceneArrays> arrays_;  // what "array" names, when the caller gave any
   std::unique_ptr<Renderer> renderer_;
   std::map<std::string, std::string> causes_;  // stale structure → the path that made it stale
   std::vector<std::string> edits_;             // paths edited since the last frame

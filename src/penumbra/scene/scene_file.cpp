@@ -127,32 +127,69 @@ std::string data_key(const nlohmann::json& j, const std::string& base_dir, std::
   return k.dump();
 }
 
-VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const std::string& base_dir, SceneDataCache* cache) {
+// The in-memory data that `"array"` names, or an Error naming the key.
+template <class Data>
+std::shared_ptr<const Data> named_array(JsonReader& r, const SceneArrays* arrays, const std::map<std::string, std::shared_ptr<const Data>> SceneArrays::*kind,
+                                        const char* what) {
+  const std::string name = r.required_string("array");
+  if (!arrays)
+    r.fail("array", "names data held in memory by the Python package's builders; a scene file gives 'file' or 'procedural'");
+  const auto& known = arrays->*kind;
+  const auto it = known.find(name);
+  if (it == known.end()) {
+    std::string names;
+    for (const auto& k : known) names += (names.empty() ? "" : ", ") + k.first;
+    r.fail("array", "no " + std::string(what) + " array named \"" + name + "\" (known: " + (names.empty() ? "none" : names) + ")");
+  }
+  return it->second;
+}
+
+// Exactly one of the keys that say where an object's data comes from.
+void require_one_source(JsonReader& r) {
+  const int sources = int(r.has("file")) + int(r.has("procedural")) + int(r.has("array"));
+  if (sources != 1)
+    r.fail(r.has("file") ? "file" : r.has("procedural") ? "procedural" : "array",
+           sources == 0 ? "missing: give 'file' or 'procedural'" : "give exactly one of 'file', 'procedural' and 'array'");
+}
+
+VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const std::string& base_dir, const SceneReadOptions& options) {
   JsonReader r(j, path);
   VolumeObject v;
-  const bool has_file = r.has("file"), has_proc = r.has("procedural");
-  if (has_file == has_proc) r.fail(has_file ? "procedural" : "file", "give exactly one of 'file' and 'procedural'");
+  require_one_source(r);
   std::optional<Vec3> origin;
   if (r.has("origin")) origin = r.vec3("origin", {});
+  if (r.has("spacing") && !r.has("array"))
+    r.fail("spacing", "is given with 'array' only (a file's spacing is in its header, or in 'raw')");
   std::function<Volume()> load;
-  if (has_file) {
+  std::string data_id = data_key(j, base_dir, {"file", "raw", "procedural", "array", "spacing", "origin"});
+  if (r.has("file")) {
     const std::string file = resolve(base_dir, r.required_string("file"));
     std::optional<RawVolumeOptions> raw;
     if (r.has("raw")) raw = read_raw_options(r.raw("raw"), r.key_path("raw"));
     load = [&r, file, raw] { return with_context(r.key_path("file"), [&] { return load_volume(file, raw); }); };
     v.source = file;
-  } else {
+  } else if (r.has("procedural")) {
     const auto& spec = r.raw("procedural");
     load = [&r, &spec, &base_dir] { return with_context(r.key_path("procedural"), [&] { return make_procedural_volume(spec, base_dir); }); };
     v.source = "procedural:" + (spec.contains("name") && spec["name"].is_string() ? spec["name"].get<std::string>() : "?");
+  } else {
+    const std::shared_ptr<const Volume> array = named_array(r, options.arrays, &SceneArrays::volumes, "volume");
+    std::optional<Vec3> spacing;
+    if (r.has("spacing")) spacing = r.vec3("spacing", {});
+    load = [&r, array, spacing] {  // a copy of a view shares the voxels
+      Volume placed = *array;
+      if (spacing) with_context(r.key_path("spacing"), [&] { placed.set_spacing(*spacing); });
+      return placed;
+    };
+    data_id += "@" + std::to_string(reinterpret_cast<std::uintptr_t>(array.get()));  // replaced data is new data
+    v.source = "array:" + r.required_string("array");
   }
   auto load_placed = [&] {
     Volume vol = load();
     if (origin) vol.set_origin(*origin);
     return vol;
   };
-  const std::shared_ptr<Volume> volume = cache ? cache->volume(data_key(j, base_dir, {"file", "raw", "procedural", "origin"}), load_placed)
-                                               : std::make_shared<Volume>(load_placed());
+  const std::shared_ptr<Volume> volume = options.cache ? options.cache->volume(data_id, load_placed) : std::make_shared<Volume>(load_placed());
   v.visible = r.boolean("visible", true);
   // A hidden volume (one only isosurfaces are drawn from) needs no transfer function.
   if (!r.has("transfer_function") && v.visible) r.fail("transfer_function", "missing (e.g. {\"preset\": \"ct-bone\"})");
@@ -181,12 +218,22 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   return v;
 }
 
-ParticleObject read_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir, SceneDataCache* cache) {
-  if (cache && j.is_object()) {  // everything but the shadow flags defines the spheres and their colours
+ParticleObject read_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir, const SceneReadOptions& options) {
+  if (j.is_object() && j.contains("array")) {  // the caller's spheres, as they are
     JsonReader r(j, path);
     ParticleObject p;
-    p.set = cache->particles(data_key(j, base_dir, {"casts_shadows", "receives_shadows"}, true), [&] {
-      return ParticleSet(*read_particles(j, path, base_dir, nullptr).set);
+    require_one_source(r);
+    p.set = named_array(r, options.arrays, &SceneArrays::particles, "particle");
+    p.source = "array:" + r.required_string("array");
+    read_shadow_flags(r, p);
+    r.finish();
+    return p;
+  }
+  if (options.cache && j.is_object()) {  // everything but the shadow flags defines the spheres and their colours
+    JsonReader r(j, path);
+    ParticleObject p;
+    p.set = options.cache->particles(data_key(j, base_dir, {"casts_shadows", "receives_shadows"}, true), [&] {
+      return ParticleSet(*read_particles(j, path, base_dir, SceneReadOptions{}).set);
     });
     p.source = r.has("file") ? resolve(base_dir, r.required_string("file")) : "procedural:random-spheres";
     read_shadow_flags(r, p);
@@ -194,8 +241,8 @@ ParticleObject read_particles(const nlohmann::json& j, const std::string& path, 
   }
   JsonReader r(j, path);
   ParticleObject p;
-  const bool has_file = r.has("file"), has_proc = r.has("procedural");
-  if (has_file == has_proc) r.fail(has_file ? "procedural" : "file", "give exactly one of 'file' and 'procedural'");
+  require_one_source(r);
+  const bool has_file = r.has("file");
   if (has_file) {
     const std::string file = resolve(base_dir, r.required_string("file"));
     ParticleLoadOptions o;
@@ -524,12 +571,12 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir, const Sc
   if (r.has("volumes")) {
     const auto& vols = array_at(r, "volumes");
     for (std::size_t i = 0; i < vols.size(); ++i)
-      s.volumes.push_back(read_volume(vols[i], "volumes." + std::to_string(i), base_dir, options.cache));
+      s.volumes.push_back(read_volume(vols[i], "volumes." + std::to_string(i), base_dir, options));
   }
   if (r.has("particles")) {
     const auto& parts = array_at(r, "particles");
     for (std::size_t i = 0; i < parts.size(); ++i)
-      s.particles.push_back(read_particles(parts[i], "particles." + std::to_string(i), base_dir, options.cache));
+      s.particles.push_back(read_particles(parts[i], "particles." + std::to_string(i), base_dir, options));
   }
   s.sphere_rasterizer = with_context("sphere_renderer", [&] { return sphere_rasterizer_from_string(r.string("sphere_renderer", "splat")); });
   if (r.has("isosurfaces")) {

@@ -42,10 +42,18 @@ private:
   std::set<std::string> used_;
 };
 
+// Data the caller holds in memory (the Python package's NumPy arrays), named in a scene document by
+// `"array": NAME` in place of `"file"` or `"procedural"`. Only a reader given these knows the names.
+struct SceneArrays {
+  std::map<std::string, std::shared_ptr<const Volume>> volumes;  // views of the caller's voxels (Volume::view)
+  std::map<std::string, std::shared_ptr<const ParticleSet>> particles;
+};
+
 struct SceneReadOptions {
   // Keys that the chosen techniques do not read (Scene::unread_keys) are an error, not a note.
   bool strict = false;
   SceneDataCache* cache = nullptr;  // reuse data loaded before (null: load everything)
+  const SceneArrays* arrays = nullptr;  // what "array" names (null: "array" is an error)
 };
 
 // Builds the scene; relative file paths are resolved against base_dir. Every error names the key.
