@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "penumbra/core/color.h"
 #include "penumbra/core/cutoffs.h"
 #include "penumbra/core/math.h"
 #include "penumbra/core/error.h"
@@ -93,4 +94,28 @@ TEST(ImageCore, CompareAndMontage) {
 // The shadow-ray cut-off as an optical depth is the same cut-off as a transmittance.
 TEST(Cutoffs, OpaqueDepthIsMinusLogOfShadowOpaque) {
   EXPECT_NEAR(kOpaqueDepth, -std::log(static_cast<double>(kShadowOpaque)), 1e-12);
+}
+
+// The table-driven sRGB byte is exactly the pow formula's, at every step and its neighbours and on a
+// dense sweep (what the PNG writer and the engine's sRGB8 buffers rely on).
+TEST(ColorCore, SrgbByteTableIsExactlyThePowFormula) {
+  auto reference = [](float v) { return static_cast<int>(std::lround(penumbra::linear_to_srgb(v) * 255.0f)); };
+  int checked = 0;
+  for (int i = 0; i <= 2000000; ++i) {
+    const float v = static_cast<float>(i) / 2000000.0f;
+    ASSERT_EQ(static_cast<int>(penumbra::linear_to_srgb8(v)), reference(v)) << v;
+    ++checked;
+  }
+  for (int k = 0; k < 256; ++k) {  // around each step: the smallest float reaching byte k, and its predecessor
+    float lo = 0, hi = 1;
+    for (int it = 0; it < 60; ++it) {
+      const float mid = 0.5f * (lo + hi);
+      (reference(mid) >= k ? hi : lo) = mid;
+    }
+    for (float v : {std::nextafter(hi, 0.0f), hi, std::nextafter(hi, 2.0f)}) EXPECT_EQ(static_cast<int>(penumbra::linear_to_srgb8(v)), reference(v)) << v;
+  }
+  EXPECT_EQ(penumbra::linear_to_srgb8(-1.0f), 0);
+  EXPECT_EQ(penumbra::linear_to_srgb8(2.0f), 255);
+  EXPECT_EQ(penumbra::linear_to_srgb8(std::nanf("")), 0);
+  EXPECT_GT(checked, 0);
 }

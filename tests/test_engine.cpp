@@ -245,7 +245,7 @@ TEST(Engine, AccumulatedCssmConvergesLikeOneOverRootFrames) {
   for (int k = 0; k < kSamples; ++k) {
     const EngineFrame f = engine.render();
     ASSERT_EQ(f.samples, k + 1);
-    samples.push_back(f.frame.image.pixels());
+    samples.push_back(k == 0 ? f.image.pixels() : f.frame.image.pixels());  // the first sample is the image
     means.push_back(f.image.pixels());
     if (k > 0) {  // the only rebuild is the new seed's shadows
       ASSERT_EQ(f.rebuilt.size(), 1u);

@@ -2,7 +2,9 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 
 namespace penumbra {
 
@@ -37,6 +39,27 @@ inline float linear_to_srgb(float v) {
 }
 inline float srgb_to_linear(float v) {
   return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+}
+
+namespace detail {
+// steps[k]: the smallest float whose sRGB byte exceeds k; below[i]: a byte no larger than that of any
+// value in [i/4096, (i+1)/4096) (so that a few comparisons finish the count).
+struct SrgbByteTable {
+  std::array<float, 255> steps;
+  std::array<std::uint8_t, 4097> below;
+};
+extern const SrgbByteTable srgb_byte_table;
+}  // namespace detail
+
+// The sRGB byte of a linear value: exactly lround(linear_to_srgb(v) * 255) (NaN gives 0), as the number
+// of steps at or below v, counted from a table's lower bound, so a frame costs no pow per pixel.
+inline std::uint8_t linear_to_srgb8(float v) {
+  if (!(v > 0)) return 0;  // also NaN
+  if (v >= 1) return 255;
+  const auto& t = detail::srgb_byte_table;
+  unsigned b = t.below[static_cast<std::size_t>(v * 4096.0f)];
+  while (b < 255 && v >= t.steps[b]) ++b;
+  return static_cast<std::uint8_t>(b);
 }
 
 }  // namespace penumbra

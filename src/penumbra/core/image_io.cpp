@@ -47,8 +47,7 @@ void write_png_file(const std::string& path, const Image& image) {
   for (int y = 0; y < image.height(); ++y) {
     for (int x = 0; x < image.width(); ++x)
       for (int c = 0; c < 3; ++c)
-        row[static_cast<std::size_t>(x) * 3 + c] =
-            static_cast<unsigned char>(std::lround(linear_to_srgb(image.at(x, y)[c]) * 255.0f));
+        row[static_cast<std::size_t>(x) * 3 + c] = linear_to_srgb8(image.at(x, y)[c]);
     png_write_row(png, row.data());
   }
   png_write_end(png, nullptr);

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
 #include "penumbra/engine/invalidation.h"
 #include "penumbra/scene/json_reader.h"
 
@@ -175,13 +176,17 @@ EngineFrame Engine::render(const FrameOptions& options) {
       for (std::size_t i = 0; i < sum_.size(); ++i) sum_[i] += f.image.pixels()[i];
       ++samples_;
     }
-    out.image = Image(f.image.width(), f.image.height());
-    const float inv = 1.0f / static_cast<float>(samples_);
-    for (std::size_t i = 0; i < sum_.size(); ++i) out.image.pixels()[i] = sum_[i] * inv;
+    if (samples_ == 1) {
+      out.image = std::move(out.frame.image);
+    } else {
+      out.image = Image(f.image.width(), f.image.height());
+      const float inv = 1.0f / static_cast<float>(samples_);
+      for (std::size_t i = 0; i < sum_.size(); ++i) out.image.pixels()[i] = sum_[i] * inv;
+    }
     out.samples = samples_;
   } else {
     samples_ = 0;
-    out.image = f.image;
+    out.image = std::move(out.frame.image);
   }
   if (options.buffers) write_frame_buffers(out.image, f, scene().background, *options.buffers);
   return out;
@@ -198,26 +203,27 @@ void write_frame_buffers(const Image& image, const FrameResult& frame, const Rgb
   check(out.rgba.size(), 4, "rgba");
   check(out.srgb8.size(), 4, "srgb8");
   check(out.depth.size(), 1, "depth");
-  for (std::size_t i = 0; i < n; ++i) {
-    const float a = out.transparent_background ? frame.alpha[i] : 1.0f;
-    // the image is colour + background·(1 − alpha); without the background it is premultiplied
-    const Rgb c = out.transparent_background ? image.pixels()[i] - background * (1 - frame.alpha[i]) : image.pixels()[i];
-    if (!out.rgba.empty()) {
-      out.rgba[4 * i] = c.r;
-      out.rgba[4 * i + 1] = c.g;
-      out.rgba[4 * i + 2] = c.b;
-      out.rgba[4 * i + 3] = a;
+  parallel_for(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const float a = out.transparent_background ? frame.alpha[i] : 1.0f;
+      // the image is colour + background·(1 − alpha); without the background it is premultiplied
+      const Rgb c = out.transparent_background ? image.pixels()[i] - background * (1 - frame.alpha[i]) : image.pixels()[i];
+      if (!out.rgba.empty()) {
+        out.rgba[4 * i] = c.r;
+        out.rgba[4 * i + 1] = c.g;
+        out.rgba[4 * i + 2] = c.b;
+        out.rgba[4 * i + 3] = a;
+      }
+      if (!out.srgb8.empty()) {
+        const float inv = a > 0 ? 1 / a : 0;
+        out.srgb8[4 * i] = linear_to_srgb8(c.r * inv);
+        out.srgb8[4 * i + 1] = linear_to_srgb8(c.g * inv);
+        out.srgb8[4 * i + 2] = linear_to_srgb8(c.b * inv);
+        out.srgb8[4 * i + 3] = static_cast<std::uint8_t>(std::lround(std::clamp(a, 0.0f, 1.0f) * 255.0f));
+      }
+      if (!out.depth.empty()) out.depth[i] = frame.depth[i];
     }
-    if (!out.srgb8.empty()) {
-      const float inv = a > 0 ? 1 / a : 0;
-      auto byte = [](float v) { return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); };
-      out.srgb8[4 * i] = byte(linear_to_srgb(std::clamp(c.r * inv, 0.0f, 1.0f)));
-      out.srgb8[4 * i + 1] = byte(linear_to_srgb(std::clamp(c.g * inv, 0.0f, 1.0f)));
-      out.srgb8[4 * i + 2] = byte(linear_to_srgb(std::clamp(c.b * inv, 0.0f, 1.0f)));
-      out.srgb8[4 * i + 3] = byte(a);
-    }
-    if (!out.depth.empty()) out.depth[i] = frame.depth[i];
-  }
+  }, 1 << 14);
 }
 
 }  // namespace penumbra

@@ -56,7 +56,8 @@ struct RebuiltStructure {
 
 struct EngineFrame {
   Image image;                   // the mean of the accumulated samples (the frame itself when one)
-  FrameResult frame;             // the last sample's frame: timings, alpha, depth, stats
+  FrameResult frame;             // the last sample's frame: timings, alpha, depth, stats; its image is
+                                 // moved into `image` (and empty) when the image is that one sample
   int samples = 1;               // how many samples the image averages
   int divisor = 1;               // a preview's image was rendered at 1/divisor of each side
   std::vector<RebuiltStructure> rebuilt;
