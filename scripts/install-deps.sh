@@ -6,7 +6,7 @@ packages=(build-essential cmake ninja-build g++ pkg-config
           libteem-dev libnifti2-dev libgtest-dev libbenchmark-dev
           gemmi-dev tao-pegtl-dev libembree-dev
           python3-dev pybind11-dev python3-numpy python3-pytest  # the Python package (python/)
-          python3-mdanalysis  # trajectories in the Python tests
+          python3-mdanalysis jupyter-nbconvert python3-ipykernel  # trajectories, the example notebook
           clang-14 libfuzzer-14-dev libclang-rt-14-dev)  # the libFuzzer targets (scripts/fuzz.sh)
 missing=()
 for p in "${packages[@]}"; do
