@@ -1,7 +1,9 @@
-// `penumbra render SCENE.json -o OUT.png [--width W --height H] [--set key=value ...] [--stats S.json]
-//  [--threads N] [--orbit N | --light-orbit N | --edits FILE] [--strict]`
-// Every frame goes through the interactive engine (engine/engine.h): an orbit edits camera.eye or the
-// first light each frame, and --edits replays a recorded interaction.
+// `penumbra render (SCENE.json | DATA_FILE...) -o OUT.png [--width W --height H] [--set key=value ...]
+//  [--stats S.json] [--threads N] [--orbit N | --light-orbit N | --edits FILE] [--strict]
+//  [--write-scene S.json] [--raw-dims X Y Z --raw-type T ...]`
+// Data files (volumes, molecules) make a scene of their own (scene/data_scene.h). Every frame goes
+// through the interactive engine (engine/engine.h): an orbit edits camera.eye or the first light each
+// frame, and --edits replays a recorded interaction.
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -11,6 +13,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "inputs.h"
 #include "penumbra/core/cancel.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/image_io.h"
@@ -27,10 +30,10 @@ namespace penumbra::cli {
 namespace {
 
 struct RenderOptions {
-  std::string scene, output, stats, buffers, edits;
+  InputOptions in;
+  std::string output, stats, buffers, edits, write_scene;
   int width = 0, height = 0, threads = 0, orbit = 0, light_orbit = 0, accumulate = 1;
-  bool strict = false, preview = false;
-  std::vector<std::string> sets;
+  bool preview = false;
 };
 
 std::string frame_path(const std::string& output, int frame) {
@@ -220,15 +223,15 @@ void run_render(const RenderOptions& o) {
       throw Error("--stats " + o.stats + ": directory '" + dir.string() + "' does not exist");
   }
   const std::vector<EditStep> steps = o.edits.empty() ? std::vector<EditStep>{} : read_edit_steps(o.edits);
-  std::vector<std::string> sets;
-  if (o.width > 0) sets.push_back("camera.width=" + std::to_string(o.width));
-  if (o.height > 0) sets.push_back("camera.height=" + std::to_string(o.height));
-  sets.insert(sets.end(), o.sets.begin(), o.sets.end());
+  if (!o.write_scene.empty()) check_scene_file_path(o.write_scene);
+  std::vector<std::string> sizes;
+  if (o.width > 0) sizes.push_back("camera.width=" + std::to_string(o.width));
+  if (o.height > 0) sizes.push_back("camera.height=" + std::to_string(o.height));
   ThreadLimit limit(o.threads);
-  Engine engine = Engine::open(o.scene, sets, SceneReadOptions{o.strict});
+  Engine engine = open_inputs(o.in, sizes);
   const Scene& scene = engine.scene();
   for (const auto& note : scene.unread_keys) std::fprintf(stderr, "penumbra: note: %s\n", note.c_str());
-  if (!o.buffers.empty() && !scene.has_isosurfaces()) throw Error("--buffers: " + o.scene + " has no isosurface");
+  if (!o.buffers.empty() && !scene.has_isosurfaces()) throw Error("--buffers: the scene has no isosurface");
   const int frames = std::max({1, o.orbit, o.light_orbit});
   const bool sequence = o.orbit > 0 || o.light_orbit > 0;
   const Camera camera0 = scene.camera;
@@ -271,23 +274,24 @@ void run_render(const RenderOptions& o) {
     if (sequence) stats["frames"] = frame_list;
     write_json_file(o.stats, stats);
   }
+  if (!o.write_scene.empty()) write_scene_file(engine, o.write_scene);
 }
 
 }  // namespace
 
 void add_render_command(CLI::App& app) {
   auto o = std::make_shared<RenderOptions>();
-  CLI::App* cmd = app.add_subcommand("render", "Render a scene file to an image (.png: 8-bit sRGB, .pfm: float)");
-  cmd->add_option("scene", o->scene, "Scene file (JSON, docs/scene-file.md)")->required();
+  CLI::App* cmd = app.add_subcommand("render", "Render a scene file, or data files, to an image (.png: 8-bit sRGB, .pfm: float)");
+  add_input_options(*cmd, o->in);
+  cmd->add_option("--write-scene", o->write_scene, "Also save the scene as a scene file (.json; paths relative to its folder): "
+                                                   "what data files opened directly became, to edit and render again");
   cmd->add_option("-o,--output", o->output, "Output image (.png or .pfm); with --orbit/--light-orbit, frames go to NAME_000.png ...")->required();
   cmd->add_option("--width", o->width, "Image width (overrides camera.width)")->check(CLI::Range(1, 16384));
   cmd->add_option("--height", o->height, "Image height (overrides camera.height)")->check(CLI::Range(1, 16384));
-  cmd->add_option("--set", o->sets, "Override a scene value by dotted path: key=value (value parsed as JSON if valid)");
   cmd->add_option("--stats", o->stats, "Write timings, memory and counts as JSON");
   cmd->add_option("--buffers", o->buffers,
                   "Isosurface scenes: write the eye pass's final visibility mask and each light pass's holes and "
                   "points (light view) as PNGs into this directory (lightN_isoK_* with several isosurfaces)");
-  cmd->add_flag("--strict", o->strict, "Keys that the chosen techniques do not read are an error (exit 1, no image), not a note");
   cmd->add_option("--threads", o->threads, "Worker threads (0 = all cores)")->check(CLI::Range(0, 1024));
   cmd->add_option("--orbit", o->orbit, "Render N frames with the camera turning once around its target")->check(CLI::Range(1, 100000));
   cmd->add_option("--light-orbit", o->light_orbit, "Render N frames with the first light turning once around the scene")->check(CLI::Range(1, 100000));

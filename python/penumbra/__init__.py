@@ -73,13 +73,12 @@ class Scene:
         C-contiguous array is shared, not copied: change it in place, then call
         Renderer.update_volume(path). A non-contiguous one (a slice with steps, a transpose) is copied
         once, with a warning. `transfer_function`: a preset name ("ct-bone"), a list of [value, r, g, b,
-        alpha] points, or the scene file's dict; default "grayscale" over the data's range. Other
+        alpha] points, or the scene file's dict; default: one chosen from the data (a CT in Hounsfield
+        units gets ct-bone, anything else a ramp over its histogram). Other
         keywords are the scene file's volume keys (step, compositing, visible, casts_shadows, ...)."""
         a = _volume_array(array, "add_volume")
         name = self._name("volume", self._volumes)
         entry = {"array": name, "spacing": _axes_zyx(spacing, "spacing"), "origin": _axes_zyx(origin, "origin")}
-        if transfer_function is None and keys.get("visible", True):
-            transfer_function = "grayscale"
         if transfer_function is not None:
             entry["transfer_function"] = _transfer_function(transfer_function)
         entry.update(keys)

@@ -7,6 +7,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/data/transfer_function_choice.h"
 #include "penumbra/engine/invalidation.h"
 #include "penumbra/scene/json_reader.h"
 
@@ -30,6 +31,7 @@ bool same_objects(const Scene& a, const Scene& b) {
 Engine::Engine(nlohmann::json document, std::string base_dir, const SceneReadOptions& options)
     : document_(std::move(document)), base_dir_(std::move(base_dir)), strict_(options.strict) {
   if (options.arrays) arrays_ = *options.arrays;
+  if (options.cache) cache_ = *options.cache;
   renderer_ = std::make_unique<Renderer>(build_scene(document_, base_dir_, read_options()));
   cache_.drop_unused();
 }
@@ -38,6 +40,17 @@ Engine Engine::open(const std::string& scene_file, const std::vector<std::string
   nlohmann::json j = read_json_file(scene_file);
   with_context(scene_file, [&] { for (const auto& o : overrides) apply_override(j, o); });
   return with_context(scene_file, [&] { return Engine(std::move(j), std::filesystem::path(scene_file).parent_path().string(), options); });
+}
+
+nlohmann::json Engine::saved_document(const std::string& folder) const {
+  nlohmann::json saved = with_files_relative_to(document_, base_dir_, folder);
+  const Scene& s = scene();
+  if (saved.contains("volumes"))
+    for (std::size_t i = 0; i < s.volumes.size() && i < saved["volumes"].size(); ++i) {
+      auto& v = saved["volumes"][i];
+      if (s.volumes[i].visible && !v.contains("transfer_function")) v["transfer_function"] = choose_transfer_function(*s.volumes[i].volume);
+    }
+  return saved;
 }
 
 nlohmann::json Engine::get(const std::string& path) const {

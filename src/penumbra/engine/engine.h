@@ -67,8 +67,8 @@ struct EngineFrame {
 class Engine {
 public:
   // A scene document and the folder its relative paths resolve against.
-  // `options.strict` holds for every edit too (options.cache is the engine's own; options.arrays is
-  // copied: the engine shares the arrays' data).
+  // `options.strict` holds for every edit too; options.cache (data loaded before, e.g. by data_scene)
+  // and options.arrays are copied: the engine shares their data.
   Engine(nlohmann::json document, std::string base_dir, const SceneReadOptions& options = {});
   static Engine open(const std::string& scene_file, const std::vector<std::string>& overrides = {}, const SceneReadOptions& options = {});
 
@@ -81,6 +81,10 @@ public:
   // the cause being "particles.N" or "volumes.N". What a trajectory player calls once a frame.
   void replace_array(const std::string& name, std::shared_ptr<const ParticleSet> particles);
   void replace_array(const std::string& name, std::shared_ptr<const Volume> volume);
+  // The document as a scene file saved in `folder` says it: file paths relative to that folder, and the
+  // transfer functions chosen from the data (for volumes that came without one) written out, so that
+  // `penumbra render` of the saved file gives this engine's image.
+  nlohmann::json saved_document(const std::string& folder) const;
   // The document's value at a path (Error when there is none).
   nlohmann::json get(const std::string& path) const;
 

@@ -8,6 +8,7 @@
 #include "penumbra/data/io/particle_io.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/procedural.h"
+#include "penumbra/data/transfer_function_choice.h"
 #include "penumbra/scene/json_reader.h"
 #include "penumbra/scene/technique_catalog.h"
 
@@ -192,11 +193,14 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   const std::shared_ptr<Volume> volume = options.cache ? options.cache->volume(data_id, load_placed) : std::make_shared<Volume>(load_placed());
   v.visible = r.boolean("visible", true);
   // A hidden volume (one only isosurfaces are drawn from) needs no transfer function.
-  if (!r.has("transfer_function") && v.visible) r.fail("transfer_function", "missing (e.g. {\"preset\": \"ct-bone\"})");
   if (r.has("transfer_function"))
     v.transfer_function = with_context(r.key_path("transfer_function"), [&] {
       return parse_transfer_function(r.raw("transfer_function"), volume->min_value(), volume->max_value(), base_dir);
     });
+  else if (v.visible)  // one chosen from the data
+    v.transfer_function = parse_transfer_function(
+        options.cache ? options.cache->chosen_transfer_function(data_id, *volume) : choose_transfer_function(*volume),
+        volume->min_value(), volume->max_value(), base_dir);
   if (r.has("shadow_transfer_function")) {
     v.has_shadow_transfer_function = true;
     v.shadow_transfer_function = with_context(r.key_path("shadow_transfer_function"), [&] {
@@ -502,10 +506,39 @@ std::shared_ptr<const ParticleSet> SceneDataCache::particles(const std::string& 
   return p;
 }
 
+const nlohmann::json& SceneDataCache::chosen_transfer_function(const std::string& key, const Volume& volume) {
+  used_.insert("t" + key);
+  auto& tf = transfer_functions_[key];
+  if (tf.is_null()) tf = choose_transfer_function(volume);
+  return tf;
+}
+
 void SceneDataCache::drop_unused() {
   std::erase_if(volumes_, [&](const auto& e) { return !used_.count("v" + e.first); });
+  std::erase_if(transfer_functions_, [&](const auto& e) { return !used_.count("t" + e.first); });
   std::erase_if(particles_, [&](const auto& e) { return !used_.count("p" + e.first); });
   used_.clear();
+}
+
+nlohmann::json with_files_relative_to(nlohmann::json document, const std::string& from_folder, const std::string& to_folder) {
+  const std::filesystem::path from = std::filesystem::absolute(from_folder.empty() ? "." : from_folder);
+  const std::filesystem::path to = std::filesystem::absolute(to_folder.empty() ? "." : to_folder).lexically_normal();
+  auto relocate = [&](nlohmann::json& object, const char* key) {
+    if (!object.is_object() || !object.contains(key) || !object[key].is_string()) return;
+    const std::filesystem::path file = (from / object[key].get<std::string>()).lexically_normal();  // an absolute file stays itself
+    object[key] = file.lexically_relative(to).generic_string();
+  };
+  for (const char* kind : {"volumes", "particles"}) {
+    if (!document.contains(kind) || !document[kind].is_array()) continue;
+    for (auto& object : document[kind]) {
+      if (!object.is_object()) continue;
+      relocate(object, "file");
+      if (object.contains("procedural")) relocate(object["procedural"], "file");
+      for (const char* tf : {"transfer_function", "shadow_transfer_function", "color_map"})
+        if (object.contains(tf)) relocate(object[tf], "paraview");
+    }
+  }
+  return document;
 }
 
 nlohmann::json read_json_file(const std::string& path) {

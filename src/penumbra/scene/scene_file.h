@@ -26,6 +26,11 @@ void apply_override(nlohmann::json& scene, const std::string& assignment);  // "
 // The same walk with a JSON value (what the engine's edits use).
 void set_path(nlohmann::json& scene, const std::string& path, nlohmann::json value);
 
+// The document with every file it names (volumes, particles, a molecular-density's molecule, ParaView
+// colour maps) resolved against `from_folder` and made relative to `to_folder`: what a scene saved in
+// `to_folder` must say to name the same files.
+nlohmann::json with_files_relative_to(nlohmann::json document, const std::string& from_folder, const std::string& to_folder);
+
 // The volumes and particle sets a scene read loaded, by what defines them (the file and its reading
 // options, or the generator and its parameters), so that reading an edited scene again loads only the
 // data whose definition changed (engine/engine.h).
@@ -33,12 +38,15 @@ class SceneDataCache {
 public:
   std::shared_ptr<Volume> volume(const std::string& key, const std::function<Volume()>& load);
   std::shared_ptr<const ParticleSet> particles(const std::string& key, const std::function<ParticleSet()>& load);
+  // The transfer function chosen from a volume's data (data/transfer_function_choice.h), once per data.
+  const nlohmann::json& chosen_transfer_function(const std::string& key, const Volume& volume);
   // Forgets what the reads since the last call did not use.
   void drop_unused();
 
 private:
   std::map<std::string, std::shared_ptr<Volume>> volumes_;
   std::map<std::string, std::shared_ptr<const ParticleSet>> particles_;
+  std::map<std::string, nlohmann::json> transfer_functions_;
   std::set<std::string> used_;
 };
 

@@ -8,6 +8,12 @@ namespace penumbra {
 
 using io_detail::ends_with_ci;
 
+bool is_volume_file(const std::string& path) {
+  for (const char* ext : {".raw", ".nrrd", ".nhdr", ".nii", ".nii.gz"})
+    if (ends_with_ci(path, ext)) return true;
+  return false;
+}
+
 Volume load_volume(const std::string& path, const std::optional<RawVolumeOptions>& raw) {
   return with_context(path, [&] {
     // Each loader already ran recompute_range(), which rejects NaN/inf voxels and sets the range,

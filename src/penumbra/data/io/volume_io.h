@@ -25,6 +25,9 @@ Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options)
 Volume load_nrrd_volume(const std::string& path);   // .nrrd or .nhdr
 Volume load_nifti_volume(const std::string& path);  // .nii or .nii.gz
 
+// Whether the file name has a volume extension (.raw, .nrrd, .nhdr, .nii, .nii.gz; any case).
+bool is_volume_file(const std::string& path);
+
 // Chooses the loader by extension (.raw needs `raw`; .nrrd/.nhdr; .nii/.nii.gz). The returned volume
 // has its value range computed.
 Volume load_volume(const std::string& path, const std::optional<RawVolumeOptions>& raw = std::nullopt);

@@ -1,0 +1,82 @@
+#include "inputs.h"
+
+#include <filesystem>
+#include <fstream>
+#include <optional>
+
+#include "penumbra/core/error.h"
+#include "penumbra/scene/data_scene.h"
+
+namespace penumbra::cli {
+namespace {
+
+std::optional<RawVolumeOptions> raw_options(const InputOptions& o) {
+  const bool given = !o.raw_dims.empty() || !o.raw_type.empty() || !o.raw_spacing.empty() || o.raw_header_bytes > 0;
+  if (!given) return std::nullopt;
+  if (o.raw_dims.size() != 3 || o.raw_type.empty()) throw Error("--raw-dims X Y Z and --raw-type go together (the layout of a .raw volume)");
+  RawVolumeOptions r;
+  for (int a = 0; a < 3; ++a) r.dims[a] = o.raw_dims[static_cast<std::size_t>(a)];
+  r.type = with_context("--raw-type", [&] { return scalar_type_from_string(o.raw_type); });
+  if (o.raw_endian != "little" && o.raw_endian != "big") throw Error("--raw-endian " + o.raw_endian + " (expected little or big)");
+  r.big_endian = o.raw_endian == "big";
+  if (!o.raw_spacing.empty()) {
+    if (o.raw_spacing.size() != 3) throw Error("--raw-spacing takes three numbers (x y z)");
+    r.spacing = {o.raw_spacing[0], o.raw_spacing[1], o.raw_spacing[2]};
+  }
+  r.header_bytes = o.raw_header_bytes;
+  return r;
+}
+
+}  // namespace
+
+void add_input_options(CLI::App& cmd, InputOptions& o) {
+  cmd.add_option("inputs", o.inputs,
+                 "A scene file (.json, docs/scene-file.md), or data files that make a scene: volumes (.nrrd, .nhdr, .nii, .nii.gz, "
+                 ".raw with --raw-dims and --raw-type) and molecules (.pdb, .ent, .cif, .mmcif, .gro, .xyz; each optionally .gz)")
+      ->required();
+  cmd.add_option("--set", o.sets, "Override a scene value by dotted path: key=value (value parsed as JSON if valid)");
+  cmd.add_flag("--strict", o.strict, "Keys that the chosen techniques do not read are an error (exit 1, no image), not a note");
+  cmd.add_option("--raw-dims", o.raw_dims, "Voxels along x y z of the .raw volumes")->expected(3)->check(CLI::Range(std::int64_t{1}, std::int64_t{1} << 20));
+  cmd.add_option("--raw-type", o.raw_type, "Voxel type of the .raw volumes: uint8, int16, uint16, float32");
+  cmd.add_option("--raw-spacing", o.raw_spacing, "Voxel spacing x y z of the .raw volumes (default 1 1 1)")->expected(3);
+  cmd.add_option("--raw-endian", o.raw_endian, "Byte order of the .raw volumes: little (default) or big");
+  cmd.add_option("--raw-header-bytes", o.raw_header_bytes, "Bytes to skip at the start of the .raw volumes");
+}
+
+Engine open_inputs(const InputOptions& o, const std::vector<std::string>& extra_sets) {
+  std::vector<std::string> sets = extra_sets;
+  sets.insert(sets.end(), o.sets.begin(), o.sets.end());
+  const std::optional<RawVolumeOptions> raw = raw_options(o);
+  if (o.inputs.size() == 1 && input_kind(o.inputs.front()) == InputKind::SceneFile) {
+    if (raw) throw Error("--raw-dims, --raw-type: the layout of .raw volumes opened directly (a scene file gives 'raw' per volume)");
+    return Engine::open(o.inputs.front(), sets, SceneReadOptions{o.strict});
+  }
+  bool has_raw = false;
+  for (const auto& f : o.inputs) has_raw = has_raw || std::filesystem::path(f).extension() == ".raw" || std::filesystem::path(f).extension() == ".RAW";
+  if (raw && !has_raw) throw Error("--raw-dims, --raw-type: no .raw file among the inputs");
+  SceneDataCache cache;
+  nlohmann::json doc = data_scene(o.inputs, raw, cache);
+  with_context("--set", [&] { for (const auto& s : sets) apply_override(doc, s); });
+  return Engine(std::move(doc), "", SceneReadOptions{o.strict, &cache});
+}
+
+void check_scene_file_path(const std::string& path) {
+  const std::filesystem::path p(path);
+  if (p.extension() != ".json") throw Error("--write-scene " + path + ": expected a .json file name");
+  const auto folder = p.parent_path();
+  if (!folder.empty() && !std::filesystem::is_directory(folder)) throw Error("--write-scene " + path + ": directory '" + folder.string() + "' does not exist");
+}
+
+void write_scene_file(const Engine& engine, const std::string& path) {
+  check_scene_file_path(path);
+  const auto folder = std::filesystem::path(path).parent_path();
+  const std::string text = engine.saved_document(folder.string()).dump(2) + "\n";
+  const std::string partial = path + ".part";  // nothing half-written under the name asked for
+  {
+    std::ofstream out(partial, std::ios::binary);
+    if (!out || !(out << text) || !out.flush()) throw Error("--write-scene " + path + ": cannot write");
+  }
+  std::filesystem::rename(partial, path);
+}
+
+}  // namespace penumbra::cli

@@ -1,0 +1,39 @@
+// What `render` (and later `view`) open: one scene file, or data files (volumes, molecules) that make a
+// scene of their own (scene/data_scene.h), with `--set` overrides and the layout of .raw volumes.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "penumbra/engine/engine.h"
+
+namespace penumbra::cli {
+
+struct InputOptions {
+  std::vector<std::string> inputs;  // a scene .json, or data files
+  std::vector<std::string> sets;    // --set path=value
+  bool strict = false;
+  // the layout of .raw volumes
+  std::vector<std::int64_t> raw_dims;
+  std::string raw_type, raw_endian = "little";
+  std::vector<float> raw_spacing;
+  std::uint64_t raw_header_bytes = 0;
+};
+
+// Adds the positional inputs and the --raw-* options to a subcommand.
+void add_input_options(CLI::App& cmd, InputOptions& o);
+
+// The engine over the inputs; `extra_sets` go before the user's --set (e.g. --width). Errors name the
+// file or option.
+Engine open_inputs(const InputOptions& o, const std::vector<std::string>& extra_sets = {});
+
+// Error unless `path` can name a scene file to write: a .json in an existing folder.
+void check_scene_file_path(const std::string& path);
+
+// Writes the engine's scene as a scene file (Engine::saved_document): JSON, paths relative to its folder.
+void write_scene_file(const Engine& engine, const std::string& path);
+
+}  // namespace penumbra::cli
