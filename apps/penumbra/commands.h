@@ -6,6 +6,7 @@
 namespace penumbra::cli {
 
 void add_render_command(CLI::App& app);
+void add_view_command(CLI::App& app);
 void add_demo_command(CLI::App& app);
 void add_compare_command(CLI::App& app);
 void add_montage_command(CLI::App& app);

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   CLI::App app{"penumbra: shadowed volume rendering, every technique measured against an exact reference"};
   app.require_subcommand(1);
   penumbra::cli::add_render_command(app);
+  penumbra::cli::add_view_command(app);
   penumbra::cli::add_demo_command(app);
   penumbra::cli::add_compare_command(app);
   penumbra::cli::add_montage_command(app);

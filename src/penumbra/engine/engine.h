@@ -92,6 +92,7 @@ public:
 
   const Scene& scene() const { return renderer_->scene(); }
   const nlohmann::json& document() const { return document_; }
+  const std::string& base_dir() const { return base_dir_; }  // where the document's relative paths lead
   const Renderer& renderer() const { return *renderer_; }
   int accumulated_samples() const { return samples_; }
 

@@ -1,0 +1,554 @@
+#include "penumbra/viewer/viewer_server.h"
+
+#include <boost/asio.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
+
+#include <atomic>
+#include <condition_variable>
+#include <csignal>
+#include <cstdio>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <random>
+#include <sstream>
+#include <thread>
+#include <unistd.h>
+
+#include "penumbra/core/cancel.h"
+#include "penumbra/core/error.h"
+#include "penumbra/core/image_io.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/scene/json_reader.h"
+#include "penumbra/viewer/jpeg.h"
+#include "penumbra/viewer/viewer_state.h"
+
+namespace penumbra {
+
+extern const char* const kViewerPage;  // page/index.html, embedded by CMake (viewer_page.cpp)
+
+namespace {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using Text = std::shared_ptr<const std::string>;
+
+constexpr int kPreviewJpegQuality = 75;
+constexpr int kFullJpegQuality = 92;
+
+std::string random_token() {
+  std::random_device device;
+  char hex[33];
+  for (int i = 0; i < 4; ++i) std::snprintf(hex + 8 * i, 9, "%08x", device());
+  return hex;
+}
+
+bool same_secret(std::string_view a, std::string_view b) {  // without an early exit on the first difference
+  if (a.size() != b.size()) return false;
+  unsigned char diff = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ b[i]);
+  return diff == 0;
+}
+
+// The path of a request target and its `token` query parameter.
+std::pair<std::string, std::string> split_target(std::string_view target) {
+  const auto q = target.find('?');
+  std::string path(target.substr(0, q));
+  std::string token;
+  if (q != std::string_view::npos) {
+    std::string_view query = target.substr(q + 1);
+    while (!query.empty()) {
+      const auto amp = query.find('&');
+      const std::string_view param = query.substr(0, amp);
+      if (param.rfind("token=", 0) == 0) token = std::string(param.substr(6));
+      if (amp == std::string_view::npos) break;
+      query.remove_prefix(amp + 1);
+    }
+  }
+  return {path, token};
+}
+
+// An error reply; bytes of the offending message that are not UTF-8 are replaced, not thrown on.
+Text error_message(const std::string& message) {
+  return std::make_shared<const std::string>(
+      nlohmann::json{{"type", "error"}, {"message", message}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+}
+
+double resident_mb() {
+  std::ifstream statm("/proc/self/statm");
+  double pages_total = 0, pages_resident = 0;
+  statm >> pages_total >> pages_resident;
+  return pages_resident * static_cast<double>(::sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
+}
+
+}  // namespace
+
+class WsSession;
+
+struct ViewerServer::Impl {
+  struct Job {
+    std::weak_ptr<WsSession> from;
+    std::vector<std::pair<std::string, nlohmann::json>> edits;
+    std::function<void()> task;  // a request that needs the engine (screenshot, saved scene)
+  };
+
+  Engine engine;
+  ViewerOptions options;
+  std::filesystem::path data_root;
+  net::io_context ioc{1};
+  tcp::acceptor acceptor{ioc};
+  ViewerState state;
+
+  std::mutex mutex;  // guards what follows
+  std::condition_variable wake;
+  std::deque<Job> jobs;
+  bool stopping = false;
+  std::vector<std::weak_ptr<WsSession>> sessions;
+  Text last_state, last_frame_meta, last_frame_jpeg;
+  std::atomic<bool> cancel{false};
+  std::uint64_t frame_id = 0;
+
+  Impl(Engine e, ViewerOptions o) : engine(std::move(e)), options(std::move(o)) {}
+
+  void accept();
+  void render_loop();
+  void render_frame(Quality quality, bool accumulate);
+  void broadcast_state();
+  void queue(Job job) {
+    {
+      std::lock_guard lock(mutex);
+      jobs.push_back(std::move(job));
+    }
+    cancel = true;  // a full frame in progress is stale now
+    wake.notify_one();
+  }
+  // Refuses an edit that names a file outside the data root (an Error naming the path and the file).
+  void check_files(const std::string& path, const nlohmann::json& value) const;
+  void on_message(const std::shared_ptr<WsSession>& from, const std::string& text);
+  std::vector<std::shared_ptr<WsSession>> live_sessions();
+};
+
+// ----------------------------------------------------------------------------------- WebSocket
+class WsSession : public std::enable_shared_from_this<WsSession> {
+public:
+  WsSession(tcp::socket&& socket, ViewerServer::Impl& server) : ws_(std::move(socket)), server_(server) {}
+
+  void start(http::request<http::string_body> request) {
+    ws_.read_message_max(server_.options.max_message_bytes);
+    ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
+    ws_.async_accept(request, beast::bind_front_handler(&WsSession::on_accept, shared_from_this()));
+  }
+
+  // From any thread: posted onto the event loop.
+  void send_text(Text text) { post_message({std::move(text), false, false}); }
+  void send_frame(Text meta, Text jpeg) {
+    net::post(ws_.get_executor(), [self = shared_from_this(), meta, jpeg] {
+      // a frame not yet being written is stale: drop it. The first message is in flight, and when it
+      // is a frame's header its image (the second) goes with it.
+      auto& q = self->queue_;
+      std::size_t i = q.empty() ? 0 : (q.front().frame && !q.front().binary ? 2 : 1);
+      while (i < q.size()) {
+        if (q[i].frame) q.erase(q.begin() + static_cast<std::ptrdiff_t>(i));
+        else ++i;
+      }
+      self->push({meta, false, true});
+      self->push({jpeg, true, true});
+    });
+  }
+
+private:
+  struct Message {
+    Text data;
+    bool binary, frame;
+  };
+
+  void on_accept(beast::error_code ec) {
+    if (ec) return;
+    {
+      std::lock_guard lock(server_.mutex);
+      server_.sessions.push_back(weak_from_this());
+      if (server_.last_state) queue_.push_back({server_.last_state, false, false});
+      if (server_.last_frame_meta) {
+        queue_.push_back({server_.last_frame_meta, false, true});
+        queue_.push_back({server_.last_frame_jpeg, true, true});
+      }
+    }
+    if (!queue_.empty()) write_next();
+    read();
+  }
+
+  void read() { ws_.async_read(buffer_, beast::bind_front_handler(&WsSession::on_read, shared_from_this())); }
+
+  void on_read(beast::error_code ec, std::size_t) {
+    if (ec) return;  // closed, too large (message_too_big) or broken: the session ends; others go on
+    if (!ws_.got_text()) {
+      send_text(error_message("expected a text message (JSON)"));
+    } else {
+      server_.on_message(shared_from_this(), beast::buffers_to_string(buffer_.data()));
+    }
+    buffer_.consume(buffer_.size());
+    read();
+  }
+
+  void post_message(Message m) {
+    net::post(ws_.get_executor(), [self = shared_from_this(), m = std::move(m)] { self->push(m); });
+  }
+  void push(const Message& m) {
+    queue_.push_back(m);
+    if (queue_.size() == 1) write_next();
+  }
+  void write_next() {
+    ws_.binary(queue_.front().binary);
+    ws_.async_write(net::buffer(*queue_.front().data), beast::bind_front_handler(&WsSession::on_write, shared_from_this()));
+  }
+  void on_write(beast::error_code ec, std::size_t) {
+    if (ec) {  // the client went away: forget what was queued for it
+      queue_.clear();
+      return;
+    }
+    queue_.pop_front();
+    if (!queue_.empty()) write_next();
+  }
+
+  websocket::stream<beast::tcp_stream> ws_;
+  beast::flat_buffer buffer_;
+  std::deque<Message> queue_;
+  ViewerServer::Impl& server_;
+};
+
+// ---------------------------------------------------------------------------------------- HTTP
+class HttpSession : public std::enable_shared_from_this<HttpSession> {
+  using Job = ViewerServer::Impl::Job;
+
+public:
+  HttpSession(tcp::socket&& socket, ViewerServer::Impl& server) : stream_(std::move(socket)), server_(server) {}
+
+  void start() { net::dispatch(stream_.get_executor(), beast::bind_front_handler(&HttpSession::read, shared_from_this())); }
+
+  // From the render thread: the answer to a request that needed the engine.
+  void answer(http::status status, std::string body, std::string type, std::string filename) {
+    net::post(stream_.get_executor(), [self = shared_from_this(), status, body = std::move(body), type = std::move(type), filename = std::move(filename)] {
+      self->respond(status, body, type, filename);
+    });
+  }
+
+private:
+  void read() {
+    parser_.emplace();
+    parser_->body_limit(server_.options.max_message_bytes);
+    parser_->header_limit(16 * 1024);
+    stream_.expires_after(std::chrono::seconds(30));
+    http::async_read(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpSession::on_read, shared_from_this()));
+  }
+
+  void on_read(beast::error_code ec, std::size_t) {
+    if (ec == http::error::end_of_stream) return close();
+    if (ec) {
+      if (ec == http::error::body_limit || ec == http::error::header_limit) respond(http::status::payload_too_large, "request too large\n", "text/plain", "", false);
+      return;
+    }
+    http::request<http::string_body> req = parser_->release();
+    keep_alive_ = req.keep_alive();
+    const auto [path, token] = split_target(std::string_view(req.target().data(), req.target().size()));
+    if (!same_secret(token, server_.options.token)) return respond(http::status::forbidden, "forbidden: a valid token is required\n", "text/plain", "");
+    if (websocket::is_upgrade(req)) {
+      if (path != "/ws") return respond(http::status::not_found, "not found\n", "text/plain", "");
+      stream_.expires_never();
+      std::make_shared<WsSession>(stream_.release_socket(), server_)->start(std::move(req));
+      return;
+    }
+    if (req.method() != http::verb::get) return respond(http::status::method_not_allowed, "only GET\n", "text/plain", "");
+    if (path == "/") return respond(http::status::ok, kViewerPage, "text/html; charset=utf-8", "");
+    if (path == "/screenshot.png" || path == "/scene.json") {
+      Job job;
+      auto self = shared_from_this();
+      job.task = [self, &server = server_, screenshot = path == "/screenshot.png"] {
+        try {
+          if (screenshot) {
+            const EngineFrame f = server.engine.render({Quality::Full, false});  // sample 0: what `penumbra render` gives
+            const auto file = std::filesystem::temp_directory_path() / ("penumbra_screenshot_" + std::to_string(::getpid()) + ".png");
+            write_image(file.string(), f.image);
+            std::ifstream in(file, std::ios::binary);
+            std::string png((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+            std::filesystem::remove(file);
+            self->answer(http::status::ok, std::move(png), "image/png", "penumbra.png");
+          } else {
+            self->answer(http::status::ok, server.engine.saved_document(server.data_root.string()).dump(2) + "\n", "application/json", "scene.json");
+          }
+        } catch (const std::exception& e) {
+          self->answer(http::status::internal_server_error, std::string(e.what()) + "\n", "text/plain", "");
+        }
+      };
+      server_.queue(std::move(job));
+      return;
+    }
+    respond(http::status::not_found, "not found\n", "text/plain", "");
+  }
+
+  void respond(http::status status, const std::string& body, const std::string& type, const std::string& filename, bool keep = true) {
+    auto res = std::make_shared<http::response<http::string_body>>(status, 11);
+    res->set(http::field::server, "penumbra");
+    res->set(http::field::content_type, type);
+    res->set(http::field::cache_control, "no-store");
+    res->set("X-Content-Type-Options", "nosniff");
+    res->set("Content-Security-Policy",
+             "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; img-src 'self' blob: data:; connect-src 'self'");
+    if (!filename.empty()) res->set(http::field::content_disposition, "attachment; filename=\"" + filename + "\"");
+    res->body() = body;
+    res->keep_alive(keep && keep_alive_);
+    res->prepare_payload();
+    http::async_write(stream_, *res, [self = shared_from_this(), res](beast::error_code ec, std::size_t) {
+      if (ec || !res->keep_alive()) return self->close();
+      self->read();
+    });
+  }
+
+  void close() {
+    beast::error_code ec;
+    stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
+  }
+
+  beast::tcp_stream stream_;
+  beast::flat_buffer buffer_;
+  std::optional<http::request_parser<http::string_body>> parser_;
+  bool keep_alive_ = false;
+  ViewerServer::Impl& server_;
+};
+
+// -------------------------------------------------------------------------------------- server
+void ViewerServer::Impl::accept() {
+  acceptor.async_accept(net::make_strand(ioc), [this](beast::error_code ec, tcp::socket socket) {
+    if (ec == net::error::operation_aborted) return;
+    if (!ec) std::make_shared<HttpSession>(std::move(socket), *this)->start();
+    accept();
+  });
+}
+
+std::vector<std::shared_ptr<WsSession>> ViewerServer::Impl::live_sessions() {
+  std::lock_guard lock(mutex);
+  std::vector<std::shared_ptr<WsSession>> live;
+  std::erase_if(sessions, [&](const std::weak_ptr<WsSession>& w) {
+    auto s = w.lock();
+    if (!s) return true;
+    live.push_back(std::move(s));
+    return false;
+  });
+  return live;
+}
+
+void ViewerServer::Impl::check_files(const std::string& path, const nlohmann::json& value) const {
+  const std::string key = path.substr(path.rfind('.') + 1);
+  if ((key == "file" || key == "paraview") && value.is_string()) {
+    const std::filesystem::path base = engine.base_dir().empty() ? std::filesystem::current_path() : std::filesystem::absolute(engine.base_dir());
+    const auto file = std::filesystem::weakly_canonical(base / value.get<std::string>());
+    const auto root = std::filesystem::weakly_canonical(data_root);
+    const auto rel = file.lexically_relative(root);
+    if (rel.empty() || *rel.begin() == "..")
+      throw Error(path + ": " + value.get<std::string>() + " lies outside the data root " + root.string() + " (the viewer opens files only there)");
+  }
+  if (value.is_object())
+    for (const auto& [k, v] : value.items()) check_files(path + "." + k, v);
+  if (value.is_array())
+    for (std::size_t i = 0; i < value.size(); ++i) check_files(path + "." + std::to_string(i), value[i]);
+}
+
+void ViewerServer::Impl::on_message(const std::shared_ptr<WsSession>& from, const std::string& text) {
+  auto reply_error = [&](const std::string& message) {
+    from->send_text(error_message(message));
+  };
+  try {
+    const nlohmann::json m = parse_json_text(text, "message");
+    if (!m.is_object() || !m.contains("type") || !m["type"].is_string())
+      throw Error("message: expected {\"type\": \"edit\" | \"resize\", ...}");
+    const std::string type = m["type"];
+    Job job;
+    job.from = from;
+    if (type == "edit") {
+      if (!m.contains("set") || !m["set"].is_object() || m["set"].empty())
+        throw Error("edit: expected \"set\": {\"PATH\": VALUE, ...} with at least one path");
+      for (const auto& [path, value] : m["set"].items()) {
+        check_files(path, value);
+        job.edits.emplace_back(path, value);
+      }
+    } else if (type == "resize") {
+      for (const char* k : {"width", "height"})
+        if (!m.contains(k) || !m[k].is_number_integer() || m[k].get<std::int64_t>() < 16 || m[k].get<std::int64_t>() > 4096)
+          throw Error(std::string("resize: \"") + k + "\" must be an integer in [16, 4096]");
+      job.edits = {{"camera.width", m["width"]}, {"camera.height", m["height"]}};
+    } else {
+      throw Error("message: unknown type \"" + type + "\" (expected edit or resize)");
+    }
+    queue(std::move(job));
+  } catch (const std::exception& e) {
+    reply_error(e.what());
+  }
+}
+
+void ViewerServer::Impl::broadcast_state() {
+  Text text;
+  try {
+    text = std::make_shared<const std::string>(state.message(engine).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "penumbra view: state failed: %s\n", e.what());
+    return;
+  }
+  {
+    std::lock_guard lock(mutex);
+    last_state = text;
+  }
+  for (const auto& s : live_sessions()) s->send_text(text);
+}
+
+void ViewerServer::Impl::render_frame(Quality quality, bool accumulate) {
+  Timer timer;
+  const EngineFrame f = engine.render({quality, accumulate, quality == Quality::Full ? &cancel : nullptr});
+  const auto jpeg = std::make_shared<const std::string>(encode_jpeg(f.image, quality == Quality::Preview ? kPreviewJpegQuality : kFullJpegQuality));
+  nlohmann::json rebuilt = nlohmann::json::array();
+  for (const auto& r : f.rebuilt) rebuilt.push_back({{"structure", r.structure}, {"cause", r.cause}});
+  nlohmann::json meta = {{"type", "frame"},       {"quality", quality == Quality::Preview ? "preview" : "full"},
+                         {"samples", f.samples},  {"width", f.image.width()},
+                         {"height", f.image.height()}, {"ms", timer.elapsed_ms()},
+                         {"divisor", f.divisor},  {"rebuilt", rebuilt},
+                         {"edits", f.edits},      {"memory_mb", resident_mb()}};
+  Text meta_text;
+  {
+    std::lock_guard lock(mutex);
+    meta["id"] = ++frame_id;
+    meta_text = std::make_shared<const std::string>(meta.dump());
+    last_frame_meta = meta_text;
+    last_frame_jpeg = jpeg;
+  }
+  for (const auto& s : live_sessions()) s->send_frame(meta_text, jpeg);
+}
+
+void ViewerServer::Impl::render_loop() {
+  bool need_preview = true, need_full = true;
+  int samples = 0;
+  broadcast_state();
+  while (true) {
+    std::deque<Job> batch;
+    {
+      std::unique_lock lock(mutex);
+      wake.wait(lock, [&] { return stopping || !jobs.empty() || need_preview || need_full || samples < options.max_samples; });
+      if (stopping) return;
+      batch.swap(jobs);
+      cancel = false;
+    }
+    bool edited = false;
+    for (Job& job : batch) {
+      if (job.task) {
+        job.task();
+        need_full = true;  // a screenshot renders sample 0 again
+        samples = 0;
+        continue;
+      }
+      try {
+        engine.edit(job.edits);
+        edited = true;
+      } catch (const std::exception& e) {
+        if (auto from = job.from.lock())
+          from->send_text(error_message(e.what()));
+      }
+    }
+    if (edited) {
+      broadcast_state();
+      need_preview = need_full = true;
+      samples = 0;
+    }
+    {
+      std::lock_guard lock(mutex);
+      if (!jobs.empty()) continue;  // more input came: render for that
+    }
+    try {
+      if (need_preview) {
+        render_frame(Quality::Preview, false);
+        need_preview = false;
+      } else if (need_full) {
+        render_frame(Quality::Full, true);
+        need_full = false;
+        samples = 1;
+      } else if (samples < options.max_samples) {
+        render_frame(Quality::Full, true);
+        ++samples;
+      }
+    } catch (const Cancelled&) {
+      // a newer edit made this frame stale; the loop takes it next
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "penumbra view: frame failed: %s\n", e.what());
+      need_preview = need_full = false;
+      samples = options.max_samples;
+    }
+  }
+}
+
+ViewerServer::ViewerServer(Engine engine, ViewerOptions options) : impl_(std::make_unique<Impl>(std::move(engine), std::move(options))) {
+  Impl& s = *impl_;
+  if (s.options.token.empty()) s.options.token = random_token();
+  for (char c : s.options.token)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') throw Error("--token: letters, digits, '-' and '_' only");
+  s.data_root = std::filesystem::absolute(s.options.data_root.empty() ? "." : s.options.data_root);
+  if (!std::filesystem::is_directory(s.data_root)) throw Error("--data-root " + s.data_root.string() + ": not a directory");
+  beast::error_code ec;
+  const auto address = net::ip::make_address(s.options.host, ec);
+  if (ec) throw Error("--host " + s.options.host + ": not an IP address (" + ec.message() + ")");
+  const tcp::endpoint endpoint(address, s.options.port);
+  s.acceptor.open(endpoint.protocol(), ec);
+  if (!ec) s.acceptor.set_option(net::socket_base::reuse_address(true), ec);
+  if (!ec) s.acceptor.bind(endpoint, ec);
+  if (!ec) s.acceptor.listen(net::socket_base::max_listen_connections, ec);
+  if (ec) throw Error("cannot listen on " + s.options.host + ":" + std::to_string(s.options.port) + ": " + ec.message());
+}
+
+ViewerServer::~ViewerServer() { stop(); }
+
+std::uint16_t ViewerServer::port() const { return impl_->acceptor.local_endpoint().port(); }
+const std::string& ViewerServer::token() const { return impl_->options.token; }
+
+std::string ViewerServer::url() const {
+  const std::string host = impl_->options.host.find(':') != std::string::npos ? "[" + impl_->options.host + "]" : impl_->options.host;
+  return "http://" + host + ":" + std::to_string(port()) + "/?token=" + token();
+}
+
+void ViewerServer::run() {
+  Impl& s = *impl_;
+  net::signal_set signals(s.ioc, SIGINT, SIGTERM);
+  signals.async_wait([this](beast::error_code ec, int) {
+    if (!ec) stop();
+  });
+  s.accept();
+  std::thread renderer([&s] { s.render_loop(); });
+  while (true) {  // a handler's exception is logged; the server goes on serving the others
+    try {
+      s.ioc.run();
+      break;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "penumbra view: %s\n", e.what());
+    }
+  }
+  {
+    std::lock_guard lock(s.mutex);
+    s.stopping = true;
+  }
+  s.cancel = true;
+  s.wake.notify_all();
+  renderer.join();
+}
+
+void ViewerServer::stop() {
+  Impl& s = *impl_;
+  {
+    std::lock_guard lock(s.mutex);
+    s.stopping = true;
+  }
+  s.cancel = true;
+  s.wake.notify_all();
+  s.ioc.stop();
+}
+
+}  // namespace penumbra

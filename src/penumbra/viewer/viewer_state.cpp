@@ -1,0 +1,64 @@
+#include "penumbra/viewer/viewer_state.h"
+
+#include <cmath>
+
+#include "penumbra/data/volume_stats.h"
+#include "penumbra/scene/technique_catalog.h"
+
+namespace penumbra {
+namespace {
+
+constexpr int kHistogramBins = 64;
+
+nlohmann::json vec3(const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
+
+nlohmann::json technique_lists() {
+  nlohmann::json keys = nlohmann::json::object();
+  for (const TechniqueInfo& t : technique_catalog()) {
+    nlohmann::json k = nlohmann::json::array();
+    for (const auto& key : t.keys) k.push_back(std::string(key));
+    keys[std::string(t.name)] = k;
+  }
+  return {{"techniques", {{"shadows", technique_names(TechniqueFamily::Shadow)}, {"ambient", technique_names(TechniqueFamily::Ambient)}}},
+          {"technique_keys", keys}};
+}
+
+}  // namespace
+
+nlohmann::json ViewerState::message(const Engine& engine) {
+  const Scene& scene = engine.scene();
+  nlohmann::json m = technique_lists();
+  m["type"] = "state";
+  m["document"] = engine.document();
+  m["camera"] = {{"eye", vec3(scene.camera.eye)}, {"target", vec3(scene.camera.target)}, {"up", vec3(scene.camera.up)},
+                 {"fov_deg", scene.camera.fov_deg}, {"width", scene.camera.width}, {"height", scene.camera.height}};
+  const Box3 box = scene.caster_bounds();
+  m["light_target"] = vec3(box.empty() ? scene.camera.target : box.center());
+  m["radius"] = box.empty() ? 1.0f : 0.5f * length(box.hi - box.lo);
+  m["histograms"] = nlohmann::json::array();
+  m["transfer_functions"] = nlohmann::json::array();
+  for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
+    const VolumeObject& v = scene.volumes[i];
+    auto& h = histograms_[v.volume.get()];
+    if (h.is_null()) {
+      const VolumeHistogram hist = compute_histogram(*v.volume, kHistogramBins);
+      h = {{"lo", hist.lo}, {"hi", hist.hi}, {"counts", hist.counts}};
+    }
+    nlohmann::json entry = h;
+    entry["volume"] = i;
+    m["histograms"].push_back(entry);
+    if (!v.visible) continue;
+    nlohmann::json points = nlohmann::json::array();
+    for (const TransferPoint& p : v.transfer_function.points()) points.push_back({p.value, p.color.r, p.color.g, p.color.b, p.alpha});
+    m["transfer_functions"].push_back({{"volume", i}, {"points", points}});
+  }
+  // forget the histograms of data no longer in the scene
+  std::erase_if(histograms_, [&](const auto& e) {
+    for (const auto& v : scene.volumes)
+      if (v.volume.get() == e.first) return false;
+    return true;
+  });
+  return m;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,239 @@
+"""The viewer's server (`penumbra view`, docs/viewer.md) over its protocol: the token guards every
+request, edits come back as state and frames to every client, files outside the data root are refused,
+malformed, mutated, oversized and vanishing clients get errors or are dropped while the server keeps
+serving, and the screenshot equals `penumbra render` of the saved scene."""
+import json
+import os
+import random
+import signal
+import socket
+import subprocess
+import time
+import urllib.error
+import urllib.request
+
+import pytest
+
+websocket = pytest.importorskip("websocket")  # Debian python3-websocket (scripts/install-deps.sh)
+
+CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
+
+SCENE = {
+    "volumes": [{"procedural": {"name": "test-spheres", "size": 24}, "transfer_function": {"preset": "test-spheres"}}],
+    "planes": [{"point": [0, -0.52, 0], "normal": [0, 1, 0], "size": 4}],
+    "lights": [{"type": "directional", "direction": [-0.3, -1, -0.2]}],
+    "camera": {"width": 48, "height": 40},
+    "shadows": {"technique": "cssm", "resolution": 64},
+}
+
+
+class Viewer:
+    def __init__(self, folder, scene=SCENE, *args):
+        self.folder = folder
+        path = folder / "scene.json"
+        path.write_text(json.dumps(scene))
+        self.process = subprocess.Popen([CLI, "view", str(path), "--port", "0", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self.url = self.process.stdout.readline().strip()
+        assert self.url.startswith("http://127.0.0.1:"), self.url
+        self.base, _, query = self.url.partition("/?")
+        self.token = query.split("token=")[1]
+        self.ws_url = self.base.replace("http://", "ws://") + "/ws?token=" + self.token
+
+    def get(self, path, token=True):
+        url = self.base + path + (("&" if "?" in path else "?") + "token=" + self.token if token else "")
+        try:
+            with urllib.request.urlopen(url, timeout=30) as r:
+                return r.status, r.read(), r.headers
+        except urllib.error.HTTPError as e:
+            return e.code, e.read(), e.headers
+
+    def connect(self):
+        ws = websocket.create_connection(self.ws_url, timeout=30)
+        return ws
+
+    def alive(self):
+        return self.process.poll() is None and self.get("/")[0] == 200
+
+    def close(self):
+        self.process.send_signal(signal.SIGINT)
+        try:
+            self.process.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            raise
+        return self.process.returncode
+
+
+@pytest.fixture
+def viewer(tmp_path):
+    v = Viewer(tmp_path)
+    yield v
+    assert v.close() == 0, "Ctrl-C must stop the server cleanly"
+
+
+def receive(ws, kind, timeout=60):
+    """Messages until one of type `kind` (the binary JPEG after a frame header is returned with it)."""
+    end = time.time() + timeout
+    while time.time() < end:
+        opcode, data = ws.recv_data()
+        if opcode != websocket.ABNF.OPCODE_TEXT:
+            continue
+        m = json.loads(data)
+        if m["type"] == kind:
+            if kind == "frame":
+                opcode, jpeg = ws.recv_data()
+                assert opcode == websocket.ABNF.OPCODE_BINARY
+                return m, jpeg
+            return m
+    raise AssertionError(f"no {kind} message within {timeout} s")
+
+
+def test_every_request_needs_the_token(viewer):
+    status, body, headers = viewer.get("/")
+    assert status == 200 and b'id="view"' in body and headers["Content-Type"].startswith("text/html")
+    assert viewer.get("/", token=False)[0] == 403
+    assert viewer.get("/?token=wrong", token=False)[0] == 403
+    assert viewer.get("/scene.json", token=False)[0] == 403
+    assert viewer.get("/screenshot.png", token=False)[0] == 403
+    with pytest.raises(websocket.WebSocketBadStatusException) as e:
+        websocket.create_connection(viewer.ws_url.replace(viewer.token, "wrong"), timeout=10)
+    assert e.value.status_code == 403
+    # no file is ever served
+    for path in ("/../../etc/passwd", "/etc/passwd", "/scene.json/../../etc/passwd", "/%2e%2e/%2e%2e/etc/passwd"):
+        assert viewer.get(path)[0] == 404, path
+
+
+def test_edits_come_back_as_state_and_frames_to_every_client(viewer):
+    a, b = viewer.connect(), viewer.connect()
+    state = receive(a, "state")
+    assert state["document"]["shadows"]["technique"] == "cssm"
+    assert len(state["histograms"]) == 1 and len(state["histograms"][0]["counts"]) == 64
+    assert state["transfer_functions"][0]["volume"] == 0 and len(state["transfer_functions"][0]["points"]) >= 2
+    assert "cssm" in state["techniques"]["shadows"] and "offsets" in state["technique_keys"]["cssm"]
+    frame, jpeg = receive(a, "frame")
+    assert jpeg[:2] == b"\xff\xd8" and frame["width"] == 48 and frame["height"] == 40
+    while frame["quality"] != "full":  # until the first full frame, everything is built for the "first frame"
+        frame, jpeg = receive(a, "frame")
+    receive(b, "state")
+    a.send(json.dumps({"type": "edit", "set": {"lights.0.direction": [0.4, -1, 0.1]}}))
+    for ws in (a, b):  # both tabs follow
+        while True:
+            s = receive(ws, "state")
+            if s["document"]["lights"][0]["direction"] == [0.4, -1, 0.1]:
+                break
+    while True:  # the edit's preview, then the refined frame, say what they rebuilt
+        frame, _ = receive(a, "frame")
+        if frame["quality"] == "preview" and "lights.0.direction" in frame["edits"]:
+            assert {"structure": "lights.0.shadows", "cause": "lights.0.direction"} in frame["rebuilt"]
+            break
+    while frame["quality"] != "full":
+        frame, _ = receive(a, "frame")
+    a.send(json.dumps({"type": "resize", "width": 64, "height": 32}))
+    while frame["width"] != 64:
+        frame, _ = receive(a, "frame")
+    assert frame["height"] == 32
+    a.close()
+    b.close()
+
+
+def test_refused_edits_and_files_outside_the_data_root_get_errors(viewer):
+    ws = viewer.connect()
+    receive(ws, "state")
+    for edit, needle in [
+        ({"volumes.0.file": "../../etc/passwd"}, "outside the data root"),
+        ({"volumes.0.file": "/etc/passwd"}, "outside the data root"),
+        ({"volumes.0.transfer_function": {"paraview": "/etc/passwd"}}, "outside the data root"),
+        ({"volumes.0": {"file": "../secret.nrrd", "transfer_function": {"preset": "grayscale"}}}, "outside the data root"),
+        ({"shadows.bogus": 1}, "shadows.bogus"),
+        ({"lights.0.direction": "up"}, "lights.0.direction"),
+        ({"nonsense": 1}, "nonsense"),
+    ]:
+        ws.send(json.dumps({"type": "edit", "set": edit}))
+        error = receive(ws, "error")
+        assert needle in error["message"], (edit, error)
+    ws.send(json.dumps({"type": "edit", "set": {"camera.fov_deg": 40}}))  # and it still renders
+    while receive(ws, "state")["document"]["camera"].get("fov_deg") != 40:
+        pass
+    ws.close()
+    assert viewer.alive()
+
+
+def mutations(rng, base):
+    for _ in range(2000):
+        text = bytearray(base.encode())
+        kind = rng.randrange(5)
+        if kind == 0:  # flip bytes
+            for _ in range(rng.randrange(1, 6)):
+                text[rng.randrange(len(text))] = rng.randrange(256)
+        elif kind == 1:  # truncate
+            text = text[: rng.randrange(len(text))]
+        elif kind == 2:  # random bytes
+            text = bytearray(rng.randrange(256) for _ in range(rng.randrange(1, 200)))
+        elif kind == 3:  # wrong types in the right places
+            text = json.dumps({"type": rng.choice(["edit", "resize", 3, None, "x"]),
+                               "set": rng.choice([{}, [], 1, {"camera.eye": rng.choice([[1, 2], "a", None, [1e308, 0, 0]])}]),
+                               "width": rng.choice([0, -1, 1e9, "10", 100]), "height": 100}).encode()
+        else:  # deep nesting
+            depth = rng.randrange(1, 3000)
+            text = (b"[" * depth) + (b"]" * depth)
+        yield bytes(text)
+
+
+def test_thousands_of_mutated_messages_get_answers_and_the_server_lives(viewer):
+    ws = viewer.connect()
+    receive(ws, "state")
+    rng = random.Random(11)
+    base = json.dumps({"type": "edit", "set": {"camera.eye": [1.5, 1.0, 1.8], "volumes.0.step": 0.6}})
+    sent = 0
+    for message in mutations(rng, base):
+        try:
+            ws.send(message.decode("utf-8", errors="replace"))
+        except (BrokenPipeError, ConnectionResetError, websocket.WebSocketConnectionClosedException):
+            ws = viewer.connect()  # a message that closed the connection (none should): reconnect
+        sent += 1
+    assert sent == 2000
+    ws.close()
+    assert viewer.alive()
+    # an oversized message closes that connection only
+    big = viewer.connect()
+    receive(big, "state")
+    big.send(json.dumps({"type": "edit", "set": {"camera.eye": [1] * 40000}}))
+    with pytest.raises((websocket.WebSocketConnectionClosedException, ConnectionResetError, BrokenPipeError)):
+        for _ in range(1000):
+            big.recv_data()
+    other = viewer.connect()
+    assert receive(other, "state")["type"] == "state"
+    other.close()
+
+
+def test_a_client_vanishing_mid_frame_costs_nothing(viewer):
+    for _ in range(5):
+        raw = socket.create_connection(("127.0.0.1", int(viewer.base.rsplit(":", 1)[1])))
+        ws = viewer.connect()
+        receive(ws, "state")
+        ws.send(json.dumps({"type": "edit", "set": {"camera.width": 96, "camera.height": 80}}))
+        ws.sock.close()  # gone without a close frame, while frames are on their way
+        raw.sendall(b"GET /ws?token=" + viewer.token.encode() + b" HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\n")
+        raw.close()  # half a handshake, then gone
+    assert viewer.alive()
+    ws = viewer.connect()
+    frame, jpeg = receive(ws, "frame")
+    assert jpeg[:2] == b"\xff\xd8"
+    ws.close()
+
+
+def test_the_screenshot_equals_penumbra_render_of_the_saved_scene(viewer, tmp_path):
+    ws = viewer.connect()
+    receive(ws, "state")
+    ws.send(json.dumps({"type": "edit", "set": {"lights.0.direction": [0.2, -1, -0.5], "volumes.0.transfer_function": {"preset": "test-spheres", "opacity_scale": 2}}}))
+    while receive(ws, "state")["document"]["lights"][0]["direction"] != [0.2, -1, -0.5]:
+        pass
+    status, scene, _ = viewer.get("/scene.json")
+    assert status == 200
+    saved = tmp_path / "saved.json"
+    saved.write_bytes(scene)
+    status, png, headers = viewer.get("/screenshot.png")
+    assert status == 200 and png[:8] == b"\x89PNG\r\n\x1a\n" and "attachment" in headers["Content-Disposition"]
+    subprocess.run([CLI, "render", str(saved), "-o", str(tmp_path / "cli.png")], check=True, capture_output=True)
+    assert (tmp_path / "cli.png").read_bytes() == png
+    ws.close()
