@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <limits>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "penumbra/core/cancel.h"
@@ -22,6 +23,7 @@
 #include "penumbra/engine/engine.h"
 #include "penumbra/scene/json_reader.h"
 #include "penumbra/scene/scene_file.h"
+#include "penumbra/viewer/viewer_server.h"
 
 namespace py = pybind11;
 using namespace penumbra;
@@ -169,6 +171,36 @@ private:
   Engine engine_;
 };
 
+// `penumbra view` inside Python: the viewer's server over its own engine, serving from a thread
+// until stop() (docs/viewer.md).
+class PyViewer {
+public:
+  PyViewer(const std::string& document, const std::string& base_dir, const py::dict& volumes, const py::dict& particles,
+           const std::string& host, int port, const std::string& data_root, const std::string& token) {
+    ViewerOptions options;
+    options.host = host;
+    if (port < 0 || port > 65535) throw Error("view: port " + std::to_string(port) + " (expected 0-65535)");
+    options.port = static_cast<std::uint16_t>(port);
+    options.data_root = data_root;
+    options.token = token;
+    options.stop_on_signals = false;  // Ctrl-C belongs to Python
+    server_ = std::make_unique<ViewerServer>(Engine(parse(document, "scene"), base_dir, read_options(scene_arrays(volumes, particles))), options);
+    thread_ = std::thread([this] { server_->run(); });
+  }
+  ~PyViewer() { stop(); }
+  std::string url() const { return server_->url(); }
+  void stop() {
+    if (!thread_.joinable()) return;
+    py::gil_scoped_release release;  // the render thread may need the GIL to let go of an array
+    server_->stop();
+    thread_.join();
+  }
+
+private:
+  std::unique_ptr<ViewerServer> server_;
+  std::thread thread_;
+};
+
 }  // namespace
 
 PYBIND11_MODULE(_penumbra, m) {
@@ -226,6 +258,14 @@ PYBIND11_MODULE(_penumbra, m) {
       .def_property_readonly("height", &PyEngine::height)
       .def("render_into", &PyEngine::render_into, py::arg("out"), py::arg("preview") = false, py::arg("accumulate") = false,
            py::arg("transparent") = false);
+
+  py::class_<PyViewer>(m, "Viewer")
+      .def(py::init<const std::string&, const std::string&, const py::dict&, const py::dict&, const std::string&, int, const std::string&,
+                    const std::string&>(),
+           py::arg("document"), py::arg("base_dir"), py::arg("volumes"), py::arg("particles"), py::arg("host"), py::arg("port"),
+           py::arg("data_root"), py::arg("token"))
+      .def_property_readonly("url", &PyViewer::url)
+      .def("stop", &PyViewer::stop);
 
   m.def("compare", [](py::array_t<float, py::array::c_style | py::array::forcecast> a, py::array_t<float, py::array::c_style | py::array::forcecast> b) {
     if (a.ndim() != 3 || b.ndim() != 3 || a.shape(2) < 3 || b.shape(2) < 3)

@@ -14,6 +14,7 @@ from it or on scene.validate(), and errors raise penumbra.Error (a ValueError) w
 In Jupyter, a rendered image shows itself.
 """
 import copy
+import html
 import json
 import os
 import struct
@@ -26,7 +27,7 @@ from . import _penumbra
 
 Error = _penumbra.Error
 
-__all__ = ["Error", "Image", "Renderer", "Scene", "compare"]
+__all__ = ["Error", "Image", "Renderer", "Scene", "Viewer", "compare", "view"]
 
 _VOLUME_DTYPES = (np.uint8, np.int16, np.uint16, np.float32)
 
@@ -238,6 +239,42 @@ class Renderer:
         out = np.empty((self._engine.height, self._engine.width, 4), dtype=np.dtype(dtype)).view(Image)
         self.stats = json.loads(self._engine.render_into(out, quality == "preview", bool(accumulate), bool(transparent)))
         return out
+
+
+class Viewer:
+    """A running `penumbra view` server (docs/viewer.md) over its own copy of a scene. In Jupyter it shows
+    itself as an IFrame; `url` opens it in any browser (token included); stop() ends it."""
+
+    def __init__(self, server, width, height):
+        self._server = server
+        self.url = server.url
+        self.width, self.height = width, height
+
+    def stop(self):
+        self._server.stop()
+
+    def _repr_html_(self):
+        return (f'<iframe src="{html.escape(self.url)}" width="{int(self.width)}" height="{int(self.height)}" '
+                f'style="border: 0"></iframe>')
+
+    def __repr__(self):
+        return f"penumbra.Viewer({self.url})"
+
+
+def view(scene, host="127.0.0.1", port=0, data_root=None, token="", width=960, height=640):
+    """Starts the viewer on a scene (a Scene, a dict, or a Renderer's current scene) and returns it; in
+    Jupyter the returned Viewer shows the page inline. It binds 127.0.0.1 unless `host` says otherwise;
+    `data_root` (default: the scene's folder) is the only folder edits may name files in."""
+    if isinstance(scene, Renderer):
+        scene = scene.scene
+    if isinstance(scene, dict):
+        scene = Scene(scene)
+    if not isinstance(scene, Scene):
+        raise Error(f"view: expected a penumbra.Scene, a dict or a Renderer, got {type(scene).__name__}")
+    root = os.fspath(data_root) if data_root is not None else os.path.abspath(scene.base_dir)
+    server = _penumbra.Viewer(_dumps(scene.document, "scene"), scene.base_dir, scene._volumes, scene._particles,
+                              host, int(port), root, token)
+    return Viewer(server, width, height)
 
 
 def compare(a, b):

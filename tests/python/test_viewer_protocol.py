@@ -237,3 +237,27 @@ def test_the_screenshot_equals_penumbra_render_of_the_saved_scene(viewer, tmp_pa
     subprocess.run([CLI, "render", str(saved), "-o", str(tmp_path / "cli.png")], check=True, capture_output=True)
     assert (tmp_path / "cli.png").read_bytes() == png
     ws.close()
+
+
+def test_penumbra_view_from_python_serves_the_scene_and_stops():
+    import penumbra
+    import numpy as np
+
+    scene = penumbra.Scene({"camera": {"width": 40, "height": 32}, "shadows": {"technique": "cssm", "resolution": 64}})
+    scene.add_volume(np.ascontiguousarray(np.linspace(0, 1, 16 * 16 * 16, dtype=np.float32).reshape(16, 16, 16)))
+    viewer = penumbra.view(scene, width=500)
+    assert viewer.url.startswith("http://127.0.0.1:") and "token=" in viewer.url
+    assert f'src="{viewer.url}"' in viewer._repr_html_() and 'width="500"' in viewer._repr_html_()
+    with urllib.request.urlopen(viewer.url, timeout=30) as r:
+        assert r.status == 200 and b'id="view"' in r.read()
+    base, _, query = viewer.url.partition("/?")
+    ws = websocket.create_connection(base.replace("http://", "ws://") + "/ws?" + query, timeout=30)
+    state = receive(ws, "state")
+    assert state["document"]["volumes"][0]["array"] == "volume0"
+    frame, jpeg = receive(ws, "frame")
+    assert jpeg[:2] == b"\xff\xd8"
+    ws.close()
+    viewer.stop()
+    with pytest.raises(OSError):
+        urllib.request.urlopen(viewer.url, timeout=5)
+    viewer.stop()  # twice is fine

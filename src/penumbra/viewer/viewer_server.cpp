@@ -517,10 +517,14 @@ std::string ViewerServer::url() const {
 
 void ViewerServer::run() {
   Impl& s = *impl_;
-  net::signal_set signals(s.ioc, SIGINT, SIGTERM);
-  signals.async_wait([this](beast::error_code ec, int) {
-    if (!ec) stop();
-  });
+  net::signal_set signals(s.ioc);
+  if (s.options.stop_on_signals) {
+    signals.add(SIGINT);
+    signals.add(SIGTERM);
+    signals.async_wait([this](beast::error_code ec, int) {
+      if (!ec) stop();
+    });
+  }
   s.accept();
   std::thread renderer([&s] { s.render_loop(); });
   while (true) {  // a handler's exception is logged; the server goes on serving the others

@@ -26,6 +26,7 @@ struct ViewerOptions {
   std::string data_root;           // the only folder edits may name files in
   std::size_t max_message_bytes = 64 * 1024;
   int max_samples = 16;            // accumulated full-quality samples while idle
+  bool stop_on_signals = true;     // SIGINT / SIGTERM stop run() (not inside a host like Python)
 };
 
 class ViewerServer {

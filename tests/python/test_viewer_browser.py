@@ -1,0 +1,265 @@
+"""The viewer's page (`penumbra view`, docs/viewer.md) in a real browser: Debian's headless chromium
+driven through Selenium. The page loads and shows frames; a drag on the view orbits the camera and a
+click in the transfer-function editor adds a point, each changing the image; switching the shadow
+technique shows what was rebuilt in the stats; a second tab follows the first; and the page's
+screenshot link gives what `penumbra render` gives for its save-scene link.
+
+Set PENUMBRA_FIGURES to a folder to save a screenshot of the whole page there (viewer_page.png)."""
+import json
+import os
+import shutil
+import signal
+import subprocess
+import urllib.request
+
+import pytest
+
+pytest.importorskip("selenium")  # Debian python3-selenium and chromium-driver (scripts/install-deps.sh)
+if shutil.which("chromedriver") is None:
+    pytest.skip("chromedriver is not installed", allow_module_level=True)
+
+from selenium import webdriver  # noqa: E402
+from selenium.webdriver.chrome.service import Service  # noqa: E402
+from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
+from selenium.webdriver.common.by import By  # noqa: E402
+from selenium.webdriver.support.ui import Select, WebDriverWait  # noqa: E402
+
+CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
+TIMEOUT = 60
+
+SCENE = {
+    "volumes": [{"procedural": {"name": "test-spheres", "size": 32}, "transfer_function": {"preset": "test-spheres"}}],
+    "planes": [{"point": [0, -0.52, 0], "normal": [0, 1, 0], "size": 4}],
+    "lights": [{"type": "directional", "direction": [-0.3, -1, -0.2]}],
+    "shadows": {"technique": "cssm", "resolution": 128},
+}
+
+# The TF editor's plot in CSS pixels (TF_W, TF_H, TF_PAD, HIT_RADIUS in index.html).
+TF_W, TF_H, TF_PAD, HIT_RADIUS = 270, 140, 6, 7
+
+
+class Server:
+    def __init__(self, folder):
+        path = folder / "scene.json"
+        path.write_text(json.dumps(SCENE))
+        self.process = subprocess.Popen([CLI, "view", str(path), "--port", "0"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self.url = self.process.stdout.readline().strip()
+        assert self.url.startswith("http://127.0.0.1:"), self.url
+        self.base, _, query = self.url.partition("/?")
+        self.token = query.split("token=")[1]
+
+    def get(self, path):
+        with urllib.request.urlopen(self.base + path, timeout=30) as r:
+            assert r.status == 200, path
+            return r.read()
+
+    def close(self):
+        self.process.send_signal(signal.SIGINT)
+        try:
+            self.process.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            raise
+        return self.process.returncode
+
+
+def chrome():
+    options = webdriver.ChromeOptions()
+    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1200,800"):
+        options.add_argument(arg)
+    if os.path.exists("/usr/bin/chromedriver"):
+        return webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+    return webdriver.Chrome(options=options)
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    """One server and one browser for the module's tests, which run in order and build on each other."""
+    server = Server(tmp_path_factory.mktemp("viewer"))
+    try:
+        driver = chrome()
+    except Exception:
+        server.close()
+        raise
+    try:
+        driver.get(server.url)
+        yield server, driver
+    finally:
+        driver.quit()
+        assert server.close() == 0, "Ctrl-C must stop the server cleanly"
+
+
+def js(driver, expression):
+    return driver.execute_script("return " + expression)
+
+
+def wait(driver, condition, message, timeout=TIMEOUT):
+    return WebDriverWait(driver, timeout, poll_frequency=0.05).until(lambda d: condition(d), message)
+
+
+# Records, as the page shows them, the frame each new image belongs to and every text of the stats:
+# the img's src and the stats are set while a message is handled, and the observers run right after,
+# before the next message, so the frame's header is still penumbraViewer.lastFrame.
+RECORDERS = """
+if (!window.testRecord) {
+  const v = window.penumbraViewer, record = window.testRecord = { shown: null, stats: [] };
+  new MutationObserver(() => {
+    record.shown = Object.assign({ frames: v.frames }, v.lastFrame);
+  }).observe(document.getElementById('view'), { attributes: true, attributeFilter: ['src'] });
+  new MutationObserver(() => record.stats.push(document.getElementById('stats').textContent))
+    .observe(document.getElementById('stats'), { childList: true, characterData: true, subtree: true });
+}
+"""
+
+
+def wait_loaded(driver):
+    wait(driver, lambda d: js(d, "document.getElementById('view').naturalWidth > 0 && window.penumbraViewer.frames >= 1"
+                                 " && window.penumbraViewer.state !== null"), "no frame shown")
+    driver.execute_script(RECORDERS)
+
+
+# The image shown is that of a full-quality frame after the `frames`-th with at least `samples`
+# accumulated samples, and has loaded.
+FULL_FRAME_SHOWN = """
+const shown = window.testRecord.shown, img = document.getElementById('view');
+return !!shown && shown.quality === 'full' && shown.frames > arguments[0] && shown.samples >= arguments[1]
+  && img.complete && img.naturalWidth === shown.width;
+"""
+MAX_SAMPLES = 16  # the server accumulates up to 16 samples while idle (docs/viewer.md)
+
+
+def wait_full_frame(driver, frames, samples=1):
+    wait(driver, lambda d: d.execute_script(FULL_FRAME_SHOWN, frames, samples), "no new full-quality frame shown")
+
+
+def settled_view(driver, frames=0):
+    """The view's screenshot once the server has stopped refining: the same scene gives the same bytes,
+    so that a change in the image is the edit's and not the accumulation's."""
+    wait_full_frame(driver, frames, MAX_SAMPLES)
+    return driver.find_element(By.ID, "view").screenshot_as_png
+
+
+def test_the_page_loads_and_shows_frames(session):
+    server, driver = session
+    wait_loaded(driver)
+    assert driver.title == "penumbra view"
+    state = js(driver, "window.penumbraViewer.state")
+    assert state["document"]["shadows"]["technique"] == "cssm"
+    assert js(driver, "document.getElementById('view').src").startswith("blob:")
+    wait_full_frame(driver, 0)
+    assert "connected" in driver.find_element(By.ID, "stats").text
+
+
+def test_a_left_drag_orbits_the_camera_and_changes_the_image(session):
+    server, driver = session
+    wait_loaded(driver)
+    before = settled_view(driver)
+    eye = js(driver, "window.penumbraViewer.state.document.camera.eye")
+    frames = js(driver, "window.penumbraViewer.frames")
+    view = driver.find_element(By.ID, "view")
+    src = view.get_attribute("src")
+    actions = ActionChains(driver).move_to_element(view).click_and_hold()
+    for _ in range(4):
+        actions.move_by_offset(30, 0).pause(0.05)
+    actions.release().perform()
+    wait(driver, lambda d: js(d, "window.penumbraViewer.state.document.camera.eye") != eye, "the camera did not move")
+    wait_full_frame(driver, frames)
+    assert view.get_attribute("src") != src
+    assert settled_view(driver, frames) != before
+
+
+def tf_click_point(state):
+    """A spot in the upper middle of the TF plot (CSS pixels from its top left) that hits no point."""
+    hist = state["histograms"][0]
+    lo, hi = hist["lo"], hist["hi"]
+    points = state["transfer_functions"][0]["points"]
+
+    def xy(p):
+        x = TF_PAD + (p[0] - lo) / (hi - lo) * (TF_W - 2 * TF_PAD)
+        return min(max(x, TF_PAD), TF_W - TF_PAD), TF_H - TF_PAD - min(max(p[4], 0), 1) ** 0.5 * (TF_H - 2 * TF_PAD)
+
+    y = 35
+    for x in (135, 115, 155, 95, 175, 75, 195):
+        if all(((x - px) ** 2 + (y - py) ** 2) ** 0.5 > 2 * HIT_RADIUS for px, py in map(xy, points)):
+            return x, y
+    raise AssertionError(f"no free spot in the TF plot: {points}")
+
+
+def test_a_click_in_the_transfer_function_editor_adds_a_point_and_changes_the_image(session):
+    server, driver = session
+    wait_loaded(driver)
+    state = js(driver, "window.penumbraViewer.state")
+    count = len(state["transfer_functions"][0]["points"])
+    before = settled_view(driver)
+    frames = js(driver, "window.penumbraViewer.frames")
+    view = driver.find_element(By.ID, "view")
+    src = view.get_attribute("src")
+    plot = driver.find_element(By.CSS_SELECTOR, "#tf-list canvas.plot")
+    x, y = tf_click_point(state)
+    # Offsets are from the element's centre (W3C actions).
+    ActionChains(driver).move_to_element_with_offset(plot, x - TF_W // 2, y - TF_H // 2).click().perform()
+
+    def edited(d):
+        tf = js(d, "window.penumbraViewer.state.document.volumes[0].transfer_function")
+        return isinstance(tf, dict) and list(tf) == ["points"] and len(tf["points"]) == count + 1
+
+    wait(driver, edited, "the TF edit did not reach the document")
+    assert len(js(driver, "window.penumbraViewer.state.transfer_functions[0].points")) == count + 1
+    wait_full_frame(driver, frames)
+    assert view.get_attribute("src") != src
+    assert settled_view(driver, frames) != before
+    figures = os.environ.get("PENUMBRA_FIGURES")
+    if figures:
+        os.makedirs(figures, exist_ok=True)
+        with open(os.path.join(figures, "viewer_page.png"), "wb") as f:
+            f.write(driver.get_screenshot_as_png())
+
+
+def test_a_technique_switch_shows_what_was_rebuilt_and_a_second_tab_follows(session):
+    server, driver = session
+    wait_loaded(driver)
+    first = driver.current_window_handle
+    driver.switch_to.new_window("tab")
+    second = driver.current_window_handle
+    driver.get(server.url)
+    wait_loaded(driver)
+    assert js(driver, "window.penumbraViewer.state.document.shadows.technique") == "cssm"
+    driver.switch_to.window(first)
+    wait_loaded(driver)
+    # cssm rebuilds the light's shadows every sample ("lights.0.shadows (sample)"), and the stats show
+    # only the last frame that rebuilt anything: look for the switch as the cause, in every text shown.
+    expected = "lights.0.shadows (shadows.technique)"
+    shown = "window.testRecord.stats.concat([document.getElementById('stats').textContent])"
+    assert not any(expected in text for text in js(driver, shown))
+    select = Select(driver.find_element(By.CSS_SELECTOR, "#shadows select"))
+    assert select.first_selected_option.get_attribute("value") == "cssm"
+    assert "shadow_map" in [o.get_attribute("value") for o in select.options]
+    select.select_by_value("shadow_map")
+    wait(driver, lambda d: js(d, "window.penumbraViewer.state.document.shadows.technique") == "shadow_map",
+         "the technique did not change")
+    wait(driver, lambda d: any(expected in text for text in js(d, shown)),
+         "the stats do not say what the switch rebuilt")
+    driver.switch_to.window(second)
+    wait(driver, lambda d: js(d, "window.penumbraViewer.state.document.shadows.technique") == "shadow_map",
+         "the second tab did not follow")
+    select = Select(driver.find_element(By.CSS_SELECTOR, "#shadows select"))
+    assert select.first_selected_option.get_attribute("value") == "shadow_map"
+    driver.close()
+    driver.switch_to.window(first)
+
+
+def test_the_screenshot_link_equals_penumbra_render_of_the_save_scene_link(session, tmp_path):
+    server, driver = session
+    wait_loaded(driver)
+    links = {}
+    for id, path in (("screenshot", "/screenshot.png"), ("save-scene", "/scene.json")):
+        href = driver.find_element(By.ID, id).get_attribute("href")
+        assert href.startswith(server.base + path + "?") and "token=" + server.token in href, href
+        links[id] = href[len(server.base):]
+    png = server.get(links["screenshot"])
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    scene = tmp_path / "saved.json"
+    scene.write_bytes(server.get(links["save-scene"]))
+    assert json.loads(scene.read_text())["shadows"]["technique"] == "shadow_map"
+    subprocess.run([CLI, "render", str(scene), "-o", str(tmp_path / "cli.png")], check=True, capture_output=True)
+    assert (tmp_path / "cli.png").read_bytes() == png
