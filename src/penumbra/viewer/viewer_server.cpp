@@ -266,6 +266,7 @@ private:
     if (req.method() != http::verb::get) return respond(http::status::method_not_allowed, "only GET\n", "text/plain", "");
     if (path == "/") return respond(http::status::ok, kViewerPage, "text/html; charset=utf-8", "");
     if (path == "/screenshot.png" || path == "/scene.json") {
+      stream_.expires_after(std::chrono::minutes(10));  // a full frame of a large scene takes a while
       Job job;
       auto self = shared_from_this();
       job.task = [self, &server = server_, screenshot = path == "/screenshot.png"] {
