@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <utility>
 
 #include "penumbra/core/error.h"
@@ -24,6 +25,20 @@ bool same_objects(const Scene& a, const Scene& b) {
   for (std::size_t i = 0; i < a.volumes.size(); ++i)
     if (a.volumes[i].volume != b.volumes[i].volume || a.volumes[i].visible != b.volumes[i].visible) return false;
   return true;
+}
+
+// Puts `data` in place of the array `name` and rebuilds; the previous data comes back when that throws.
+template <class Data>
+void swap_array(std::map<std::string, std::shared_ptr<const Data>>* arrays, const std::string& name, std::shared_ptr<const Data> data,
+                const char* what, const std::function<void()>& rebuild) {
+  if (!arrays || !arrays->count(name)) throw Error(std::string("no ") + what + " array named \"" + name + "\" in this scene");
+  auto previous = std::exchange((*arrays)[name], std::move(data));
+  try {
+    rebuild();
+  } catch (...) {
+    (*arrays)[name] = std::move(previous);
+    throw;
+  }
 }
 
 }  // namespace
@@ -116,26 +131,12 @@ void Engine::apply(nlohmann::json edited, const std::vector<std::string>& paths)
 
 void Engine::replace_array(const std::string& name, std::shared_ptr<const ParticleSet> particles) {
   if (!particles || particles->size() == 0) throw Error("particle array \"" + name + "\": holds no particles");
-  if (!arrays_ || !arrays_->particles.count(name)) throw Error("no particle array named \"" + name + "\" in this scene");
-  auto previous = std::exchange(arrays_->particles[name], std::move(particles));
-  try {
-    replace_array(name, "particles");
-  } catch (...) {
-    arrays_->particles[name] = std::move(previous);
-    throw;
-  }
+  swap_array(arrays_ ? &arrays_->particles : nullptr, name, std::move(particles), "particle", [&] { replace_array(name, "particles"); });
 }
 
 void Engine::replace_array(const std::string& name, std::shared_ptr<const Volume> volume) {
   if (!volume) throw Error("volume array \"" + name + "\": no volume");
-  if (!arrays_ || !arrays_->volumes.count(name)) throw Error("no volume array named \"" + name + "\" in this scene");
-  auto previous = std::exchange(arrays_->volumes[name], std::move(volume));
-  try {
-    replace_array(name, "volumes");
-  } catch (...) {
-    arrays_->volumes[name] = std::move(previous);
-    throw;
-  }
+  swap_array(arrays_ ? &arrays_->volumes : nullptr, name, std::move(volume), "volume", [&] { replace_array(name, "volumes"); });
 }
 
 void Engine::replace_array(const std::string& name, const char* kind) {
