@@ -8,9 +8,7 @@ Set PENUMBRA_FIGURES to a folder to save a screenshot of the whole page there (v
 import json
 import os
 import shutil
-import signal
 import subprocess
-import urllib.request
 
 import pytest
 
@@ -23,6 +21,7 @@ from selenium.webdriver.chrome.service import Service  # noqa: E402
 from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.support.ui import Select, WebDriverWait  # noqa: E402
+from test_viewer_protocol import Viewer  # noqa: E402  (the server under test, started and stopped alike)
 
 CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
 TIMEOUT = 60
@@ -38,31 +37,6 @@ SCENE = {
 TF_W, TF_H, TF_PAD, HIT_RADIUS = 270, 140, 6, 7
 
 
-class Server:
-    def __init__(self, folder):
-        path = folder / "scene.json"
-        path.write_text(json.dumps(SCENE))
-        self.process = subprocess.Popen([CLI, "view", str(path), "--port", "0"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        self.url = self.process.stdout.readline().strip()
-        assert self.url.startswith("http://127.0.0.1:"), self.url
-        self.base, _, query = self.url.partition("/?")
-        self.token = query.split("token=")[1]
-
-    def get(self, path):
-        with urllib.request.urlopen(self.base + path, timeout=30) as r:
-            assert r.status == 200, path
-            return r.read()
-
-    def close(self):
-        self.process.send_signal(signal.SIGINT)
-        try:
-            self.process.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            self.process.kill()
-            raise
-        return self.process.returncode
-
-
 def chrome():
     options = webdriver.ChromeOptions()
     for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1200,800"):
@@ -75,7 +49,7 @@ def chrome():
 @pytest.fixture(scope="module")
 def session(tmp_path_factory):
     """One server and one browser for the module's tests, which run in order and build on each other."""
-    server = Server(tmp_path_factory.mktemp("viewer"))
+    server = Viewer(tmp_path_factory.mktemp("viewer"), SCENE)
     try:
         driver = chrome()
     except Exception:
@@ -269,10 +243,13 @@ def test_the_screenshot_link_equals_penumbra_render_of_the_save_scene_link(sessi
         href = driver.find_element(By.ID, id).get_attribute("href")
         assert href.startswith(server.base + path + "?") and "token=" + server.token in href, href
         links[id] = href[len(server.base):]
-    png = server.get(links["screenshot"])
+    status, png, _ = server.get(links["screenshot"], token=False)  # the link carries the token
+    assert status == 200
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
     scene = tmp_path / "saved.json"
-    scene.write_bytes(server.get(links["save-scene"]))
+    status, saved, _ = server.get(links["save-scene"], token=False)
+    assert status == 200
+    scene.write_bytes(saved)
     assert json.loads(scene.read_text())["shadows"]["technique"] == "shadow_map"
     subprocess.run([CLI, "render", str(scene), "-o", str(tmp_path / "cli.png")], check=True, capture_output=True)
     same = (tmp_path / "cli.png").read_bytes() == png
