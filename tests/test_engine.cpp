@@ -321,6 +321,26 @@ TEST(Engine, PreviewsRebuildCoarserAndFullFramesRefine) {
   EXPECT_EQ(std::memcmp(full.image.pixels().data(), fresh.pixels().data(), fresh.pixels().size() * sizeof(Rgb)), 0);
 }
 
+// A preview asked not to be enlarged keeps its reduced size: each side 1/divisor of the camera's,
+// rounded up, with the same pixels the enlarged preview repeats.
+TEST(Engine, APreviewMayStayAtItsReducedSize) {
+  Engine engine(cssm_scene(50), "");
+  engine.render();
+  engine.set("lights.0.direction", {0.3, -1, 0.2});
+  FrameOptions small_options{Quality::Preview};
+  small_options.enlarge_preview = false;
+  const EngineFrame small = engine.render(small_options);
+  const int d = small.divisor;
+  ASSERT_GE(d, 2);
+  EXPECT_EQ(small.image.width(), (50 + d - 1) / d);
+  EXPECT_EQ(small.image.height(), (50 + d - 1) / d);
+  const EngineFrame enlarged = engine.render({Quality::Preview});
+  ASSERT_EQ(enlarged.divisor, d);
+  ASSERT_EQ(enlarged.image.width(), 50);
+  EXPECT_EQ(enlarged.image.at(49, 49), small.image.at(small.image.width() - 1, small.image.height() - 1));
+  EXPECT_EQ(enlarged.image.at(0, 0), small.image.at(0, 0));
+}
+
 // Proves a frame in flight stops soon after its flag is set (a generous bound here; the figure is in
 // docs/BENCHMARKS.md), throws Cancelled, and leaves the engine able to render the right image.
 TEST(Engine, CancelledFrameReturnsPromptlyAndTheEngineRecovers) {

@@ -111,9 +111,12 @@ def test_edits_come_back_as_state_and_frames_to_every_client(viewer):
     assert state["transfer_functions"][0]["volume"] == 0 and len(state["transfer_functions"][0]["points"]) >= 2
     assert "cssm" in state["techniques"]["shadows"] and "offsets" in state["technique_keys"]["cssm"]
     frame, jpeg = receive(a, "frame")
-    assert jpeg[:2] == b"\xff\xd8" and frame["width"] == 48 and frame["height"] == 40
+    assert jpeg[:2] == b"\xff\xd8" and frame["view_width"] == 48 and frame["view_height"] == 40
+    # a preview travels at its reduced size (the page scales it); a full frame at the view's
+    assert frame["width"] == -(-48 // frame["divisor"]) and frame["height"] == -(-40 // frame["divisor"])
     while frame["quality"] != "full":  # until the first full frame, everything is built for the "first frame"
         frame, jpeg = receive(a, "frame")
+    assert frame["width"] == 48 and frame["height"] == 40 and frame["divisor"] == 1
     receive(b, "state")
     a.send(json.dumps({"type": "edit", "set": {"lights.0.direction": [0.4, -1, 0.1]}}))
     for ws in (a, b):  # both tabs follow
@@ -129,9 +132,9 @@ def test_edits_come_back_as_state_and_frames_to_every_client(viewer):
     while frame["quality"] != "full":
         frame, _ = receive(a, "frame")
     a.send(json.dumps({"type": "resize", "width": 64, "height": 32}))
-    while frame["width"] != 64:
+    while frame["view_width"] != 64:
         frame, _ = receive(a, "frame")
-    assert frame["height"] == 32
+    assert frame["view_height"] == 32
     a.close()
     b.close()
 

@@ -153,6 +153,7 @@ EngineFrame Engine::render(const FrameOptions& options) {
   FrameRequest request;
   request.quality = options.quality;
   request.cancel = options.cancel;
+  request.enlarge_preview = options.enlarge_preview;
   if (options.quality == Quality::Preview)
     request.preview_divisor = std::clamp(static_cast<int>(std::ceil(std::sqrt(full_render_ms_ / kPreviewTargetMs))), 2, 8);
   const bool accumulating = options.quality == Quality::Full && options.accumulate && samples_ > 0 && last_quality_ == Quality::Full;

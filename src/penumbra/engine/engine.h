@@ -46,6 +46,9 @@ struct FrameOptions {
   bool accumulate = true;                       // full frames of an unchanged scene average their samples
   const std::atomic<bool>* cancel = nullptr;   // set from another thread: render() throws Cancelled
   FrameBuffers* buffers = nullptr;
+  // false: a preview's image (and alpha, depth) stays at 1/divisor of each side instead of being
+  // enlarged to the camera's size (the viewer sends it so, and the browser scales it)
+  bool enlarge_preview = true;
 };
 
 struct RebuiltStructure {

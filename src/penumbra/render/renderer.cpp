@@ -19,13 +19,21 @@ std::string indexed(const char* kind, std::size_t i, const char* what) {
   return std::string(kind) + "." + std::to_string(i) + "." + what;
 }
 
-// The scene's settings for a preview: quarter-resolution shadow maps, a half-resolution light cache,
-// light steps twice as long, a quarter of the rays of the ray-traced techniques. (The eye step doubles
-// too: PreparedVolume's preview table.)
-Scene preview_settings(const Scene& scene) {
+// A preview's light structures aim at this much build time, all lights together.
+constexpr double kPreviewShadowTargetMs = 20;
+
+// The scene's settings for a preview: coarser shadow maps, a half-resolution light cache, light steps
+// twice as long, a quarter of the rays of the ray-traced techniques. (The eye step doubles too:
+// PreparedVolume's preview table.) The maps take a quarter of the full resolution, or less where the
+// last full build of the lights (full_shadow_ms, 0: not known) says a quarter would miss the target:
+// build time grows with the texels, so the side shrinks with the square root; never below 64.
+Scene preview_settings(const Scene& scene, double full_shadow_ms) {
   Scene s = scene;
   ShadowSettings& sh = s.shadows;
-  sh.resolution = std::min(sh.resolution, std::max(64, sh.resolution / 4));
+  int resolution = sh.resolution / 4;
+  if (full_shadow_ms > 0)
+    resolution = std::min(resolution, static_cast<int>(sh.resolution * std::sqrt(kPreviewShadowTargetMs / full_shadow_ms)));
+  sh.resolution = std::min(sh.resolution, std::max(64, resolution));
   sh.step = 2 * (sh.step > 0 ? sh.step : kDefaultShadowStepVoxels);
   sh.cone_rays = std::max(1, sh.cone_rays / 4);
   sh.area_rays = std::max(1, sh.area_rays / 4);
@@ -318,7 +326,7 @@ std::size_t Renderer::bvh_memory_bytes() const {
 }
 
 void Renderer::prepare(Quality quality, FrameResult& frame) {
-  settings_ = quality == Quality::Preview ? preview_settings(scene_) : scene_;
+  settings_ = quality == Quality::Preview ? preview_settings(scene_, full_shadow_ms_) : scene_;
   building_ = quality;
   // a full frame rebuilds what a preview built coarser
   if (quality == Quality::Full) {
@@ -378,6 +386,7 @@ void Renderer::update_shadows(const std::vector<Light>& lights, Quality quality,
     built_for_.clear();
     seed_of_.clear();
   }
+  full_shadow_ms_of_.resize(lights.size());
   const bool any = !shadow_assignments(scene_).empty();
   const std::uint64_t seed = scene_.shadows.seed + sample;
   const bool seeded = reads_seed(scene_);
@@ -392,7 +401,9 @@ void Renderer::update_shadows(const std::vector<Light>& lights, Quality quality,
     const std::string name = indexed("lights", i, "shadows");
     const bool have = i < shadows_.size();
     if (have && !stale(name) && same_shadow_geometry(built_for_[i], lights[i]) && (!seeded || seed_of_[i] == seed)) continue;
+    Timer t;
     auto s = std::make_unique<LightShadows>(*settings, *casters_, lights[i]);
+    if (quality == Quality::Full) full_shadow_ms_of_[i] = t.elapsed_ms();
     if (have) {
       shadows_[i] = std::move(s);
       built_for_[i] = lights[i];
@@ -408,6 +419,8 @@ void Renderer::update_shadows(const std::vector<Light>& lights, Quality quality,
   }
   for (auto it = stale_.begin(); it != stale_.end();)  // lights that are gone
     it = it->rfind("lights.", 0) == 0 ? stale_.erase(it) : std::next(it);
+  full_shadow_ms_ = 0;
+  for (double ms : full_shadow_ms_of_) full_shadow_ms_ += ms;
 }
 
 FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lights, const FrameRequest& request) {
@@ -418,6 +431,7 @@ FrameResult Renderer::render(const Camera& camera, const std::vector<Light>& lig
   small.width = std::max(1, (camera.width + d - 1) / d);
   small.height = std::max(1, (camera.height + d - 1) / d);
   FrameResult f = render_at(small, lights, request);
+  if (!request.enlarge_preview) return f;
   Image full(camera.width, camera.height);
   full.pixels() = enlarged(f.image.pixels(), small.width, small.height, camera.width, camera.height);
   f.image = std::move(full);

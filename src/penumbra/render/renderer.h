@@ -33,14 +33,16 @@
 
 namespace penumbra {
 
-// A preview follows the user's hand: a reduced image (Renderer::preview_divisor), shadow maps and the
-// light cache at half resolution, and eye and light steps twice as long. Full is the scene as given.
+// A preview follows the user's hand: a reduced image (FrameRequest::preview_divisor), shadow maps at a
+// quarter of their resolution or less (sized so the lights rebuild in about 20 ms), the light cache at
+// half resolution, and eye and light steps twice as long. Full is the scene as given.
 enum class Quality { Preview, Full };
 std::string to_string(Quality q);
 
 struct FrameRequest {
   Quality quality = Quality::Full;
   int preview_divisor = 2;   // Preview: the image is rendered at 1/divisor of each side, then enlarged
+  bool enlarge_preview = true;  // false: the preview's image, alpha and depth stay at the reduced size
   // Accumulation: sample 0 is the batch frame; sample k > 0 moves every pixel's jitter and the cssm
   // seed (shadows.seed + k), so that the mean of samples 0 … n−1 converges (Engine accumulates).
   std::uint32_t sample = 0;
@@ -134,6 +136,8 @@ private:
   std::vector<std::unique_ptr<LightShadows>> shadows_;
   std::vector<Light> built_for_;
   std::vector<std::uint64_t> seed_of_;                    // the cssm seed each light's shadows were built with
+  std::vector<double> full_shadow_ms_of_;                 // each light's last full-quality build time (0: none yet)
+  double full_shadow_ms_ = 0;                             // their sum: sizes the preview maps
   std::shared_ptr<ParticleSet> particles_;                // every sphere drawn, casting objects first (own copy)
   std::shared_ptr<ParticleSet> casting_particles_;        // the casting prefix (particles_ when all cast)
   std::vector<std::uint32_t> particle_offsets_;           // first sphere of each segment of particles_, then the total

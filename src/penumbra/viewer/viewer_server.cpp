@@ -408,13 +408,16 @@ void ViewerServer::Impl::broadcast_state() {
 
 void ViewerServer::Impl::render_frame(Quality quality, bool accumulate) {
   Timer timer;
-  const EngineFrame f = engine.render({quality, accumulate, quality == Quality::Full ? &cancel : nullptr});
+  FrameOptions frame_options{quality, accumulate, quality == Quality::Full ? &cancel : nullptr};
+  frame_options.enlarge_preview = false;  // a preview travels at its reduced size; the page scales it
+  const EngineFrame f = engine.render(frame_options);
   const auto jpeg = std::make_shared<const std::string>(encode_jpeg(f.image, quality == Quality::Preview ? kPreviewJpegQuality : kFullJpegQuality));
   nlohmann::json rebuilt = nlohmann::json::array();
   for (const auto& r : f.rebuilt) rebuilt.push_back({{"structure", r.structure}, {"cause", r.cause}});
   nlohmann::json meta = {{"type", "frame"},       {"quality", quality == Quality::Preview ? "preview" : "full"},
                          {"samples", f.samples},  {"width", f.image.width()},
                          {"height", f.image.height()}, {"ms", timer.elapsed_ms()},
+                         {"view_width", engine.scene().camera.width}, {"view_height", engine.scene().camera.height},
                          {"divisor", f.divisor},  {"rebuilt", rebuilt},
                          {"edits", f.edits},      {"memory_mb", resident_mb()}};
   Text meta_text;
