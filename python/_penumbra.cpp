@@ -39,7 +39,7 @@ nlohmann::json frame_stats(const EngineFrame& f) {
   for (const auto& s : f.rebuilt) rebuilt.push_back({{"structure", s.structure}, {"cause", s.cause}});
   return {{"timings_ms",
            {{"prepare", r.prepare_ms}, {"sat", r.sat_ms}, {"ambient", r.ambient_ms}, {"build", r.build_ms},
-            {"render", r.render_ms}, {"bvh", r.bvh_ms}, {"total", r.total_ms}}},
+            {"render", r.render_ms}, {"hits", r.hits_ms}, {"bvh", r.bvh_ms}, {"total", r.total_ms}}},
           {"rebuilt", rebuilt},
           {"edits", f.edits},
           {"quality", to_string(r.quality)},

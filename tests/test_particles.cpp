@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <atomic>
 #include <cstdio>
+#include <random>
 #include <memory>
 
 #include "penumbra/core/parallel.h"
@@ -12,6 +14,7 @@
 #include "penumbra/shadows/ray_traced.h"
 #include "penumbra/shadows/ray_traced_ao.h"
 #include "penumbra/particles/sphere_hits.h"
+#include "penumbra/particles/tile_bins.h"
 #include "penumbra/render/surface_frame.h"
 #include "penumbra/render/renderer.h"
 #include "image_check.h"
@@ -118,6 +121,50 @@ TEST(SphereHits, SplattingFindsTheSameSpheresAsEmbreeRays) {
   EXPECT_GT(covered, a.id.size() / 4);
   // the two differ only on silhouettes, where rays graze a sphere and float rounding decides
   EXPECT_GE(static_cast<double>(same) / static_cast<double>(a.id.size()), 0.999);
+}
+
+// Hemispheres of random discs stacked 60 deep over a 200² raster: with each item's nearest possible
+// distance given, the nearest item per pixel (ties included: equal depths are made common by rounding)
+// is exactly the one found without the bounds, while most hit() calls are skipped.
+TEST(TileBins, HiddenItemsAreSkippedWithoutChangingTheNearest) {
+  constexpr int kSize = 200;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> pos(0, kSize), radius(3, 12), depth(0, 50);
+  struct Disc { float x, y, z, r; };
+  std::vector<Disc> discs(60 * kSize * kSize / 250);
+  std::vector<PixelRect> rects(discs.size());
+  std::vector<float> nearest(discs.size());
+  for (std::size_t i = 0; i < discs.size(); ++i) {
+    Disc& d = discs[i];
+    d = {pos(rng), pos(rng), std::round(depth(rng)), radius(rng)};
+    pixel_span(d.x - d.r, d.x + d.r, kSize, rects[i].x0, rects[i].x1);
+    pixel_span(d.y - d.r, d.y + d.r, kSize, rects[i].y0, rects[i].y1);
+    nearest[i] = std::floor(d.z - d.r);  // below every rounded distance hit() returns
+  }
+  auto nearest_items = [&](std::span<const float> bounds, std::atomic<std::size_t>& calls) {
+    std::vector<std::uint32_t> ids(kSize * kSize, 7);
+    std::vector<float> t(kSize * kSize, -1);
+    TileBins(rects, kSize, kSize).nearest_per_pixel(
+        rects, bounds, [](int, int, int, int) { return 0; },
+        [&](int, std::uint32_t id, int x, int y, float) {
+          calls.fetch_add(1, std::memory_order_relaxed);
+          const Disc& d = discs[id];
+          const float dx = static_cast<float>(x) + 0.5f - d.x, dy = static_cast<float>(y) + 0.5f - d.y;
+          const float h2 = d.r * d.r - dx * dx - dy * dy;
+          return h2 >= 0 ? std::round(d.z - std::sqrt(h2)) : kInfinity;  // rounded: many ties
+        },
+        [&](int x, int y, float depth_here, std::uint32_t id) {
+          ids[static_cast<std::size_t>(y * kSize + x)] = id;
+          t[static_cast<std::size_t>(y * kSize + x)] = depth_here;
+        });
+    return std::make_pair(ids, t);
+  };
+  std::atomic<std::size_t> all_calls{0}, bounded_calls{0};
+  const auto all = nearest_items({}, all_calls);
+  const auto bounded = nearest_items(nearest, bounded_calls);
+  EXPECT_EQ(all.first, bounded.first);
+  EXPECT_EQ(all.second, bounded.second);
+  EXPECT_LT(bounded_calls.load(), all_calls.load() / 4) << "the bounds skipped too few items";
 }
 
 TEST(SphereHits, SplattingIsTheSameForAnyThreadCount) {

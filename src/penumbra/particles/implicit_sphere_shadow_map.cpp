@@ -23,7 +23,11 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
   const ParticleSet& ps = *particles_;
   std::vector<PixelRect> rects(ps.size());
   std::vector<Vec3> centre_uvd;  // parallel light: each centre's map position (texels) and depth
-  if (!projection_.perspective()) centre_uvd.resize(ps.size());
+  std::vector<float> nearest;    // parallel light: no texel ray enters a sphere before depth − r
+  if (!projection_.perspective()) {
+    centre_uvd.resize(ps.size());
+    nearest.resize(ps.size());
+  }
   const float texels_per_world = projection_.perspective() ? 0.0f : projection_.map_scale() * fn;
   parallel_for(ps.size(), [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
@@ -32,6 +36,7 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
         float u, v, depth;
         projection_.project(s.center, u, v, depth);
         centre_uvd[i] = {u * fn, v * fn, depth};
+        nearest[i] = lower_bound_with_margin(depth - s.radius, std::abs(depth) + s.radius);
         const float r = s.radius * texels_per_world;
         pixel_span(u * fn - r, u * fn + r, n, rects[i].x0, rects[i].x1);
         pixel_span(v * fn - r, v * fn + r, n, rects[i].y0, rects[i].y1);
@@ -59,7 +64,7 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
   map_.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(n), kNoSphere);
   const float world_per_texel = projection_.perspective() ? 0.0f : 1.0f / texels_per_world;
   TileBins(rects, n, n).nearest_per_pixel(
-      rects, [](int, int, int, int) { return 0; },
+      rects, nearest, [](int, int, int, int) { return 0; },
       [&](int, std::uint32_t id, int k, int j, float) {
         const Sphere& s = ps.spheres[id];
         if (!projection_.perspective()) {
