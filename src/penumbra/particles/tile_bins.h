@@ -54,11 +54,11 @@ public:
   // Ties go to the lower id, so the result is the same for any thread count and bin order.
   //
   // Hidden items are skipped: `nearest[id]` (empty: none known) is a lower bound of every distance
-  // hit() can return for the item. A tile takes its items nearest first; a pixel whose depth is
-  // already below an item's bound does not call hit(), and once the bound exceeds the farthest depth of
-  // a fully covered tile, the tile is done. Skipped items could only have lost, so the result is the
-  // same as without the bounds; dense data (a molecule, a million spheres) then costs about what its
-  // visible layer costs rather than its depth complexity.
+  // hit() can return for the item. A tile takes its items nearest first (in 64 depth buckets); a pixel
+  // whose depth is already below an item's bound does not call hit(), and once a bucket's bounds all
+  // exceed the farthest depth of a fully covered tile, the tile is done. Skipped items could only have
+  // lost, so the result is the same as without the bounds; dense data (a molecule, a million spheres)
+  // then costs about what its visible layer costs rather than its depth complexity.
   static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
   template <class BeginTile, class Hit, class Store>
   void nearest_per_pixel(std::span<const PixelRect> rects, std::span<const float> nearest, BeginTile&& begin_tile, Hit&& hit,
@@ -70,16 +70,20 @@ public:
       std::uint32_t ids[kRasterTile * kRasterTile];
       std::fill(std::begin(depth), std::end(depth), kInf);
       std::fill(std::begin(ids), std::end(ids), kNone);
-      std::vector<std::pair<float, std::uint32_t>> order(items.size());
-      for (std::size_t i = 0; i < items.size(); ++i) order[i] = {nearest.empty() ? -kInf : nearest[items[i]], items[i]};
-      if (!nearest.empty()) std::sort(order.begin(), order.end());
-      float farthest = kInf;  // the tile's farthest depth once every pixel is covered (refreshed now and then)
-      for (std::size_t n = 0; n < order.size(); ++n) {
-        const auto [bound, id] = order[n];
-        if (bound > farthest) break;
+      // the farthest depth of each 8×8 block of the tile, as of the last refresh (depths only shrink, so
+      // a stale value is a safe upper bound): an item behind every block it touches is skipped whole
+      constexpr int kBlock = 8, kBlocks = kRasterTile / kBlock;
+      float block_far[kBlocks * kBlocks];
+      std::fill(std::begin(block_far), std::end(block_far), kInf);
+      auto take = [&](std::uint32_t id, float bound) {
         const PixelRect& r = rects[id];
-        for (int y = std::max(r.y0, y0); y <= std::min(r.y1, y1); ++y)
-          for (int x = std::max(r.x0, x0); x <= std::min(r.x1, x1); ++x) {
+        const int rx0 = std::max(r.x0, x0), rx1 = std::min(r.x1, x1), ry0 = std::max(r.y0, y0), ry1 = std::min(r.y1, y1);
+        float behind = -kInf;
+        for (int by = (ry0 - y0) / kBlock; by <= (ry1 - y0) / kBlock; ++by)
+          for (int bx = (rx0 - x0) / kBlock; bx <= (rx1 - x0) / kBlock; ++bx) behind = std::max(behind, block_far[by * kBlocks + bx]);
+        if (bound > behind) return;
+        for (int y = ry0; y <= ry1; ++y)
+          for (int x = rx0; x <= rx1; ++x) {
             const int k = (y - y0) * kRasterTile + (x - x0);
             if (bound > depth[k]) continue;
             const float t = hit(state, id, x, y, depth[k]);
@@ -88,10 +92,41 @@ public:
               ids[k] = id;
             }
           }
-        if (!nearest.empty() && n % 16 == 15) {
-          farthest = -kInf;
+      };
+      if (nearest.empty()) {
+        for (const std::uint32_t id : items) take(id, -kInf);
+      } else {
+        // nearest first, by a counting sort into depth buckets (the order inside a bucket does not
+        // matter: a bucket is skipped whole only when its lowest bound lies beyond the tile)
+        float lo = kInf, hi = -kInf;
+        for (const std::uint32_t id : items) {
+          lo = std::min(lo, nearest[id]);
+          hi = std::max(hi, nearest[id]);
+        }
+        constexpr int kBuckets = 64;
+        const float scale = hi > lo ? static_cast<float>(kBuckets) / (hi - lo) : 0.0f;
+        auto bucket_of = [&](std::uint32_t id) { return std::min(kBuckets - 1, static_cast<int>((nearest[id] - lo) * scale)); };
+        std::uint32_t start[kBuckets + 1] = {};
+        for (const std::uint32_t id : items) ++start[bucket_of(id) + 1];
+        for (int b = 0; b < kBuckets; ++b) start[b + 1] += start[b];
+        std::vector<std::uint32_t> order(items.size());
+        std::uint32_t fill[kBuckets];
+        std::copy(start, start + kBuckets, fill);
+        for (const std::uint32_t id : items) order[fill[bucket_of(id)]++] = id;
+        for (int b = 0; b < kBuckets; ++b) {
+          if (start[b] == start[b + 1]) continue;
+          // every bound in bucket b is at least lo + b / scale, up to rounding: test the smallest
+          float smallest = kInf;
+          for (std::uint32_t n = start[b]; n < start[b + 1]; ++n) smallest = std::min(smallest, nearest[order[n]]);
+          std::fill(std::begin(block_far), std::end(block_far), -kInf);
           for (int y = y0; y <= y1; ++y)
-            for (int x = x0; x <= x1; ++x) farthest = std::max(farthest, depth[(y - y0) * kRasterTile + (x - x0)]);
+            for (int x = x0; x <= x1; ++x) {
+              float& f = block_far[((y - y0) / kBlock) * kBlocks + (x - x0) / kBlock];
+              f = std::max(f, depth[(y - y0) * kRasterTile + (x - x0)]);
+            }
+          const float farthest = *std::max_element(std::begin(block_far), std::end(block_far));
+          if (smallest > farthest) break;  // this bucket and every later one lie behind the tile
+          for (std::uint32_t n = start[b]; n < start[b + 1]; ++n) take(order[n], nearest[order[n]]);
         }
       }
       for (int y = y0; y <= y1; ++y)
