@@ -62,6 +62,7 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
   }, 4096);
 
   map_.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(n), kNoSphere);
+  map_spheres_.resize(map_.size());
   const float world_per_texel = projection_.perspective() ? 0.0f : 1.0f / texels_per_world;
   TileBins(rects, n, n).nearest_per_pixel(
       rects, nearest, [](int, int, int, int) { return 0; },
@@ -80,7 +81,9 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
         return intersect_sphere(ray, s, -kInfinity, kInfinity);
       },
       [&](int k, int j, float, std::uint32_t id) {
-        map_[static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(k)] = id;
+        const std::size_t texel_index = static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(k);
+        map_[texel_index] = id;
+        map_spheres_[texel_index] = id == kNoSphere ? Sphere{} : ps.spheres[id];
       });
 }
 
@@ -98,9 +101,10 @@ float ImplicitSphereShadowMap::light_at(const Vec3& position, std::uint32_t self
   float light = 1.0f;
   for (int j = std::max(0, cj - t); j <= std::min(n - 1, cj + t); ++j) {
     for (int i = std::max(0, ci - t); i <= std::min(n - 1, ci + t); ++i) {
-      const std::uint32_t id = texel(i, j);
+      const std::size_t texel_index = static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(i);
+      const std::uint32_t id = map_[texel_index];
       if (id == kNoSphere || id == self) continue;
-      const Sphere& s = particles_->spheres[id];
+      const Sphere& s = map_spheres_[texel_index];
       // Fig. 4: k is the distance along the shadow ray to the plane through the centre normal to it,
       // d the distance from that point to the centre, s' = d − r the ray's clearance of the surface.
       const Vec3 oc = s.center - position;

@@ -1,7 +1,8 @@
 // Implicit Sphere Shadow Map (Krone et al. 2016, paper 003). Generation (§3): the spheres are rendered
 // from the light into an N x N map that keeps, per texel, the sphere nearest to the light along the
-// texel's light ray (exact ray–sphere intersection at the texel centre); the map stores the sphere's id,
-// its centre and radius are read from the particle set. Lookup (§3.1): the receiver is projected into
+// texel's light ray (exact ray–sphere intersection at the texel centre); the map stores the sphere's id
+// and a copy of its centre and radius, so that a lookup reads neighbouring texels only, never spheres
+// scattered over the particle set (a cache miss each for a million spheres). Lookup (§3.1): the receiver is projected into
 // the map and its shadow ray is intersected with the spheres of the (2t+1)² texels around it; the
 // receiver's own sphere is skipped (no self-shadowing by identity, §3.2 end). Soft shadows (§3.2):
 // occluders are grown by a virtual radius s·w(k), where k is the distance from the receiver to the
@@ -51,7 +52,7 @@ public:
   void transmittance(std::span<const SurfacePoint> points, std::span<Rgb> out) const override;
   Vec3 surface_receiver(const Vec3& p, const Vec3&) const override { return p; }  // self by identity
   void add_stats(ShadowStats& stats) const override { stats.issm_rings = rings(); }
-  std::size_t memory_bytes() const override { return map_.capacity() * sizeof(std::uint32_t); }
+  std::size_t memory_bytes() const override { return map_.capacity() * sizeof(std::uint32_t) + map_spheres_.capacity() * sizeof(Sphere); }
   std::string_view name() const override { return "issm"; }
 
   // The automatic choice of t (§4) re-queries the same map with more rings.
@@ -78,6 +79,7 @@ private:
   Light light_;
   LightProjection projection_;
   std::vector<std::uint32_t> map_;
+  std::vector<Sphere> map_spheres_;  // per texel: the centre and radius of map_'s sphere
   int soft_rings_ = 0;
 };
 
