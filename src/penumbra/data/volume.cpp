@@ -133,42 +133,8 @@ void Volume::set_value(std::size_t idx, float v) {
   }
 }
 
-TrilinearCell Volume::trilinear_cell(const Vec3& v) const {
-  const float fx = clamp(v.x, 0.0f, static_cast<float>(dims_[0] - 1));
-  const float fy = clamp(v.y, 0.0f, static_cast<float>(dims_[1] - 1));
-  const float fz = clamp(v.z, 0.0f, static_cast<float>(dims_[2] - 1));
-  const int i = std::min(static_cast<int>(fx), std::max(dims_[0] - 2, 0));
-  const int j = std::min(static_cast<int>(fy), std::max(dims_[1] - 2, 0));
-  const int k = std::min(static_cast<int>(fz), std::max(dims_[2] - 2, 0));
-  return {index(i, j, k),
-          dims_[0] > 1 ? std::size_t{1} : 0,
-          dims_[1] > 1 ? static_cast<std::size_t>(dims_[0]) : 0,
-          dims_[2] > 1 ? static_cast<std::size_t>(dims_[0]) * dims_[1] : 0,
-          fx - static_cast<float>(i), fy - static_cast<float>(j), fz - static_cast<float>(k)};
-}
-
-template <class T>
-float Volume::sample_typed(const TrilinearCell& c) const {
-  const T* d = data_as<T>();
-  const std::size_t b = c.base;
-  const float c000 = static_cast<float>(d[b]), c100 = static_cast<float>(d[b + c.sx]);
-  const float c010 = static_cast<float>(d[b + c.sy]), c110 = static_cast<float>(d[b + c.sy + c.sx]);
-  const float c001 = static_cast<float>(d[b + c.sz]), c101 = static_cast<float>(d[b + c.sz + c.sx]);
-  const float c011 = static_cast<float>(d[b + c.sz + c.sy]), c111 = static_cast<float>(d[b + c.sz + c.sy + c.sx]);
-  const float c00 = c000 + (c100 - c000) * c.tx, c10 = c010 + (c110 - c010) * c.tx;
-  const float c01 = c001 + (c101 - c001) * c.tx, c11 = c011 + (c111 - c011) * c.tx;
-  const float c0 = c00 + (c10 - c00) * c.ty, c1 = c01 + (c11 - c01) * c.ty;
-  return c0 + (c1 - c0) * c.tz;
-}
-
 float Volume::sample_cell(const TrilinearCell& c) const {
-  switch (type_) {
-    case ScalarType::UInt8: return sample_typed<std::uint8_t>(c);
-    case ScalarType::Int16: return sample_typed<std::int16_t>(c);
-    case ScalarType::UInt16: return sample_typed<std::uint16_t>(c);
-    case ScalarType::Float32: return sample_typed<float>(c);
-  }
-  return 0;
+  return with_voxel_type([&](auto type) { return sample_cell_as<decltype(type)>(c); });
 }
 
 float Volume::sample_voxel(const Vec3& v) const { return sample_cell(trilinear_cell(v)); }

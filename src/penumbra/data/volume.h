@@ -3,6 +3,7 @@
 // is origin + (i, j, k) * spacing; the volume's box spans the voxel centres.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -110,8 +111,44 @@ public:
   // Trilinear interpolation at a world point; positions outside are clamped to the border voxels.
   float sample(const Vec3& p) const { return sample_voxel(to_voxel(p)); }
   float sample_voxel(const Vec3& v) const;
-  TrilinearCell trilinear_cell(const Vec3& v) const;
+  TrilinearCell trilinear_cell(const Vec3& v) const {
+    const float fx = clamp(v.x, 0.0f, static_cast<float>(dims_[0] - 1));
+    const float fy = clamp(v.y, 0.0f, static_cast<float>(dims_[1] - 1));
+    const float fz = clamp(v.z, 0.0f, static_cast<float>(dims_[2] - 1));
+    const int i = std::min(static_cast<int>(fx), std::max(dims_[0] - 2, 0));
+    const int j = std::min(static_cast<int>(fy), std::max(dims_[1] - 2, 0));
+    const int k = std::min(static_cast<int>(fz), std::max(dims_[2] - 2, 0));
+    return {index(i, j, k),
+            dims_[0] > 1 ? std::size_t{1} : 0,
+            dims_[1] > 1 ? static_cast<std::size_t>(dims_[0]) : 0,
+            dims_[2] > 1 ? static_cast<std::size_t>(dims_[0]) * dims_[1] : 0,
+            fx - static_cast<float>(i), fy - static_cast<float>(j), fz - static_cast<float>(k)};
+  }
   float sample_cell(const TrilinearCell& c) const;  // the interpolant in a cell found before
+  // The same for a caller that knows the voxel type (T must be the volume's: see with_voxel_type), so
+  // that a loop over many samples decides the type once rather than per sample.
+  template <class T> float sample_cell_as(const TrilinearCell& c) const {
+    const T* d = data_as<T>();
+    const std::size_t b = c.base;
+    const float c000 = static_cast<float>(d[b]), c100 = static_cast<float>(d[b + c.sx]);
+    const float c010 = static_cast<float>(d[b + c.sy]), c110 = static_cast<float>(d[b + c.sy + c.sx]);
+    const float c001 = static_cast<float>(d[b + c.sz]), c101 = static_cast<float>(d[b + c.sz + c.sx]);
+    const float c011 = static_cast<float>(d[b + c.sz + c.sy]), c111 = static_cast<float>(d[b + c.sz + c.sy + c.sx]);
+    const float c00 = c000 + (c100 - c000) * c.tx, c10 = c010 + (c110 - c010) * c.tx;
+    const float c01 = c001 + (c101 - c001) * c.tx, c11 = c011 + (c111 - c011) * c.tx;
+    const float c0 = c00 + (c10 - c00) * c.ty, c1 = c01 + (c11 - c01) * c.ty;
+    return c0 + (c1 - c0) * c.tz;
+  }
+  // Calls f(T{}) with the voxels' C++ type: the one switch a typed loop needs.
+  template <class F> decltype(auto) with_voxel_type(F&& f) const {
+    switch (type_) {
+      case ScalarType::UInt8: return f(std::uint8_t{});
+      case ScalarType::Int16: return f(std::int16_t{});
+      case ScalarType::UInt16: return f(std::uint16_t{});
+      case ScalarType::Float32: break;
+    }
+    return f(float{});
+  }
   // World-space gradient by central differences of the trilinear interpolant, one voxel apart per axis.
   Vec3 gradient(const Vec3& p) const;
 
@@ -121,7 +158,6 @@ public:
   void recompute_range();  // also rejects NaN or infinite voxels with an Error (in parallel)
 
 private:
-  template <class T> float sample_typed(const TrilinearCell& c) const;
 
   ScalarType type_ = ScalarType::Float32;
   std::array<int, 3> dims_{0, 0, 0};

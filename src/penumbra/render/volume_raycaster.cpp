@@ -84,8 +84,9 @@ struct Shader {
   }
 };
 
-// One volume: the lattice walk with macrocell skipping.
+// One volume: the lattice walk with macrocell skipping, for voxels of type T (the volume's).
 // `half` becomes the ray parameter where the opacity first reaches 1/2 (left as it is when it never does).
+template <class T>
 float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, float jitter, float t_surface,
                 SampleBatch& batch, Rgb& color, float& half) {
   float opacity = 0;
@@ -112,7 +113,7 @@ float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, 
       }
     }
     const TrilinearCell tc = vol.trilinear_cell(v);  // shared by the value and the gradient
-    const Rgba s = pv.lut.lookup(vol.sample_cell(tc));
+    const Rgba s = pv.lut.lookup(vol.sample_cell_as<T>(tc));
     if (s.a <= 0) continue;
     const float w = (1 - opacity) * s.a;
     opacity += w;
@@ -219,7 +220,10 @@ VolumeFrame render_volume_frame(const RayCastInputs& in) {
         Rgb color(0.0f);
         float opacity = 0;
         float& half = out.half_depth[pixel];
-        if (in.volumes.size() == 1) opacity = trace_one(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color, half);
+        if (in.volumes.size() == 1)
+          opacity = in.volumes.front()->volume->with_voxel_type([&](auto type) {
+            return trace_one<decltype(type)>(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color, half);
+          });
         else if (!in.volumes.empty()) opacity = trace_many(in.volumes, shader, ray, jitter, t_surface, batch, color, half);
         const Rgb behind = in.opaque ? in.opaque->color->at(x, y) : in.scene->background;
         out.image.at(x, y) = color + behind * (1 - opacity);
