@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """penumbra side by side with its peers on this machine, for docs/BENCHMARKS.md (issue 17).
 
-usage: bench/peers.py [--build build/release] [--spheres N] [--out DIR] [--quick]
+usage: scripts/bench_peers.py [--build build/release] [--spheres N] [--out DIR] [--quick]
 
 Spheres against Tachyon (VMD's ray tracer, the ISSM paper's reference; Debian `tachyon`): N
 non-overlapping spheres (one per cell of a jittered grid, 1 M by default) at 1920×1200, one sample per
@@ -13,7 +13,7 @@ light moving (the shadow map rebuilt each frame) and once with it cached. Each p
 (RMSE, PSNR) is measured against penumbra's exact reference (ray-traced shadows; ray-traced AO with 64
 rays) at a reduced frame, since the reference takes minutes at full size.
 
-Without `tachyon` on the PATH the Tachyon columns say "not installed" and the rest still runs; the
+Without `tachyon` on the PATH the Tachyon rows say "not run" and the rest still runs; the
 script never fails for a missing peer. It writes DIR/peers.json and DIR/peers.md (the table with the
 commit and the machine) and prints the table.
 """
@@ -31,7 +31,6 @@ import tempfile
 import time
 
 import numpy as np
-from PIL import Image
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -81,6 +80,34 @@ def machine():
     return f"{cpu}, {os.cpu_count()} cores"
 
 
+def read_ppm(path):
+    """An 8-bit binary PPM (Tachyon's output) as (H, W, 4) uint8 RGBA, alpha 255."""
+    with open(path, "rb") as f:
+        data = f.read()
+    fields, pos = [], 0
+    while len(fields) < 4:  # magic, width, height, maxval; whitespace-separated, '#' comments
+        while data[pos:pos + 1].isspace():
+            pos += 1
+        if data[pos:pos + 1] == b"#":
+            pos = data.index(b"\n", pos)
+            continue
+        end = pos
+        while not data[end:end + 1].isspace():
+            end += 1
+        fields.append(data[pos:end])
+        pos = end
+    w, h = int(fields[1]), int(fields[2])
+    rgb = np.frombuffer(data, np.uint8, w * h * 3, pos + 1).reshape(h, w, 3)
+    return np.concatenate([rgb, np.full((h, w, 1), 255, np.uint8)], axis=2)
+
+
+def write_png(path, rgba8, penumbra=None):
+    if penumbra is None:
+        import penumbra  # noqa: F811  (the build's module, on sys.path by then)
+    with open(path, "wb") as f:
+        f.write(penumbra._png(rgba8))
+
+
 # ---------------------------------------------------------------- Tachyon
 
 def tachyon_scene(path, centres, radius, colour_index):
@@ -122,7 +149,7 @@ def tachyon_runs(scene_path, tmp, repeats, out):
     for name, extra in (("shadows", []), ("ao", ["-auto_skylight", "0.7", "-skylight_samples", "12"])):
         image = os.path.join(tmp, f"tachyon_{name}.ppm")
         runs = [run_tachyon(scene_path, image, extra) for _ in range(repeats)]
-        Image.open(image).save(os.path.join(out, f"tachyon_{name}.png"))
+        write_png(os.path.join(out, f"tachyon_{name}.png"), read_ppm(image))
         result[name] = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
         print(f"tachyon {name}: {result[name]}", file=sys.stderr)
     return result
@@ -153,7 +180,7 @@ def penumbra_runs(penumbra, scene, repeats, image_path):
     """Frame times (engine's total, ms): first frame, light moving (map rebuilt), cached; with the split."""
     r = penumbra.Renderer(scene)
     t = time.perf_counter()
-    Image.fromarray(r.render(accumulate=False)[..., :3]).save(image_path)
+    write_png(image_path, r.render(accumulate=False), penumbra)
     first = dict(r.stats["timings_ms"], wall=1000 * (time.perf_counter() - t))
     moving, cached = [], []
     for k in range(1, repeats + 1):
@@ -238,7 +265,7 @@ def table(r):
             lines.append(f"| Tachyon -fullshade{' + AO (12 samples)' if tname == 'ao' else ''} | {tt:.0f} (parse {t[tname]['parse_ms']:.0f}, grid {t[tname]['grid_ms']:.0f}) | {tt:.0f} | 1 | – |")
             ratio = f"{tt / p['moving']['total']:.2f}× / {tt / p['cached']['total']:.2f}×"
         else:
-            lines.append(f"| Tachyon ({tname}) | not installed | | | |")
+            lines.append(f"| Tachyon ({tname}) | not run (not installed, or --penumbra-only) | | | |")
             ratio = "–"
         lines.append(f"| penumbra {name} | {p['moving']['total']:.0f} | {p['cached']['total']:.0f} | {ratio} | RMSE {e['rmse']:.4f}, {e['psnr_db']:.1f} dB at {e['frame']} |")
     lines.append("")
