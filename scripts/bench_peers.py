@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """penumbra side by side with its peers on this machine, for docs/BENCHMARKS.md (issue 17).
 
-usage: scripts/bench_peers.py [--build build/release] [--spheres N] [--out DIR] [--quick]
+usage: scripts/bench_peers.py [--build build/release] [--suite spheres volumes] [--spheres N] [--repeats N]
+                              [--out DIR] [--penumbra-only] [--quick]
 
 Spheres against Tachyon (VMD's ray tracer, the ISSM paper's reference; Debian `tachyon`): N
 non-overlapping spheres (one per cell of a jittered grid, 1 M by default) at 1920×1200, one sample per
@@ -13,9 +14,15 @@ light moving (the shadow map rebuilt each frame) and once with it cached. Each p
 (RMSE, PSNR) is measured against penumbra's exact reference (ray-traced shadows; ray-traced AO with 64
 rays) at a reduced frame, since the reference takes minutes at full size.
 
+Volumes against ParaView (Debian `paraview`; `pvbatch` under `xvfb-run` when there is no display): a
+256³ float field of blobs in a shell, 512² frame, the same camera and transfer function, gradient
+shading; ParaView's CPU ray cast mapper ("Ray Cast Only") against penumbra unshadowed, and its GPU
+mapper with volumetric shadows (VolumetricScatteringBlending 2, under Mesa's llvmpipe here) against
+penumbra with cssm shadows. `--suite spheres` or `--suite volumes` runs one half.
+
 Without `tachyon` on the PATH the Tachyon rows say "not run" and the rest still runs; the
-script never fails for a missing peer. It writes DIR/peers.json and DIR/peers.md (the table with the
-commit and the machine) and prints the table.
+script never fails for a missing peer (pvbatch likewise). It writes DIR/peers.json and DIR/peers.md
+(the table with the commit and the machine) and prints the table.
 """
 import argparse
 import json
@@ -193,31 +200,141 @@ def penumbra_runs(penumbra, scene, repeats, image_path):
     return {"first": first, "moving": med(moving), "cached": med(cached)}
 
 
+# ---------------------------------------------------------------- volumes: ParaView
+
+VOLUME_N = 256
+VOLUME_FRAME = 512
+# value, r, g, b, alpha (alpha per unit of distance in voxels, as ParaView's scalar opacity unit distance 1)
+VOLUME_TF = [[0.0, 0.9, 0.5, 0.3, 0.0], [0.25, 0.9, 0.5, 0.3, 0.0], [0.45, 0.95, 0.8, 0.6, 0.05], [1.0, 1.0, 1.0, 1.0, 0.4]]
+
+
+def volume_field(n=VOLUME_N, seed=3):
+    """A smooth n³ float32 field in [0, 1]: twelve Gaussian blobs of random size and strength, with a
+    shell around the centre (surfaces to shade, gaps for light to pass)."""
+    rng = np.random.default_rng(seed)
+    x = (np.arange(n, dtype=np.float32) + 0.5) / n - 0.5
+    z, y, xx = np.meshgrid(x, x, x, indexing="ij")
+    f = np.zeros((n, n, n), np.float32)
+    for _ in range(12):
+        c = rng.uniform(-0.3, 0.3, 3).astype(np.float32)
+        s = np.float32(rng.uniform(0.04, 0.12))
+        f += np.float32(rng.uniform(0.5, 1.0)) * np.exp(-((xx - c[0]) ** 2 + (y - c[1]) ** 2 + (z - c[2]) ** 2) / (2 * s * s))
+    r = np.sqrt(xx ** 2 + y ** 2 + z ** 2)
+    f += 0.6 * np.exp(-((r - 0.42) / 0.02) ** 2)
+    return np.clip(f, 0, 1).astype(np.float32)
+
+
+def volume_camera(n=VOLUME_N):
+    centre = [(n - 1) / 2] * 3
+    eye = [centre[0] + 1.9 * n * 0.55, centre[1] + 1.9 * n * 0.35, centre[2] + 1.9 * n * 0.75]
+    return eye, centre, [0.0, 1.0, 0.0]
+
+
+PV_SCRIPT = r"""
+import json, statistics, sys, time
+from paraview.simple import *
+cfg = json.loads(sys.argv[1])
+n = cfg["n"]
+reader = ImageReader(FileNames=[cfg["raw"]], DataScalarType="float", DataByteOrder="LittleEndian",
+                     DataExtent=[0, n - 1, 0, n - 1, 0, n - 1])
+view = GetActiveViewOrCreate("RenderView")
+view.ViewSize = [cfg["frame"], cfg["frame"]]
+view.OrientationAxesVisibility = 0
+view.Background = [1, 1, 1]
+if hasattr(view, "UseColorPaletteForBackground"):
+    view.UseColorPaletteForBackground = 0
+shown = Show(reader, view)
+shown.SetRepresentationType("Volume")
+array = reader.PointData.keys()[0]
+ColorBy(shown, ("POINTS", array))
+ctf = GetColorTransferFunction(array)
+ctf.RGBPoints = [v for p in cfg["tf"] for v in (p[0], p[1], p[2], p[3])]
+otf = GetOpacityTransferFunction(array)
+otf.Points = [v for p in cfg["tf"] for v in (p[0], p[4], 0.5, 0.0)]
+shown.ScalarOpacityUnitDistance = 1.0
+shown.Shade = 1
+shown.VolumeRenderingMode = cfg["mode"]
+if cfg["shadows"]:
+    shown.VolumetricScatteringBlending = 2.0
+    shown.GlobalIlluminationReach = 0.5
+view.CameraPosition, view.CameraFocalPoint, view.CameraViewUp = cfg["eye"], cfg["target"], cfg["up"]
+view.CameraViewAngle = cfg["fov"]
+t = time.perf_counter(); Render(view); first = 1000 * (time.perf_counter() - t)
+times = []
+for k in range(cfg["repeats"]):
+    view.CameraPosition = [cfg["eye"][0], cfg["eye"][1] + 1e-3 * (k + 1), cfg["eye"][2]]  # a new frame each time
+    t = time.perf_counter(); Render(view); times.append(1000 * (time.perf_counter() - t))
+SaveScreenshot(cfg["png"], view)
+print("PENUMBRA_BENCH " + json.dumps({"first_ms": first, "frame_ms": statistics.median(times)}))
+"""
+
+
+def paraview_runs(tmp, out, raw, n, repeats, timeout_s=900):
+    """ParaView's CPU ray cast ("Ray Cast Only") and its GPU mapper with volumetric shadows (under
+    llvmpipe here): frame times in ms, or None without pvbatch (or without a display or xvfb-run)."""
+    if not shutil.which("pvbatch"):
+        return None
+    command = ["pvbatch"]
+    if not os.environ.get("DISPLAY"):
+        if not shutil.which("xvfb-run"):
+            print("paraview: pvbatch needs a display; install xvfb (xvfb-run) to measure it", file=sys.stderr)
+            return None
+        command = ["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", "pvbatch"]
+    script = os.path.join(tmp, "pv_bench.py")
+    with open(script, "w") as f:
+        f.write(PV_SCRIPT)
+    eye, target, up = volume_camera(n)
+    result = {}
+    for name, mode, shadows in (("ray cast", "Ray Cast Only", False), ("GPU + volumetric shadows", "GPU Based", True)):
+        cfg = {"n": n, "raw": raw, "frame": VOLUME_FRAME, "tf": VOLUME_TF, "mode": mode, "shadows": shadows,
+               "eye": eye, "target": target, "up": up, "fov": FOV_DEG, "repeats": repeats,
+               "png": os.path.join(out, "paraview_" + name.replace(" + ", "_").replace(" ", "_") + ".png")}
+        try:
+            run = subprocess.run(command + [script, json.dumps(cfg)], capture_output=True, text=True, timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            print(f"paraview {name}: no result within {timeout_s} s", file=sys.stderr)
+            result[name] = {"timed_out_s": timeout_s}
+            continue
+        line = next((l for l in run.stdout.splitlines() if l.startswith("PENUMBRA_BENCH ")), None)
+        if line is None:
+            print(f"paraview {name}: failed\n{run.stderr[-2000:]}", file=sys.stderr)
+            continue
+        result[name] = json.loads(line.split(" ", 1)[1])
+        print(f"paraview {name}: {result[name]}", file=sys.stderr)
+    return result
+
+
+def penumbra_volume_runs(penumbra, field, repeats, out):
+    eye, target, up = volume_camera(field.shape[0])
+    result = {}
+    for name, technique in (("unshadowed", "none"), ("cssm shadows", "cssm")):
+        doc = {"camera": {"eye": eye, "target": target, "up": up, "fov_deg": FOV_DEG, "width": VOLUME_FRAME, "height": VOLUME_FRAME},
+               "lights": [{"type": "directional", "direction": [-0.5, -0.7, -0.5]}], "background": [1, 1, 1],
+               "shadows": {"technique": technique}}
+        scene = penumbra.Scene(doc)
+        scene.add_volume(field, transfer_function={"points": VOLUME_TF})
+        r = penumbra.Renderer(scene)
+        write_png(os.path.join(out, "penumbra_volume_" + name.replace(" ", "_") + ".png"), r.render(accumulate=False), penumbra)
+        first = r.stats["timings_ms"]["total"]
+        times = []
+        for k in range(repeats):
+            r.set("camera.eye", [eye[0], eye[1] + 1e-3 * (k + 1), eye[2]])
+            r.render(accumulate=False)
+            times.append(r.stats["timings_ms"]["total"])
+        result[name] = {"first_ms": first, "frame_ms": statistics.median(times)}
+        print(f"penumbra volume {name}: {result[name]}", file=sys.stderr)
+    return result
+
+
 def error(a, b):
     d = a.astype(np.float64) / 255.0 - b.astype(np.float64) / 255.0
     rmse = float(np.sqrt(np.mean(d[..., :3] ** 2)))
     return {"rmse": rmse, "psnr_db": float("inf") if rmse == 0 else 20 * math.log10(1 / rmse)}
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--build", default=os.path.join(ROOT, "build", "release"))
-    ap.add_argument("--spheres", type=int, default=1_000_000)
-    ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--reference-width", type=int, default=640)
-    ap.add_argument("--out", default=os.path.join(ROOT, "build", "bench-peers"))
-    ap.add_argument("--quick", action="store_true", help="50 k spheres, one repeat: checks the script")
-    ap.add_argument("--penumbra-only", action="store_true", help="skip the peers (before/after figures of a change)")
-    a = ap.parse_args()
-    if a.quick:
-        a.spheres, a.repeats = 50_000, 1
-    sys.path.insert(0, os.path.join(a.build, "python"))
-    import penumbra  # noqa: E402  (the build's module)
-
-    os.makedirs(a.out, exist_ok=True)
+def run_spheres(a, penumbra, report):
     centres, radius, colour_index = spheres(a.spheres)
-    report = {"commit": commit(), "machine": machine(), "date": time.strftime("%Y-%m-%d"), "spheres": a.spheres,
-              "frame": f"{WIDTH}x{HEIGHT}", "tachyon": None, "penumbra": {}, "error": {}}
+    report.update({"spheres": a.spheres, "frame": f"{WIDTH}x{HEIGHT}", "tachyon": None, "penumbra": {}, "error": {}})
     with tempfile.TemporaryDirectory() as tmp:
         scene_path = os.path.join(tmp, "spheres.dat")
         if shutil.which("tachyon") and not a.penumbra_only:
@@ -244,6 +361,42 @@ def main():
         report["error"][name] = dict(error(img, ref), frame=f"{rw}x{rh}")
         print(f"error {name}: {report['error'][name]}", file=sys.stderr)
 
+
+def run_volumes(a, penumbra, report):
+    # volumes beside ParaView
+    field = volume_field(64 if a.quick else VOLUME_N)
+    report["volume"] = {"dims": list(field.shape), "frame": f"{VOLUME_FRAME}x{VOLUME_FRAME}",
+                        "penumbra": penumbra_volume_runs(penumbra, field, a.repeats, a.out), "paraview": None}
+    if not a.penumbra_only and not a.quick:
+        with tempfile.TemporaryDirectory() as tmp:
+            raw = os.path.join(tmp, "volume.raw")
+            field.astype("<f4").tofile(raw)
+            report["volume"]["paraview"] = paraview_runs(tmp, a.out, raw, field.shape[0], a.repeats)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--build", default=os.path.join(ROOT, "build", "release"))
+    ap.add_argument("--spheres", type=int, default=1_000_000)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--reference-width", type=int, default=640)
+    ap.add_argument("--out", default=os.path.join(ROOT, "build", "bench-peers"))
+    ap.add_argument("--quick", action="store_true", help="50 k spheres, one repeat: checks the script")
+    ap.add_argument("--penumbra-only", action="store_true", help="skip the peers (before/after figures of a change)")
+    ap.add_argument("--suite", nargs="+", choices=["spheres", "volumes"], default=["spheres", "volumes"])
+    a = ap.parse_args()
+    if a.quick:
+        a.spheres, a.repeats = 50_000, 1
+    sys.path.insert(0, os.path.join(a.build, "python"))
+    import penumbra  # noqa: E402  (the build's module)
+
+    os.makedirs(a.out, exist_ok=True)
+    report = {"commit": commit(), "machine": machine(), "date": time.strftime("%Y-%m-%d")}
+    if "spheres" in a.suite:
+        run_spheres(a, penumbra, report)
+    if "volumes" in a.suite:
+        run_volumes(a, penumbra, report)
+
     with open(os.path.join(a.out, "peers.json"), "w") as f:
         json.dump(report, f, indent=1)
     md = table(report)
@@ -253,8 +406,17 @@ def main():
 
 
 def table(r):
+    lines = [f"Commit {r['commit']}, {r['date']}, {r['machine']}."]
+    if "spheres" in r:
+        lines += sphere_table(r)
+    if "volume" in r:
+        lines += volume_table(r["volume"])
+    return "\n".join(lines) + "\n"
+
+
+def sphere_table(r):
     t = r["tachyon"]
-    lines = [f"{r['spheres']:,} spheres, {r['frame']}, one sample per pixel; commit {r['commit']}, {r['date']}, {r['machine']}.", "",
+    lines = ["", f"{r['spheres']:,} spheres, {r['frame']}, one sample per pixel:", "",
              "| renderer | frame ms, light moving | frame ms, cached | ratio to Tachyon (moving / cached) | error vs exact reference |",
              "|---|---:|---:|---:|---|"]
     for name, tname in (("issm", "shadows"), ("issm + particle_ao", "ao")):
@@ -268,11 +430,28 @@ def table(r):
             lines.append(f"| Tachyon ({tname}) | not run (not installed, or --penumbra-only) | | | |")
             ratio = "–"
         lines.append(f"| penumbra {name} | {p['moving']['total']:.0f} | {p['cached']['total']:.0f} | {ratio} | RMSE {e['rmse']:.4f}, {e['psnr_db']:.1f} dB at {e['frame']} |")
-    lines.append("")
-    lines.append("Split of penumbra's cached frame (ms): " + "; ".join(
+    lines += ["", "Split of penumbra's cached frame (ms): " + "; ".join(
         f"{name}: hits {p['cached']['hits']:.0f}, render {p['cached']['render']:.0f}, build {p['moving']['build']:.0f} (moving), ambient {p['first']['ambient']:.0f} (first)"
-        for name, p in r["penumbra"].items()))
-    return "\n".join(lines) + "\n"
+        for name, p in r["penumbra"].items())]
+    return lines
+
+
+def volume_table(v):
+    lines = ["", f"Volume {'×'.join(map(str, v['dims']))} float, {v['frame']}, gradient-shaded, one directional light (ms per frame, camera moving):", "",
+             "| renderer | frame ms | penumbra's speed-up |", "|---|---:|---:|"]
+    p = v["penumbra"]
+    for name, pv_name, mine in (("ParaView ray cast (CPU, Ray Cast Only)", "ray cast", "unshadowed"),
+                                ("ParaView GPU mapper + volumetric shadows (llvmpipe)", "GPU + volumetric shadows", "cssm shadows")):
+        pv = (v["paraview"] or {}).get(pv_name)
+        if pv and "frame_ms" in pv:
+            lines.append(f"| {name} | {pv['frame_ms']:.0f} | {pv['frame_ms'] / p[mine]['frame_ms']:.1f}× (against penumbra {mine}) |")
+        elif pv:
+            lines.append(f"| {name} | no frame within {pv['timed_out_s']} s | |")
+        else:
+            lines.append(f"| {name} | not run (no pvbatch, or --penumbra-only) | |")
+    for name in p:
+        lines.append(f"| penumbra {name} | {p[name]['frame_ms']:.0f} | |")
+    return lines
 
 
 if __name__ == "__main__":

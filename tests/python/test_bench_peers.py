@@ -21,3 +21,6 @@ def test_the_peers_benchmark_runs_and_measures_penumbra_against_its_references(t
         assert frames["cached"]["build"] < frames["moving"]["build"]  # the cached frame rebuilt no map
         assert 20 < report["error"][name]["psnr_db"] < 80  # close to the reference, not equal to it
         assert os.path.getsize(tmp_path / ("penumbra_" + name.replace(" + ", "_") + ".png")) > 1000
+    volume = report["volume"]
+    assert volume["paraview"] is None and set(volume["penumbra"]) == {"unshadowed", "cssm shadows"}
+    assert all(v["frame_ms"] > 0 for v in volume["penumbra"].values())
