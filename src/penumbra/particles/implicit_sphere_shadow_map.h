@@ -2,11 +2,11 @@
 // from the light into an N x N map that keeps, per texel, the sphere nearest to the light along the
 // texel's light ray (exact ray–sphere intersection at the texel centre); the map stores the sphere's id
 // and a copy of its centre and radius, so that a lookup reads neighbouring texels only, never spheres
-// scattered over the particle set (a cache miss each for a million spheres). Lookup (§3.1): the receiver is projected into
-// the map and its shadow ray is intersected with the spheres of the (2t+1)² texels around it; the
-// receiver's own sphere is skipped (no self-shadowing by identity, §3.2 end). Soft shadows (§3.2):
-// occluders are grown by a virtual radius s·w(k), where k is the distance from the receiver to the
-// occluder along the shadow ray and w(k) = 1 − exp(−4.5 (k/b)²) a Gaussian weight that reaches 99 % at
+// scattered over the particle set (a cache miss each for a million spheres). Lookup (§3.1): the
+// receiver is projected into the map and its shadow ray is intersected with the spheres of the (2t+1)²
+// texels around it; the receiver's own sphere is skipped (no self-shadowing by identity, §3.2 end).
+// Soft shadows (§3.2): occluders are grown by a virtual radius s·w(k), where k is the distance from the
+// receiver to the occluder along the shadow ray and w(k) = 1 − exp(−4.5 (k/b)²) a Gaussian weight that reaches 99 % at
 // k = b; a ray passing at distance s' from an occluder's surface is darkened by (1 − s'/(s·w))^x and
 // the receiver keeps the minimum light over its occluders. Directional lights use an orthographic map
 // (the paper); point and spot lights a perspective one fitted to the spheres (the paper's future work).
@@ -52,7 +52,9 @@ public:
   void transmittance(std::span<const SurfacePoint> points, std::span<Rgb> out) const override;
   Vec3 surface_receiver(const Vec3& p, const Vec3&) const override { return p; }  // self by identity
   void add_stats(ShadowStats& stats) const override { stats.issm_rings = rings(); }
-  std::size_t memory_bytes() const override { return map_.capacity() * sizeof(std::uint32_t) + map_spheres_.capacity() * sizeof(Sphere); }
+  std::size_t memory_bytes() const override {
+    return map_.capacity() * sizeof(std::uint32_t) + map_spheres_.capacity() * sizeof(Sphere);
+  }
   std::string_view name() const override { return "issm"; }
 
   // The automatic choice of t (§4) re-queries the same map with more rings.
