@@ -6,9 +6,9 @@
 // receiver is projected into the map and its shadow ray is intersected with the spheres of the (2t+1)²
 // texels around it; the receiver's own sphere is skipped (no self-shadowing by identity, §3.2 end).
 // Soft shadows (§3.2): occluders are grown by a virtual radius s·w(k), where k is the distance from the
-// receiver to the occluder along the shadow ray and w(k) = 1 − exp(−4.5 (k/b)²) a Gaussian weight that reaches 99 % at
-// k = b; a ray passing at distance s' from an occluder's surface is darkened by (1 − s'/(s·w))^x and
-// the receiver keeps the minimum light over its occluders. Directional lights use an orthographic map
+// receiver to the occluder along the shadow ray and w(k) = 1 − exp(−4.5 (k/b)²) a Gaussian weight that
+// reaches 99 % at k = b; a ray passing at distance s' from an occluder's surface is darkened by
+// (1 − s'/(s·w))^x and the receiver keeps the minimum light over its occluders. Directional lights use an orthographic map
 // (the paper); point and spot lights a perspective one fitted to the spheres (the paper's future work).
 //
 // | parameter             | default | meaning                                                          |
