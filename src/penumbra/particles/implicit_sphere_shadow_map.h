@@ -8,8 +8,9 @@
 // Soft shadows (§3.2): occluders are grown by a virtual radius s·w(k), where k is the distance from the
 // receiver to the occluder along the shadow ray and w(k) = 1 − exp(−4.5 (k/b)²) a Gaussian weight that
 // reaches 99 % at k = b; a ray passing at distance s' from an occluder's surface is darkened by
-// (1 − s'/(s·w))^x and the receiver keeps the minimum light over its occluders. Directional lights use an orthographic map
-// (the paper); point and spot lights a perspective one fitted to the spheres (the paper's future work).
+// (1 − s'/(s·w))^x and the receiver keeps the minimum light over its occluders. Directional lights use
+// an orthographic map (the paper); point and spot lights a perspective one fitted to the spheres (the
+// paper's future work).
 //
 // | parameter             | default | meaning                                                          |
 // | shadows.resolution    | 1024    | N, texels per side (the paper's benchmarks: 512)                  |
