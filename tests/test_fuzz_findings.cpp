@@ -125,6 +125,8 @@ TEST(FuzzFindings, NrrdHeadersTeemLeaksOnAreRefused) {
       // saw an unterminated unit where the checks saw a complete one.
       {kNrrdFields + "space dimension: 3\nspace units: \"mm\" \"m\t" + std::string(3, '\0') + "m\" \"mm\"\n", "NUL byte"},
       {kNrrdFields + "kinds: domain domain domain\rlabels: \"x\n", "carriage return"},
+      // Found by fuzz_nrrd (CI, 2026-12-02): teem refuses a block size for a non-block type and leaks
+      {kNrrdFields + "block size: 40625\n", "'block size' belongs to type 'block'"},
   };
   for (const Case& c : cases) {
     const std::string path = dir.file("leak.nrrd");

@@ -225,6 +225,9 @@ NrrdHeader parse_header(const std::string& path, std::uint64_t file_bytes) {
         h.encoding = airEnumVal(nrrdEncodingType, h.encoding_name.c_str());
         break;
       case nrrdField_data_file: h.data_file = std::string(value); break;
+      case nrrdField_block_size:  // teem leaks when it refuses a block size for another type
+        throw Error(where + " 'block size' belongs to type 'block', which penumbra does not read (a volume of "
+                    "uint8, int16, uint16 or float expected)");
       case nrrdField_line_skip: {
         const auto v = parse_int(value, false);
         if (!v) throw Error("NRRD line skip '" + printable(value) + "' is not a line count");
