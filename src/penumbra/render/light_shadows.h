@@ -20,6 +20,11 @@ public:
   void fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples);
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const;
   void transmittance(std::span<const SurfacePoint> points, std::span<Rgb> out) const;
+  Rgb transmittance(const Vec3& p) const {
+    Rgb out;
+    transmittance(std::span<const Vec3>(&p, 1), std::span<Rgb>(&out, 1));
+    return out;
+  }
 
   const std::vector<std::unique_ptr<ShadowTechnique>>& techniques() const { return techniques_; }
   std::size_t memory_bytes() const;

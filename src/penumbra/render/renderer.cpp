@@ -10,6 +10,8 @@
 #include "penumbra/render/surface_frame.h"
 #include "penumbra/render/volume_raycaster.h"
 #include "penumbra/scene/technique_catalog.h"
+#include "penumbra/shadows/sat_cone.h"
+#include "penumbra/shadows/volume_ambient_occlusion.h"
 #include "penumbra/shadows/registry.h"
 
 namespace penumbra {
@@ -373,6 +375,7 @@ void Renderer::prepare(Quality quality, FrameResult& frame) {
       occluders_ = std::make_unique<ShadowCasters>(casters_->restricted_to(ambient_occluders(scene_)));
       ambient->build(*occluders_);
       ambient_ = std::move(ambient);
+      repack_ambient_ = true;
       frame.ambient_ms = t.elapsed_ms();
       rebuilt("ambient", quality, frame);
     }
@@ -414,6 +417,8 @@ void Renderer::update_shadows(const std::vector<Light>& lights, Quality quality,
       seed_of_.push_back(seed);
     }
     if (any) rebuilt(name, quality, frame);
+    repack_light_.resize(lights.size(), true);
+    repack_light_[i] = true;
     stale_.erase(name);
     check_cancelled();
   }
@@ -448,6 +453,7 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   prepare(request.quality, frame);
   Timer build;
   update_shadows(lights, request.quality, request.sample, frame);
+  update_light_cache();
   frame.build_ms = build.elapsed_ms();
   if (first_frame_) {
     prepare_ms_ = frame.prepare_ms;
@@ -515,7 +521,8 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
     for (const auto& v : volumes_) volume_ptrs.push_back(v.get());
     const OpaqueLayer layer{&surfaces.distance, &opaque};
     VolumeFrame vf = render_volume_frame(
-        RayCastInputs{&scene_, &camera, volume_ptrs, lights, shadow_ptrs, ambient_.get(), &layer, request.sample});
+        RayCastInputs{&scene_, &camera, volume_ptrs, lights, shadow_ptrs, ambient_.get(), light_cache_.get(), light_slot_,
+                      &layer, request.sample});
     frame.image = std::move(vf.image);
     for (std::size_t p = 0; p < pixels; ++p) {
       frame.alpha[p] = frame.alpha[p] + (1 - frame.alpha[p]) * vf.opacity[p];
@@ -531,6 +538,44 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   frame.render_ms = render.elapsed_ms();
   frame.total_ms = total.elapsed_ms();
   return frame;
+}
+
+void Renderer::update_light_cache() {
+  // the terms kept on the SAT's cells: the volume ambient technique's and each sat_cone light's
+  const auto* ambient = dynamic_cast<const VolumeAmbientOcclusion*>(ambient_.get());
+  const CellLattice* lattice = ambient ? &ambient->cache().lattice() : nullptr;
+  const std::size_t free_slots = static_cast<std::size_t>(LightCache::kMaxChannels - (ambient ? 3 : 0));
+  std::vector<const SatConeShadows*> cones(shadows_.size(), nullptr);
+  std::vector<int> slots(shadows_.size(), -1);
+  std::size_t packed = 0;
+  for (std::size_t l = 0; l < shadows_.size() && packed < free_slots; ++l) {
+    const auto& techniques = shadows_[l]->techniques();
+    if (techniques.size() != 1) continue;  // a product over caster groups is asked as a whole
+    const auto* cone = dynamic_cast<const SatConeShadows*>(techniques.front().get());
+    if (!cone || (lattice && !cone->cache().lattice().same_cells(*lattice))) continue;
+    if (!lattice) lattice = &cone->cache().lattice();
+    cones[l] = cone;
+    slots[l] = static_cast<int>(packed++);
+  }
+  repack_light_.resize(shadows_.size(), true);
+  if (packed + (ambient ? 1 : 0) < 2 || volumes_.empty()) {  // one term alone gains nothing from packing
+    light_cache_.reset();
+    light_slot_.assign(shadows_.size(), -1);
+    return;
+  }
+  if (!light_cache_ || slots != light_slot_ || light_cache_->has_ambient() != (ambient != nullptr) ||
+      !light_cache_->lattice().same_cells(*lattice)) {
+    light_cache_ = std::make_unique<LightCache>(*lattice, ambient != nullptr, packed);
+    light_slot_ = slots;
+    repack_ambient_ = true;
+    std::fill(repack_light_.begin(), repack_light_.end(), true);
+  }
+  if (ambient && repack_ambient_) light_cache_->set_ambient(ambient->cache());
+  repack_ambient_ = false;
+  for (std::size_t l = 0; l < shadows_.size(); ++l) {
+    if (cones[l] && repack_light_[l]) light_cache_->set_light(static_cast<std::size_t>(slots[l]), cones[l]->cache());
+    repack_light_[l] = false;
+  }
 }
 
 std::size_t Renderer::shadow_memory_bytes() const {

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "penumbra/accel/extinction_sat.h"
+#include "penumbra/accel/light_cache.h"
 #include "penumbra/core/image.h"
 #include "penumbra/particles/sphere_bvh.h"
 #include "penumbra/render/isosurface_frame.h"
@@ -98,6 +99,8 @@ public:
   std::size_t shadow_memory_bytes() const;
   std::size_t ambient_memory_bytes() const { return ambient_ ? ambient_->memory_bytes() : 0; }
   std::size_t sat_memory_bytes() const { return sat_ ? sat_->memory_bytes() : 0; }
+  // The packed light cache (a copy of the ambient and cached lights' terms), when the frame uses one.
+  std::size_t light_cache_memory_bytes() const { return light_cache_ ? light_cache_->memory_bytes() : 0; }
   std::size_t voxel_count() const;
   std::size_t sphere_count() const { return particles_ ? particles_->size() : 0; }
   std::size_t particle_memory_bytes() const { return particles_ ? particles_->memory_bytes() : 0; }
@@ -117,6 +120,7 @@ private:
   void prepare_isosurfaces(FrameResult& frame);
   void prepare_casters();
   void update_shadows(const std::vector<Light>& lights, Quality quality, std::uint32_t sample, FrameResult& frame);
+  void update_light_cache();
   bool stale(const std::string& name) const { return stale_.count(name) != 0; }
   void rebuilt(const std::string& name, Quality quality, FrameResult& frame);
   void mark_all_stale();
@@ -134,6 +138,13 @@ private:
   std::unique_ptr<ExtinctionSat> sat_;
   std::unique_ptr<AmbientTechnique> ambient_;
   std::vector<std::unique_ptr<LightShadows>> shadows_;
+  // Paper 001's light cache texture: the ambient term and the sat_cone lights' terms packed per cell
+  // (null when fewer than two terms would share it); each light's slot in it (−1: asked separately);
+  // which sources were rebuilt since they were packed.
+  std::unique_ptr<LightCache> light_cache_;
+  std::vector<int> light_slot_;
+  bool repack_ambient_ = true;
+  std::vector<bool> repack_light_;
   std::vector<Light> built_for_;
   std::vector<std::uint64_t> seed_of_;                    // the cssm seed each light's shadows were built with
   std::vector<double> full_shadow_ms_of_;                 // each light's last full-quality build time (0: none yet)

@@ -35,16 +35,36 @@ struct Shader {
   // Adds the shaded batch to `accum` and empties it.
   void flush(SampleBatch& b, Rgb& accum) const {
     if (b.size == 0) return;
+    const std::span<const Vec3> points(b.position.data(), b.size);
     std::array<Rgb, kBatch> lit;
     std::array<Rgb, kBatch> T;
+    // one fetch per sample for every term the light cache holds; a sample next to a cell it left
+    // unfilled asks the techniques themselves
+    const LightCache* cache = in.light_cache;
+    std::array<std::array<float, LightCache::kMaxChannels>, kBatch> cached;
+    std::array<bool, kBatch> fetched{};
+    if (cache)
+      for (std::size_t i = 0; i < b.size; ++i) fetched[i] = cache->try_fetch(b.position[i], cached[i].data());
     if (in.ambient) {
-      in.ambient->ambient(std::span<const Vec3>(b.position.data(), b.size), std::span<Rgb>(T.data(), b.size));
+      if (cache && cache->has_ambient()) {
+        for (std::size_t i = 0; i < b.size; ++i)
+          T[i] = fetched[i] ? Rgb(cached[i][0], cached[i][1], cached[i][2]) : in.ambient->ambient(b.position[i]);
+      } else {
+        in.ambient->ambient(points, std::span<Rgb>(T.data(), b.size));
+      }
       for (std::size_t i = 0; i < b.size; ++i) lit[i] = b.color[i] * T[i] * k.ambient;
     } else {
       for (std::size_t i = 0; i < b.size; ++i) lit[i] = b.color[i] * k.ambient;
     }
     for (std::size_t l = 0; l < in.lights.size(); ++l) {
-      in.shadows[l]->transmittance(std::span<const Vec3>(b.position.data(), b.size), std::span<Rgb>(T.data(), b.size));
+      const int slot = cache && l < in.cached_light_slot.size() ? in.cached_light_slot[l] : -1;
+      if (slot >= 0) {
+        const auto channel = static_cast<std::size_t>(cache->light_channel(static_cast<std::size_t>(slot)));
+        for (std::size_t i = 0; i < b.size; ++i)
+          T[i] = fetched[i] ? Rgb(cached[i][channel]) : in.shadows[l]->transmittance(b.position[i]);
+      } else {
+        in.shadows[l]->transmittance(points, std::span<Rgb>(T.data(), b.size));
+      }
       const Light& light = in.lights[l];
       for (std::size_t i = 0; i < b.size; ++i) {
         Vec3 to_light;

@@ -14,11 +14,15 @@
 // volumes in proportion to their α_v, each part shaded with its own colour and gradient — so two
 // volumes with disjoint support render as one volume holding both. Compositing modes mix: each
 // volume's α_v is read in its own mode (alpha or extinction) before they combine.
+//
+// With a packed light cache (accel/light_cache.h) a sample reads the ambient term and the shadows of
+// every cached light with one fetch; the other lights are asked per batch as usual.
 #pragma once
 
 #include <span>
 #include <vector>
 
+#include "penumbra/accel/light_cache.h"
 #include "penumbra/core/cutoffs.h"
 #include "penumbra/core/image.h"
 #include "penumbra/render/light_shadows.h"
@@ -42,6 +46,10 @@ struct RayCastInputs {
   std::span<const Light> lights;
   std::span<const LightShadows* const> shadows;      // one per light
   const AmbientTechnique* ambient = nullptr;          // scales the ambient term; null: unoccluded
+  // The packed light cache (paper 001): one fetch per sample for the ambient term (when it holds it)
+  // and for every light whose slot is ≥ 0 (cached_light_slot, one per light); null: none.
+  const LightCache* light_cache = nullptr;
+  std::span<const int> cached_light_slot;
   const OpaqueLayer* opaque = nullptr;
   std::uint32_t sample = 0;  // accumulation sample: 0 the batch frame; others move every pixel's jitter
 };

@@ -33,6 +33,8 @@ public:
   // The attenuation at p computed from the SAT (what the cache stores at cell centres).
   float attenuation(const Vec3& p) const;
   const ConeSampling& sampling() const { return sampling_; }
+  // The attenuation at the cell centres near extinction (what the renderer packs into its LightCache).
+  const CellField<float>& cache() const { return cache_; }
 
 private:
   ConeSampling sampling_;

@@ -46,6 +46,8 @@ public:
 
   // The exponent's three channels for the cell (i, j, k) (may lie outside the grid).
   virtual Rgb optical_depth(int i, int j, int k) const = 0;
+  // The ambient term at the cell centres near extinction (what the renderer packs into its LightCache).
+  const CellField<Rgb>& cache() const { return cache_; }
 
 protected:
   explicit VolumeAmbientOcclusion(const AmbientSettings& s) : settings_(s) {}
