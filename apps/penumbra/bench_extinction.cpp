@@ -175,7 +175,8 @@ void frame_table(const ExtinctionBenchOptions& o, const std::string& name, const
   };
   std::fprintf(stderr, "bench extinction %s: frames...\n", name.c_str());
   // A cached frame: what a camera move costs once everything is built (fastest of the repeats).
-  auto cached_frame = [&](const Scene& s, Image* image) {
+  // `bytes`: what the frame's illumination holds (SAT, ambient and shadow caches, the packed light cache).
+  auto cached_frame = [&](const Scene& s, Image* image, std::size_t* bytes = nullptr) {
     Renderer r(s);
     const FrameResult first = r.render();
     double best = std::numeric_limits<double>::infinity();
@@ -186,6 +187,8 @@ void frame_table(const ExtinctionBenchOptions& o, const std::string& name, const
       best = std::min(best, f.total_ms);
     }
     if (image) *image = first.image;
+    if (bytes)
+      *bytes = r.sat_memory_bytes() + r.ambient_memory_bytes() + r.shadow_memory_bytes() + r.light_cache_memory_bytes();
     return std::make_pair(first, best);
   };
   const Scene plain = scene_with("none", "none");
@@ -194,9 +197,10 @@ void frame_table(const ExtinctionBenchOptions& o, const std::string& name, const
   const Scene shadows_only = scene_with("sat_cone", "none");
   Image img_plain, img_ao, img_lit, img_shadow;
   const auto [f_plain, ms_plain] = cached_frame(plain, &img_plain);
-  const auto [f_ao, ms_ao] = cached_frame(ao, &img_ao);
-  const auto [f_lit, ms_lit] = cached_frame(lit, &img_lit);
-  const auto [f_shadow, ms_shadow] = cached_frame(shadows_only, &img_shadow);
+  std::size_t bytes_ao = 0, bytes_lit = 0, bytes_shadow = 0;
+  const auto [f_ao, ms_ao] = cached_frame(ao, &img_ao, &bytes_ao);
+  const auto [f_lit, ms_lit] = cached_frame(lit, &img_lit, &bytes_lit);
+  const auto [f_shadow, ms_shadow] = cached_frame(shadows_only, &img_shadow, &bytes_shadow);
   // Two static lights and AO: every term from the packed light cache, one fetch per sample (§3)
   const auto [f_plain2, ms_plain2] = cached_frame(scene_with("none", "none", true), nullptr);
   const auto [f_lit2, ms_lit2] = cached_frame(scene_with("sat_cone", "sat_shells", true), nullptr);
@@ -280,6 +284,7 @@ void frame_table(const ExtinctionBenchOptions& o, const std::string& name, const
                          {"lit_two_lights_ms", ms_lit2},
                          {"moving_light_ms", ms_moving},
                          {"reference_ms", ms_ref},
+                         {"memory_bytes", {{"ao", bytes_ao}, {"shadows", bytes_shadow}, {"lit", bytes_lit}}},
                          {"first_frame", {{"sat_ms", f_lit.sat_ms}, {"ambient_ms", f_lit.ambient_ms}, {"shadows_ms", f_lit.build_ms}}},
                          {"psnr", {{"ao_vs_sampled", e_ao.psnr}, {"cone_vs_ray", e_shadow.psnr}, {"cone0_vs_ray", e_hard.psnr},
                                    {"lit_vs_reference", e_both.psnr}, {"plain_vs_ray", e_plain.psnr}}},

@@ -10,6 +10,7 @@
 // small procedural data (and 1tii for the particles) in seconds: a check that the bench works, not figures.
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -44,6 +45,7 @@ struct Options {
   int dsm_resolution = 1024;
   int test_spheres_size = 128;
   bool quick = false;
+  bool no_charts = false;
   std::vector<std::string> extinction_datasets{"procedural", "cranium", "chest"};
   int max_sampled_size = 128;
   std::vector<std::string> particle_datasets = ParticleBenchOptions{}.datasets;
@@ -82,6 +84,19 @@ nlohmann::json dataset_scene(const Options& o, const std::string& d, const char*
     return cranium_scene(ct);
   }
   throw Error(std::string(option) + ": unknown data set '" + d + "' (expected test-spheres or cranium)");
+}
+
+// Per scene, the techniques' error against frame time (scripts/bench_charts.py, matplotlib): PNGs and
+// charts.md beside bench.md. Optional: without Python or matplotlib the script says so and nothing fails.
+void draw_charts(const std::string& dir) {
+  const std::string script = std::string(PENUMBRA_SOURCE_DIR) + "/scripts/bench_charts.py";
+  if (!std::filesystem::exists(script) || dir.find('\'') != std::string::npos) {
+    std::fprintf(stderr, "bench: charts not drawn (%s not found, or the output folder's name holds a quote)\n", script.c_str());
+    return;
+  }
+  std::fflush(stdout);
+  const std::string command = "python3 '" + script + "' '" + dir + "' 1>&2";
+  if (std::system(command.c_str()) != 0) std::fprintf(stderr, "bench: charts not drawn (%s failed)\n", script.c_str());
 }
 
 void bench_dataset(const Options& o, const std::string& name, const nlohmann::json& scene_in, std::ostringstream& md,
@@ -178,6 +193,7 @@ void add_bench_command(CLI::App& app) {
   cmd->add_flag("--no-mesh", o->no_mesh, "Isosurface suite: skip the marching-cubes baseline");
   cmd->add_option("--dsm-datasets", o->dsm_datasets, "Suite dsm: test-spheres and/or cranium");
   cmd->add_option("--dsm-resolution", o->dsm_resolution, "Suite dsm: the paper's map resolution (1024)")->check(CLI::Range(16, 16384));
+  cmd->add_flag("--no-charts", o->no_charts, "Do not draw the error-against-time charts (scripts/bench_charts.py)");
   cmd->add_flag("--quick", o->quick,
                 "Every suite on small procedural data in seconds (overrides the sizes and data sets): checks that the bench runs");
   cmd->callback([o] {
@@ -248,6 +264,7 @@ void add_bench_command(CLI::App& app) {
     std::printf("%s", md.str().c_str());
     std::ofstream(o->dir + "/bench.md") << md.str();
     write_json_file(o->dir + "/bench.json", out);
+    if (!o->no_charts) draw_charts(o->dir);
   });
 }
 
