@@ -160,3 +160,44 @@ for i, name in enumerate(sorted(os.listdir(scenes))):
     s = open(os.path.join(scenes, name), "rb").read()
     sets = [b"shadows.technique=cssm", b"lights.0.intensity=2", b"camera.width=8"][: i % 4]
     put("scene", name, b"\0".join([s] + sets))
+
+# --- XTC and DCD trajectories: a few atoms of the MD run in two frames (MDAnalysis' writers when it is
+# installed: compressed XTC of 40 atoms, so the bit-packed runs of water are there), and files made here
+# byte by byte: an XTC of 3 atoms (stored as plain floats) and DCDs in both byte orders.
+def xtc_plain(atoms, frames):
+    b = b""
+    for k in range(frames):
+        b += struct.pack(">iiif", 1995, atoms, 100 * k, 0.2 * k) + struct.pack(">9f", 6.4, 0, 0, 0, 6.4, 0, 3.2, 3.2, 4.5)
+        b += struct.pack(">i", atoms) + struct.pack(">%df" % (3 * atoms), *[0.1 * (i + k) for i in range(3 * atoms)])
+    return b
+
+def dcd_bytes(atoms, frames, endian):
+    rec = lambda payload: struct.pack(endian + "i", len(payload)) + payload + struct.pack(endian + "i", len(payload))
+    icntrl = [frames, 0, 100, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 24]
+    head = b"CORD" + struct.pack(endian + "9i", *icntrl[:9]) + struct.pack(endian + "f", 0.0409) + struct.pack(endian + "10i", *icntrl[10:])
+    b = rec(head) + rec(struct.pack(endian + "i", 1) + b"seed".ljust(80)) + rec(struct.pack(endian + "i", atoms))
+    for k in range(frames):
+        b += rec(struct.pack(endian + "6d", 64.0, 0.0, 64.0, 0.5, 0.5, 64.0))
+        for d in range(3):
+            b += rec(struct.pack(endian + "%df" % atoms, *[float(i + k + d) for i in range(atoms)]))
+    return b
+
+put("xtc", "plain3.xtc", xtc_plain(3, 2))
+put("dcd", "le.dcd", dcd_bytes(5, 2, "<"))
+put("dcd", "be.dcd", dcd_bytes(5, 2, ">"))
+try:
+    import tempfile
+    import warnings
+    warnings.simplefilter("ignore")
+    import MDAnalysis as mda
+    u = mda.Universe(os.path.join(data, "md_1tii_chainD.gro"), os.path.join(data, "md_1tii_chainD_20frames.dcd"))
+    sel = u.atoms[1470:1510]  # water: runs of close atoms
+    with tempfile.TemporaryDirectory() as tmp:
+        for ext in ("xtc", "dcd"):
+            path = os.path.join(tmp, "md." + ext)
+            with mda.Writer(path, sel.n_atoms) as w:
+                for ts in u.trajectory[:2]:
+                    w.write(sel)
+            put(ext, "md_1tii_water40." + ext, open(path, "rb").read())
+except ImportError:
+    pass

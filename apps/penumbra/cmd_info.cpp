@@ -1,10 +1,13 @@
 // `penumbra info FILE [--bins N] [--assembly N]`: for a volume its dimensions, type, spacing, bounds,
-// value range and a histogram; for a molecule or particle file its atoms, assembly, spheres and bounds.
+// value range and a histogram; for a molecule or particle file its atoms, assembly, spheres and bounds;
+// for a trajectory (.xtc, .dcd, or --trajectory FILE) what info_trajectory.h says.
 #include <cstdio>
 
 #include "commands.h"
+#include "info_trajectory.h"
 #include "penumbra/core/error.h"
 #include "penumbra/data/io/particle_io.h"
+#include "penumbra/data/io/trajectory_io.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/volume_stats.h"
 
@@ -15,13 +18,31 @@ void add_info_command(CLI::App& app) {
     std::string file;
     int bins = 16;
     int assembly = 0;
+    bool trajectory = false;
+    long long frame = -1;
+    std::string positions;
+    bool read_all = false;
   };
   auto o = std::make_shared<Options>();
-  CLI::App* cmd = app.add_subcommand("info", "Describe a volume file (.nrrd, .nhdr, .nii, .nii.gz) or a particle file (.pdb, .cif, .gro, .xyz)");
-  cmd->add_option("file", o->file, "Volume or particle file")->required();
+  CLI::App* cmd = app.add_subcommand("info", "Describe a volume file (.nrrd, .nhdr, .nii, .nii.gz), a particle file (.pdb, .cif, .gro, .xyz) "
+                                             "or a trajectory (.xtc, .dcd; .pdb, .xyz, .gro with --trajectory)");
+  cmd->add_option("file", o->file, "Volume, particle or trajectory file")->required();
   cmd->add_option("--bins", o->bins, "Histogram bins (volumes)")->check(CLI::Range(1, 1024));
   cmd->add_option("--assembly", o->assembly, "Biological assembly to build (particle files; 0 = as deposited)")->check(CLI::Range(0, 1000000));
+  cmd->add_flag("--trajectory", o->trajectory, "Read FILE as a trajectory (multi-model PDB, multi-frame XYZ or GRO; .xtc and .dcd always are)");
+  cmd->add_option("--frame", o->frame, "Trajectory frame to describe (from 0)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--positions", o->positions, "Write the frame's positions (angstrom) to this .npy (float32, atoms x 3) or .txt file");
+  cmd->add_flag("--read-all", o->read_all, "Read every frame of the trajectory and report the frames per second");
   cmd->callback([o] {
+    const std::string traj_format = trajectory_file_format(o->file);
+    if (o->trajectory || traj_format == "xtc" || traj_format == "dcd") {
+      if (o->assembly != 0) throw penumbra::Error("--assembly: not for trajectories");
+      info_trajectory({o->file, o->frame, o->positions, o->read_all});
+      return;
+    }
+    if (o->frame >= 0 || !o->positions.empty() || o->read_all)
+      throw penumbra::Error("--frame, --positions and --read-all are for trajectories: " + o->file +
+                            " is not an .xtc or .dcd (give --trajectory for a multi-frame .pdb, .xyz or .gro)");
     if (!particle_file_format(o->file).empty()) {
       ParticleLoadOptions lo;
       lo.assembly = o->assembly;
