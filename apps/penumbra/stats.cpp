@@ -43,7 +43,8 @@ nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const 
   for (const auto& v : scene.volumes) volume_bytes += v.volume->memory_bytes();
   j["memory_bytes"] = {{"shadow", renderer.shadow_memory_bytes()}, {"ambient", renderer.ambient_memory_bytes()},
                         {"sat", renderer.sat_memory_bytes()}, {"volume", volume_bytes},
-                        {"particles", renderer.particle_memory_bytes()}, {"bvh", renderer.bvh_memory_bytes()}};
+                        {"particles", renderer.particle_memory_bytes()}, {"bvh", renderer.bvh_memory_bytes()},
+                        {"light_cache", renderer.light_cache_memory_bytes()}};
   const IsosurfaceFrameStats& iso = first.isosurface;
   j["counts"] = {{"voxels", renderer.voxel_count()}, {"spheres", renderer.sphere_count()}, {"points", iso.points},
                  {"lights", scene.lights.size()}, {"sphere_pixels", first.sphere_pixels}};

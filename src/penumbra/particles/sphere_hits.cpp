@@ -55,12 +55,13 @@ std::size_t SphereHits::covered() const {
 SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera) {
   const PrimaryRays m(camera);
   std::vector<PixelRect> rects(particles.size());
-  std::vector<float> nearest(particles.size());  // no hit along a unit ray is nearer than |c − eye| − r
+  std::vector<float> near_bound(particles.size());  // no hit along a unit ray is nearer than |c − eye| − r
   parallel_for(particles.size(), [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       const Sphere& s = particles.spheres[i];
       rects[i] = pixel_rect(m, s);
-      nearest[i] = lower_bound_with_margin(length(s.center - m.eye) - s.radius, length(s.center - m.eye) + s.radius);
+      const float distance = length(s.center - m.eye);
+      near_bound[i] = lower_bound_with_margin(distance - s.radius, distance + s.radius);
     }
   }, 4096);
   SphereHits hits = no_hits(camera);
@@ -70,7 +71,7 @@ SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera) {
     std::array<Vec3, kRasterTile * kRasterTile> dir;
   };
   TileBins(rects, m.width, m.height).nearest_per_pixel(
-      rects, nearest,
+      rects, near_bound,
       [&](int x0, int y0, int x1, int y1) {
         auto rays = std::make_unique<TileRays>();
         rays->x0 = x0;
