@@ -141,6 +141,7 @@ public:
   std::string document() const { return engine_.document().dump(); }
   int width() const { return engine_.scene().camera.width; }
   int height() const { return engine_.scene().camera.height; }
+  std::size_t frames() const { return engine_.scene().frame_count(); }
 
   // Renders into `out` ((H, W, 4) float32 premultiplied linear RGBA, or uint8 sRGB RGBA); returns the
   // frame's stats as JSON text.
@@ -256,6 +257,7 @@ PYBIND11_MODULE(_penumbra, m) {
       .def("document", &PyEngine::document)
       .def_property_readonly("width", &PyEngine::width)
       .def_property_readonly("height", &PyEngine::height)
+      .def_property_readonly("frames", &PyEngine::frames)
       .def("render_into", &PyEngine::render_into, py::arg("out"), py::arg("preview") = false, py::arg("accumulate") = false,
            py::arg("transparent") = false);
 

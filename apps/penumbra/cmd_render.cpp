@@ -1,12 +1,16 @@
 // `penumbra render (SCENE.json | DATA_FILE...) -o OUT.png [--width W --height H] [--set key=value ...]
-//  [--stats S.json] [--threads N] [--orbit N | --light-orbit N | --edits FILE] [--strict]
+//  [--stats S.json] [--threads N] [--orbit N | --light-orbit N | --frames A:B[:STEP] [--video V.mp4] | --edits FILE]
+//  [--strict]
 //  [--write-scene S.json] [--raw-dims X Y Z --raw-type T ...]`
 // Data files (volumes, molecules) make a scene of their own (scene/data_scene.h). Every frame goes
 // through the interactive engine (engine/engine.h): an orbit edits camera.eye or the first light each
-// frame, and --edits replays a recorded interaction.
+// frame, --frames steps the scene's `time` through trajectories and volume series (each frame reading
+// only its data and rebuilding what moved), and --edits replays a recorded interaction.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <thread>
@@ -18,6 +22,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/core/timer.h"
 #include "penumbra/isosurface/light_pass.h"
 #include "penumbra/render/isosurface_buffers.h"
 #include "penumbra/engine/engine.h"
@@ -31,8 +36,8 @@ namespace {
 
 struct RenderOptions {
   InputOptions in;
-  std::string output, stats, buffers, edits, write_scene;
-  int width = 0, height = 0, threads = 0, orbit = 0, light_orbit = 0, accumulate = 1;
+  std::string output, stats, buffers, edits, write_scene, frames, video;
+  int width = 0, height = 0, threads = 0, orbit = 0, light_orbit = 0, accumulate = 1, fps = 10;
   bool preview = false;
 };
 
@@ -206,14 +211,64 @@ nlohmann::json replay_edits(Engine& engine, const std::vector<EditStep>& steps, 
   return out;
 }
 
-bool sequence_requested(const RenderOptions& o) { return o.orbit > 0 || o.light_orbit > 0; }
+bool sequence_requested(const RenderOptions& o) { return o.orbit > 0 || o.light_orbit > 0 || !o.frames.empty(); }
+
+// --frames A:B[:STEP]: the frames A, A + STEP, … up to B (inclusive; B left out: the last frame).
+std::vector<std::size_t> time_frames(const std::string& spec, std::size_t count) {
+  auto fail = [&](const std::string& why) -> std::vector<std::size_t> {
+    throw Error("--frames " + spec + ": " + why);
+  };
+  if (count == 0) return fail("the scene has no trajectory or volume series (nothing has frames)");
+  std::vector<std::string> parts{""};
+  for (char c : spec) {
+    if (c == ':') parts.emplace_back();
+    else parts.back() += c;
+  }
+  if (parts.size() < 2 || parts.size() > 3) return fail("expected A:B or A:B:STEP (frame indices, B inclusive)");
+  auto number = [&](const std::string& text, std::size_t fallback) -> std::size_t {
+    if (text.empty()) return fallback;
+    if (!std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; }) || text.size() > 9)
+      throw Error("--frames " + spec + ": '" + text + "' is not a frame index (a whole number)");
+    return static_cast<std::size_t>(std::stoul(text));
+  };
+  const std::size_t first = number(parts[0], 0), last = number(parts[1], count - 1);
+  const std::size_t step = parts.size() == 3 ? number(parts[2], 1) : 1;
+  if (step == 0) return fail("STEP must be at least 1");
+  if (last >= count) return fail("frame " + std::to_string(last) + " is past the last frame (" + std::to_string(count) + " frames, 0 to " +
+                                 std::to_string(count - 1) + ")");
+  if (first > last) return fail("A is after B");
+  std::vector<std::size_t> frames;
+  for (std::size_t k = first; k <= last; k += step) frames.push_back(k);
+  return frames;
+}
+
+// The frames NAME_000.png … as a video through Debian's ffmpeg (H.264, yuv420p: what every player plays).
+void write_video(const std::string& output, const std::string& video, int count, int fps) {
+  const std::filesystem::path p(output);
+  const std::string pattern = (p.parent_path() / (p.stem().string() + "_%03d" + p.extension().string())).string();
+  for (const std::string* s : {&pattern, &video})
+    if (s->find('\'') != std::string::npos) throw Error("--video: file names with a quote are not supported");
+  const std::string command = "ffmpeg -y -loglevel error -framerate " + std::to_string(fps) + " -i '" + pattern +
+                              "' -frames:v " + std::to_string(count) +
+                              " -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2' -c:v libx264 -pix_fmt yuv420p '" + video + "'";
+  if (std::system(command.c_str()) != 0) throw Error("--video " + video + ": ffmpeg failed (command: " + command + ")");
+  std::fprintf(stderr, "%s: %d frames at %d fps\n", video.c_str(), count, fps);
+}
 
 void run_render(const RenderOptions& o) {
-  if (o.orbit > 0 && o.light_orbit > 0) throw Error("--orbit and --light-orbit cannot be combined");
-  if (!o.edits.empty() && (o.orbit > 0 || o.light_orbit > 0)) throw Error("--edits cannot be combined with --orbit or --light-orbit");
+  if (int(o.orbit > 0) + int(o.light_orbit > 0) + int(!o.frames.empty()) > 1)
+    throw Error("--orbit, --light-orbit and --frames cannot be combined");
+  if (!o.video.empty() && o.frames.empty() && o.orbit == 0 && o.light_orbit == 0)
+    throw Error("--video needs a sequence: --frames, --orbit or --light-orbit");
+  if (!o.video.empty()) {
+    if (std::system("ffmpeg -version > /dev/null 2>&1") != 0)
+      throw Error("--video " + o.video + ": ffmpeg not found (install Debian's ffmpeg); the frames can still be written without --video");
+    if (std::filesystem::path(o.output).extension() != ".png") throw Error("--video: the frames (-o) must be .png");
+  }
+  if (!o.edits.empty() && sequence_requested(o)) throw Error("--edits cannot be combined with --orbit, --light-orbit or --frames");
   if (o.preview && (o.accumulate > 1 || !o.edits.empty())) throw Error("--preview renders one preview frame (not with --accumulate or --edits)");
   if (o.accumulate > 1 && (sequence_requested(o) || !o.edits.empty()))
-    throw Error("--accumulate applies to a single frame (not with --orbit, --light-orbit or --edits)");
+    throw Error("--accumulate applies to a single frame (not with --orbit, --light-orbit, --frames or --edits)");
   check_output_path(o.output);
   if (!o.buffers.empty() && !std::filesystem::is_directory(o.buffers))
     throw Error("--buffers " + o.buffers + ": not a directory");
@@ -232,8 +287,9 @@ void run_render(const RenderOptions& o) {
   const Scene& scene = engine.scene();
   for (const auto& note : scene.unread_keys) std::fprintf(stderr, "penumbra: note: %s\n", note.c_str());
   if (!o.buffers.empty() && !scene.has_isosurfaces()) throw Error("--buffers: the scene has no isosurface");
-  const int frames = std::max({1, o.orbit, o.light_orbit});
-  const bool sequence = o.orbit > 0 || o.light_orbit > 0;
+  const std::vector<std::size_t> times = o.frames.empty() ? std::vector<std::size_t>{} : time_frames(o.frames, scene.frame_count());
+  const int frames = std::max({1, o.orbit, o.light_orbit, static_cast<int>(times.size())});
+  const bool sequence = sequence_requested(o);
   const Camera camera0 = scene.camera;
   const std::vector<Light> lights0 = scene.lights;
   const Vec3 centre = scene.caster_bounds().center();
@@ -242,6 +298,12 @@ void run_render(const RenderOptions& o) {
   for (int f = 0; f < frames; ++f) {
     const float angle = 2.0f * kPi * static_cast<float>(f) / static_cast<float>(frames);
     if (f > 0 && o.orbit > 0) engine.set("camera.eye", vec3_json(camera0.orbited(angle).eye));
+    double read_ms = 0;
+    if (!times.empty() && (f > 0 || times[0] != engine.scene().time)) {
+      Timer read;  // reading the frame's data (and the scene around it)
+      engine.set("time", times[static_cast<std::size_t>(f)]);
+      read_ms = read.elapsed_ms();
+    }
     if (f > 0 && o.light_orbit > 0 && !lights0.empty()) {
       const Light l = orbit_light(lights0[0], centre, camera0.up, angle);
       std::vector<std::pair<std::string, nlohmann::json>> edit;  // a point light has no direction
@@ -258,6 +320,12 @@ void run_render(const RenderOptions& o) {
     if (f == 0 && !o.buffers.empty()) write_isosurface_buffers(o.buffers, engine.renderer(), engine.scene().camera);
     nlohmann::json fs = frame_stats(frame);
     fs["file"] = path;
+    if (!times.empty()) {
+      fs["time"] = engine.scene().time;
+      fs["read_ms"] = read_ms;
+      for (const auto& p : engine.scene().particles)
+        if (p.frames > 0) fs["time_ps"] = p.time_ps;
+    }
     frame_list.push_back(fs);
     std::string rebuilt;
     for (const auto& r : frame.rebuilt) rebuilt += (rebuilt.empty() ? " (rebuilt " : ", ") + r;
@@ -275,6 +343,7 @@ void run_render(const RenderOptions& o) {
     write_json_file(o.stats, stats);
   }
   if (!o.write_scene.empty()) write_scene_file(engine, o.write_scene);
+  if (!o.video.empty()) write_video(o.output, o.video, frames, o.fps);
 }
 
 }  // namespace
@@ -285,7 +354,7 @@ void add_render_command(CLI::App& app) {
   add_input_options(*cmd, o->in);
   cmd->add_option("--write-scene", o->write_scene, "Also save the scene as a scene file (.json; paths relative to its folder): "
                                                    "what data files opened directly became, to edit and render again");
-  cmd->add_option("-o,--output", o->output, "Output image (.png or .pfm); with --orbit/--light-orbit, frames go to NAME_000.png ...")->required();
+  cmd->add_option("-o,--output", o->output, "Output image (.png or .pfm); with --orbit/--light-orbit/--frames, frames go to NAME_000.png ...")->required();
   cmd->add_option("--width", o->width, "Image width (overrides camera.width)")->check(CLI::Range(1, 16384));
   cmd->add_option("--height", o->height, "Image height (overrides camera.height)")->check(CLI::Range(1, 16384));
   cmd->add_option("--stats", o->stats, "Write timings, memory and counts as JSON");
@@ -298,6 +367,11 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--accumulate", o->accumulate,
                   "Average N samples (new jitter and cssm seeds each): the image the viewer converges to while idle")
       ->check(CLI::Range(1, 100000));
+  cmd->add_option("--frames", o->frames,
+                  "Render the frames A to B (inclusive; B left out: the last), every STEP, of the scene's trajectories and "
+                  "volume series: A:B[:STEP]; images go to NAME_000.png ...");
+  cmd->add_option("--video", o->video, "With a sequence: also encode its frames as a video (.mp4) through ffmpeg");
+  cmd->add_option("--fps", o->fps, "Frames per second of --video (default 10)")->check(CLI::Range(1, 240));
   cmd->add_flag("--preview", o->preview, "Render what the viewer shows while the hand moves: the engine's preview quality");
   cmd->add_option("--edits", o->edits,
                   "Replay an interaction: a JSON list of steps {\"set\": {\"PATH\": VALUE, ...}, \"idle_ms\": N}; each step's "

@@ -215,6 +215,12 @@ class Renderer:
         return json.loads(self._engine.get(path))
 
     @property
+    def frames(self):
+        """Frames of the scene's trajectories and volume series (0 when nothing moves): r.set("time", k)
+        for k in range(r.frames) plays them, each frame reading only its data."""
+        return self._engine.frames
+
+    @property
     def scene(self):
         """The scene as edited so far (with the arrays it views)."""
         scene = Scene(json.loads(self._engine.document()))

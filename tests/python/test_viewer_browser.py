@@ -254,3 +254,44 @@ def test_the_screenshot_link_equals_penumbra_render_of_the_save_scene_link(sessi
     subprocess.run([CLI, "render", str(scene), "-o", str(tmp_path / "cli.png")], check=True, capture_output=True)
     same = (tmp_path / "cli.png").read_bytes() == png
     assert same, "the screenshot is not what penumbra render makes of the saved scene"
+
+
+def test_the_time_slider_and_play_step_through_a_series(tmp_path):
+    """A scene with frames (a generated volume series) shows the time section; Play steps through every
+    frame and wraps, each step waiting for its full frame; Pause stops; the slider jumps to a frame."""
+    scene = {
+        "volumes": [{"procedural": {"name": "sphere", "size": 24, "radius": 0.15, "frames": 4},
+                     "transfer_function": {"preset": "test-spheres"}}],
+        "planes": [{"point": [0, -0.52, 0], "normal": [0, 1, 0], "size": 4}],
+        "lights": [{"type": "directional", "direction": [-0.3, -1, -0.2]}],
+        "shadows": {"technique": "cssm", "resolution": 64},
+        "camera": {"width": 160, "height": 120},
+    }
+    server = Viewer(tmp_path, scene)
+    driver = None
+    try:
+        driver = chrome()
+        driver.get(server.url)
+        wait(driver, lambda d: d.find_element(By.ID, "time-section").is_displayed(), "the time section never showed")
+        assert js(driver, "document.getElementById('time').max") == "3"
+        driver.find_element(By.ID, "play").click()
+        seen = set()
+
+        def advanced(d):
+            frame = js(d, "window.penumbraViewer.lastFrame")
+            if frame and frame.get("quality") == "full":
+                seen.add(frame.get("time"))
+            return seen >= {0, 1, 2, 3} and frame.get("time") == 0 and len(seen) == 4
+
+        wait(driver, advanced, f"playing did not go through every frame and wrap (seen {seen})")
+        driver.find_element(By.ID, "play").click()
+        assert driver.find_element(By.ID, "play").text == "Play"
+        js(driver, "(() => { const t = document.getElementById('time'); t.value = 2;"
+                   " t.dispatchEvent(new Event('input')); return true; })()")
+        wait(driver, lambda d: (js(d, "window.penumbraViewer.lastFrame") or {}).get("time") == 2
+             and js(d, "window.penumbraViewer.lastFrame").get("quality") == "full", "the slider did not show frame 2")
+        assert "frame 2 / 3" in driver.find_element(By.ID, "time-readout").text
+    finally:
+        if driver:
+            driver.quit()
+        assert server.close() == 0

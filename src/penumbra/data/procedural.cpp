@@ -12,6 +12,7 @@
 #include <cmath>
 #include <functional>
 #include <map>
+#include <numbers>
 #include <sstream>
 #include <filesystem>
 
@@ -40,7 +41,7 @@ const std::map<std::string, std::map<std::string, double>>& shape_params() {
   static const std::map<std::string, std::map<std::string, double>> params{
       {"test-spheres", {{"seed", -1.0}}},
       {"slab", {{"thickness", 0.3}}},
-      {"sphere", {{"radius", 0.35}}},
+      {"sphere", {{"radius", 0.35}, {"frames", 0.0}, {"frame", 0.0}, {"orbit", 0.25}}},
       {"hollow-sphere", {{"radius", 0.35}, {"thickness", 0.08}}},
       {"marschner-lobb", {{"alpha", 0.25}, {"fm", 6.0}}},
       {"ct-body", {{"dims", 0.0}, {"seed", 1.0}, {"noise", 60.0}}},
@@ -314,7 +315,15 @@ Volume make_procedural_volume(const nlohmann::json& spec, const std::string& bas
     density = [half](double, double y, double) { return std::abs(y) <= half + 1e-12 ? 1.0 : 0.0; };
   } else if (name == "sphere") {
     const double r = number_param(spec, name, "radius", 0.35, 0.0, false);
-    density = [r](double x, double y, double z) { return x * x + y * y + z * z <= r * r + 1e-12 ? 1.0 : 0.0; };
+    // a time series when "frames" is given: the ball orbits the y axis, one turn over the frames
+    const double frames = number_param(spec, name, "frames", 0.0, 0.0, true);
+    const double frame = number_param(spec, name, "frame", 0.0, 0.0, true);
+    const double orbit = frames > 0 ? number_param(spec, name, "orbit", 0.25, 0.0, true) : 0.0;
+    const double angle = frames > 0 ? 2 * std::numbers::pi * frame / frames : 0.0;
+    const double cx = orbit * std::cos(angle), cz = orbit * std::sin(angle);
+    density = [r, cx, cz](double x, double y, double z) {
+      return (x - cx) * (x - cx) + y * y + (z - cz) * (z - cz) <= r * r + 1e-12 ? 1.0 : 0.0;
+    };
   } else if (name == "hollow-sphere") {
     const double r = number_param(spec, name, "radius", 0.35, 0.0, false);
     const double t = number_param(spec, name, "thickness", 0.08, 0.0, false);

@@ -21,7 +21,9 @@ namespace penumbra {
 std::vector<std::string> procedural_volume_names();
 
 // Builds from the scene-file object {"name": "...", "size": N, ...parameters}; unknown keys are errors.
-// Parameters: size (default 64, 2..1024); slab: thickness (0.3); sphere: radius (0.35);
+// Parameters: size (default 64, 2..1024); slab: thickness (0.3); sphere: radius (0.35), and for a time
+// series frames (0: none; N: one turn of the ball around the y axis over N frames), frame (the one to
+// make; the scene reader sets it from the scene's `time`), orbit (0.25, the turn's radius);
 // hollow-sphere: radius (0.35), thickness (0.08); test-spheres: seed (none: a fixed layout);
 // marschner-lobb: alpha (0.25), fm (6). Density outside the shapes is 0.
 // ct-body takes no size: dims ([512, 512, 1734], each 8..2048), seed (1), noise (60, at most 10000).

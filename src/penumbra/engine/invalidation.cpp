@@ -63,6 +63,7 @@ void expand(const std::string& name, const std::string& index, const Scene& s, s
 
 constexpr const char* kScene = "scene";
 constexpr const char* kAllShadows = "lights.*.shadows";
+constexpr const char* kTrajectorySpheres = "spheres when a trajectory moves them";
 
 }  // namespace
 
@@ -111,6 +112,9 @@ const std::vector<InvalidationRule>& invalidation_table() {
       {"ambient", {"ambient"}, "the ambient cache"},
       {"ambient.bleeding", {"sat", "ambient"}, "the SAT holds colour only for colour bleeding"},
       {"light_cache", {"sat"}, "the SAT's grid"},
+      {"time", {kTrajectorySpheres},
+       "another frame: the spheres of every trajectory (and what depends on them: BVH, shadows, AO); a volume "
+       "series' next step is new data, so a new scene"},
   };
   return rows;
 }
@@ -169,6 +173,11 @@ std::vector<std::string> invalidated_by(const std::string& path, const Scene& sc
   std::set<std::string> stale;
   for (const char* s : row->stale) {
     if (std::string(s) == kScene) return {kScene};
+    if (std::string(s) == kTrajectorySpheres) {
+      if (std::any_of(scene.particles.begin(), scene.particles.end(), [](const ParticleObject& p) { return p.frames > 0; }))
+        stale.insert("spheres");
+      continue;
+    }
     expand(s, index, scene, stale);
   }
   return with_dependents({stale.begin(), stale.end()}, scene);

@@ -113,6 +113,7 @@ void Renderer::apply_edit(const Scene& edited, const std::vector<std::string>& s
   scene_.shading = edited.shading;
   scene_.background = edited.background;
   scene_.unread_keys = edited.unread_keys;
+  scene_.time = edited.time;
   stale_.insert(stale.begin(), stale.end());
 }
 

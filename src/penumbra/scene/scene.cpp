@@ -67,13 +67,22 @@ Box3 Scene::caster_bounds() const {
   for (const auto& v : volumes)
     if (v.visible) b.extend(v.volume->bounds());
   for (const auto& i : isosurfaces) b.extend(volumes[i.volume].volume->bounds());
-  for (const auto& p : particles) b.extend(p.set->bounds());
+  for (const auto& p : particles) b.extend(p.frames > 0 ? p.topology_bounds : p.set->bounds());
   // Planes join only when there is no volume: a light frustum fitted to the volumes already covers
   // every receiver the volumes can shadow (their shadow lies inside the frustum), and a large floor
   // would spread the shadow map's texels thin.
   if (b.empty())
     for (const auto& p : planes) b.extend(p.bounds());
   return b;
+}
+
+std::size_t Scene::frame_count() const {
+  std::size_t n = 0;
+  for (const auto& p : particles)
+    if (p.frames > 0) n = n == 0 ? p.frames : std::min(n, p.frames);
+  for (const auto& v : volumes)
+    if (v.frames > 0) n = n == 0 ? v.frames : std::min(n, v.frames);
+  return n;
 }
 
 const VolumeObject* Scene::visible_volume() const {

@@ -45,6 +45,7 @@ struct VolumeObject : ShadowFlags {
   Compositing compositing = Compositing::Alpha;  // how the transfer function's opacity is read
   bool visible = true;
   bool jitter = true;                   // per-pixel offset of the sample lattice (against wood-grain rings)
+  std::size_t frames = 0;               // volumes[].files: the steps of the series (`volume` is step Scene::time); 0: one volume
 
   float step_world() const {
     const Vec3& s = volume->spacing();
@@ -64,6 +65,12 @@ struct VolumeObject : ShadowFlags {
 struct ParticleObject : ShadowFlags {
   std::shared_ptr<const ParticleSet> set;
   std::string source;  // file path or "procedural:random-spheres", for messages and stats
+  // particles[].trajectory: `set` is the topology's spheres at frame Scene::time of `frames`, the
+  // frame's time in ps as the file stores it; what default cameras frame is the topology's box, so the
+  // view holds still while the atoms move. frames = 0: static spheres.
+  std::size_t frames = 0;
+  double time_ps = 0;
+  Box3 topology_bounds;
 };
 
 // How an isosurface is drawn (paper 002): view-dependent points, the exact ray-cast reference, or the
@@ -189,9 +196,13 @@ struct Scene {
   // One line for each key given in the scene that its techniques do not read (scene_file.h); front
   // ends print them.
   std::vector<std::string> unread_keys;
+  // The frame shown of every trajectory (particles[].trajectory) and volume series (volumes[].files).
+  std::size_t time = 0;
 
+  // The frames every dynamic object holds (the smallest count); 0 when nothing moves.
+  std::size_t frame_count() const;
   // The box of what the scene shows: the visible volumes, the volumes of isosurfaces and the spheres
-  // (finite planes when there are none); default cameras and lights frame it.
+  // (a trajectory's topology), finite planes when there are none; default cameras and lights frame it.
   Box3 caster_bounds() const;
   // The first visible volume, or nullptr.
   const VolumeObject* visible_volume() const;

@@ -145,15 +145,85 @@ std::shared_ptr<const Data> named_array(JsonReader& r, const SceneArrays* arrays
   return it->second;
 }
 
-// Exactly one of the keys that say where an object's data comes from.
+// Exactly one of the keys that say where an object's data comes from (volumes may give "files").
 void require_one_source(JsonReader& r) {
-  const int sources = int(r.has("file")) + int(r.has("procedural")) + int(r.has("array"));
+  const int sources = int(r.has("file")) + int(r.has("procedural")) + int(r.has("array")) + int(r.has("files"));
   if (sources != 1)
-    r.fail(r.has("file") ? "file" : r.has("procedural") ? "procedural" : "array",
-           sources == 0 ? "missing: give 'file' or 'procedural'" : "give exactly one of 'file', 'procedural' and 'array'");
+    r.fail(r.has("file") ? "file" : r.has("procedural") ? "procedural" : r.has("array") ? "array" : "files",
+           sources == 0 ? "missing: give 'file' or 'procedural'"
+                        : "give exactly one of 'file', 'files', 'procedural' and 'array'");
 }
 
-VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const std::string& base_dir, const SceneReadOptions& options) {
+// The file of step k of a printf-style pattern holding one %d, %Nd or %0Nd (nothing else is a
+// conversion: "%%" is a literal percent sign); Error naming `key` for any other pattern.
+std::string pattern_file(JsonReader& r, const std::string& pattern, std::size_t k) {
+  std::string out;
+  int conversions = 0;
+  for (std::size_t i = 0; i < pattern.size(); ++i) {
+    if (pattern[i] != '%') {
+      out += pattern[i];
+      continue;
+    }
+    if (i + 1 < pattern.size() && pattern[i + 1] == '%') {
+      out += '%';
+      ++i;
+      continue;
+    }
+    std::size_t j = i + 1;
+    const bool zeros = j < pattern.size() && pattern[j] == '0';
+    std::size_t width = 0;
+    while (j < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[j])) && width < 100)
+      width = width * 10 + static_cast<std::size_t>(pattern[j++] - '0');
+    if (j >= pattern.size() || pattern[j] != 'd' || width >= 100)
+      r.fail("files", "the pattern '" + pattern + "' may hold only %d, %Nd or %0Nd (the step number)");
+    std::string number = std::to_string(k);
+    if (number.size() < width) number.insert(0, width - number.size(), zeros ? '0' : ' ');
+    out += number;
+    ++conversions;
+    i = j;
+  }
+  if (conversions != 1) r.fail("files", "the pattern '" + pattern + "' must hold exactly one %d (the step number)");
+  return out;
+}
+
+// volumes[].files: a list of files (steps in order) or a pattern numbering them from 0 or 1 up to the
+// last consecutive one that exists. Resolved against base_dir.
+std::vector<std::string> series_files(JsonReader& r, const std::string& base_dir) {
+  const nlohmann::json& f = r.raw("files");
+  std::vector<std::string> files;
+  if (f.is_array()) {
+    for (const auto& name : f) {
+      if (!name.is_string()) r.fail("files", "lists file names (strings)");
+      files.push_back(resolve(base_dir, name.get<std::string>()));
+    }
+  } else if (f.is_string()) {
+    const std::string pattern = resolve(base_dir, f.get<std::string>());
+    std::size_t first = std::filesystem::exists(pattern_file(r, pattern, 0)) ? 0 : 1;
+    for (std::size_t k = first; std::filesystem::exists(pattern_file(r, pattern, k)); ++k) files.push_back(pattern_file(r, pattern, k));
+    if (files.empty())
+      r.fail("files", "no file matches '" + pattern + "' (tried " + pattern_file(r, pattern, 0) + " and " +
+                          pattern_file(r, pattern, 1) + ")");
+  } else {
+    r.fail("files", "expected a list of file names or a pattern such as \"run_%04d.nrrd\"");
+  }
+  if (files.empty()) r.fail("files", "is an empty list");
+  return files;
+}
+
+// Every step of a series must share the grid of the first one loaded (Error naming the file).
+void check_same_grid(JsonReader& r, const SeriesGrid& first, const Volume& step, const std::string& file) {
+  auto grid = [](const std::array<int, 3>& d, ScalarType type, const Vec3& spacing) {
+    return std::to_string(d[0]) + "×" + std::to_string(d[1]) + "×" + std::to_string(d[2]) + " " + to_string(type) +
+           " voxels of " + std::to_string(spacing.x) + " " + std::to_string(spacing.y) + " " + std::to_string(spacing.z);
+  };
+  if (first.dims != step.dims() || first.type != step.type() || !(first.spacing == step.spacing()) || !(first.origin == step.origin()))
+    r.fail("files", "'" + file + "' holds " + grid(step.dims(), step.type(), step.spacing()) + ", but '" + first.file +
+                        "' holds " + grid(first.dims, first.type, first.spacing) +
+                        " (every step must have the same grid, voxel type, spacing and origin)");
+}
+
+VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const std::string& base_dir, const SceneReadOptions& options,
+                         std::size_t time) {
   JsonReader r(j, path);
   VolumeObject v;
   require_one_source(r);
@@ -162,16 +232,42 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   if (r.has("spacing") && !r.has("array"))
     r.fail("spacing", "is given with 'array' only (a file's spacing is in its header, or in 'raw')");
   std::function<Volume()> load;
-  std::string data_id = data_key(j, base_dir, {"file", "raw", "procedural", "array", "spacing", "origin"});
-  if (r.has("file")) {
-    const std::string file = resolve(base_dir, r.required_string("file"));
+  std::string data_id = data_key(j, base_dir, {"file", "files", "raw", "procedural", "array", "spacing", "origin"});
+  std::string series_id;  // a series: what its first loaded step is cached under (the reference grid and range)
+  if (r.has("file") || r.has("files")) {
+    std::string file;
+    if (r.has("files")) {
+      const std::vector<std::string> files = series_files(r, base_dir);
+      if (time >= files.size())
+        throw Error("time: frame " + std::to_string(time) + " is past the last step of " + r.key_path("files") + " (" +
+                    std::to_string(files.size()) + " steps, 0 to " + std::to_string(files.size() - 1) + ")");
+      file = files[time];
+      v.frames = files.size();
+      series_id = data_id + "@series";
+      data_id += "@" + file;
+    } else {
+      file = resolve(base_dir, r.required_string("file"));
+    }
     std::optional<RawVolumeOptions> raw;
     if (r.has("raw")) raw = read_raw_options(r.raw("raw"), r.key_path("raw"));
-    load = [&r, file, raw] { return with_context(r.key_path("file"), [&] { return load_volume(file, raw); }); };
+    const std::string key = r.has("files") ? "files" : "file";
+    load = [&r, file, raw, key] { return with_context(r.key_path(key), [&] { return load_volume(file, raw); }); };
     v.source = file;
   } else if (r.has("procedural")) {
-    const auto& spec = r.raw("procedural");
-    load = [&r, &spec, &base_dir] { return with_context(r.key_path("procedural"), [&] { return make_procedural_volume(spec, base_dir); }); };
+    nlohmann::json spec = r.raw("procedural");
+    if (spec.is_object() && spec.contains("frames")) {  // a generated time series: step `time` of it
+      const nlohmann::json& n = spec["frames"];
+      if (!n.is_number_integer() || n.get<std::int64_t>() < 1 || n.get<std::int64_t>() > 1000000)
+        r.fail("procedural", "\"frames\": " + n.dump() + " (expected an integer in 1..1000000)");
+      v.frames = static_cast<std::size_t>(n.get<std::int64_t>());
+      if (time >= v.frames)
+        throw Error("time: frame " + std::to_string(time) + " is past the last step of " + r.key_path("procedural") + " (" +
+                    std::to_string(v.frames) + " frames)");
+      spec["frame"] = time;
+      series_id = data_id + "@series";
+      data_id += "@frame=" + std::to_string(time);
+    }
+    load = [&r, spec, &base_dir] { return with_context(r.key_path("procedural"), [&] { return make_procedural_volume(spec, base_dir); }); };
     v.source = "procedural:" + (spec.contains("name") && spec["name"].is_string() ? spec["name"].get<std::string>() : "?");
   } else {
     const std::shared_ptr<const Volume> array = named_array(r, options.arrays, &SceneArrays::volumes, "volume");
@@ -191,20 +287,30 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
     return vol;
   };
   const std::shared_ptr<Volume> volume = options.cache ? options.cache->volume(data_id, load_placed) : std::make_shared<Volume>(load_placed());
+  // A series keeps the grid and value range of the first step it loaded: every step must share that
+  // grid, and the transfer function reads that range, so colours hold still while the data change.
+  float range_lo = volume->min_value(), range_hi = volume->max_value();
+  if (!series_id.empty() && options.cache) {
+    const SeriesGrid& first = options.cache->series(series_id, *volume, v.source);
+    check_same_grid(r, first, *volume, v.source);
+    range_lo = first.min_value;
+    range_hi = first.max_value;
+  }
+  const std::string tf_id = series_id.empty() ? data_id : series_id;
   v.visible = r.boolean("visible", true);
   // A hidden volume (one only isosurfaces are drawn from) needs no transfer function.
   if (r.has("transfer_function"))
     v.transfer_function = with_context(r.key_path("transfer_function"), [&] {
-      return parse_transfer_function(r.raw("transfer_function"), volume->min_value(), volume->max_value(), base_dir);
+      return parse_transfer_function(r.raw("transfer_function"), range_lo, range_hi, base_dir);
     });
   else if (v.visible)  // one chosen from the data
     v.transfer_function = parse_transfer_function(
-        options.cache ? options.cache->chosen_transfer_function(data_id, *volume) : choose_transfer_function(*volume),
-        volume->min_value(), volume->max_value(), base_dir);
+        options.cache ? options.cache->chosen_transfer_function(tf_id, *volume) : choose_transfer_function(*volume),
+        range_lo, range_hi, base_dir);
   if (r.has("shadow_transfer_function")) {
     v.has_shadow_transfer_function = true;
     v.shadow_transfer_function = with_context(r.key_path("shadow_transfer_function"), [&] {
-      return parse_transfer_function(r.raw("shadow_transfer_function"), volume->min_value(), volume->max_value(), base_dir);
+      return parse_transfer_function(r.raw("shadow_transfer_function"), range_lo, range_hi, base_dir);
     });
   }
   v.step = r.number("step", v.step, 0.05f, 8.0f);
@@ -222,7 +328,7 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   return v;
 }
 
-ParticleObject read_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir, const SceneReadOptions& options) {
+ParticleObject read_static_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir, const SceneReadOptions& options) {
   if (j.is_object() && j.contains("array")) {  // the caller's spheres, as they are
     JsonReader r(j, path);
     ParticleObject p;
@@ -237,7 +343,7 @@ ParticleObject read_particles(const nlohmann::json& j, const std::string& path, 
     JsonReader r(j, path);
     ParticleObject p;
     p.set = options.cache->particles(data_key(j, base_dir, {"casts_shadows", "receives_shadows"}, true), [&] {
-      return ParticleSet(*read_particles(j, path, base_dir, SceneReadOptions{}).set);
+      return ParticleSet(*read_static_particles(j, path, base_dir, SceneReadOptions{}).set);
     });
     p.source = r.has("file") ? resolve(base_dir, r.required_string("file")) : "procedural:random-spheres";
     read_shadow_flags(r, p);
@@ -304,6 +410,88 @@ ParticleObject read_particles(const nlohmann::json& j, const std::string& path, 
   read_shadow_flags(r, p);
   r.finish();
   return p;
+}
+
+// The files of particles[].trajectory: one file or a list (frames in the order given), resolved.
+std::vector<std::string> trajectory_files(JsonReader& r, const std::string& base_dir) {
+  const nlohmann::json& t = r.raw("trajectory");
+  std::vector<std::string> files;
+  if (t.is_string()) files.push_back(resolve(base_dir, t.get<std::string>()));
+  if (t.is_array())
+    for (const auto& f : t) {
+      if (!f.is_string()) r.fail("trajectory", "lists file names (strings)");
+      files.push_back(resolve(base_dir, f.get<std::string>()));
+    }
+  if (files.empty()) r.fail("trajectory", "expected a file name or a non-empty list of file names");
+  return files;
+}
+
+// particles[] with a "trajectory": the topology (its `file`, read as a static set: radii, colours) with
+// every sphere moved to its atom's position at frame `time` (sphere i is atom i, so the topology keeps
+// every atom: no assembly, hydrogens kept). The trajectory stays open in the cache between frames.
+ParticleObject read_trajectory_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir,
+                                         const SceneReadOptions& options, std::size_t time) {
+  JsonReader r(j, path);
+  if (!r.has("file")) r.fail("trajectory", "needs a topology: give the particles' 'file' (PDB, mmCIF, GRO or XYZ) beside it");
+  if (r.integer("assembly", 0, 0, 1000000) != 0)
+    r.fail("assembly", "cannot be used with a trajectory: its frames hold the deposited atoms, not an assembly");
+  if (!r.boolean("hydrogens", true))
+    r.fail("hydrogens", "cannot be false with a trajectory: its frames hold every atom of the topology");
+  const std::vector<std::string> files = trajectory_files(r, base_dir);
+  nlohmann::json topology_json = j;
+  topology_json.erase("trajectory");
+  topology_json.erase("origin");  // the shift is applied to every frame below
+  ParticleObject p = read_static_particles(topology_json, path, base_dir, options);
+  const ParticleSet& topology = *p.set;
+  auto open = [&] {
+    return with_context(r.key_path("trajectory"), [&] { return open_trajectory(files, topology.size()); });
+  };
+  std::unique_ptr<TrajectoryReader> own;
+  TrajectoryReader& reader = options.cache ? options.cache->trajectory(nlohmann::json(files).dump(), open) : *(own = open());
+  if (reader.atom_count() != topology.size())
+    r.fail("trajectory", "holds " + std::to_string(reader.atom_count()) + " atoms a frame, but the topology '" +
+                             p.source + "' has " + std::to_string(topology.size()));
+  if (time >= reader.frame_count())
+    throw Error("time: frame " + std::to_string(time) + " is past the last frame of " + r.key_path("trajectory") + " (" +
+                std::to_string(reader.frame_count()) + " frames, 0 to " + std::to_string(reader.frame_count() - 1) + ")");
+  const Vec3 shift = r.has("origin") ? r.vec3("origin", {}) - topology.bounds().center() : Vec3{};
+  double time_ps = 0;
+  auto load_frame = [&] {
+    TrajectoryFrame frame;
+    with_context(r.key_path("trajectory"), [&] { reader.read_frame(time, frame); });
+    ParticleSet moved = topology;
+    for (std::size_t i = 0; i < moved.spheres.size(); ++i) moved.spheres[i].center = frame.positions[i] + shift;
+    time_ps = frame.time_ps;
+    return moved;
+  };
+  // a frame read once per time: edits of anything else keep the same spheres
+  if (options.cache) {
+    std::string key = data_key(j, base_dir, {"casts_shadows", "receives_shadows"}, true) + "@time=" + std::to_string(time);
+    bool loaded = false;
+    p.set = options.cache->particles(key, [&] {
+      loaded = true;
+      return load_frame();
+    });
+    double& stored = options.cache->frame_time_ps(key);
+    if (loaded) stored = time_ps;
+    p.time_ps = stored;
+  } else {
+    p.set = std::make_shared<const ParticleSet>(load_frame());
+    p.time_ps = time_ps;
+  }
+  p.topology_bounds = topology.bounds();
+  if (r.has("origin")) {
+    p.topology_bounds.lo = p.topology_bounds.lo + shift;
+    p.topology_bounds.hi = p.topology_bounds.hi + shift;
+  }
+  p.frames = reader.frame_count();
+  return p;
+}
+
+ParticleObject read_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir,
+                              const SceneReadOptions& options, std::size_t time) {
+  if (j.is_object() && j.contains("trajectory")) return read_trajectory_particles(j, path, base_dir, options, time);
+  return read_static_particles(j, path, base_dir, options);
 }
 
 IsosurfaceObject read_isosurface(const nlohmann::json& j, const std::string& path, const std::vector<VolumeObject>& volumes) {
@@ -506,6 +694,27 @@ std::shared_ptr<const ParticleSet> SceneDataCache::particles(const std::string& 
   return p;
 }
 
+const SeriesGrid& SceneDataCache::series(const std::string& key, const Volume& step, const std::string& file) {
+  used_.insert("s" + key);
+  auto it = series_.find(key);
+  if (it == series_.end())
+    it = series_.emplace(key, SeriesGrid{step.dims(), step.type(), step.spacing(), step.origin(), step.min_value(),
+                                         step.max_value(), file}).first;
+  return it->second;
+}
+
+double& SceneDataCache::frame_time_ps(const std::string& key) {
+  used_.insert("f" + key);
+  return frame_times_[key];
+}
+
+TrajectoryReader& SceneDataCache::trajectory(const std::string& key, const std::function<std::unique_ptr<TrajectoryReader>()>& open) {
+  used_.insert("r" + key);
+  auto& t = trajectories_[key];
+  if (!t) t = open();
+  return *t;
+}
+
 const nlohmann::json& SceneDataCache::chosen_transfer_function(const std::string& key, const Volume& volume) {
   used_.insert("t" + key);
   auto& tf = transfer_functions_[key];
@@ -517,6 +726,9 @@ void SceneDataCache::drop_unused() {
   std::erase_if(volumes_, [&](const auto& e) { return !used_.count("v" + e.first); });
   std::erase_if(transfer_functions_, [&](const auto& e) { return !used_.count("t" + e.first); });
   std::erase_if(particles_, [&](const auto& e) { return !used_.count("p" + e.first); });
+  std::erase_if(trajectories_, [&](const auto& e) { return !used_.count("r" + e.first); });
+  std::erase_if(frame_times_, [&](const auto& e) { return !used_.count("f" + e.first); });
+  std::erase_if(series_, [&](const auto& e) { return !used_.count("s" + e.first); });
   used_.clear();
 }
 
@@ -601,15 +813,16 @@ void apply_override(nlohmann::json& scene, const std::string& assignment) {
 Scene build_scene(const nlohmann::json& j, const std::string& base_dir, const SceneReadOptions& options) {
   JsonReader r(j, "");
   Scene s;
+  s.time = static_cast<std::size_t>(r.integer("time", 0, 0, INT32_MAX));
   if (r.has("volumes")) {
     const auto& vols = array_at(r, "volumes");
     for (std::size_t i = 0; i < vols.size(); ++i)
-      s.volumes.push_back(read_volume(vols[i], "volumes." + std::to_string(i), base_dir, options));
+      s.volumes.push_back(read_volume(vols[i], "volumes." + std::to_string(i), base_dir, options, s.time));
   }
   if (r.has("particles")) {
     const auto& parts = array_at(r, "particles");
     for (std::size_t i = 0; i < parts.size(); ++i)
-      s.particles.push_back(read_particles(parts[i], "particles." + std::to_string(i), base_dir, options));
+      s.particles.push_back(read_particles(parts[i], "particles." + std::to_string(i), base_dir, options, s.time));
   }
   s.sphere_rasterizer = with_context("sphere_renderer", [&] { return sphere_rasterizer_from_string(r.string("sphere_renderer", "splat")); });
   if (r.has("isosurfaces")) {

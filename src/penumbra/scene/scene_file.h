@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "penumbra/data/io/trajectory_io.h"
 #include "penumbra/scene/scene.h"
 
 namespace penumbra {
@@ -31,6 +32,15 @@ void set_path(nlohmann::json& scene, const std::string& path, nlohmann::json val
 // `to_folder` must say to name the same files.
 nlohmann::json with_files_relative_to(nlohmann::json document, const std::string& from_folder, const std::string& to_folder);
 
+// What a volume series (volumes[].files, a generated series) keeps of the first step it loaded.
+struct SeriesGrid {
+  std::array<int, 3> dims;
+  ScalarType type;
+  Vec3 spacing, origin;
+  float min_value, max_value;  // the transfer function's range for every step
+  std::string file;
+};
+
 // The volumes and particle sets a scene read loaded, by what defines them (the file and its reading
 // options, or the generator and its parameters), so that reading an edited scene again loads only the
 // data whose definition changed (engine/engine.h).
@@ -38,6 +48,11 @@ class SceneDataCache {
 public:
   std::shared_ptr<Volume> volume(const std::string& key, const std::function<Volume()>& load);
   std::shared_ptr<const ParticleSet> particles(const std::string& key, const std::function<ParticleSet()>& load);
+  // An open trajectory (its frame index built once), so that moving to another frame reads only that frame.
+  TrajectoryReader& trajectory(const std::string& key, const std::function<std::unique_ptr<TrajectoryReader>()>& open);
+  double& frame_time_ps(const std::string& key);  // the time (ps) of the frame cached under `key`
+  // A series' reference: `step`'s grid and range when the series is new to the cache, else the stored one.
+  const SeriesGrid& series(const std::string& key, const Volume& step, const std::string& file);
   // The transfer function chosen from a volume's data (data/transfer_function_choice.h), once per data.
   const nlohmann::json& chosen_transfer_function(const std::string& key, const Volume& volume);
   // Forgets what the reads since the last call did not use.
@@ -46,6 +61,9 @@ public:
 private:
   std::map<std::string, std::shared_ptr<Volume>> volumes_;
   std::map<std::string, std::shared_ptr<const ParticleSet>> particles_;
+  std::map<std::string, std::shared_ptr<TrajectoryReader>> trajectories_;  // shared by copies of the cache
+  std::map<std::string, double> frame_times_;
+  std::map<std::string, SeriesGrid> series_;
   std::map<std::string, nlohmann::json> transfer_functions_;
   std::set<std::string> used_;
 };

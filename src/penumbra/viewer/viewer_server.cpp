@@ -419,7 +419,8 @@ void ViewerServer::Impl::render_frame(Quality quality, bool accumulate) {
                          {"height", f.image.height()}, {"ms", timer.elapsed_ms()},
                          {"view_width", engine.scene().camera.width}, {"view_height", engine.scene().camera.height},
                          {"divisor", f.divisor},  {"rebuilt", rebuilt},
-                         {"edits", f.edits},      {"memory_mb", resident_mb()}};
+                         {"edits", f.edits},      {"memory_mb", resident_mb()},
+                         {"time", engine.scene().time}};
   Text meta_text;
   {
     std::lock_guard lock(mutex);

@@ -32,6 +32,10 @@ nlohmann::json ViewerState::message(const Engine& engine) {
   m["document"] = engine.document();
   m["camera"] = {{"eye", vec3(scene.camera.eye)}, {"target", vec3(scene.camera.target)}, {"up", vec3(scene.camera.up)},
                  {"fov_deg", scene.camera.fov_deg}, {"width", scene.camera.width}, {"height", scene.camera.height}};
+  // trajectories and volume series: the frame shown, how many there are, its time where the file says
+  m["time"] = {{"frame", scene.time}, {"frames", scene.frame_count()}};
+  for (const auto& p : scene.particles)
+    if (p.frames > 0) m["time"]["time_ps"] = p.time_ps;
   const Box3 box = scene.caster_bounds();
   m["light_target"] = vec3(box.empty() ? scene.camera.target : box.center());
   m["radius"] = box.empty() ? 1.0f : 0.5f * length(box.hi - box.lo);
