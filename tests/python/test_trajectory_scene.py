@@ -3,6 +3,7 @@
 import json
 import os
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -56,3 +57,15 @@ def test_render_frames_writes_a_sequence_with_per_frame_stats(tmp_path):
     bad = subprocess.run([CLI, "render", str(scene), "--frames", "0:151", "-o", str(tmp_path / "x.png")],
                          capture_output=True, text=True, timeout=120)
     assert bad.returncode != 0 and "151 frames" in bad.stderr
+
+
+def test_the_playback_benchmark_runs(tmp_path):
+    build = os.path.dirname(os.path.abspath(CLI))
+    out = subprocess.run([sys.executable, os.path.join(ROOT, "scripts", "bench_playback.py"),
+                          "--build", build, "--frames", "0:6:3", "--size", "64x48", "--out", str(tmp_path)],
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    results = json.loads((tmp_path / "playback.json").read_text())["results"]
+    assert set(results) == {"local lighting", "issm", "issm + particle_ao"}
+    assert all(r["frames"] == 2 and r["fps"] > 0 and r["read_ms"] > 0 for r in results.values())
+    assert "spheres" in results["issm"]["rebuilt"] and "lights.0.shadows" in results["issm"]["rebuilt"]
