@@ -16,7 +16,7 @@ GRO = os.path.join(DATA, "md_1tii_chainD.gro")
 XTC = os.path.join(DATA, "md_1tii_chainD.xtc")
 CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
 
-pytestmark = pytest.mark.skipif(not (os.path.exists(GRO) and os.path.exists(XTC)), reason="staged MD trajectory missing")
+needs_md = pytest.mark.skipif(not (os.path.exists(GRO) and os.path.exists(XTC)), reason="staged MD trajectory missing")
 
 
 def md_scene():
@@ -28,6 +28,7 @@ def md_scene():
     }
 
 
+@needs_md
 def test_set_time_plays_the_trajectory_and_rebuilds_only_the_spheres():
     r = penumbra.Renderer(md_scene())
     assert r.frames == 151
@@ -44,6 +45,7 @@ def test_set_time_plays_the_trajectory_and_rebuilds_only_the_spheres():
         r.set("time", 151)
 
 
+@needs_md
 def test_render_frames_writes_a_sequence_with_per_frame_stats(tmp_path):
     scene = tmp_path / "md.json"
     scene.write_text(json.dumps(md_scene()))
@@ -59,6 +61,7 @@ def test_render_frames_writes_a_sequence_with_per_frame_stats(tmp_path):
     assert bad.returncode != 0 and "151 frames" in bad.stderr
 
 
+@needs_md
 def test_the_playback_benchmark_runs(tmp_path):
     build = os.path.dirname(os.path.abspath(CLI))
     out = subprocess.run([sys.executable, os.path.join(ROOT, "scripts", "bench_playback.py"),
@@ -69,3 +72,32 @@ def test_the_playback_benchmark_runs(tmp_path):
     assert set(results) == {"local lighting", "issm", "issm + particle_ao"}
     assert all(r["frames"] == 2 and r["fps"] > 0 and r["read_ms"] > 0 for r in results.values())
     assert "spheres" in results["issm"]["rebuilt"] and "lights.0.shadows" in results["issm"]["rebuilt"]
+
+
+def series_scene():
+    return {
+        "volumes": [{"procedural": {"name": "sphere", "size": 20, "radius": 0.15, "frames": 5},
+                     "transfer_function": {"points": [[0, 0, 0, 0, 0], [0.5, 0.9, 0.5, 0.3, 0], [1, 0.9, 0.5, 0.3, 0.9]]}}],
+        "planes": [{"point": [0, -0.6, 0], "normal": [0, 1, 0], "size": 3}],
+        "shadows": {"technique": "cssm", "resolution": 64},
+        "camera": {"width": 48, "height": 32},
+    }
+
+
+def test_video_is_encoded_with_ffmpeg_or_refused_clearly_without_it(tmp_path):
+    """--video encodes the sequence through Debian's ffmpeg; without ffmpeg it is an error before
+    anything is rendered (the frames alone need no ffmpeg)."""
+    import shutil
+    scene = tmp_path / "series.json"
+    scene.write_text(json.dumps(series_scene()))
+    out = subprocess.run([CLI, "render", str(scene), "--frames", "0:4", "-o", str(tmp_path / "s.png"),
+                          "--video", str(tmp_path / "s.mp4")], capture_output=True, text=True, timeout=300)
+    if shutil.which("ffmpeg") is None:
+        assert out.returncode != 0 and "ffmpeg not found" in out.stderr
+        assert not (tmp_path / "s_000.png").exists()
+        return
+    assert out.returncode == 0, out.stderr
+    probe = subprocess.run(["ffprobe", "-v", "error", "-count_frames", "-show_entries", "stream=nb_read_frames,width,height",
+                            "-of", "json", str(tmp_path / "s.mp4")], capture_output=True, text=True, timeout=60)
+    stream = json.loads(probe.stdout)["streams"][0]
+    assert (int(stream["nb_read_frames"]), stream["width"], stream["height"]) == (5, 48, 32)
