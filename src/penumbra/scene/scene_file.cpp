@@ -442,7 +442,8 @@ ParticleObject read_trajectory_particles(const nlohmann::json& j, const std::str
   topology_json.erase("trajectory");
   topology_json.erase("origin");  // the shift is applied to every frame below
   ParticleObject p = read_static_particles(topology_json, path, base_dir, options);
-  const ParticleSet& topology = *p.set;
+  const std::shared_ptr<const ParticleSet> topology_set = p.set;  // p.set becomes the frame below
+  const ParticleSet& topology = *topology_set;
   auto open = [&] {
     return with_context(r.key_path("trajectory"), [&] { return open_trajectory(files, topology.size()); });
   };
