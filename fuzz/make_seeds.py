@@ -2,6 +2,7 @@
 """Writes the small seed corpora of the fuzz targets (fuzz/seeds/<target>/) from the real files in
 ../shared/data: headers and the first records of each file, with sizes cut down so that one run of a
 target takes microseconds. Run again after changing it: python3 fuzz/make_seeds.py [shared-data-dir]."""
+import base64
 import gzip
 import os
 import struct
@@ -76,6 +77,58 @@ for code, bits, fmt, tag in ((2, 8, "B", "u8"), (4, 16, "h", "i16"), (16, 32, "f
     put("nifti", f"t1_{tag}.nii", bytes(h) + body)
     if tag == "i16":
         put("nifti", f"t1_{tag}.nii.gz", gzip.compress(bytes(h) + body, mtime=0))
+
+# --- DICOM: one CT slice's header (with its sequence) over an 8x8 crop of its pixels, in the transfer
+# syntaxes pydicom writes (implicit and explicit VR little endian, explicit big endian, RLE), as signed
+# rescaled and 8-bit images, and in JPEG lossless, JPEG-LS and JPEG 2000 when gdcmconv is there.
+def dicom_seeds():
+    import shutil
+    import subprocess
+    import tempfile
+    import pydicom
+    from pydicom.uid import ExplicitVRBigEndian, ExplicitVRLittleEndian, RLELossless
+
+    def ct():
+        ds = pydicom.dcmread(os.path.join(data, "dicom_pancreas_ct", "1-070.dcm"))
+        pixels = ds.pixel_array[250:258, 250:258].copy()
+        ds.Rows, ds.Columns = pixels.shape
+        ds.PixelData = pixels.tobytes()
+        return ds, pixels
+
+    def save(ds, name, syntax=None):
+        path = os.path.join(tempfile.gettempdir(), "penumbra_seed_" + name)
+        if syntax is not None:
+            ds.file_meta.TransferSyntaxUID = syntax
+            ds.is_implicit_VR, ds.is_little_endian = False, syntax != ExplicitVRBigEndian
+        ds.save_as(path, write_like_original=False)
+        put("dicom", name, open(path, "rb").read())
+        return path
+
+    ds, _ = ct()
+    plain = save(ds, "ct_implicit.dcm")
+    ds, pixels = ct()
+    save(ds, "ct_explicit.dcm", ExplicitVRLittleEndian)
+    ds.PixelData = pixels.astype(">u2").tobytes()
+    save(ds, "ct_big_endian.dcm", ExplicitVRBigEndian)
+    ds, pixels = ct()
+    ds.compress(RLELossless, pixels)
+    save(ds, "ct_rle.dcm")
+    ds, pixels = ct()
+    ds.PixelRepresentation, ds.BitsStored, ds.HighBit, ds.RescaleSlope = 1, 16, 15, "0.5"
+    ds.PixelData = (pixels.astype("int16") - 1500).tobytes()
+    save(ds, "signed_rescaled.dcm", ExplicitVRLittleEndian)
+    ds, pixels = ct()
+    ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.RescaleIntercept = 8, 8, 7, "0"
+    ds.PixelData = (pixels // 16).astype("uint8").tobytes()
+    save(ds, "u8.dcm", ExplicitVRLittleEndian)
+    if shutil.which("gdcmconv"):
+        for flag in ("jpeg", "jpegls", "j2k"):
+            out = plain + "." + flag
+            subprocess.run(["gdcmconv", "--" + flag, plain, out], check=True)
+            put("dicom", "ct_%s.dcm" % flag, open(out, "rb").read())
+
+
+dicom_seeds()
 
 # --- PDB: header records (REMARK 350, SSBOND, LINK, CISPEP, HELIX, SHEET, CRYST1) and the first atoms.
 def pdb_seed(name, atoms, keep_remark350=40):
@@ -201,3 +254,68 @@ try:
             put(ext, "md_1tii_water40." + ext, open(path, "rb").read())
 except ImportError:
     pass
+
+# --- TIFF: crops of the staged stacks as ImageJ files (tifffile), a tiled deflate float32 stack, RGB
+# pages contiguous and planar, and LZW/PackBits pages (PIL, through its libtiff).
+try:
+    import io
+    import numpy as np
+    import tifffile
+    embryo = tifffile.imread(os.path.join(data, "arabidopsis_embryo.tif"))[50:53, 50:60, 50:62]
+    nucleus = tifffile.imread(os.path.join(data, "nucleus_conf_wf.tif"))[20:23, :, 60:65, 60:66]
+    def tif(name, array, **kw):
+        buf = io.BytesIO()
+        tifffile.imwrite(buf, array, **kw)
+        put("tiff", name, buf.getvalue())
+    tif("embryo_imagej.tif", embryo, imagej=True, byteorder=">", metadata={"axes": "ZYX"})
+    tif("nucleus_hyperstack.tif", nucleus, imagej=True, byteorder=">", resolution=(1.953591, 1.953591),
+        metadata={"spacing": 0.4994126, "unit": "micron", "axes": "ZCYX"})
+    ramp = (np.arange(2 * 18 * 20, dtype=np.float32).reshape(2, 18, 20) - 100) * 0.25
+    tif("float_tiled_deflate.tif", ramp, tile=(16, 16), compression="zlib", resolution=(1e4, 1e4, "CENTIMETER"))
+    rgb = (np.arange(2 * 3 * 4 * 3) * 7 % 256).astype(np.uint8).reshape(2, 3, 4, 3)
+    tif("rgb_contig.tif", rgb, photometric="rgb", planarconfig="contig")
+    tif("rgb_planar.tif", rgb.transpose(0, 3, 1, 2).copy(), photometric="rgb", planarconfig="separate")
+    tif("int16_pages.tif", (np.arange(3 * 4 * 5, dtype=np.int16).reshape(3, 4, 5) * 997 - 30000), photometric="minisblack")
+except ImportError:
+    pass
+try:
+    import io
+    from PIL import Image
+    frames = [Image.frombytes("L", (12, 10), bytes(embryo[k].tobytes())) for k in range(3)]
+    for compression in ("tiff_lzw", "packbits"):
+        buf = io.BytesIO()
+        frames[0].save(buf, format="TIFF", save_all=True, append_images=frames[1:], compression=compression)
+        put("tiff", "embryo_%s.tif" % compression.replace("tiff_", ""), buf.getvalue())
+except (ImportError, NameError):
+    pass
+
+# --- VTK image data: an 8x8x4 crop of headsq as .vti (appended raw, appended base64+zlib with the header
+# encoded apart as VTK does, inline base64 with a 64-bit header, ascii) and as legacy .vtk (BINARY with
+# VTK 9's METADATA trailer, and ASCII).
+head = open(os.path.join(data, "headsq.raw"), "rb").read()
+crop = b"".join(head[((z + 40) * 64 + y + 28) * 128 + 56:((z + 40) * 64 + y + 28) * 128 + 72] for z in range(4) for y in range(8))
+def vti(root, array, appended=None, encoding="raw"):
+    s = ('<VTKFile type="ImageData" version="1.0" byte_order="LittleEndian" %s>\n'
+         '  <ImageData WholeExtent="0 7 0 7 0 3" Origin="0 0 0" Spacing="3.2 3.2 1.5" Direction="1 0 0 0 1 0 0 0 1">\n'
+         '    <Piece Extent="0 7 0 7 0 3">\n      <PointData Scalars="headsq">\n        %s\n      </PointData>\n'
+         '      <CellData>\n      </CellData>\n    </Piece>\n  </ImageData>\n' % (root, array)).encode()
+    if appended is not None:
+        s += b'  <AppendedData encoding="' + encoding.encode() + b'">\n   _' + appended + b"\n  </AppendedData>\n"
+    return s + b"</VTKFile>\n"
+appended = '<DataArray type="Int16" Name="headsq" format="appended" RangeMin="0" RangeMax="3926" offset="0"/>'
+put("vti", "headsq_appended_raw.vti", vti('header_type="UInt32"', appended, struct.pack("<I", len(crop)) + crop))
+blocks = [crop[i:i + 200] for i in range(0, len(crop), 200)]
+packed = [zlib.compress(b, 5) for b in blocks]
+table = struct.pack("<%dI" % (3 + len(packed)), len(packed), 200, len(crop) % 200, *[len(p) for p in packed])
+put("vti", "headsq_base64_zlib.vti", vti('header_type="UInt32" compressor="vtkZLibDataCompressor"', appended,
+                                        base64.b64encode(table) + base64.b64encode(b"".join(packed)), "base64"))
+put("vti", "headsq_binary_uint64.vti", vti('header_type="UInt64"', '<DataArray type="Int16" Name="headsq" format="binary">' +
+                                           base64.b64encode(struct.pack("<Q", len(crop)) + crop).decode() + "</DataArray>"))
+values = struct.unpack("<%dh" % (len(crop) // 2), crop)
+put("vti", "headsq_ascii.vti", vti("", '<DataArray type="Int16" Name="headsq" format="ascii">' +
+                                   " ".join(map(str, values[:64])) + "</DataArray>").replace(b"0 7 0 7 0 3", b"0 7 0 7 0 0"))
+legacy = ("# vtk DataFile Version 5.1\nheadsq crop\n%s\nDATASET STRUCTURED_POINTS\nDIMENSIONS 8 8 4\nSPACING 3.2 3.2 1.5\n"
+          "ORIGIN 0 0 0\nPOINT_DATA 256\nSCALARS headsq short\nLOOKUP_TABLE default\n")
+put("vtk", "headsq_binary.vtk", (legacy % "BINARY").encode() + struct.pack(">%dh" % len(values), *values) + b"\nMETADATA\nINFORMATION 0\n\n")
+put("vtk", "headsq_ascii.vtk", (legacy % "ASCII").replace("8 8 4", "8 8 1").replace("256", "64").replace("short", "float") +
+    " ".join("%g" % (v * 0.5) for v in values[:64]) + "\n")

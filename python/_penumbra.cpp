@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <limits>
 #include <string>
@@ -20,6 +21,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/core/image.h"
 #include "penumbra/data/elements.h"
+#include "penumbra/data/io/volume_io.h"
 #include "penumbra/engine/engine.h"
 #include "penumbra/scene/json_reader.h"
 #include "penumbra/scene/scene_file.h"
@@ -228,6 +230,31 @@ PYBIND11_MODULE(_penumbra, m) {
     const SceneArrays arrays = scene_arrays(volumes, particles);
     (void)build_scene(parse(document, "scene"), base_dir, read_options(arrays));
   }, py::arg("document"), py::arg("base_dir"), py::arg("volumes") = py::dict(), py::arg("particles") = py::dict());
+  // A volume file (or the slices of a DICOM series) read as the renderer reads it: a NumPy copy of its
+  // voxels (axes z, y, x), spacing and origin (x, y, z) and what the reader found, as JSON text.
+  m.def("read_volume", [](const std::vector<std::string>& paths, const std::string& series, int channel) {
+    VolumeLoadOptions lo;
+    lo.series = series;
+    lo.channel = channel;
+    VolumeFileInfo info;
+    Volume v;
+    {
+      py::gil_scoped_release release;
+      v = load_volume(paths, lo, &info);
+    }
+    const std::vector<py::ssize_t> shape{v.dims()[2], v.dims()[1], v.dims()[0]};
+    py::array array = v.with_voxel_type([&](auto t) -> py::array {
+      using T = decltype(t);
+      py::array_t<T> a(shape);
+      std::memcpy(a.mutable_data(), v.data(), v.voxel_count() * sizeof(T));
+      return a;
+    });
+    const nlohmann::json described = {{"format", info.format}, {"orientation", info.orientation}, {"series", info.series},
+                                      {"series_index", info.series_index}, {"channels", info.channels},
+                                      {"channel", info.channel}, {"notes", info.notes}};
+    return py::make_tuple(array, py::make_tuple(v.spacing().x, v.spacing().y, v.spacing().z),
+                          py::make_tuple(v.origin().x, v.origin().y, v.origin().z), described.dump());
+  }, py::arg("paths"), py::arg("series") = "", py::arg("channel") = -1);
   // Van der Waals radius (Å) and CPK colour (linear RGB) of each element symbol; unknown: 1.7 Å, grey.
   m.def("element_style", [](const std::vector<std::string>& symbols) {
     py::array_t<float> radii(static_cast<py::ssize_t>(symbols.size()));

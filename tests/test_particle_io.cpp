@@ -19,6 +19,7 @@
 #include "penumbra/data/elements.h"
 #include "penumbra/data/io/particle_io.h"
 #include "test_scenes.h"
+#include "shared_data.h"
 #include "test_volume_io_util.h"
 
 using namespace penumbra;
@@ -26,12 +27,7 @@ using namespace penumbra::test;
 
 namespace {
 
-const std::string kData = [] {
-  const char* env = std::getenv("PENUMBRA_DATA_DIR");
-  return env && *env ? std::string(env) : std::string(PENUMBRA_SHARED_DATA_DIR);
-}();
-#define SKIP_WITHOUT_SHARED_DATA(file) \
-  if (!std::filesystem::exists(kData + "/" file)) GTEST_SKIP() << kData << "/" file << " not found (set PENUMBRA_DATA_DIR)"
+const std::string kData = shared_data_dir();
 
 ParticleSet load(const std::string& path, const ParticleLoadOptions& o = {}, ParticleFileInfo* info = nullptr) {
   return load_particles(path, o, info);

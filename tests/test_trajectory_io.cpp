@@ -17,6 +17,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/data/io/trajectory_io.h"
+#include "shared_data.h"
 #include "test_volume_io_util.h"
 
 using namespace penumbra;
@@ -24,12 +25,7 @@ using namespace penumbra::test;
 
 namespace {
 
-const std::string kData = [] {
-  const char* env = std::getenv("PENUMBRA_DATA_DIR");
-  return env && *env ? std::string(env) : std::string(PENUMBRA_SHARED_DATA_DIR);
-}();
-#define SKIP_WITHOUT_SHARED_DATA(file) \
-  if (!std::filesystem::exists(kData + "/" file)) GTEST_SKIP() << kData << "/" file << " not found (set PENUMBRA_DATA_DIR)"
+const std::string kData = shared_data_dir();
 
 const std::string kXtc = kData + "/md_1tii_chainD.xtc";
 const std::string kDcd = kData + "/md_1tii_chainD_20frames.dcd";

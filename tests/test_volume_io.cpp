@@ -19,6 +19,7 @@
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/volume_stats.h"
 #include "test_scenes.h"
+#include "shared_data.h"
 #include "test_volume_io_util.h"
 
 using namespace penumbra;
@@ -28,12 +29,7 @@ namespace {
 
 // The shared data directory: $PENUMBRA_DATA_DIR, else ../shared/data beside the checkout. Tests of real
 // files are skipped (not failed) where the data is not there, e.g. on a machine with the clone alone.
-const std::string kData = [] {
-  const char* env = std::getenv("PENUMBRA_DATA_DIR");
-  return env && *env ? std::string(env) : std::string(PENUMBRA_SHARED_DATA_DIR);
-}();
-#define SKIP_WITHOUT_SHARED_DATA(file) \
-  if (!std::filesystem::exists(kData + "/" file)) GTEST_SKIP() << kData << "/" file << " not found (set PENUMBRA_DATA_DIR)"
+const std::string kData = shared_data_dir();
 
 // Runs load_volume, expects a penumbra::Error and returns its message ("" if none was thrown).
 std::string load_error(const std::string& path, const std::optional<RawVolumeOptions>& raw = std::nullopt) {
@@ -657,8 +653,8 @@ TEST(VolumeIoNifti, AbsurdDimsAreRefusedBeforeAllocating) {
 
 TEST(VolumeIoDispatch, UnknownExtensionAndMissingFile) {
   TempDir dir;
-  write_file(dir.file("v.vtk"), "whatever");
-  EXPECT_LOAD_ERROR(dir.file("v.vtk"), std::nullopt, ".raw", ".nrrd", ".nhdr", ".nii", ".nii.gz");
+  write_file(dir.file("v.vol"), "whatever");
+  EXPECT_LOAD_ERROR(dir.file("v.vol"), std::nullopt, ".raw", ".nrrd", ".nhdr", ".nii", ".nii.gz", ".tif", ".vti", ".vtk", "DICOM");
   EXPECT_LOAD_ERROR(dir.file("absent.nrrd"), std::nullopt, "file not found");
   EXPECT_LOAD_ERROR(dir.file("absent.nii.gz"), std::nullopt, "file not found");
   EXPECT_LOAD_ERROR(dir.file("absent.raw"), raw_options({1, 1, 1}, ScalarType::UInt8), "file not found");

@@ -1,4 +1,4 @@
-// `penumbra render (SCENE.json | DATA_FILE...) -o OUT.png [--width W --height H] [--set key=value ...]
+// `penumbra render (SCENE.json | DATA_FILE...) -o OUT.png|.pfm|.exr [--depth] [--width W --height H] [--set key=value ...]
 //  [--stats S.json] [--threads N] [--orbit N | --light-orbit N | --frames A:B[:STEP] [--video V.mp4] | --edits FILE]
 //  [--strict]
 //  [--write-scene S.json] [--raw-dims X Y Z --raw-type T ...]`
@@ -20,6 +20,7 @@
 #include "inputs.h"
 #include "penumbra/core/cancel.h"
 #include "penumbra/core/error.h"
+#include "penumbra/core/exr_io.h"
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
@@ -38,8 +39,33 @@ struct RenderOptions {
   InputOptions in;
   std::string output, stats, buffers, edits, write_scene, frames, video;
   int width = 0, height = 0, threads = 0, orbit = 0, light_orbit = 0, accumulate = 1, fps = 10;
-  bool preview = false;
+  bool preview = false, depth = false;
 };
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+// PNG and PFM hold the picture over the scene's background. EXR holds linear colour with premultiplied
+// alpha (nothing behind the data: alpha 0, to composite over anything) and, with --depth, the distance
+// along each primary ray (Z; +infinity where nothing is hit).
+void write_output(const std::string& path, const EngineFrame& ef, const Scene& scene, bool depth) {
+  if (lower_extension(path) != ".exr") {
+    write_image(path, ef.image);
+    return;
+  }
+  ExrImage exr;
+  exr.width = ef.image.width();
+  exr.height = ef.image.height();
+  const std::size_t n = ef.image.pixels().size();
+  exr.rgba.resize(4 * n);
+  if (depth) exr.depth.resize(n);
+  FrameBuffers buffers{exr.rgba, {}, exr.depth, true};
+  write_frame_buffers(ef.image, ef.frame, scene.background, buffers);
+  write_exr(path, exr);
+}
 
 std::string frame_path(const std::string& output, int frame) {
   const std::filesystem::path p(output);
@@ -67,9 +93,10 @@ void write_isosurface_buffers(const std::string& dir, const Renderer& renderer, 
 }
 
 void check_output_path(const std::string& output) {
-  std::string ext = std::filesystem::path(output).extension().string();
-  if (ext != ".png" && ext != ".pfm")
-    throw Error("-o " + output + ": unknown image extension '" + ext + "' (expected .png or .pfm)");
+  const std::string ext = lower_extension(output);
+  if (ext != ".png" && ext != ".pfm" && ext != ".exr")
+    throw Error("-o " + output + ": unknown image extension '" + std::filesystem::path(output).extension().string() +
+                "' (expected .png, .pfm or .exr)");
   const auto dir = std::filesystem::path(output).parent_path();
   if (!dir.empty() && !std::filesystem::is_directory(dir))
     throw Error("-o " + output + ": directory '" + dir.string() + "' does not exist");
@@ -170,7 +197,7 @@ std::vector<EditStep> read_edit_steps(const std::string& path) {
 
 // Replays an interaction: each step's edits, then a preview and the full-quality frame (what a viewer
 // shows while the hand moves and once it stops), then accumulated samples while `idle_ms` lasts.
-nlohmann::json replay_edits(Engine& engine, const std::vector<EditStep>& steps, const std::string& file, Image& last) {
+nlohmann::json replay_edits(Engine& engine, const std::vector<EditStep>& steps, const std::string& file, EngineFrame& last) {
   nlohmann::json out = nlohmann::json::array();
   for (std::size_t i = 0; i < steps.size(); ++i) {
     const EditStep& step = steps[i];
@@ -185,20 +212,16 @@ nlohmann::json replay_edits(Engine& engine, const std::vector<EditStep>& steps, 
     }
     const EngineFrame preview = engine.render({Quality::Preview});
     const double preview_ms = since();
-    const EngineFrame full = engine.render({Quality::Full});
+    EngineFrame full = engine.render({Quality::Full});
     const double full_ms = since();
-    int samples = full.samples;
-    Image image = full.image;
-    while (since() < full_ms + step.idle_ms) {
-      const EngineFrame more = engine.render({Quality::Full});
-      samples = more.samples;
-      image = more.image;
-    }
+    const auto refined = full.rebuilt;  // what the first full frame rebuilt, before idle samples
+    while (since() < full_ms + step.idle_ms) full = engine.render({Quality::Full});
+    const int samples = full.samples;
     nlohmann::json paths = nlohmann::json::array();
     for (const auto& [p, v] : step.set) paths.push_back(p);
     out.push_back({{"paths", paths},
                    {"rebuilt", rebuilt_json(preview.rebuilt)},
-                   {"refined", rebuilt_json(full.rebuilt)},
+                   {"refined", rebuilt_json(refined)},
                    {"preview_ms", preview_ms},
                    {"full_ms", full_ms},
                    {"preview_divisor", preview.divisor},
@@ -206,7 +229,7 @@ nlohmann::json replay_edits(Engine& engine, const std::vector<EditStep>& steps, 
     if (!cancel.is_null()) out.back()["cancel"] = cancel;
     std::fprintf(stderr, "step %zu: %s: preview %.1f ms, full %.1f ms%s\n", i, paths.dump().c_str(), preview_ms, full_ms,
                  samples > 1 ? (", " + std::to_string(samples) + " samples").c_str() : "");
-    last = std::move(image);
+    last = std::move(full);
   }
   return out;
 }
@@ -270,6 +293,7 @@ void run_render(const RenderOptions& o) {
   if (o.accumulate > 1 && (sequence_requested(o) || !o.edits.empty()))
     throw Error("--accumulate applies to a single frame (not with --orbit, --light-orbit, --frames or --edits)");
   check_output_path(o.output);
+  if (o.depth && lower_extension(o.output) != ".exr") throw Error("--depth: the depth is written into an .exr output (-o NAME.exr)");
   if (!o.buffers.empty() && !std::filesystem::is_directory(o.buffers))
     throw Error("--buffers " + o.buffers + ": not a directory");
   if (!o.stats.empty()) {
@@ -315,7 +339,7 @@ void run_render(const RenderOptions& o) {
     const FrameResult frame = ef.frame;  // the first sample's stats
     for (int k = 1; k < o.accumulate; ++k) ef = engine.render({Quality::Full, true});
     const std::string path = sequence ? frame_path(o.output, f) : o.output;
-    if (steps.empty()) write_image(path, ef.image);
+    if (steps.empty()) write_output(path, ef, engine.scene(), o.depth);
     if (f == 0) stats = render_stats(engine.scene(), engine.renderer(), frame, ThreadLimit::current_max());
     if (f == 0 && !o.buffers.empty()) write_isosurface_buffers(o.buffers, engine.renderer(), engine.scene().camera);
     nlohmann::json fs = frame_stats(frame);
@@ -334,9 +358,9 @@ void run_render(const RenderOptions& o) {
                  rebuilt.empty() || f == 0 ? "" : (rebuilt + ")").c_str());
   }
   if (!steps.empty()) {
-    Image last;
+    EngineFrame last;
     stats["edits"] = replay_edits(engine, steps, o.edits, last);
-    write_image(o.output, last);
+    write_output(o.output, last, engine.scene(), o.depth);
   }
   if (!o.stats.empty()) {
     if (sequence) stats["frames"] = frame_list;
@@ -350,11 +374,12 @@ void run_render(const RenderOptions& o) {
 
 void add_render_command(CLI::App& app) {
   auto o = std::make_shared<RenderOptions>();
-  CLI::App* cmd = app.add_subcommand("render", "Render a scene file, or data files, to an image (.png: 8-bit sRGB, .pfm: float)");
+  CLI::App* cmd = app.add_subcommand("render", "Render a scene file, or data files, to an image (.png: 8-bit sRGB, .pfm: float RGB, "
+                                             ".exr: float RGBA and, with --depth, Z)");
   add_input_options(*cmd, o->in);
   cmd->add_option("--write-scene", o->write_scene, "Also save the scene as a scene file (.json; paths relative to its folder): "
                                                    "what data files opened directly became, to edit and render again");
-  cmd->add_option("-o,--output", o->output, "Output image (.png or .pfm); with --orbit/--light-orbit/--frames, frames go to NAME_000.png ...")->required();
+  cmd->add_option("-o,--output", o->output, "Output image (.png, .pfm or .exr); with --orbit/--light-orbit/--frames, frames go to NAME_000.png ...")->required();
   cmd->add_option("--width", o->width, "Image width (overrides camera.width)")->check(CLI::Range(1, 16384));
   cmd->add_option("--height", o->height, "Image height (overrides camera.height)")->check(CLI::Range(1, 16384));
   cmd->add_option("--stats", o->stats, "Write timings, memory and counts as JSON");
@@ -372,6 +397,7 @@ void add_render_command(CLI::App& app) {
                   "volume series: A:B[:STEP]; images go to NAME_000.png ...");
   cmd->add_option("--video", o->video, "With a sequence: also encode its frames as a video (.mp4) through ffmpeg");
   cmd->add_option("--fps", o->fps, "Frames per second of --video (default 10)")->check(CLI::Range(1, 240));
+  cmd->add_flag("--depth", o->depth, "With -o NAME.exr: also write the depth (channel Z: distance along each primary ray; +inf where nothing is hit)");
   cmd->add_flag("--preview", o->preview, "Render what the viewer shows while the hand moves: the engine's preview quality");
   cmd->add_option("--edits", o->edits,
                   "Replay an interaction: a JSON list of steps {\"set\": {\"PATH\": VALUE, ...}, \"idle_ms\": N}; each step's "

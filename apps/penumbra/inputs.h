@@ -21,9 +21,11 @@ struct InputOptions {
   std::string raw_type, raw_endian = "little";
   std::vector<float> raw_spacing;
   std::uint64_t raw_header_bytes = 0;
+  std::string series;  // the DICOM series to open (UID or index)
+  int channel = -1;    // the channel of multi-channel TIFF stacks
 };
 
-// Adds the positional inputs and the --raw-* options to a subcommand.
+// Adds the positional inputs, the --raw-* options, --series and --channel to a subcommand.
 void add_input_options(CLI::App& cmd, InputOptions& o);
 
 // The engine over the inputs; `extra_sets` go before the user's --set (e.g. --width). Errors name the

@@ -27,7 +27,7 @@ from . import _penumbra
 
 Error = _penumbra.Error
 
-__all__ = ["Error", "Image", "Renderer", "Scene", "Viewer", "compare", "view"]
+__all__ = ["Error", "Image", "Renderer", "Scene", "Viewer", "VolumeData", "compare", "read_volume", "view"]
 
 _VOLUME_DTYPES = (np.uint8, np.int16, np.uint16, np.float32)
 
@@ -281,6 +281,33 @@ def view(scene, host="127.0.0.1", port=0, data_root=None, token="", width=960, h
     server = _penumbra.Viewer(_dumps(scene.document, "scene"), scene.base_dir, scene._volumes, scene._particles,
                               host, int(port), root, token)
     return Viewer(server, width, height)
+
+
+class VolumeData:
+    """A volume read from a file: ``array`` (axes z, y, x), ``spacing`` and ``origin`` in the same axis
+    order (z, y, x), as Scene.add_volume takes them, and ``info`` (format, orientation, DICOM series,
+    TIFF channels and the reader's notes)."""
+
+    def __init__(self, array, spacing, origin, info):
+        self.array, self.spacing, self.origin, self.info = array, spacing, origin, info
+
+    def __repr__(self):
+        z, y, x = self.array.shape
+        return (f"VolumeData({self.info['format']}, {x} x {y} x {z} {self.array.dtype}, "
+                f"spacing {self.spacing}, origin {self.origin})")
+
+
+def read_volume(path, series=None, channel=None):
+    """Reads a volume as penumbra does: .nrrd, .nhdr, .nii(.gz), .tif(f), .vti, .vtk, a folder of DICOM
+    slices or a list of .dcm files. ``series`` picks a DICOM series (SeriesInstanceUID or index; default
+    the one with the most slices), ``channel`` a TIFF channel. Returns a VolumeData, whose array goes to
+    Scene.add_volume(v.array, spacing=v.spacing, origin=v.origin)."""
+    paths = [os.fspath(p) for p in path] if isinstance(path, (list, tuple)) else [os.fspath(path)]
+    if channel is not None and (not isinstance(channel, int) or channel < 0):
+        raise Error(f"read_volume: channel {channel!r} (expected an integer from 0)")
+    array, spacing, origin, info = _penumbra.read_volume(paths, "" if series is None else str(series),
+                                                         -1 if channel is None else channel)
+    return VolumeData(array, tuple(reversed(spacing)), tuple(reversed(origin)), json.loads(info))
 
 
 def compare(a, b):

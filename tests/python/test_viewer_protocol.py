@@ -147,6 +147,10 @@ def test_refused_edits_and_files_outside_the_data_root_get_errors(viewer):
         ({"volumes.0.file": "/etc/passwd"}, "outside the data root"),
         ({"volumes.0.transfer_function": {"paraview": "/etc/passwd"}}, "outside the data root"),
         ({"volumes.0": {"file": "../secret.nrrd", "transfer_function": {"preset": "grayscale"}}}, "outside the data root"),
+        ({"volumes.0.file": ["/etc/passwd", "/etc/shadow"]}, "outside the data root"),  # DICOM slices
+        ({"volumes.0.files": ["../a.nrrd", "../b.nrrd"]}, "outside the data root"),  # a volume series
+        ({"volumes.0.files": "../../run_%d.nrrd"}, "outside the data root"),
+        ({"particles": [{"file": "../x.gro", "trajectory": "/etc/passwd"}]}, "outside the data root"),
         ({"shadows.bogus": 1}, "shadows.bogus"),
         ({"lights.0.direction": "up"}, "lights.0.direction"),
         ({"nonsense": 1}, "nonsense"),

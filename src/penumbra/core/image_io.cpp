@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/exr_io.h"
 
 namespace penumbra {
 namespace {
@@ -154,7 +155,13 @@ Image read_image(const std::string& path) {
     const std::string ext = extension_of(path);
     if (ext == ".png") return read_png_file(path);
     if (ext == ".pfm") return read_pfm_file(path);
-    throw Error("unknown image extension '" + ext + "' (expected .png or .pfm)");
+    if (ext == ".exr") {  // the colour channels: premultiplied, so the picture over black
+      const ExrImage exr = read_exr(path);
+      Image img(exr.width, exr.height);
+      for (std::size_t i = 0; i < img.pixels().size(); ++i) img.pixels()[i] = Rgb(exr.rgba[4 * i], exr.rgba[4 * i + 1], exr.rgba[4 * i + 2]);
+      return img;
+    }
+    throw Error("unknown image extension '" + ext + "' (expected .png, .pfm or .exr)");
   });
 }
 

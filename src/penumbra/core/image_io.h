@@ -1,4 +1,5 @@
-// Image files: 8-bit sRGB PNG, or linear float PFM, chosen by the file extension.
+// Image files: 8-bit sRGB PNG, or linear float PFM, chosen by the file extension (OpenEXR, with alpha
+// and depth, is exr_io.h; read_image also reads an .exr's colour).
 // Writes go to a temporary file that is renamed into place, so a failure never leaves a partial image.
 #pragma once
 
@@ -9,6 +10,6 @@
 namespace penumbra {
 
 void write_image(const std::string& path, const Image& image);  // .png or .pfm
-Image read_image(const std::string& path);                      // .png (8/16-bit, gray/RGB/A) or .pfm
+Image read_image(const std::string& path);                      // .png (8/16-bit, gray/RGB/A), .pfm or .exr
 
 }  // namespace penumbra

@@ -34,25 +34,47 @@ InputKind input_kind(const std::string& path) {
   if (has_extension(path, ".json")) return InputKind::SceneFile;
   if (is_volume_file(path)) return InputKind::Volume;
   if (!particle_file_format(path).empty()) return InputKind::Particles;
-  throw Error(path + ": unknown kind of file (expected a scene .json, a volume .nrrd, .nhdr, .nii, .nii.gz or .raw, or a "
-                     "molecule .pdb, .ent, .cif, .mmcif, .gro or .xyz, each of those optionally .gz)");
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw Error(path + ": no such file or folder");
+  throw Error(path + ": unknown kind of file (expected a scene .json; a volume .nrrd, .nhdr, .nii, .nii.gz, .raw, .tif, .tiff, "
+                     ".vti, .vtk, .dcm or a folder of DICOM slices; or a molecule .pdb, .ent, .cif, .mmcif, .gro or .xyz, "
+                     "each of those optionally .gz)");
 }
 
-nlohmann::json data_scene(const std::vector<std::string>& files, const std::optional<RawVolumeOptions>& raw, SceneDataCache& cache) {
+nlohmann::json data_scene(const std::vector<std::string>& files, const VolumeLoadOptions& volume_options, SceneDataCache& cache) {
   if (files.empty()) throw Error("no data files");
   nlohmann::json doc = nlohmann::json::object();
   doc["volumes"] = nlohmann::json::array();
   doc["particles"] = nlohmann::json::array();
+  nlohmann::json dicom_slices = nlohmann::json::array();  // .dcm files given one by one: one volume
+  bool has_dicom = false, has_tiff = false;
   for (const std::string& file : files) {
     const std::string path = std::filesystem::absolute(file).lexically_normal().string();
     switch (input_kind(file)) {
       case InputKind::SceneFile:
         throw Error(file + ": a scene file is opened on its own, not together with data files");
       case InputKind::Volume: {
+        std::error_code ec;
+        const bool folder = std::filesystem::is_directory(path, ec);
+        if (!folder && (has_extension(path, ".dcm") || has_extension(path, ".dicom"))) {
+          if (dicom_slices.empty()) doc["volumes"].push_back({{"file", dicom_slices}});  // filled below
+          dicom_slices.push_back(path);
+          has_dicom = true;
+          break;
+        }
         nlohmann::json v = {{"file", path}, {"visible", false}};  // visible once its transfer function is chosen
         if (has_extension(path, ".raw")) {
-          if (!raw) throw Error(file + ": a .raw file needs its layout: --raw-dims X Y Z and --raw-type (uint8, int16, uint16, float32)");
-          v["raw"] = raw_json(*raw);
+          if (!volume_options.raw)
+            throw Error(file + ": a .raw file needs its layout: --raw-dims X Y Z and --raw-type (uint8, int16, uint16, float32)");
+          v["raw"] = raw_json(*volume_options.raw);
+        }
+        if (folder) {
+          has_dicom = true;
+          if (!volume_options.series.empty()) v["series"] = volume_options.series;
+        }
+        if (has_extension(path, ".tif") || has_extension(path, ".tiff")) {
+          has_tiff = true;
+          if (volume_options.channel >= 0) v["channel"] = volume_options.channel;
         }
         doc["volumes"].push_back(v);
         break;
@@ -64,6 +86,14 @@ nlohmann::json data_scene(const std::vector<std::string>& files, const std::opti
       }
     }
   }
+  for (auto& v : doc["volumes"])
+    if (v["file"].is_array()) {  // the DICOM slices, in the order given (the reader sorts them)
+      v["file"] = dicom_slices;
+      v["visible"] = false;
+      if (!volume_options.series.empty()) v["series"] = volume_options.series;
+    }
+  if (!volume_options.series.empty() && !has_dicom) throw Error("--series: no DICOM series (a folder or .dcm files) among the inputs");
+  if (volume_options.channel >= 0 && !has_tiff) throw Error("--channel: no TIFF stack (.tif, .tiff) among the inputs");
   // read once as it stands (loading the data into the cache) to choose from what was loaded
   const Scene loaded = build_scene(doc, "", SceneReadOptions{false, &cache});
   bool hounsfield = false;

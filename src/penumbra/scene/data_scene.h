@@ -33,9 +33,11 @@ enum class InputKind { SceneFile, Volume, Particles };
 // extensions otherwise.
 InputKind input_kind(const std::string& path);
 
-// The scene document for the data files (see above). `raw` reads the .raw files among them. The data
-// is loaded into `cache` (to choose transfer functions and place the floor), so that an engine given the
-// same cache does not load it again. Errors name the file.
-nlohmann::json data_scene(const std::vector<std::string>& files, const std::optional<RawVolumeOptions>& raw, SceneDataCache& cache);
+// The scene document for the data files (see above). DICOM slices given one by one (.dcm) make one
+// volume; a folder is a DICOM series. `volume_options` reads the volumes: `raw` the .raw files,
+// `series` the DICOM inputs, `channel` the TIFF stacks. The data is loaded into `cache` (to choose
+// transfer functions and place the floor), so that an engine given the same cache does not load it
+// again. Errors name the file.
+nlohmann::json data_scene(const std::vector<std::string>& files, const VolumeLoadOptions& volume_options, SceneDataCache& cache);
 
 }  // namespace penumbra

@@ -145,6 +145,34 @@ std::shared_ptr<const Data> named_array(JsonReader& r, const SceneArrays* arrays
   return it->second;
 }
 
+// A volume's "file": one path (a volume file or a folder of DICOM slices), or a list of DICOM slices.
+std::vector<std::string> volume_file_list(JsonReader& r, const std::string& base_dir) {
+  const nlohmann::json& f = r.raw("file");
+  if (f.is_string()) return {resolve(base_dir, f.get<std::string>())};
+  if (!f.is_array() || f.empty()) r.fail("file", "expected a file name, a folder of DICOM slices, or a list of DICOM slice files");
+  std::vector<std::string> paths;
+  for (const auto& name : f) {
+    if (!name.is_string()) r.fail("file", "lists file names (strings): " + json_brief(name));
+    paths.push_back(resolve(base_dir, name.get<std::string>()));
+  }
+  return paths;
+}
+
+// What a volume file needs beyond its name: "raw" (a .raw file's layout), "series" (which DICOM series:
+// a SeriesInstanceUID or the index `penumbra info` lists) and "channel" (of a multi-channel TIFF).
+VolumeLoadOptions read_volume_load_options(JsonReader& r) {
+  VolumeLoadOptions lo;
+  if (r.has("raw")) lo.raw = read_raw_options(r.raw("raw"), r.key_path("raw"));
+  if (r.has("series")) {
+    const nlohmann::json& s = r.raw("series");
+    if (s.is_number_integer() && s.get<std::int64_t>() >= 0) lo.series = std::to_string(s.get<std::int64_t>());
+    else if (s.is_string() && !s.get<std::string>().empty()) lo.series = s.get<std::string>();
+    else r.fail("series", json_brief(s) + " (expected a SeriesInstanceUID or a series index from 0)");
+  }
+  if (r.has("channel")) lo.channel = static_cast<int>(r.integer("channel", 0, 0, 1 << 20));
+  return lo;
+}
+
 // Exactly one of the keys that say where an object's data comes from (volumes may give "files").
 void require_one_source(JsonReader& r) {
   const int sources = int(r.has("file")) + int(r.has("procedural")) + int(r.has("array")) + int(r.has("files"));
@@ -232,7 +260,7 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   if (r.has("spacing") && !r.has("array"))
     r.fail("spacing", "is given with 'array' only (a file's spacing is in its header, or in 'raw')");
   std::function<Volume()> load;
-  std::string data_id = data_key(j, base_dir, {"file", "files", "raw", "procedural", "array", "spacing", "origin"});
+  std::string data_id = data_key(j, base_dir, {"file", "files", "raw", "series", "channel", "procedural", "array", "spacing", "origin"});
   std::string series_id;  // a series: what its first loaded step is cached under (the reference grid and range)
   if (r.has("file") || r.has("files")) {
     std::string file;
@@ -245,14 +273,13 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
       v.frames = files.size();
       series_id = data_id + "@series";
       data_id += "@" + file;
-    } else {
-      file = resolve(base_dir, r.required_string("file"));
     }
-    std::optional<RawVolumeOptions> raw;
-    if (r.has("raw")) raw = read_raw_options(r.raw("raw"), r.key_path("raw"));
+    // one file (or folder of DICOM slices), or a list of DICOM slices that make one volume
+    std::vector<std::string> paths = file.empty() ? volume_file_list(r, base_dir) : std::vector<std::string>{file};
+    VolumeLoadOptions lo = read_volume_load_options(r);
     const std::string key = r.has("files") ? "files" : "file";
-    load = [&r, file, raw, key] { return with_context(r.key_path(key), [&] { return load_volume(file, raw); }); };
-    v.source = file;
+    load = [&r, paths, lo, key] { return with_context(r.key_path(key), [&] { return load_volume(paths, lo); }); };
+    v.source = paths.size() == 1 ? paths[0] : paths[0] + " (+" + std::to_string(paths.size() - 1) + " slices)";
   } else if (r.has("procedural")) {
     nlohmann::json spec = r.raw("procedural");
     if (spec.is_object() && spec.contains("frames")) {  // a generated time series: step `time` of it
@@ -736,16 +763,23 @@ void SceneDataCache::drop_unused() {
 nlohmann::json with_files_relative_to(nlohmann::json document, const std::string& from_folder, const std::string& to_folder) {
   const std::filesystem::path from = std::filesystem::absolute(from_folder.empty() ? "." : from_folder);
   const std::filesystem::path to = std::filesystem::absolute(to_folder.empty() ? "." : to_folder).lexically_normal();
-  auto relocate = [&](nlohmann::json& object, const char* key) {
-    if (!object.is_object() || !object.contains(key) || !object[key].is_string()) return;
-    const std::filesystem::path file = (from / object[key].get<std::string>()).lexically_normal();  // an absolute file stays itself
-    object[key] = file.lexically_relative(to).generic_string();
+  auto relocate_one = [&](nlohmann::json& name) {
+    if (!name.is_string()) return;
+    const std::filesystem::path file = (from / name.get<std::string>()).lexically_normal();  // an absolute file stays itself
+    name = file.lexically_relative(to).generic_string();
+  };
+  auto relocate = [&](nlohmann::json& object, const char* key) {  // a file name, a pattern or a list of them
+    if (!object.is_object() || !object.contains(key)) return;
+    if (object[key].is_array())
+      for (auto& name : object[key]) relocate_one(name);
+    else
+      relocate_one(object[key]);
   };
   for (const char* kind : {"volumes", "particles"}) {
     if (!document.contains(kind) || !document[kind].is_array()) continue;
     for (auto& object : document[kind]) {
       if (!object.is_object()) continue;
-      relocate(object, "file");
+      for (const char* key : {"file", "files", "trajectory"}) relocate(object, key);
       if (object.contains("procedural")) relocate(object["procedural"], "file");
       for (const char* tf : {"transfer_function", "shadow_transfer_function", "color_map"})
         if (object.contains(tf)) relocate(object[tf], "paraview");

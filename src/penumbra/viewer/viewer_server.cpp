@@ -345,13 +345,22 @@ std::vector<std::shared_ptr<WsSession>> ViewerServer::Impl::live_sessions() {
 
 void ViewerServer::Impl::check_files(const std::string& path, const nlohmann::json& value) const {
   const std::string key = path.substr(path.rfind('.') + 1);
-  if ((key == "file" || key == "paraview") && value.is_string()) {
+  // the keys that name files: one name (or pattern), or a list of them (DICOM slices, series steps, trajectories)
+  if (key == "file" || key == "files" || key == "trajectory" || key == "paraview") {
     const std::filesystem::path base = engine.base_dir().empty() ? std::filesystem::current_path() : std::filesystem::absolute(engine.base_dir());
-    const auto file = std::filesystem::weakly_canonical(base / value.get<std::string>());
     const auto root = std::filesystem::weakly_canonical(data_root);
-    const auto rel = file.lexically_relative(root);
-    if (rel.empty() || *rel.begin() == "..")
-      throw Error(path + ": " + value.get<std::string>() + " lies outside the data root " + root.string() + " (the viewer opens files only there)");
+    auto check = [&](const nlohmann::json& name) {
+      if (!name.is_string()) return;  // not a file name: the scene reader refuses it
+      const auto file = std::filesystem::weakly_canonical(base / name.get<std::string>());
+      const auto rel = file.lexically_relative(root);
+      if (rel.empty() || *rel.begin() == "..")
+        throw Error(path + ": " + name.get<std::string>() + " lies outside the data root " + root.string() + " (the viewer opens files only there)");
+    };
+    if (value.is_array())
+      for (const auto& name : value) check(name);
+    else
+      check(value);
+    if (!value.is_object()) return;
   }
   if (value.is_object())
     for (const auto& [k, v] : value.items()) check_files(path + "." + k, v);

@@ -1,5 +1,8 @@
-// Chooses a volume loader by file extension and puts the path in front of any error it raises.
+// Chooses a volume loader by file extension (a folder is a DICOM series) and puts the path in front of
+// any error it raises.
 #include "penumbra/data/io/volume_io.h"
+
+#include <filesystem>
 
 #include "penumbra/core/error.h"
 #include "penumbra/data/io/text_fields.h"
@@ -8,24 +11,76 @@ namespace penumbra {
 
 using io_detail::ends_with_ci;
 
-bool is_volume_file(const std::string& path) {
-  for (const char* ext : {".raw", ".nrrd", ".nhdr", ".nii", ".nii.gz"})
+namespace {
+
+bool has_single_file_extension(const std::string& path) {
+  for (const char* ext : {".raw", ".nrrd", ".nhdr", ".nii", ".nii.gz", ".tif", ".tiff", ".vti", ".vtk"})
     if (ends_with_ci(path, ext)) return true;
   return false;
 }
 
-Volume load_volume(const std::string& path, const std::optional<RawVolumeOptions>& raw) {
-  return with_context(path, [&] {
+// A DICOM slice by its extension, or a folder (of DICOM slices) unless named like another volume file.
+bool is_dicom_path(const std::string& path) {
+  if (ends_with_ci(path, ".dcm") || ends_with_ci(path, ".dicom")) return true;
+  std::error_code ec;
+  return !has_single_file_extension(path) && std::filesystem::is_directory(path, ec);
+}
+
+std::string joined(const std::vector<std::string>& paths) {
+  if (paths.size() == 1) return paths[0];
+  return paths.front() + " (and " + std::to_string(paths.size() - 1) + " more files)";
+}
+
+}  // namespace
+
+bool is_volume_file(const std::string& path) { return has_single_file_extension(path) || is_dicom_path(path); }
+
+Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOptions& options, VolumeFileInfo* info) {
+  if (paths.empty()) throw Error("no volume file given");
+  VolumeFileInfo local;
+  VolumeFileInfo& out = info ? *info : local;
+  out = VolumeFileInfo{};
+  return with_context(joined(paths), [&] {
+    bool dicom = true;
+    for (const std::string& p : paths) dicom = dicom && is_dicom_path(p);
+    if (paths.size() > 1 && !dicom)
+      throw Error("several files make one volume only as DICOM slices (.dcm); give other volumes one at a time");
+    if (dicom) return load_dicom_volume(paths, options.series, &out);
+    if (!options.series.empty()) throw Error("'series' is for DICOM series (a folder or .dcm files)");
+    const std::string& path = paths[0];
+    const bool tiff = ends_with_ci(path, ".tif") || ends_with_ci(path, ".tiff");
+    if (options.channel >= 0 && !tiff) throw Error("'channel' is for multi-channel TIFF stacks (.tif, .tiff)");
     // Each loader already ran recompute_range(), which rejects NaN/inf voxels and sets the range,
     // so the volume is returned as is rather than scanned twice.
     if (ends_with_ci(path, ".raw")) {
-      if (!raw) throw Error("raw files need the 'raw' block: dims, type, endian");
-      return load_raw_volume(path, *raw);
+      if (!options.raw) throw Error("raw files need the 'raw' block: dims, type, endian");
+      out.format = "raw";
+      return load_raw_volume(path, *options.raw);
     }
-    if (ends_with_ci(path, ".nrrd") || ends_with_ci(path, ".nhdr")) return load_nrrd_volume(path);
-    if (ends_with_ci(path, ".nii") || ends_with_ci(path, ".nii.gz")) return load_nifti_volume(path);
-    throw Error("unknown volume file extension (supported: .raw, .nrrd, .nhdr, .nii, .nii.gz)");
+    if (ends_with_ci(path, ".nrrd") || ends_with_ci(path, ".nhdr")) {
+      out.format = "nrrd";
+      return load_nrrd_volume(path);
+    }
+    if (ends_with_ci(path, ".nii") || ends_with_ci(path, ".nii.gz")) {
+      out.format = "nifti";
+      return load_nifti_volume(path);
+    }
+    if (tiff) return load_tiff_volume(path, options.channel, &out);
+    if (ends_with_ci(path, ".vti")) return load_vti_volume(path, &out);
+    if (ends_with_ci(path, ".vtk")) return load_legacy_vtk_volume(path, &out);
+    throw Error("unknown volume file extension (supported: .raw, .nrrd, .nhdr, .nii, .nii.gz, .tif, .tiff, .vti, .vtk, "
+                ".dcm or a folder of DICOM slices)");
   });
+}
+
+Volume load_volume(const std::string& path, const VolumeLoadOptions& options, VolumeFileInfo* info) {
+  return load_volume(std::vector<std::string>{path}, options, info);
+}
+
+Volume load_volume(const std::string& path, const std::optional<RawVolumeOptions>& raw) {
+  VolumeLoadOptions options;
+  options.raw = raw;
+  return load_volume(path, options);
 }
 
 }  // namespace penumbra

@@ -1,13 +1,16 @@
 // Volume files: raw (dimensions, type and endianness given by the caller), NRRD (attached and detached
-// headers, raw and gzip encodings) and NIfTI-1 (.nii, .nii.gz). Every loader checks what it reads:
-// truncated data, lying headers, unsupported types, zero or absurd dimensions and NaN voxels give an
-// Error naming the file and what was expected.
+// headers, raw and gzip encodings), NIfTI-1 (.nii, .nii.gz), DICOM series (a folder or a list of
+// slices, through GDCM), multi-page TIFF stacks (through libtiff, with ImageJ metadata) and VTK image
+// data (XML .vti and legacy .vtk STRUCTURED_POINTS). Every loader checks what it reads: truncated data,
+// lying headers, unsupported types, zero or absurd dimensions and NaN voxels give an Error naming the
+// file and what was expected.
 #pragma once
 
 #include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "penumbra/data/volume.h"
 
@@ -21,15 +24,47 @@ struct RawVolumeOptions {
   std::uint64_t header_bytes = 0;  // bytes to skip at the start of the file
 };
 
+// What a reader found beside the voxels, for `penumbra info` and for the user to know what was done.
+struct VolumeFileInfo {
+  std::string format;                // "raw", "nrrd", "nifti", "dicom", "tiff", "vti", "vtk"
+  std::string orientation;           // how the file's axes became the volume's x, y, z ("" = as stored)
+  std::vector<std::string> series;   // DICOM: one line per series in the input (UID, description, slices)
+  int series_index = -1;             // DICOM: the series loaded (index into `series`)
+  int channels = 1;                  // TIFF: channels in the file
+  int channel = 0;                   // TIFF: the channel loaded
+  std::vector<std::string> notes;    // what else the reader did (rescale applied, default spacing, ...)
+};
+
+// What the caller chooses beyond the file name.
+struct VolumeLoadOptions {
+  std::optional<RawVolumeOptions> raw;  // .raw files: their layout
+  std::string series;                   // DICOM: SeriesInstanceUID or index ("" = the series with the most slices)
+  int channel = -1;                     // multi-channel TIFF: channel from 0 (-1 = channel 0)
+};
+
 Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options);
 Volume load_nrrd_volume(const std::string& path);   // .nrrd or .nhdr
 Volume load_nifti_volume(const std::string& path);  // .nii or .nii.gz
 
-// Whether the file name has a volume extension (.raw, .nrrd, .nhdr, .nii, .nii.gz; any case).
+// DICOM (dicom_loader.cpp): `paths` is one folder (every DICOM file directly in it) or a list of slice
+// files. Slices are grouped by SeriesInstanceUID; `series` picks one (see VolumeLoadOptions).
+Volume load_dicom_volume(const std::vector<std::string>& paths, const std::string& series, VolumeFileInfo* info);
+// Multi-page TIFF (tiff_loader.cpp): 8/16/32-bit integer or float pages of one size; ImageJ hyperstacks
+// are de-interleaved and `channel` (-1 = 0) chosen.
+Volume load_tiff_volume(const std::string& path, int channel, VolumeFileInfo* info);
+// VTK image data (vti_loader.cpp, vtk_legacy_loader.cpp): XML ImageData (.vti: ascii, base64 or appended raw, zlib or
+// not) and legacy STRUCTURED_POINTS (.vtk, ASCII or BINARY).
+Volume load_vti_volume(const std::string& path, VolumeFileInfo* info);
+Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info);
+
+// Whether the path names a volume: a volume extension (.raw, .nrrd, .nhdr, .nii, .nii.gz, .dcm, .tif,
+// .tiff, .vti, .vtk; any case) or a folder (a DICOM series).
 bool is_volume_file(const std::string& path);
 
-// Chooses the loader by extension (.raw needs `raw`; .nrrd/.nhdr; .nii/.nii.gz). The returned volume
-// has its value range computed.
+// Chooses the loader by extension (.raw needs `raw`; a folder or .dcm files are a DICOM series). The
+// returned volume has its value range computed; `info`, when given, says what the reader found.
+Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOptions& options, VolumeFileInfo* info = nullptr);
+Volume load_volume(const std::string& path, const VolumeLoadOptions& options, VolumeFileInfo* info = nullptr);
 Volume load_volume(const std::string& path, const std::optional<RawVolumeOptions>& raw = std::nullopt);
 
 }  // namespace penumbra

@@ -1,0 +1,213 @@
+// Legacy VTK files (.vtk) holding image data: "# vtk DataFile Version x.y", a title line, ASCII or
+// BINARY (big-endian), DATASET STRUCTURED_POINTS with DIMENSIONS, SPACING (or ASPECT_RATIO) and
+// ORIGIN, then POINT_DATA n and its first attribute, which must be SCALARS name type [components]
+// followed by LOOKUP_TABLE. Component 0 of the scalars becomes the volume; whatever follows the values
+// (further attributes, the METADATA block VTK 9 writes) is not read. The header is read line by line,
+// as VTK writes it, so that the binary values can start right after the LOOKUP_TABLE line. A negative
+// spacing reverses that axis, as with the .vti reader.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "penumbra/data/io/file_checks.h"
+#include "penumbra/data/io/text_fields.h"
+#include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/io/vtk_image_data.h"
+
+namespace penumbra {
+
+namespace {
+
+using io_detail::bytes_str;
+using io_detail::printable;
+using io_detail::upper;
+
+// A header longer than this is not a legacy VTK header.
+constexpr std::size_t kMaxHeaderLines = 64;
+
+// The header's lines in order, each with where the next one starts.
+class HeaderLines {
+public:
+  explicit HeaderLines(std::string_view text) : text_(text) {}
+  // The next line (that is not blank, unless `any`); false at the end of the text.
+  bool next(std::string_view& line, bool any = false) {
+    while (pos_ < text_.size()) {
+      if (++line_no_ > kMaxHeaderLines) throw Error("no POINT_DATA scalars in the first " + std::to_string(kMaxHeaderLines) + " lines");
+      const std::size_t eol = std::min(text_.find('\n', pos_), text_.size());
+      line = io_detail::trim(text_.substr(pos_, eol - pos_));
+      pos_ = eol + 1;
+      if (any || !line.empty()) return true;
+    }
+    return false;
+  }
+  std::size_t pos() const { return std::min(pos_, text_.size()); }  // where the next line starts
+  std::string where() const { return "line " + std::to_string(line_no_); }
+
+private:
+  std::string_view text_;
+  std::size_t pos_ = 0, line_no_ = 0;
+};
+
+struct LegacyHeader {
+  bool binary = false;
+  std::optional<std::array<std::int64_t, 3>> dims;
+  std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
+  std::int64_t points = -1;
+  std::string name;
+  io_detail::VtkType type = io_detail::VtkType::UInt8;
+  std::size_t components = 1;
+  std::size_t data_start = 0;  // offset of the first value
+};
+
+// The numbers after a keyword: exactly `n` of them, finite.
+template <std::size_t N>
+std::array<double, N> numbers(const std::vector<std::string_view>& fields, const std::string& where) {
+  if (fields.size() != N + 1)
+    throw Error(where + ": " + upper(fields[0]) + " has " + std::to_string(fields.size() - 1) + " values (expected " + std::to_string(N) + ")");
+  std::array<double, N> out{};
+  for (std::size_t i = 0; i < N; ++i)
+    if (!io_detail::parse_number(fields[i + 1], out[i]) || !std::isfinite(out[i]))
+      throw Error(where + ": " + upper(fields[0]) + " value '" + printable(fields[i + 1], 40) + "' is not a finite number");
+  return out;
+}
+
+std::int64_t count(std::string_view field, const std::string& what, std::int64_t max) {
+  double v = 0;
+  if (!io_detail::parse_number(field, v) || v != std::floor(v) || v < 1 || v > static_cast<double>(max))
+    throw Error(what + " '" + printable(field, 40) + "' is not a whole number from 1 to " + std::to_string(max));
+  return static_cast<std::int64_t>(v);
+}
+
+LegacyHeader parse_header(std::string_view text) {
+  LegacyHeader h;
+  HeaderLines lines(text);
+  std::string_view line;
+  if (!lines.next(line, true) || line.substr(0, 22) != "# vtk DataFile Version")
+    throw Error("not a legacy VTK file (expected '# vtk DataFile Version x.y' on line 1)");
+  lines.next(line, true);  // the title, whatever it says
+  if (!lines.next(line) || (upper(line) != "ASCII" && upper(line) != "BINARY"))
+    throw Error(lines.where() + ": '" + printable(line, 40) + "' (expected ASCII or BINARY)");
+  h.binary = upper(line) == "BINARY";
+  if (!lines.next(line)) throw Error("the file ends before its DATASET line");
+  const auto dataset = io_detail::split_fields(line);
+  if (dataset.size() != 2 || upper(dataset[0]) != "DATASET")
+    throw Error(lines.where() + ": '" + printable(line, 60) + "' (expected DATASET STRUCTURED_POINTS)");
+  if (upper(dataset[1]) != "STRUCTURED_POINTS")
+    throw Error("DATASET " + printable(dataset[1], 40) +
+                " is not supported (expected STRUCTURED_POINTS: image data; meshes and grids are not volumes)");
+  while (lines.next(line)) {
+    const auto fields = io_detail::split_fields(line);
+    const std::string key = upper(fields[0]), where = lines.where();
+    if (key == "DIMENSIONS") {
+      const auto d = numbers<3>(fields, where);
+      h.dims = std::array<std::int64_t, 3>{};
+      for (std::size_t a = 0; a < 3; ++a) {
+        if (d[a] < 1 || d[a] != std::floor(d[a]) || d[a] > 1e9)
+          throw Error(where + ": DIMENSIONS value " + num(d[a]) + " is not a point count of at least 1");
+        (*h.dims)[a] = static_cast<std::int64_t>(d[a]);
+      }
+    } else if (key == "SPACING" || key == "ASPECT_RATIO") {
+      h.spacing = numbers<3>(fields, where);
+    } else if (key == "ORIGIN") {
+      h.origin = numbers<3>(fields, where);
+    } else if (key == "POINT_DATA") {
+      if (fields.size() != 2) throw Error(where + ": POINT_DATA needs one count");
+      h.points = count(fields[1], where + ": POINT_DATA", std::int64_t{1} << 40);
+    } else if (key == "SCALARS") {
+      if (h.points < 0) throw Error(where + ": SCALARS before POINT_DATA (cell data is not supported)");
+      if (fields.size() < 3 || fields.size() > 4) throw Error(where + ": expected SCALARS name type [components]");
+      h.name = std::string(fields[1]);
+      const auto type = io_detail::vtk_type_from_legacy(fields[2]);
+      if (!type)
+        throw Error(where + ": SCALARS type '" + printable(fields[2], 40) +
+                    "' (expected unsigned_char, char, short, unsigned_short, int, unsigned_int, float or double)");
+      h.type = *type;
+      if (fields.size() == 4) h.components = static_cast<std::size_t>(count(fields[3], where + ": SCALARS components", 4));
+      if (!lines.next(line) || upper(io_detail::split_fields(line)[0]) != "LOOKUP_TABLE")
+        throw Error(lines.where() + ": expected LOOKUP_TABLE after SCALARS (VTK requires it; write LOOKUP_TABLE default)");
+      h.data_start = lines.pos();
+      return h;
+    } else if (key == "CELL_DATA" || key == "FIELD" || h.points >= 0) {
+      throw Error(where + ": " + printable(fields[0], 40) + (h.points >= 0 ? " as the first point attribute" : "") +
+                  " is not supported (expected SCALARS in POINT_DATA)");
+    } else {
+      throw Error(where + ": unknown keyword '" + printable(fields[0], 40) +
+                  "' (expected DIMENSIONS, SPACING, ORIGIN or POINT_DATA)");
+    }
+  }
+  throw Error("the file ends before its POINT_DATA SCALARS");
+}
+
+std::string read_text(const std::string& path, std::uint64_t bytes) {
+  std::string text(static_cast<std::size_t>(bytes), '\0');
+  std::ifstream in(path, std::ios::binary);
+  if (!in || !in.read(text.data(), static_cast<std::streamsize>(bytes))) throw Error("cannot read the file");
+  return text;
+}
+
+}  // namespace
+
+Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info) {
+  VolumeFileInfo local;
+  VolumeFileInfo& out = info ? *info : local;
+  out.format = "vtk";
+  const std::uint64_t file_bytes = io_detail::regular_file_size(path);
+  if (file_bytes == 0) throw Error("empty file (expected '# vtk DataFile Version x.y')");
+  const std::string text = read_text(path, file_bytes);
+  const LegacyHeader h = parse_header(text);
+  if (!h.dims) throw Error("STRUCTURED_POINTS without DIMENSIONS");
+  const auto& d = *h.dims;
+  const std::string dims_text = std::to_string(d[0]) + "x" + std::to_string(d[1]) + "x" + std::to_string(d[2]);
+  const std::size_t points = with_context("DIMENSIONS " + dims_text, [&] { return checked_voxel_count(d); });
+  if (static_cast<std::uint64_t>(h.points) != points)
+    throw Error("POINT_DATA " + std::to_string(h.points) + " but DIMENSIONS " + dims_text + " make " + std::to_string(points) + " points");
+
+  const std::size_t values = points * h.components, size = io_detail::vtk_type_size(h.type);
+  const std::string need = "DIMENSIONS " + dims_text + " x " + std::to_string(h.components) + " component(s) of " +
+                           io_detail::vtk_type_name(h.type) + " need " + std::to_string(values) + " values";
+  const std::string_view body = std::string_view(text).substr(h.data_start);
+  std::vector<std::byte> data;
+  if (h.binary) {
+    if (body.size() < values * size)
+      throw Error("BINARY data has " + bytes_str(body.size()) + " after the header but " + need + ", " + bytes_str(values * size) +
+                  " (truncated file or lying sizes)");
+    data.assign(reinterpret_cast<const std::byte*>(body.data()), reinterpret_cast<const std::byte*>(body.data()) + values * size);
+  } else {
+    if (body.size() / 2 + 1 < values) throw Error("ASCII data has " + bytes_str(body.size()) + ", too short: " + need);
+    data.resize(values * size);
+    with_context("SCALARS " + printable(h.name, 60), [&] { io_detail::parse_ascii_values(body, h.type, values, data.data()); });
+  }
+
+  Vec3 spacing, origin;
+  std::string flipped;
+  for (int a = 0; a < 3; ++a) {
+    const auto i = static_cast<std::size_t>(a);
+    if (h.spacing[i] == 0) throw Error("SPACING along axis " + std::to_string(a) + " is 0");
+    spacing[a] = static_cast<float>(std::abs(h.spacing[i]));
+    origin[a] = static_cast<float>(h.origin[i] + (h.spacing[i] < 0 ? h.spacing[i] * static_cast<double>(d[i] - 1) : 0.0));
+    if (!std::isfinite(spacing[a]) || !std::isfinite(origin[a]))
+      throw Error("ORIGIN or SPACING along axis " + std::to_string(a) + " is outside the float range");
+  }
+  Volume volume(io_detail::vtk_volume_type(h.type), {static_cast<int>(d[0]), static_cast<int>(d[1]), static_cast<int>(d[2])},
+                spacing, origin, VoxelFill::Uninitialized);
+  io_detail::store_vtk_samples(data.data(), h.type, h.binary, h.components, volume, out.notes);
+  for (int a = 0; a < 3; ++a)
+    if (h.spacing[static_cast<std::size_t>(a)] < 0) {
+      io_detail::flip_volume_axis(volume, a);
+      flipped += std::string(flipped.empty() ? "" : ", ") + "xyz"[a];
+    }
+  if (!flipped.empty()) {
+    out.orientation = flipped + " reversed (negative SPACING)";
+    out.notes.push_back("axes " + flipped + " have a negative SPACING: reversed, so the volume's world box is VTK's");
+  }
+  volume.recompute_range();  // rejects NaN/inf voxels and gives the volume its range
+  return volume;
+}
+
+}  // namespace penumbra

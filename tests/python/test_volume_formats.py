@@ -1,0 +1,128 @@
+"""penumbra's volume readers for the files scientists hand over (DICOM series, TIFF stacks, VTK image
+data; src/penumbra/data/io/) against independent readers as oracles: pydicom for the DICOM CT (every
+voxel, in Hounsfield units, in position order), tifffile for the confocal stacks (every voxel of every
+channel), and penumbra's own NRRD reader for the VTK files VTK wrote from the same voxels. Then each
+format opened end to end: `penumbra info` describes it and `penumbra render FILE` draws it.
+
+    PYTHONPATH=build/release/python PENUMBRA_CLI=build/release/penumbra /usr/bin/python3 -m pytest -q tests/python/test_volume_formats.py
+"""
+import os
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import penumbra
+
+CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
+ROOT = os.environ.get("PENUMBRA_ROOT", os.path.join(os.path.dirname(__file__), "..", ".."))
+DATA = os.environ.get("PENUMBRA_DATA_DIR", os.path.join(ROOT, "..", "shared", "data"))
+
+
+def staged(name):
+    path = os.path.join(DATA, name)
+    if not os.path.exists(path):
+        pytest.skip(f"{path} not found")
+    return path
+
+
+def pydicom_series(folder):
+    """The slices in Hounsfield units, sorted by position along the slice normal, with their positions."""
+    pydicom = pytest.importorskip("pydicom")
+    slices = [pydicom.dcmread(os.path.join(folder, f)) for f in sorted(os.listdir(folder))]
+    def along_normal(ds):
+        o = np.array(ds.ImageOrientationPatient, dtype=float)
+        return float(np.dot(np.cross(o[:3], o[3:]), np.array(ds.ImagePositionPatient, dtype=float)))
+    slices.sort(key=along_normal)
+    hu = np.stack([s.pixel_array.astype(np.float64) * float(s.RescaleSlope) + float(s.RescaleIntercept) for s in slices])
+    return hu, slices
+
+
+def test_dicom_series_equals_pydicom_in_hounsfield_units():
+    folder = staged("dicom_pancreas_ct")
+    v = penumbra.read_volume(folder)
+    hu, slices = pydicom_series(folder)
+    assert v.array.shape == (50, 512, 512)
+    assert v.array.dtype == np.int16
+    assert np.array_equal(v.array.astype(np.float64), hu)
+    assert v.array.min() == -1000 and v.array.max() == 1365
+    assert v.spacing == pytest.approx((3.0, 1.07421875, 1.07421875))  # (z, y, x), as the array
+    first = [float(x) for x in slices[0].ImagePositionPatient]  # the lowest slice (patient LPS x, y, z; mm)
+    assert v.origin == pytest.approx(tuple(reversed(first)), abs=1e-3)
+    assert v.info["format"] == "dicom"
+    assert len(v.info["series"]) == 1
+
+
+def test_dicom_file_list_in_any_order_equals_the_folder(tmp_path):
+    folder = staged("dicom_pancreas_ct")
+    names = sorted(os.listdir(folder))
+    rng = np.random.default_rng(7)
+    shuffled = [os.path.join(folder, names[i]) for i in rng.permutation(len(names))]
+    a = penumbra.read_volume(folder)
+    b = penumbra.read_volume(shuffled)
+    assert np.array_equal(a.array, b.array)
+    with pytest.raises(penumbra.Error, match="missing slice between .*1-071.dcm.* and .*1-069.dcm"):  # named by its neighbours
+        penumbra.read_volume([p for p in shuffled if not p.endswith("1-070.dcm")])
+
+
+def test_tiff_stacks_equal_tifffile():
+    tifffile = pytest.importorskip("tifffile")
+    path = staged("arabidopsis_embryo.tif")
+    v = penumbra.read_volume(path)
+    assert np.array_equal(v.array, tifffile.imread(path))
+    assert v.spacing == (1.0, 1.0, 1.0)
+    path = staged("nucleus_conf_wf.tif")
+    both = tifffile.imread(path)  # (z, c, y, x)
+    assert both.shape == (45, 2, 130, 133)
+    for c in range(2):
+        v = penumbra.read_volume(path, channel=c)
+        assert v.info["channels"] == 2 and v.info["channel"] == c
+        assert np.array_equal(v.array, both[:, c])
+    assert v.spacing == pytest.approx((0.4994126, 1 / 1.953591, 1 / 1.953591), rel=1e-5)
+    with pytest.raises(penumbra.Error, match="channel"):
+        penumbra.read_volume(path, channel=2)
+
+
+@pytest.mark.parametrize("name", ["headsq_appended_raw.vti", "headsq_appended_zlib.vti", "headsq_vtkdefault.vti", "headsq.vtk"])
+def test_vtk_image_data_equals_the_nrrd_it_was_written_from(name):
+    reference = penumbra.read_volume(staged("headsq.nhdr"))
+    v = penumbra.read_volume(staged(name))
+    assert v.array.dtype == reference.array.dtype
+    assert np.array_equal(v.array, reference.array)
+    assert v.spacing == pytest.approx(reference.spacing)
+    assert v.origin == pytest.approx(reference.origin)
+
+
+def test_a_read_volume_goes_into_a_scene_as_is():
+    v = penumbra.read_volume(staged("headsq_appended_zlib.vti"))
+    scene = penumbra.Scene({"shadows": {"technique": "shadow_map"}})
+    path = scene.add_volume(v.array, spacing=v.spacing, origin=v.origin)
+    assert scene.to_dict()["volumes"][0]["spacing"] == pytest.approx([3.2, 3.2, 1.5])  # the scene file's (x, y, z)
+    image = penumbra.Renderer(scene).render(width=48, height=32)
+    assert np.asarray(image)[..., :3].std() > 0
+    assert path == "volumes.0"
+
+
+@pytest.mark.parametrize("name,needle", [
+    ("dicom_pancreas_ct", "Hounsfield"),
+    ("nucleus_conf_wf.tif", "channels"),
+    ("headsq_vtkdefault.vti", "vti"),
+])
+def test_info_and_render_open_each_format(name, needle, tmp_path):
+    path = staged(name)
+    info = subprocess.run([CLI, "info", path], capture_output=True, text=True)
+    assert info.returncode == 0, info.stderr
+    assert needle in info.stdout
+    out = tmp_path / "f.pfm"
+    r = subprocess.run([CLI, "render", path, "-o", str(out), "--width", "96", "--height", "64"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert read_pfm(out).std() > 0.01, "the picture shows something"
+
+
+def read_pfm(path):
+    data = open(path, "rb").read()
+    header, width_height, scale, rest = data.split(b"\n", 3)
+    w, h = map(int, width_height.split())
+    assert header == b"PF"
+    return np.frombuffer(rest, dtype="<f4" if float(scale) < 0 else ">f4").reshape(h, w, 3)
