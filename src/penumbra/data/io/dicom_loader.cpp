@@ -1,17 +1,18 @@
-// DICOM series (a folder of slices or a list of slice files), decoded by GDCM. GDCM trusts the lengths
-// in a file (a corrupt length makes it allocate and zero up to 4 GB) and asserts on some malformed
-// files, so every file is first walked here: its elements, sequences and pixel-data fragments must nest
-// properly and fit in the file, and the attributes the volume needs are read on the way. Only files that
-// pass and whose image attributes make sense go to gdcm::ImageReader, which decodes (and decompresses)
-// the pixels, after the codestream's header has been checked against Rows and Columns (GDCM asserts on
-// a mismatch); RLE is decoded here (GDCM's RLE decoder asserts or reads out of bounds on corrupt
-// segments). Slices are grouped by SeriesInstanceUID, sorted by ImagePositionPatient along the slice
-// normal and checked to be evenly spaced; the rescale is applied per slice. An axis-aligned series is
-// permuted and flipped so that the volume's axes are patient +x, +y, +z (LPS); an oblique one keeps its
-// grid, without its rotation.
+// DICOM series (a folder of slices or a list of slice files). GDCM trusts the lengths in a file (a
+// corrupt length makes it allocate and zero up to 4 GB) and asserts on malformed attributes, so GDCM
+// never parses a file: every file is walked here (its elements, sequences and pixel-data fragments must
+// nest properly and fit in the file) and the attributes the volume needs are read on the way. Native
+// pixel data is then read here and RLE decoded here (GDCM's RLE decoder asserts or reads out of bounds
+// on corrupt segments); only JPEG and JPEG-LS fragments go to GDCM's codecs, in an image assembled from
+// the checked attributes, after the codestream's header has been checked against Rows and Columns.
+// JPEG 2000 is refused. Slices are grouped by SeriesInstanceUID, sorted by ImagePositionPatient along
+// the slice normal and checked to be evenly spaced; the rescale is applied per slice. An axis-aligned
+// series is permuted and flipped so that the volume's axes are patient +x, +y, +z (LPS); an oblique one
+// keeps its grid, without its rotation.
 #include <gdcmDicts.h>
 #include <gdcmGlobal.h>
-#include <gdcmImageReader.h>
+#include <gdcmImage.h>
+#include <gdcmSequenceOfFragments.h>
 #include <gdcmTrace.h>
 
 #include <algorithm>
@@ -197,7 +198,8 @@ struct Header {
   std::map<std::uint32_t, std::string> values;
   bool has_pixel_data = false, encapsulated = false;
   std::uint64_t pixel_bytes = 0;             // the value length, or the sum of the fragments
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> fragments;  // offset and length of each after the offset table
+  // offset and length of the native pixel data, or of each fragment after the offset table
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> fragments;
   bool offset_table_seen = false;
 };
 
@@ -343,7 +345,7 @@ void walk_file(const std::string& path, Header& h) {
       f.read(value.data(), len);
       h.values[t] = std::move(value);
     } else {
-      if (t == kPixelData && stack.empty()) h.has_pixel_data = true, h.pixel_bytes = len;
+      if (t == kPixelData && stack.empty()) h.has_pixel_data = true, h.pixel_bytes = len, h.fragments = {{f.pos(), len}};
       f.skip(len);
     }
   }
@@ -367,7 +369,7 @@ struct Slice {
   std::optional<std::array<double, 2>> pixel_spacing;  // (between rows, between columns) = (y, x)
   std::optional<double> thickness;
   double slope = 1, intercept = 0;
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> fragments;  // compressed pixel data: offset and length
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> fragments;  // the pixel data (Header::fragments)
 };
 
 class Attributes {
@@ -730,36 +732,64 @@ Layout arrange(const std::vector<Slice>& input, VolumeFileInfo& info) {
   return L;
 }
 
-// The stored values of one slice, decoded (and decompressed) by GDCM, in host byte order, with bits
-// above BitsStored masked off or sign-extended by GDCM.
+// The stored values of one slice in host byte order (bits above BitsStored are dealt with by fill).
+// Native pixel data is read here and RLE decoded here. JPEG and JPEG-LS go to GDCM's codecs as an image
+// assembled from the checked attributes and the fragments found by the walk: GDCM never parses the file
+// itself, whose other attributes (spacings, sequences) it reads with asserts.
 void decode_rle(const Slice& s, std::vector<char>& buffer);
 
-void decode(const Slice& s, std::vector<char>& buffer) {
-  if (s.syntax->codec == Codec::Rle) return with_context(s.name, [&] { decode_rle(s, buffer); });
-  try {
-    gdcm::ImageReader reader;
-    reader.SetFileName(s.path.c_str());
-    if (!reader.Read()) throw Error("GDCM could not read the image");
-    const gdcm::Image& image = reader.GetImage();
-    const unsigned* dims = image.GetDimensions();
-    const gdcm::PixelFormat& pf = image.GetPixelFormat();
-    if (image.GetNumberOfDimensions() < 2 || dims[0] != static_cast<unsigned>(s.cols) || dims[1] != static_cast<unsigned>(s.rows) ||
-        (image.GetNumberOfDimensions() > 2 && dims[2] != 1))
-      throw Error("GDCM reads an image of other dimensions than Rows and Columns say (" + std::to_string(s.rows) + "x" + std::to_string(s.cols) + ")");
-    if (pf.GetSamplesPerPixel() != 1 || pf.GetBitsAllocated() != s.bits_allocated || (pf.GetPixelRepresentation() == 1) != s.is_signed)
-      throw Error("GDCM reads a pixel format other than the attributes say (" + std::to_string(s.bits_allocated) + " bits, " +
-                  (s.is_signed ? "signed" : "unsigned") + ")");
-    const std::size_t bytes = static_cast<std::size_t>(s.rows) * s.cols * (s.bits_allocated / 8);
-    if (image.GetBufferLength() != bytes) throw Error("GDCM gives " + bytes_str(image.GetBufferLength()) + " of pixels, expected " + bytes_str(bytes));
-    buffer.resize(bytes);
-    if (!image.GetBuffer(buffer.data())) throw Error(std::string("GDCM could not decode the pixel data (") + s.syntax->name + ")");
-  } catch (const Error& e) {
-    throw e.with_context(s.name);
-  } catch (const std::exception& e) {
-    throw Error(s.name + ": GDCM failed reading the image (" + printable(e.what()) + ")");
-  } catch (...) {
-    throw Error(s.name + ": GDCM failed reading the image");
+void decode_native(const Slice& s, std::vector<char>& buffer) {
+  const std::size_t bytes_per_pixel = static_cast<std::size_t>(s.bits_allocated / 8);
+  const std::size_t bytes = static_cast<std::size_t>(s.rows) * s.cols * bytes_per_pixel;
+  const std::vector<unsigned char> data = read_bytes(s.path, {s.fragments.at(0).first, static_cast<std::uint32_t>(bytes)});
+  buffer.assign(data.begin(), data.end());
+  if (s.syntax->big_endian && bytes_per_pixel > 1)
+    for (std::size_t p = 0; p < bytes; p += bytes_per_pixel) std::reverse(buffer.begin() + static_cast<std::ptrdiff_t>(p),
+                                                                          buffer.begin() + static_cast<std::ptrdiff_t>(p + bytes_per_pixel));
+}
+
+void decode_jpeg(const Slice& s, std::vector<char>& buffer) {
+  gdcm::Image image;
+  image.SetNumberOfDimensions(2);
+  image.SetDimension(0, static_cast<unsigned>(s.cols));
+  image.SetDimension(1, static_cast<unsigned>(s.rows));
+  image.SetPixelFormat(gdcm::PixelFormat(1, static_cast<unsigned short>(s.bits_allocated), static_cast<unsigned short>(s.bits_stored),
+                                         static_cast<unsigned short>(s.bits_stored - 1), s.is_signed ? 1 : 0));  // HighBit: checked
+  image.SetPhotometricInterpretation(gdcm::PhotometricInterpretation::MONOCHROME2);
+  image.SetTransferSyntax(gdcm::TransferSyntax::GetTSType(s.syntax->uid));
+  gdcm::SmartPointer<gdcm::SequenceOfFragments> fragments = new gdcm::SequenceOfFragments;
+  for (const auto& range : s.fragments) {
+    const std::vector<unsigned char> bytes = read_bytes(s.path, range);
+    gdcm::Fragment fragment;
+    fragment.SetByteValue(reinterpret_cast<const char*>(bytes.data()), static_cast<std::uint32_t>(bytes.size()));
+    fragments->AddFragment(fragment);
   }
+  gdcm::DataElement pixels(gdcm::Tag(0x7FE0, 0x0010));
+  pixels.SetVR(gdcm::VR::OB);
+  pixels.SetValue(*fragments);
+  image.SetDataElement(pixels);
+  const std::size_t bytes = static_cast<std::size_t>(s.rows) * s.cols * (s.bits_allocated / 8);
+  if (image.GetBufferLength() != bytes) throw Error("GDCM gives " + bytes_str(image.GetBufferLength()) + " of pixels, expected " + bytes_str(bytes));
+  buffer.resize(bytes);
+  if (!image.GetBuffer(buffer.data())) throw Error(std::string("GDCM could not decode the pixel data (") + s.syntax->name + ")");
+}
+
+void decode(const Slice& s, std::vector<char>& buffer) {
+  with_context(s.name, [&] {
+    try {
+      switch (s.syntax->codec) {
+        case Codec::None: return decode_native(s, buffer);
+        case Codec::Rle: return decode_rle(s, buffer);
+        case Codec::Jpeg: return decode_jpeg(s, buffer);
+      }
+    } catch (const Error&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw Error("GDCM failed decoding the pixel data (" + printable(e.what()) + ")");
+    } catch (...) {
+      throw Error("GDCM failed decoding the pixel data");
+    }
+  });
 }
 
 // RLE Lossless (DICOM PS3.5 annex G), decoded here: GDCM's RLE decoder asserts, divides by zero or
