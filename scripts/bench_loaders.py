@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Load time and peak memory of each volume format (issue 19) against the same voxels from NRRD:
 `penumbra info FILE --bins 1` in a fresh process per run; the time is the reader's own ("read in X ms"),
-the memory the process's peak resident set (os.wait4). The NRRD twins (raw and gzip encodings) are
+the memory the process's peak resident set (GNU time, Debian package `time`). The NRRD twins (raw and gzip encodings) are
 written from the voxels penumbra read, so both sides hold exactly the same data.
 
     scripts/bench_loaders.py [--build build/release] [--runs 5] [--out DIR]
@@ -37,16 +37,16 @@ NRRD_TYPES = {np.dtype("uint8"): "uchar", np.dtype("int16"): "short", np.dtype("
 
 
 def measure(cli, args, runs):
+    """Median read time (ms) and peak RSS (MiB) of `penumbra info ARGS` over `runs` processes. GNU time
+    starts each process, so that its peak is its own (a child forked from this Python process would
+    count the parent's memory before exec)."""
     times, peaks = [], []
     for _ in range(runs):
-        p = subprocess.Popen([cli, "info", *args, "--bins", "1"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-        _, status, usage = os.wait4(p.pid, 0)
-        out = p.stdout.read().decode()
-        err = p.stderr.read().decode()
-        if status != 0:
-            sys.exit(f"penumbra info {' '.join(args)} failed: {err}")
-        times.append(float(re.search(r"read in ([0-9.]+) ms", out).group(1)))
-        peaks.append(usage.ru_maxrss / 1024.0)
+        r = subprocess.run(["/usr/bin/time", "-f", "peak_kib=%M", cli, "info", *args, "--bins", "1"], capture_output=True, text=True)
+        if r.returncode != 0:
+            sys.exit(f"penumbra info {' '.join(args)} failed: {r.stderr}")
+        times.append(float(re.search(r"read in ([0-9.]+) ms", r.stdout).group(1)))
+        peaks.append(int(re.search(r"peak_kib=([0-9]+)", r.stderr).group(1)) / 1024.0)
     return statistics.median(times), statistics.median(peaks)
 
 

@@ -374,6 +374,27 @@ TEST(DicomSeries, NonDicomFilesInAFolderAreSkipped) {
   EXPECT_MESSAGE_HAS(load_error({empty.file("")}), "none of the 1 files", "DICOM");
 }
 
+// Exports from scanners and PACS nest series in subfolders with extension-less names
+// (DICOM/ST000/SE001/IM0001): the folder is searched to any depth, and the series are found across it.
+TEST(DicomSeries, NestedFoldersAndExtensionlessNamesAreFound) {
+  SKIP_WITHOUT_SHARED_DATA("dicom_pancreas_ct/1-045.dcm");
+  TempDir dir;
+  const std::string first = dir.file("DICOM/ST000/SE001"), second = dir.file("DICOM/ST000/SE002");
+  std::filesystem::create_directories(first);
+  std::filesystem::create_directories(second);
+  for (int n = 69; n <= 71; ++n) copy(slice_file(n), first + "/IM" + std::to_string(n));
+  const std::string other = "1.2.826.0.1.3680043.2.1125.4243";
+  for (int n = 60; n <= 61; ++n)
+    rewrite(slice_file(n), second + "/IM" + std::to_string(n), [&](gdcm::DataSet& ds) { set_text(ds, 0x0020, 0x000E, gdcm::VR::UI, other); });
+  write_file(dir.file("DICOM/DICOMDIR.txt"), std::string("index\n"));
+  VolumeFileInfo info;
+  expect_same_volume(load({dir.file("")}, "", &info), load({slice_file(69), slice_file(70), slice_file(71)}));
+  ASSERT_EQ(info.series.size(), 2u);
+  EXPECT_EQ(load({dir.file("")}, other).dims()[2], 2);
+  rewrite(slice_file(72), first + "/IM72", [](gdcm::DataSet& ds) { set_us(ds, 0x0028, 0x0010, 256); });
+  EXPECT_MESSAGE_HAS(load_error({dir.file("")}), "DICOM/ST000/SE001/IM72");  // named by its path in the folder
+}
+
 TEST(DicomSeries, BrokenFilesAreErrorsNamingTheFile) {
   SKIP_WITHOUT_SHARED_DATA("dicom_pancreas_ct/1-045.dcm");
   TempDir dir;

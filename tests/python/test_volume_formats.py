@@ -6,6 +6,7 @@ format opened end to end: `penumbra info` describes it and `penumbra render FILE
 
     PYTHONPATH=build/release/python PENUMBRA_CLI=build/release/penumbra /usr/bin/python3 -m pytest -q tests/python/test_volume_formats.py
 """
+import json
 import os
 import shutil
 import subprocess
@@ -126,3 +127,26 @@ def read_pfm(path):
     w, h = map(int, width_height.split())
     assert header == b"PF"
     return np.frombuffer(rest, dtype="<f4" if float(scale) < 0 else ">f4").reshape(h, w, 3)
+
+
+def test_series_and_channel_options_reach_the_reader_and_are_refused_where_they_mean_nothing(tmp_path):
+    tif = staged("nucleus_conf_wf.tif")
+    r = subprocess.run([CLI, "info", tif, "--channel", "1"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "channel 1 loaded" in r.stdout and "608 .. 7480" in r.stdout  # channel 1's range (PROVENANCE.md)
+    r = subprocess.run([CLI, "render", staged("headsq.nhdr"), "--channel", "1", "-o", str(tmp_path / "x.png")], capture_output=True, text=True)
+    assert r.returncode != 0 and "--channel" in r.stderr
+    assert not (tmp_path / "x.png").exists()
+    r = subprocess.run([CLI, "render", tif, "--series", "0", "-o", str(tmp_path / "x.png")], capture_output=True, text=True)
+    assert r.returncode != 0 and "--series" in r.stderr
+    folder = staged("dicom_pancreas_ct")
+    r = subprocess.run([CLI, "info", folder, "--series", "3"], capture_output=True, text=True)
+    assert r.returncode != 0 and "1.3.6.1.4.1.14519.5.2.1.302382790855582445722435410442490497846" in r.stderr  # lists what exists
+    scene = tmp_path / "scene.json"
+    scene.write_text(json.dumps({"volumes": [{"file": tif, "channel": 1, "transfer_function": {"preset": "grayscale"}}],
+                                 "camera": {"width": 32, "height": 32}}))
+    r = subprocess.run([CLI, "render", str(scene), "-o", str(tmp_path / "s.png"), "--write-scene", str(tmp_path / "saved.json")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    saved = json.loads((tmp_path / "saved.json").read_text())
+    assert saved["volumes"][0]["channel"] == 1

@@ -902,22 +902,33 @@ Volume load_dicom_volume(const std::vector<std::string>& paths, const std::strin
   VolumeFileInfo& info = info_out ? *info_out : local;
   info.format = "dicom";
 
-  // The slices: every DICOM image directly in a folder (others skipped), or the files given.
+  // The slices: every DICOM image in a folder and its subfolders (as exports from scanners and PACS
+  // nest them: DICOM/ST000/SE001/IM0001, often without an extension; other files skipped), or the
+  // files given.
   std::vector<Slice> slices;
   std::error_code ec;
   if (paths.size() == 1 && std::filesystem::is_directory(paths[0], ec)) {
+    constexpr int kMaxDepth = 8;
+    constexpr std::size_t kMaxFiles = 200000;
     std::vector<std::filesystem::path> files;
     try {
-      for (const auto& entry : std::filesystem::directory_iterator(paths[0]))
-        if (std::error_code entry_ec; entry.is_regular_file(entry_ec)) files.push_back(entry.path());
+      namespace fs = std::filesystem;
+      for (auto it = fs::recursive_directory_iterator(paths[0], fs::directory_options::skip_permission_denied);
+           it != fs::recursive_directory_iterator(); ++it) {
+        if (it.depth() >= kMaxDepth) it.disable_recursion_pending();
+        if (std::error_code entry_ec; it->is_regular_file(entry_ec)) files.push_back(it->path());
+        if (files.size() > kMaxFiles)
+          throw Error("holds more than " + std::to_string(kMaxFiles) + " files (expected a folder of DICOM slices)");
+      }
     } catch (const std::filesystem::filesystem_error& e) {
       throw Error("cannot list the folder (" + e.code().message() + ")");
     }
     std::sort(files.begin(), files.end());
     for (const auto& file : files)
-      if (auto s = read_slice(file.string(), file.filename().string(), true)) slices.push_back(std::move(*s));
+      if (auto s = read_slice(file.string(), file.lexically_relative(paths[0]).generic_string(), true)) slices.push_back(std::move(*s));
     if (slices.empty())
-      throw Error("none of the " + std::to_string(files.size()) + " files in the folder is a DICOM image (expected a folder of DICOM slices)");
+      throw Error("none of the " + std::to_string(files.size()) + " files in the folder and its subfolders is a DICOM image "
+                  "(expected a folder of DICOM slices)");
     if (slices.size() < files.size())
       info.notes.push_back(files.size() - slices.size() == 1 ? std::string("1 file in the folder is not a DICOM image: skipped")
                                                             : std::to_string(files.size() - slices.size()) + " files in the folder are not DICOM images: skipped");

@@ -46,8 +46,8 @@ Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options)
 Volume load_nrrd_volume(const std::string& path);   // .nrrd or .nhdr
 Volume load_nifti_volume(const std::string& path);  // .nii or .nii.gz
 
-// DICOM (dicom_loader.cpp): `paths` is one folder (every DICOM file directly in it) or a list of slice
-// files. Slices are grouped by SeriesInstanceUID; `series` picks one (see VolumeLoadOptions).
+// DICOM (dicom_loader.cpp): `paths` is one folder (every DICOM file in it and its subfolders) or a list
+// of slice files. Slices are grouped by SeriesInstanceUID; `series` picks one (see VolumeLoadOptions).
 Volume load_dicom_volume(const std::vector<std::string>& paths, const std::string& series, VolumeFileInfo* info);
 // Multi-page TIFF (tiff_loader.cpp): 8/16/32-bit integer or float pages of one size; ImageJ hyperstacks
 // are de-interleaved and `channel` (-1 = 0) chosen.
