@@ -173,6 +173,43 @@ TEST(Trajectory, BadInputNamesTheKey) {
   EXPECT_EQ(engine.scene().time, 2u);
 }
 
+// Proves a multi-model mmCIF plays as a trajectory beside an mmCIF topology: `time` k shows model k+1,
+// byte for byte the static render of frame k's positions.
+TEST(Trajectory, MmcifModelsAreFrames) {
+  ScratchDir dir;
+  const auto write_cif = [&](const std::string& name, int models) {
+    std::ofstream out(dir.file(name));
+    out << "data_moving\nloop_\n_atom_site.group_PDB\n_atom_site.id\n_atom_site.type_symbol\n_atom_site.label_atom_id\n"
+           "_atom_site.label_alt_id\n_atom_site.label_comp_id\n_atom_site.label_asym_id\n_atom_site.Cartn_x\n"
+           "_atom_site.Cartn_y\n_atom_site.Cartn_z\n_atom_site.occupancy\n_atom_site.B_iso_or_equiv\n"
+           "_atom_site.auth_seq_id\n_atom_site.auth_asym_id\n_atom_site.pdbx_PDB_model_num\n";
+    int id = 0;
+    for (int k = 0; k < models; ++k) {
+      const auto atoms = frame_atoms(k);
+      for (std::size_t i = 0; i < atoms.size(); ++i)  // printed as write_xyz_frame prints them: the same floats
+        out << "HETATM " << ++id << " " << atoms[i].element << " " << atoms[i].element << i << " . MOV A " << atoms[i].p.x
+            << " " << atoms[i].p.y << " " << atoms[i].p.z << " 1 0 1 A " << k + 1 << "\n";
+    }
+  };
+  write_cif("top.cif", 1);
+  write_cif("traj.cif", 3);
+  {
+    std::ofstream one(dir.file("frame.xyz"));
+    write_xyz_frame(one, 2);
+  }
+  Engine engine(particle_scene({{"file", "top.cif"}, {"trajectory", "traj.cif"}}), dir.path().string());
+  EXPECT_EQ(engine.scene().frame_count(), 3u);
+  const Image first = engine.render().image;
+  engine.set("time", 2);
+  const EngineFrame f = engine.render();
+  EXPECT_TRUE(contains(f.rebuilt, "spheres"));
+  const Image fresh = Renderer(build_scene(particle_scene({{"file", "frame.xyz"}}), dir.path().string())).render().image;
+  FailureImages keep;
+  keep.add("mmcif_time2", f.image, fresh);
+  EXPECT_EQ(compare_images(f.image, fresh).max_abs, 0.0);
+  EXPECT_GT(compare_images(f.image, first).max_abs, 0.05);
+}
+
 namespace {
 
 // A uint8 NRRD volume of size³ voxels holding a cube of `value` shifted by `shift` along x.

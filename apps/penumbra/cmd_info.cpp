@@ -31,13 +31,13 @@ void add_info_command(CLI::App& app) {
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand("info", "Describe a volume (.nrrd, .nhdr, .nii, .nii.gz, .tif, .tiff, .vti, .vtk, a folder of DICOM "
                                              "slices or .dcm files), a particle file (.pdb, .cif, .gro, .xyz) "
-                                             "or a trajectory (.xtc, .dcd; .pdb, .xyz, .gro with --trajectory)");
+                                             "or a trajectory (.xtc, .dcd; .pdb, .cif, .xyz, .gro with --trajectory)");
   cmd->add_option("file", o->files, "Volume, particle or trajectory file (several: the slices of one DICOM series)")->required();
   cmd->add_option("--series", o->series, "DICOM: the series to describe (SeriesInstanceUID or index; default: the one with the most slices)");
   cmd->add_option("--channel", o->channel, "Multi-channel TIFF: the channel to describe (from 0)")->check(CLI::Range(0, 1 << 20));
   cmd->add_option("--bins", o->bins, "Histogram bins (volumes)")->check(CLI::Range(1, 1024));
   cmd->add_option("--assembly", o->assembly, "Biological assembly to build (particle files; 0 = as deposited)")->check(CLI::Range(0, 1000000));
-  cmd->add_flag("--trajectory", o->trajectory, "Read FILE as a trajectory (multi-model PDB, multi-frame XYZ or GRO; .xtc and .dcd always are)");
+  cmd->add_flag("--trajectory", o->trajectory, "Read FILE as a trajectory (multi-model PDB or mmCIF, multi-frame XYZ or GRO; .xtc and .dcd always are)");
   cmd->add_option("--frame", o->frame, "Trajectory frame to describe (from 0)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--positions", o->positions, "Write the frame's positions (angstrom) to this .npy (float32, atoms x 3) or .txt file");
   cmd->add_flag("--read-all", o->read_all, "Read every frame of the trajectory and report the frames per second");

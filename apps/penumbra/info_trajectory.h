@@ -1,4 +1,4 @@
-// `penumbra info` for trajectories (.xtc, .dcd, or any .pdb/.xyz/.gro given with --trajectory):
+// `penumbra info` for trajectories (.xtc, .dcd, or any .pdb/.cif/.xyz/.gro given with --trajectory):
 // format, atoms, frames, time range and the first frame's unit cell; with --frame K that frame's time,
 // step and cell; with --positions OUT (.npy or .txt) that frame's coordinates in Å, for comparing with
 // other readers (tests/python/test_trajectory_oracle.py); with --read-all the reading speed.

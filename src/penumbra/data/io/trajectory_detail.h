@@ -26,6 +26,8 @@ std::unique_ptr<TrajectoryFile> open_xtc(const std::string& path, std::size_t ex
 std::unique_ptr<TrajectoryFile> open_dcd(const std::string& path, std::size_t expected_atoms);
 // format: "pdb", "xyz" or "gro"
 std::unique_ptr<TrajectoryFile> open_text_trajectory(const std::string& path, const std::string& format, std::size_t expected_atoms);
+// Multi-model mmCIF (trajectory_mmcif.cpp): parsed whole through gemmi at open, every model's positions held.
+std::unique_ptr<TrajectoryFile> open_mmcif(const std::string& path, std::size_t expected_atoms);
 
 inline std::string frame_str(std::size_t k) { return "frame " + std::to_string(k); }
 

@@ -1,6 +1,6 @@
 // Trajectory files: the reader by extension, the unit-cell conversion shared by the readers, and a
-// list of files read as one trajectory. The format readers are trajectory_xtc.cpp, trajectory_dcd.cpp
-// and trajectory_text.cpp (PDB, XYZ, GRO).
+// list of files read as one trajectory. The format readers are trajectory_xtc.cpp, trajectory_dcd.cpp,
+// trajectory_text.cpp (PDB, XYZ, GRO) and trajectory_mmcif.cpp (multi-model mmCIF).
 #include "penumbra/data/io/trajectory_io.h"
 
 #include <cmath>
@@ -33,10 +33,11 @@ namespace {
 std::unique_ptr<TrajectoryFile> open_one(const std::string& path, std::size_t expected_atoms) {
   const std::string format = trajectory_file_format(path);
   if (format.empty())
-    throw Error(path + ": unknown trajectory file extension (supported: .xtc, .dcd, .pdb, .ent, .xyz, .gro; "
-                       "the text formats optionally gzip-compressed with .gz)");
+    throw Error(path + ": unknown trajectory file extension (supported: .xtc, .dcd, .pdb, .ent, .cif, .mmcif, "
+                       ".xyz, .gro; the text formats optionally gzip-compressed with .gz)");
   if (format == "xtc") return open_xtc(path, expected_atoms);
   if (format == "dcd") return open_dcd(path, expected_atoms);
+  if (format == "mmcif") return open_mmcif(path, expected_atoms);
   return open_text_trajectory(path, format, expected_atoms);
 }
 
@@ -99,6 +100,7 @@ std::string trajectory_file_format(const std::string& path) {
   if (ends_with_ci(name, ".dcd")) return "dcd";
   if (ends_with_ci(name, ".gz")) name.remove_suffix(3);
   if (ends_with_ci(name, ".pdb") || ends_with_ci(name, ".ent")) return "pdb";
+  if (ends_with_ci(name, ".cif") || ends_with_ci(name, ".mmcif")) return "mmcif";
   if (ends_with_ci(name, ".xyz")) return "xyz";
   if (ends_with_ci(name, ".gro")) return "gro";
   return "";

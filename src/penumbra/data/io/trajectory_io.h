@@ -1,6 +1,8 @@
 // Molecular-dynamics trajectories: frames of atom positions streamed from disk, one frame at a time.
 // Formats (by extension): GROMACS .xtc (compressed coordinates), CHARMM/NAMD .dcd, multi-model PDB
 // (.pdb, .ent), multi-frame XYZ and GROMACS .gro; the text formats may be gzip-compressed (.gz).
+// Multi-model mmCIF (.cif, .mmcif, .gz) is the exception: gemmi parses it whole, so its reader holds
+// every model's positions.
 // Positions are in ångström (penumbra's world unit), in the topology's atom order; the unit cell is
 // given as MDAnalysis' `dimensions` (a, b, c in Å; alpha, beta, gamma in degrees). docs/trajectories.md
 // describes the formats, the checks and `penumbra info --trajectory`.
@@ -26,11 +28,11 @@ struct TrajectoryFrame {
 };
 
 // Frames streamed from disk: the reader holds one frame's buffers and an index of frame offsets that
-// it builds when the file is opened, so any frame can be read in any order.
+// it builds when the file is opened, so any frame can be read in any order (mmCIF: every frame, held).
 class TrajectoryReader {
 public:
   virtual ~TrajectoryReader() = default;
-  virtual std::string format() const = 0;            // "xtc", "dcd", "pdb", "xyz", "gro"
+  virtual std::string format() const = 0;            // "xtc", "dcd", "pdb", "mmcif", "xyz", "gro"
   virtual std::size_t frame_count() const = 0;
   virtual std::size_t atom_count() const = 0;
   // Random access; throws Error naming the file and the frame on malformed data.
@@ -38,14 +40,15 @@ public:
   virtual std::size_t memory_bytes() const = 0;      // the index and buffers the reader holds, for --stats
 };
 
-// The trajectory format of a file name ("xtc", "dcd", "pdb", "xyz", "gro"; a .gz suffix is allowed for
-// the text formats), or "" when the extension is none of these.
+// The trajectory format of a file name ("xtc", "dcd", "pdb", "mmcif", "xyz", "gro"; a .gz suffix is
+// allowed for the text formats), or "" when the extension is none of these.
 std::string trajectory_file_format(const std::string& path);
 
-// Opens by extension (.xtc, .dcd, .pdb/.ent with MODEL records or one model, .xyz, .gro; .gz allowed
-// for the text formats) and indexes the frames. Throws Error naming the file (and frame where there is
-// one) and what was expected on unreadable, truncated or lying input. expected_atoms > 0: every frame
-// must hold that many atoms (the topology's), else an Error naming file, frame, found and expected.
+// Opens by extension (.xtc, .dcd, .pdb/.ent with MODEL records or one model, .cif/.mmcif with one or
+// more models, .xyz, .gro; .gz allowed for the text formats) and indexes the frames. Throws Error
+// naming the file (and frame where there is one) and what was expected on unreadable, truncated or lying
+// input. expected_atoms > 0: every frame must hold that many atoms (the topology's), else an Error
+// naming file, frame, found and expected.
 std::unique_ptr<TrajectoryReader> open_trajectory(const std::string& path, std::size_t expected_atoms = 0);
 // Several files read one after another as one trajectory (frames in the order given); every file must
 // hold the same number of atoms. Only one file is open at a time.
