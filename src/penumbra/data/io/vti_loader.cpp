@@ -473,13 +473,6 @@ const ArrayInfo& choose_array(const VtiFile& f, std::vector<std::string>& notes)
   return f.point_arrays.front();
 }
 
-std::string read_text(const std::string& path, std::uint64_t bytes) {
-  std::string text(static_cast<std::size_t>(bytes), '\0');
-  std::ifstream in(path, std::ios::binary);
-  if (!in || !in.read(text.data(), static_cast<std::streamsize>(bytes))) throw Error("cannot read the file");
-  return text;
-}
-
 }  // namespace
 
 Volume load_vti_volume(const std::string& path, VolumeFileInfo* info) {
@@ -488,7 +481,7 @@ Volume load_vti_volume(const std::string& path, VolumeFileInfo* info) {
   out.format = "vti";
   const std::uint64_t file_bytes = io_detail::regular_file_size(path);
   if (file_bytes == 0) throw Error("empty file (expected a VTK XML ImageData file)");
-  const std::string text = read_text(path, file_bytes);
+  const std::string text = io_detail::read_whole_file(path, file_bytes);
   const VtiFile f = scan(text);
 
   if (f.pieces == 0) throw Error("no <Piece> in the ImageData");

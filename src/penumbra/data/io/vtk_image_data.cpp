@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <fstream>
 #include <limits>
 #include <type_traits>
 
@@ -191,6 +192,13 @@ void flip_volume_axis(Volume& volume, int axis) {
       std::byte* b = base + (o * n * stride + (n - 1 - i) * stride) * size;
       std::swap_ranges(a, a + stride * size, b);
     }
+}
+
+std::string read_whole_file(const std::string& path, std::uint64_t bytes) {
+  std::string text(static_cast<std::size_t>(bytes), '\0');
+  std::ifstream in(path, std::ios::binary);
+  if (!in || !in.read(text.data(), static_cast<std::streamsize>(bytes))) throw Error("cannot read the file");
+  return text;
 }
 
 }  // namespace penumbra::io_detail

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -37,5 +38,8 @@ void store_vtk_samples(const std::byte* data, VtkType type, bool big_endian, std
 
 // Reverses the voxel order along axis 0, 1 or 2 (the origin is the caller's to adjust).
 void flip_volume_axis(Volume& volume, int axis);
+
+// The file's `bytes` bytes (its size, checked by the caller), as both VTK readers take it whole.
+std::string read_whole_file(const std::string& path, std::uint64_t bytes);
 
 }  // namespace penumbra::io_detail

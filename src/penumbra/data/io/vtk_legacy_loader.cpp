@@ -144,13 +144,6 @@ LegacyHeader parse_header(std::string_view text) {
   throw Error("the file ends before its POINT_DATA SCALARS");
 }
 
-std::string read_text(const std::string& path, std::uint64_t bytes) {
-  std::string text(static_cast<std::size_t>(bytes), '\0');
-  std::ifstream in(path, std::ios::binary);
-  if (!in || !in.read(text.data(), static_cast<std::streamsize>(bytes))) throw Error("cannot read the file");
-  return text;
-}
-
 }  // namespace
 
 Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info) {
@@ -159,7 +152,7 @@ Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info) {
   out.format = "vtk";
   const std::uint64_t file_bytes = io_detail::regular_file_size(path);
   if (file_bytes == 0) throw Error("empty file (expected '# vtk DataFile Version x.y')");
-  const std::string text = read_text(path, file_bytes);
+  const std::string text = io_detail::read_whole_file(path, file_bytes);
   const LegacyHeader h = parse_header(text);
   if (!h.dims) throw Error("STRUCTURED_POINTS without DIMENSIONS");
   const auto& d = *h.dims;
