@@ -80,7 +80,8 @@ for code, bits, fmt, tag in ((2, 8, "B", "u8"), (4, 16, "h", "i16"), (16, 32, "f
 
 # --- DICOM: one CT slice's header (with its sequence) over an 8x8 crop of its pixels, in the transfer
 # syntaxes pydicom writes (implicit and explicit VR little endian, explicit big endian, RLE), as signed
-# rescaled and 8-bit images, and in JPEG lossless, JPEG-LS and JPEG 2000 when gdcmconv is there.
+# rescaled and 8-bit images, and in JPEG lossless, JPEG-LS and JPEG 2000 when gdcmconv is there (JPEG
+# 2000 also signed, 8-bit, lossy and wrapped in a JP2 file).
 def dicom_seeds():
     import shutil
     import subprocess
@@ -88,20 +89,21 @@ def dicom_seeds():
     import pydicom
     from pydicom.uid import ExplicitVRBigEndian, ExplicitVRLittleEndian, RLELossless
 
-    def ct():
+    def ct(size=8):
         ds = pydicom.dcmread(os.path.join(data, "dicom_pancreas_ct", "1-070.dcm"))
-        pixels = ds.pixel_array[250:258, 250:258].copy()
+        pixels = ds.pixel_array[250:250 + size, 250:250 + size].copy()
         ds.Rows, ds.Columns = pixels.shape
         ds.PixelData = pixels.tobytes()
         return ds, pixels
 
-    def save(ds, name, syntax=None):
+    def save(ds, name, syntax=None, seed=True):
         path = os.path.join(tempfile.gettempdir(), "penumbra_seed_" + name)
         if syntax is not None:
             ds.file_meta.TransferSyntaxUID = syntax
             ds.is_implicit_VR, ds.is_little_endian = False, syntax != ExplicitVRBigEndian
         ds.save_as(path, write_like_original=False)
-        put("dicom", name, open(path, "rb").read())
+        if seed:
+            put("dicom", name, open(path, "rb").read())
         return path
 
     ds, _ = ct()
@@ -116,16 +118,42 @@ def dicom_seeds():
     ds, pixels = ct()
     ds.PixelRepresentation, ds.BitsStored, ds.HighBit, ds.RescaleSlope = 1, 16, 15, "0.5"
     ds.PixelData = (pixels.astype("int16") - 1500).tobytes()
-    save(ds, "signed_rescaled.dcm", ExplicitVRLittleEndian)
+    signed = save(ds, "signed_rescaled.dcm", ExplicitVRLittleEndian)
     ds, pixels = ct()
     ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.RescaleIntercept = 8, 8, 7, "0"
     ds.PixelData = (pixels // 16).astype("uint8").tobytes()
     save(ds, "u8.dcm", ExplicitVRLittleEndian)
+    ds, pixels = ct(16)  # 16x16: gdcmconv 3.0.21 crashes compressing an 8x8 8-bit image in JPEG 2000
+    ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.RescaleIntercept = 8, 8, 7, "0"
+    ds.PixelData = (pixels // 16).astype("uint8").tobytes()
+    u8 = save(ds, "u8_16.dcm", ExplicitVRLittleEndian, seed=False)
     if shutil.which("gdcmconv"):
+        def gdcmconv(source, name, *flags):
+            out = os.path.join(tempfile.gettempdir(), "penumbra_seed_" + name)
+            subprocess.run(["gdcmconv", *flags, source, out], check=True, capture_output=True)
+            put("dicom", name, open(out, "rb").read())
+            return out
+
         for flag in ("jpeg", "jpegls", "j2k"):
-            out = plain + "." + flag
-            subprocess.run(["gdcmconv", "--" + flag, plain, out], check=True)
-            put("dicom", "ct_%s.dcm" % flag, open(out, "rb").read())
+            j2k = gdcmconv(plain, "ct_%s.dcm" % flag, "--" + flag)
+        gdcmconv(signed, "signed_j2k.dcm", "--j2k")
+        gdcmconv(u8, "u8_j2k.dcm", "--j2k")
+        gdcmconv(plain, "ct_j2k_lossy.dcm", "--j2k", "--lossy", "--irreversible", "-r", "4")
+        # The codestream in a JP2 file (signature, file type, header and codestream boxes), as some
+        # writers store it.
+        from pydicom.encaps import decode_data_sequence, encapsulate
+        ds = pydicom.dcmread(j2k)
+        codestream = decode_data_sequence(ds.PixelData)[0]
+
+        def box(kind, content):
+            return struct.pack(">I", 8 + len(content)) + kind + content
+
+        ihdr = struct.pack(">IIHBBBB", ds.Rows, ds.Columns, 1, ds.BitsStored - 1, 7, 0, 0)
+        jp2 = (box(b"jP  ", b"\r\n\x87\n") + box(b"ftyp", b"jp2 \0\0\0\0jp2 ") +
+               box(b"jp2h", box(b"ihdr", ihdr) + box(b"colr", b"\x01\0\0\0\0\0\x11")) + box(b"jp2c", codestream))
+        ds.PixelData = encapsulate([jp2])
+        ds.save_as(os.path.join(tempfile.gettempdir(), "penumbra_seed_ct_jp2.dcm"))
+        put("dicom", "ct_jp2.dcm", open(os.path.join(tempfile.gettempdir(), "penumbra_seed_ct_jp2.dcm"), "rb").read())
 
 
 dicom_seeds()

@@ -232,10 +232,11 @@ PYBIND11_MODULE(_penumbra, m) {
   }, py::arg("document"), py::arg("base_dir"), py::arg("volumes") = py::dict(), py::arg("particles") = py::dict());
   // A volume file (or the slices of a DICOM series) read as the renderer reads it: a NumPy copy of its
   // voxels (axes z, y, x), spacing and origin (x, y, z) and what the reader found, as JSON text.
-  m.def("read_volume", [](const std::vector<std::string>& paths, const std::string& series, int channel) {
+  m.def("read_volume", [](const std::vector<std::string>& paths, const std::string& series, int channel, const std::string& grid) {
     VolumeLoadOptions lo;
     lo.series = series;
     lo.channel = channel;
+    lo.grid = grid;
     VolumeFileInfo info;
     Volume v;
     {
@@ -246,7 +247,16 @@ PYBIND11_MODULE(_penumbra, m) {
     py::array array = v.with_voxel_type([&](auto t) -> py::array {
       using T = decltype(t);
       py::array_t<T> a(shape);
-      std::memcpy(a.mutable_data(), v.data(), v.voxel_count() * sizeof(T));
+      if (!v.is_bricked()) {
+        std::memcpy(a.mutable_data(), v.data(), v.voxel_count() * sizeof(T));
+        return a;
+      }
+      // A sparse (bricked) volume becomes a dense array: NumPy has no sparse layout to hand it in.
+      T* out = a.mutable_data();
+      const auto& d = v.dims();
+      for (int k = 0; k < d[2]; ++k)
+        for (int j = 0; j < d[1]; ++j)
+          for (int i = 0; i < d[0]; ++i) *out++ = static_cast<T>(v.value(i, j, k));
       return a;
     });
     const nlohmann::json described = {{"format", info.format}, {"orientation", info.orientation}, {"series", info.series},
@@ -254,7 +264,7 @@ PYBIND11_MODULE(_penumbra, m) {
                                       {"channel", info.channel}, {"notes", info.notes}};
     return py::make_tuple(array, py::make_tuple(v.spacing().x, v.spacing().y, v.spacing().z),
                           py::make_tuple(v.origin().x, v.origin().y, v.origin().z), described.dump());
-  }, py::arg("paths"), py::arg("series") = "", py::arg("channel") = -1);
+  }, py::arg("paths"), py::arg("series") = "", py::arg("channel") = -1, py::arg("grid") = "");
   // Van der Waals radius (Å) and CPK colour (linear RGB) of each element symbol; unknown: 1.7 Å, grey.
   m.def("element_style", [](const std::vector<std::string>& symbols) {
     py::array_t<float> radii(static_cast<py::ssize_t>(symbols.size()));

@@ -5,7 +5,8 @@ packages=(build-essential cmake ninja-build g++ pkg-config
           libtbb-dev libpng-dev zlib1g-dev nlohmann-json3-dev libcli11-dev
           libteem-dev libnifti2-dev libgtest-dev libbenchmark-dev
           gemmi-dev tao-pegtl-dev libembree-dev
-          libgdcm-dev libtiff-dev libopenexr-dev  # DICOM series, TIFF stacks, EXR images
+          libgdcm-dev libopenjp2-7-dev libtiff-dev libopenexr-dev  # DICOM series (JPEG 2000: OpenJPEG), TIFF stacks, EXR images
+          libopenvdb-dev  # OpenVDB grids (sparse volumes)
           python3-pydicom python3-tifffile  # independent readers the loader tests compare against
           python3-dev pybind11-dev python3-numpy python3-pytest  # the Python package (python/)
           python3-mdanalysis jupyter-nbconvert python3-ipykernel  # trajectories, the example notebook

@@ -19,7 +19,7 @@ void add_info_command(CLI::App& app) {
   struct Options {
     std::vector<std::string> files;
     std::string file;  // the first of them
-    std::string series;
+    std::string series, grid;
     int channel = -1;
     int bins = 16;
     int assembly = 0;
@@ -29,12 +29,13 @@ void add_info_command(CLI::App& app) {
     bool read_all = false;
   };
   auto o = std::make_shared<Options>();
-  CLI::App* cmd = app.add_subcommand("info", "Describe a volume (.nrrd, .nhdr, .nii, .nii.gz, .tif, .tiff, .vti, .vtk, a folder of DICOM "
+  CLI::App* cmd = app.add_subcommand("info", "Describe a volume (.nrrd, .nhdr, .nii, .nii.gz, .tif, .tiff, .vti, .vtk, .vdb, a folder of DICOM "
                                              "slices or .dcm files), a particle file (.pdb, .cif, .gro, .xyz) "
                                              "or a trajectory (.xtc, .dcd; .pdb, .cif, .xyz, .gro with --trajectory)");
   cmd->add_option("file", o->files, "Volume, particle or trajectory file (several: the slices of one DICOM series)")->required();
   cmd->add_option("--series", o->series, "DICOM: the series to describe (SeriesInstanceUID or index; default: the one with the most slices)");
   cmd->add_option("--channel", o->channel, "Multi-channel TIFF: the channel to describe (from 0)")->check(CLI::Range(0, 1 << 20));
+  cmd->add_option("--grid", o->grid, "OpenVDB: the grid to describe (name or index; default: 'density', else the first float grid)");
   cmd->add_option("--bins", o->bins, "Histogram bins (volumes)")->check(CLI::Range(1, 1024));
   cmd->add_option("--assembly", o->assembly, "Biological assembly to build (particle files; 0 = as deposited)")->check(CLI::Range(0, 1000000));
   cmd->add_flag("--trajectory", o->trajectory, "Read FILE as a trajectory (multi-model PDB or mmCIF, multi-frame XYZ or GRO; .xtc and .dcd always are)");
@@ -47,7 +48,8 @@ void add_info_command(CLI::App& app) {
       throw penumbra::Error("several files are described together only as the slices of one DICOM series (.dcm)");
     const std::string traj_format = trajectory_file_format(o->file);
     const bool particles = o->trajectory || traj_format == "xtc" || traj_format == "dcd" || !particle_file_format(o->file).empty();
-    if (particles && (!o->series.empty() || o->channel >= 0)) throw penumbra::Error("--series and --channel are for volumes: " + o->file + " is not one");
+    if (particles && (!o->series.empty() || o->channel >= 0 || !o->grid.empty()))
+      throw penumbra::Error("--series, --channel and --grid are for volumes: " + o->file + " is not one");
     if (o->trajectory || traj_format == "xtc" || traj_format == "dcd") {
       if (o->assembly != 0) throw penumbra::Error("--assembly: not for trajectories");
       info_trajectory({o->file, o->frame, o->positions, o->read_all});
@@ -74,6 +76,7 @@ void add_info_command(CLI::App& app) {
     VolumeLoadOptions lo;
     lo.series = o->series;
     lo.channel = o->channel;
+    lo.grid = o->grid;
     VolumeFileInfo info;
     Timer read;
     const Volume v = load_volume(o->files, lo, &info);

@@ -32,7 +32,7 @@ std::optional<RawVolumeOptions> raw_options(const InputOptions& o) {
 void add_input_options(CLI::App& cmd, InputOptions& o) {
   cmd.add_option("inputs", o.inputs,
                  "A scene file (.json, docs/scene-file.md), or data files that make a scene: volumes (.nrrd, .nhdr, .nii, .nii.gz, "
-                 ".tif, .tiff, .vti, .vtk, a folder of DICOM slices or .dcm files, .raw with --raw-dims and --raw-type) and molecules (.pdb, .ent, .cif, .mmcif, .gro, .xyz; each optionally .gz)")
+                 ".tif, .tiff, .vti, .vtk, .vdb, a folder of DICOM slices or .dcm files, .raw with --raw-dims and --raw-type) and molecules (.pdb, .ent, .cif, .mmcif, .gro, .xyz; each optionally .gz)")
       ->required();
   cmd.add_option("--set", o.sets, "Override a scene value by dotted path: key=value (value parsed as JSON if valid)");
   cmd.add_flag("--strict", o.strict, "Keys that the chosen techniques do not read are an error (exit 1, no image), not a note");
@@ -44,6 +44,8 @@ void add_input_options(CLI::App& cmd, InputOptions& o) {
   cmd.add_option("--series", o.series, "DICOM input holding several series: the one to open (SeriesInstanceUID, or its index in "
                                        "`penumbra info`; default: the series with the most slices)");
   cmd.add_option("--channel", o.channel, "Multi-channel TIFF stacks: the channel to open (from 0; default 0)")->check(CLI::Range(0, 1 << 20));
+  cmd.add_option("--grid", o.grid, "OpenVDB files: the grid to open (its name, or its index in `penumbra info`; default: "
+                                   "'density', else the first float grid)");
 }
 
 Engine open_inputs(const InputOptions& o, const std::vector<std::string>& extra_sets) {
@@ -52,8 +54,9 @@ Engine open_inputs(const InputOptions& o, const std::vector<std::string>& extra_
   const std::optional<RawVolumeOptions> raw = raw_options(o);
   if (o.inputs.size() == 1 && input_kind(o.inputs.front()) == InputKind::SceneFile) {
     if (raw) throw Error("--raw-dims, --raw-type: the layout of .raw volumes opened directly (a scene file gives 'raw' per volume)");
-    if (!o.series.empty() || o.channel >= 0)
-      throw Error("--series, --channel: for volumes opened directly (a scene file gives 'series' and 'channel' per volume)");
+    if (!o.series.empty() || o.channel >= 0 || !o.grid.empty())
+      throw Error("--series, --channel, --grid: for volumes opened directly (a scene file gives 'series', 'channel' and "
+                  "'grid' per volume)");
     return Engine::open(o.inputs.front(), sets, SceneReadOptions{o.strict});
   }
   bool has_raw = false;
@@ -64,6 +67,7 @@ Engine open_inputs(const InputOptions& o, const std::vector<std::string>& extra_
   volume_options.raw = raw;
   volume_options.series = o.series;
   volume_options.channel = o.channel;
+  volume_options.grid = o.grid;
   nlohmann::json doc = data_scene(o.inputs, volume_options, cache);
   with_context("--set", [&] { for (const auto& s : sets) apply_override(doc, s); });
   return Engine(std::move(doc), "", SceneReadOptions{o.strict, &cache});

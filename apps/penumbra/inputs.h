@@ -23,9 +23,10 @@ struct InputOptions {
   std::uint64_t raw_header_bytes = 0;
   std::string series;  // the DICOM series to open (UID or index)
   int channel = -1;    // the channel of multi-channel TIFF stacks
+  std::string grid;    // the OpenVDB grid to open (name or index)
 };
 
-// Adds the positional inputs, the --raw-* options, --series and --channel to a subcommand.
+// Adds the positional inputs, the --raw-* options, --series, --channel and --grid to a subcommand.
 void add_input_options(CLI::App& cmd, InputOptions& o);
 
 // The engine over the inputs; `extra_sets` go before the user's --set (e.g. --width). Errors name the

@@ -12,6 +12,12 @@ MacrocellGrid::MacrocellGrid(const Volume& volume) {
     for (std::size_t cz = z0; cz < z1; ++cz)
       for (int cy = 0; cy < cells_[1]; ++cy)
         for (int cx = 0; cx < cells_[0]; ++cx) {
+          static_assert(kCellSize == Volume::kBrickCells, "a macrocell is a brick of a bricked volume");
+          if (volume.is_bricked() && volume.brick_is_shared(cx, cy, static_cast<int>(cz))) {
+            const float v = volume.value(volume.brick_base(cx, cy, static_cast<int>(cz)));
+            range_[cell_index(cx, cy, static_cast<int>(cz))] = {v, v};
+            continue;
+          }
           float lo = kInfinity, hi = -kInfinity;
           // voxels [c*K, (c+1)*K] inclusive: the interpolant inside the cell touches both ends
           const int k0 = static_cast<int>(cz) * kCellSize, k1 = std::min(d[2] - 1, k0 + kCellSize);

@@ -77,15 +77,89 @@ Volume Volume::view(ScalarType type, std::array<int, 3> dims, const std::byte* v
   return v;
 }
 
+Volume Volume::bricked(std::array<int, 3> dims, Vec3 spacing, Vec3 origin,
+                       const std::function<std::optional<float>(const std::array<int, 3>&)>& shared_value,
+                       const std::function<void(const std::array<int, 3>&, float*)>& fill) {
+  (void)checked_voxel_count({dims[0], dims[1], dims[2]});
+  Volume v;
+  v.type_ = ScalarType::Float32;
+  v.dims_ = dims;
+  v.set_spacing(spacing);
+  if (!is_finite(origin)) throw Error("origin is not finite");
+  v.origin_ = origin;
+  v.brick_grid_ = bricks(dims);
+  const auto& g = v.brick_grid_;
+  const std::size_t count = static_cast<std::size_t>(g[0]) * g[1] * g[2];
+  // Shared bricks first (one per distinct value), then the stored ones in brick order.
+  constexpr std::size_t kUnset = ~std::size_t{0};
+  v.brick_base_.assign(count, kUnset);
+  std::vector<float> shared;
+  std::vector<std::size_t> stored;
+  for (int bz = 0, n = 0; bz < g[2]; ++bz)
+    for (int by = 0; by < g[1]; ++by)
+      for (int bx = 0; bx < g[0]; ++bx, ++n) {
+        const auto value = shared_value({bx, by, bz});
+        if (!value) {
+          stored.push_back(static_cast<std::size_t>(n));
+          continue;
+        }
+        std::size_t s = 0;
+        while (s < shared.size() && !(shared[s] == *value)) ++s;  // a handful of values: background, inside
+        if (s == shared.size()) {
+          if (shared.size() == 256) throw Error("more than 256 distinct constant bricks (expected sparse data)");
+          shared.push_back(*value);
+        }
+        v.brick_base_[static_cast<std::size_t>(n)] = s * kBrickVoxels;
+      }
+  v.shared_end_ = shared.size() * kBrickVoxels;
+  v.stored_ = v.shared_end_ + stored.size() * kBrickVoxels;
+  (void)checked_voxel_count({static_cast<std::int64_t>(v.stored_), 1, 1});
+  v.owned_.resize(v.stored_ * sizeof(float));
+  v.data_ = v.owned_.data();
+  float* out = v.data_as<float>();
+  for (std::size_t s = 0; s < shared.size(); ++s) std::fill(out + s * kBrickVoxels, out + (s + 1) * kBrickVoxels, shared[s]);
+  for (std::size_t s = 0; s < stored.size(); ++s) v.brick_base_[stored[s]] = v.shared_end_ + s * kBrickVoxels;
+  parallel_for(stored.size(), [&](std::size_t b, std::size_t e) {
+    for (std::size_t s = b; s < e; ++s) {
+      const std::size_t n = stored[s];
+      const std::array<int, 3> brick{static_cast<int>(n % static_cast<std::size_t>(g[0])),
+                                     static_cast<int>(n / static_cast<std::size_t>(g[0]) % static_cast<std::size_t>(g[1])),
+                                     static_cast<int>(n / (static_cast<std::size_t>(g[0]) * g[1]))};
+      fill(brick, out + v.shared_end_ + s * kBrickVoxels);
+    }
+  }, 16);
+  v.recompute_range();
+  return v;
+}
+
+Volume Volume::densified(std::size_t max_bytes) const {
+  if (!is_bricked()) return *this;
+  if (voxel_count() > max_bytes / scalar_size(type_))
+    throw Error("the dense copy of this sparse volume (" + std::to_string(dims_[0]) + "x" + std::to_string(dims_[1]) + "x" +
+                std::to_string(dims_[2]) + " voxels) would take " + std::to_string(voxel_count() * scalar_size(type_) >> 20) +
+                " MiB, more than the " + std::to_string(max_bytes >> 20) + " MiB allowed");
+  Volume dense(type_, dims_, spacing_, origin_, VoxelFill::Uninitialized);
+  parallel_for(static_cast<std::size_t>(dims_[2]), [&](std::size_t k0, std::size_t k1) {
+    for (int k = static_cast<int>(k0); k < static_cast<int>(k1); ++k)
+      for (int j = 0; j < dims_[1]; ++j)
+        for (int i = 0; i < dims_[0]; ++i) dense.set_value(dense.index(i, j, k), value(i, j, k));
+  });
+  dense.range_ = range_;
+  return dense;
+}
+
 Volume::Volume(const Volume& o)
     : type_(o.type_), dims_(o.dims_), spacing_(o.spacing_), inv_spacing_(o.inv_spacing_), origin_(o.origin_),
-      owned_(o.owned_), owner_(o.owner_), data_(o.owner_ ? o.data_ : owned_.data()), range_(o.range_) {}
+      owned_(o.owned_), owner_(o.owner_), data_(o.owner_ ? o.data_ : owned_.data()), range_(o.range_),
+      brick_base_(o.brick_base_), brick_grid_(o.brick_grid_), stored_(o.stored_), shared_end_(o.shared_end_) {}
 
 Volume::Volume(Volume&& o) noexcept
     : type_(o.type_), dims_(o.dims_), spacing_(o.spacing_), inv_spacing_(o.inv_spacing_), origin_(o.origin_),
-      owned_(std::move(o.owned_)), owner_(std::move(o.owner_)), data_(o.data_), range_(o.range_) {
+      owned_(std::move(o.owned_)), owner_(std::move(o.owner_)), data_(o.data_), range_(o.range_),
+      brick_base_(std::move(o.brick_base_)), brick_grid_(o.brick_grid_), stored_(o.stored_), shared_end_(o.shared_end_) {
   o.data_ = nullptr;
   o.dims_ = {0, 0, 0};
+  o.brick_base_.clear();
 }
 
 Volume& Volume::operator=(const Volume& o) {
@@ -103,8 +177,13 @@ Volume& Volume::operator=(Volume&& o) noexcept {
   owner_ = std::move(o.owner_);
   data_ = o.data_;
   range_ = o.range_;
+  brick_base_ = std::move(o.brick_base_);
+  brick_grid_ = o.brick_grid_;
+  stored_ = o.stored_;
+  shared_end_ = o.shared_end_;
   o.data_ = nullptr;
   o.dims_ = {0, 0, 0};
+  o.brick_base_.clear();
   return *this;
 }
 
@@ -177,7 +256,7 @@ RangeScan scan_range(const T* data, std::size_t begin, std::size_t end) {
 }  // namespace
 
 void Volume::recompute_range() {
-  const std::size_t n = voxel_count();
+  const std::size_t n = stored_voxel_count();  // a bricked volume stores only voxels of its grid
   constexpr std::size_t kChunk = 1 << 22;
   std::vector<RangeScan> parts((n + kChunk - 1) / kChunk);
   parallel_for(parts.size(), [&](std::size_t b, std::size_t e) {

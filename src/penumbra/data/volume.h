@@ -1,13 +1,27 @@
 // A scalar volume on a regular grid: voxels of uint8, int16, uint16 or float32 kept in their own type
 // (a CT stays 2 bytes a voxel), with dimensions, spacing and origin. World position of voxel (i, j, k)
 // is origin + (i, j, k) * spacing; the volume's box spans the voxel centres.
+//
+// Two layouts of the same grid:
+// - dense: x fastest, index(i, j, k) = (k·ny + j)·nx + i;
+// - bricked (sparse data such as an OpenVDB grid, see Volume::bricked): the grid cut into bricks of
+//   8³ cells, each stored as its 9³ voxels (the face shared with the next brick is stored in both), so
+//   that the 8 corners of every trilinear cell lie in one brick at the fixed strides (1, 9, 81). A
+//   brick whose voxels, and the voxels one beyond them that central differences reach, all hold one
+//   value is not stored: it points at one shared brick of that value. A mostly empty box then costs
+//   memory for its occupied bricks only.
+// Code that reads a cell's corners takes index(i, j, k) of its lower corner and adds strides(); code
+// that walks every voxel uses for_each_value() or value(i, j, k); data() is the storage of either
+// layout, and only dense code may walk it as rows.
 #pragma once
 
 #include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -67,6 +81,24 @@ public:
   static Volume view(ScalarType type, std::array<int, 3> dims, const std::byte* voxels, std::shared_ptr<const void> owner,
                      Vec3 spacing = {1, 1, 1}, Vec3 origin = {0, 0, 0});
   // Copies own a copy of allocated voxels and share viewed ones.
+  // A bricked float32 volume (see the top of this file). `shared_value(b)` returns the value of brick b
+  // (brick coordinates, each from 0 to bricks(dims) - 1) when its voxels 8b - 1 ... 8b + 9 per axis
+  // (clamped to the grid) all hold that value, else nothing; `fill(b, out)` writes the 9³ voxels of a
+  // stored brick, out[(l_z·9 + l_y)·9 + l_x] = voxel min(8b + l, dims - 1) per axis. `fill` is called
+  // in parallel, each call for a different brick.
+  static Volume bricked(std::array<int, 3> dims, Vec3 spacing, Vec3 origin,
+                        const std::function<std::optional<float>(const std::array<int, 3>&)>& shared_value,
+                        const std::function<void(const std::array<int, 3>&, float*)>& fill);
+  static constexpr int kBrickCells = 8;
+  static constexpr int kBrickSide = kBrickCells + 1;
+  static constexpr std::size_t kBrickVoxels = static_cast<std::size_t>(kBrickSide) * kBrickSide * kBrickSide;
+  static std::array<int, 3> bricks(const std::array<int, 3>& dims) {
+    return {std::max(1, (dims[0] + kBrickCells - 2) / kBrickCells), std::max(1, (dims[1] + kBrickCells - 2) / kBrickCells),
+            std::max(1, (dims[2] + kBrickCells - 2) / kBrickCells)};
+  }
+  // The same voxels in the dense layout (Error when that would exceed `max_bytes`).
+  Volume densified(std::size_t max_bytes) const;
+
   Volume(const Volume& other);
   Volume(Volume&& other) noexcept;
   Volume& operator=(const Volume& other);
@@ -79,18 +111,45 @@ public:
   void set_origin(const Vec3& o) { origin_ = o; }
   void set_spacing(const Vec3& spacing);  // Error unless positive and finite
   std::size_t voxel_count() const { return static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2]; }
-  std::size_t memory_bytes() const { return owned_.size(); }  // what this volume allocated (a view: 0)
+  std::size_t memory_bytes() const {  // what this volume allocated (a view: 0)
+    return owned_.size() + brick_base_.size() * sizeof(brick_base_[0]);
+  }
+  bool is_bricked() const { return !brick_base_.empty(); }
+  // Voxels stored: voxel_count() when dense; stored bricks × 9³ when bricked.
+  std::size_t stored_voxel_count() const { return is_bricked() ? stored_ : voxel_count(); }
+  // Bricked only: the bricks per axis, where brick b's 9³ voxels start in data(), and whether it is one
+  // of the shared single-valued bricks.
+  const std::array<int, 3>& brick_grid() const { return brick_grid_; }
+  std::size_t brick_base(int bx, int by, int bz) const {
+    return brick_base_[(static_cast<std::size_t>(bz) * brick_grid_[1] + by) * brick_grid_[0] + bx];
+  }
+  bool brick_is_shared(int bx, int by, int bz) const { return brick_base(bx, by, bz) < shared_end_; }
   bool is_view() const { return static_cast<bool>(owner_); }
   Box3 bounds() const;  // world box through the first and last voxel centres
 
-  // Raw storage in the volume's own type, x fastest.
+  // Storage in the volume's own type (its layout: see the top of this file).
   std::byte* data() { return data_; }
   const std::byte* data() const { return data_; }
   template <class T> T* data_as() { return reinterpret_cast<T*>(data_); }
   template <class T> const T* data_as() const { return reinterpret_cast<const T*>(data_); }
 
+  // Where voxel (i, j, k) is stored; when it is the lower corner of a cell, the other corners are at
+  // + strides().
   std::size_t index(int i, int j, int k) const {
-    return (static_cast<std::size_t>(k) * dims_[1] + j) * dims_[0] + i;
+    if (brick_base_.empty()) return (static_cast<std::size_t>(k) * dims_[1] + j) * dims_[0] + i;
+    const int bx = std::min(i / kBrickCells, brick_grid_[0] - 1), by = std::min(j / kBrickCells, brick_grid_[1] - 1),
+              bz = std::min(k / kBrickCells, brick_grid_[2] - 1);
+    return brick_base(bx, by, bz) +
+           (static_cast<std::size_t>(k - bz * kBrickCells) * kBrickSide + static_cast<std::size_t>(j - by * kBrickCells)) *
+               kBrickSide +
+           static_cast<std::size_t>(i - bx * kBrickCells);
+  }
+  // Index steps to the +x, +y and +z neighbours of a cell's lower corner (0 along an axis of size 1).
+  std::array<std::size_t, 3> strides() const {
+    const bool b = is_bricked();
+    return {dims_[0] > 1 ? std::size_t{1} : 0,
+            dims_[1] > 1 ? (b ? std::size_t{kBrickSide} : static_cast<std::size_t>(dims_[0])) : 0,
+            dims_[2] > 1 ? (b ? std::size_t{kBrickSide} * kBrickSide : static_cast<std::size_t>(dims_[0]) * dims_[1]) : 0};
   }
   float value(std::size_t idx) const {
     switch (type_) {
@@ -118,11 +177,8 @@ public:
     const int i = std::min(static_cast<int>(fx), std::max(dims_[0] - 2, 0));
     const int j = std::min(static_cast<int>(fy), std::max(dims_[1] - 2, 0));
     const int k = std::min(static_cast<int>(fz), std::max(dims_[2] - 2, 0));
-    return {index(i, j, k),
-            dims_[0] > 1 ? std::size_t{1} : 0,
-            dims_[1] > 1 ? static_cast<std::size_t>(dims_[0]) : 0,
-            dims_[2] > 1 ? static_cast<std::size_t>(dims_[0]) * dims_[1] : 0,
-            fx - static_cast<float>(i), fy - static_cast<float>(j), fz - static_cast<float>(k)};
+    const auto s = strides();
+    return {index(i, j, k), s[0], s[1], s[2], fx - static_cast<float>(i), fy - static_cast<float>(j), fz - static_cast<float>(k)};
   }
   float sample_cell(const TrilinearCell& c) const;  // the interpolant in a cell found before
   // The same for a caller that knows the voxel type (T must be the volume's: see with_voxel_type), so
@@ -149,6 +205,16 @@ public:
     }
     return f(float{});
   }
+  // Calls f(value, count) for every voxel of the grid, runs of equal voxels at once (a shared brick's
+  // voxels in one call), in no particular order.
+  template <class F> void for_each_value(F&& f) const {
+    if (!is_bricked()) {
+      for (std::size_t i = 0, n = voxel_count(); i < n; ++i) f(value(i), std::size_t{1});
+      return;
+    }
+    for_each_brick_value(f);
+  }
+
   // World-space gradient by central differences of the trilinear interpolant, one voxel apart per axis.
   Vec3 gradient(const Vec3& p) const;
 
@@ -158,6 +224,26 @@ public:
   void recompute_range();  // also rejects NaN or infinite voxels with an Error (in parallel)
 
 private:
+  // Bricked: each brick's voxels that no lower brick owns (local 0..7, and 8 on the grid's last voxel).
+  template <class F> void for_each_brick_value(F& f) const {
+    for (int bz = 0; bz < brick_grid_[2]; ++bz)
+      for (int by = 0; by < brick_grid_[1]; ++by)
+        for (int bx = 0; bx < brick_grid_[0]; ++bx) {
+          const int b[3] = {bx, by, bz};
+          int n[3];
+          for (int a = 0; a < 3; ++a)
+            n[a] = std::min(dims_[a], (b[a] + 1) * kBrickCells + (b[a] + 1 == brick_grid_[a] ? 1 : 0)) - b[a] * kBrickCells;
+          const std::size_t base = brick_base(bx, by, bz);
+          if (base < shared_end_) {
+            f(value(base), static_cast<std::size_t>(n[0]) * n[1] * n[2]);
+            continue;
+          }
+          for (int z = 0; z < n[2]; ++z)
+            for (int y = 0; y < n[1]; ++y)
+              for (int x = 0; x < n[0]; ++x)
+                f(value(base + (static_cast<std::size_t>(z) * kBrickSide + y) * kBrickSide + x), std::size_t{1});
+        }
+  }
 
   ScalarType type_ = ScalarType::Float32;
   std::array<int, 3> dims_{0, 0, 0};
@@ -166,6 +252,11 @@ private:
   std::shared_ptr<const void> owner_;                               // a view's voxels stay alive through this
   std::byte* data_ = nullptr;                                       // owned_.data() or the viewed voxels
   std::array<float, 2> range_{0, 0};
+  // Bricked layout only (empty when dense): the first voxel of each brick in data(), the number of
+  // stored voxels, and where the shared single-valued bricks (stored first) end.
+  std::vector<std::size_t> brick_base_;
+  std::array<int, 3> brick_grid_{0, 0, 0};
+  std::size_t stored_ = 0, shared_end_ = 0;
 };
 
 }  // namespace penumbra

@@ -20,13 +20,12 @@ VolumeHistogram compute_histogram(const Volume& volume, int bins) {
 
   float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
   double sum = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const float v = volume.value(i);
-    if (!std::isfinite(v)) throw Error("voxel " + std::to_string(i) + " is not finite (cannot build a histogram)");
+  volume.for_each_value([&](float v, std::size_t count) {
+    if (!std::isfinite(v)) throw Error("a voxel is not finite (cannot build a histogram)");
     lo = std::min(lo, v);
     hi = std::max(hi, v);
-    sum += v;
-  }
+    sum += static_cast<double>(v) * static_cast<double>(count);
+  });
   h.lo = lo;
   h.hi = hi;
   h.mean = sum / static_cast<double>(n);
@@ -35,10 +34,10 @@ VolumeHistogram compute_histogram(const Volume& volume, int bins) {
   const double width = static_cast<double>(hi) - static_cast<double>(lo);
   const double scale = width > 0 ? static_cast<double>(bins) / width : 0.0;
   const auto last = static_cast<std::size_t>(bins - 1);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double t = (static_cast<double>(volume.value(i)) - lo) * scale;
-    h.counts[std::min(static_cast<std::size_t>(t), last)]++;
-  }
+  volume.for_each_value([&](float v, std::size_t count) {
+    const double t = (static_cast<double>(v) - lo) * scale;
+    h.counts[std::min(static_cast<std::size_t>(t), last)] += count;
+  });
   return h;
 }
 

@@ -28,12 +28,13 @@ void brick_ranges(const Volume& v, const std::array<int, 3>& bricks, std::vector
       std::fill(hi.begin(), hi.end(), std::numeric_limits<T>::lowest());
       for (int z = bk * b; z <= std::min(bk * b + b, d[2] - 1); ++z)
         for (int y = bj * b; y <= std::min(bj * b + b, d[1] - 1); ++y) {
-          const T* row = data + v.index(0, y, z);
+          const T* row = data + v.index(0, y, z);  // dense: the row; bricked: one look-up a voxel
           for (int bi = 0; bi < bricks[0]; ++bi) {
             T mn = lo[static_cast<std::size_t>(bi)], mx = hi[static_cast<std::size_t>(bi)];
             for (int x = bi * b; x <= std::min(bi * b + b, d[0] - 1); ++x) {
-              mn = std::min(mn, row[x]);
-              mx = std::max(mx, row[x]);
+              const T value = v.is_bricked() ? data[v.index(x, y, z)] : row[x];
+              mn = std::min(mn, value);
+              mx = std::max(mx, value);
             }
             lo[static_cast<std::size_t>(bi)] = mn;
             hi[static_cast<std::size_t>(bi)] = mx;

@@ -68,9 +68,8 @@ public:
   Traversal(const GridTree& tree, float isovalue, const Ray& ray)
       : tree_(tree), volume_(tree.volume()), data_(volume_.data_as<T>()), isovalue_(isovalue), cells_(volume_, ray),
         grid_ray_(volume_, ray) {
-    const auto& d = volume_.dims();
-    const std::size_t sy = static_cast<std::size_t>(d[0]), sz = sy * static_cast<std::size_t>(d[1]);
-    for (std::size_t n = 0; n < 8; ++n) corner_offset_[n] = (n & 1) + ((n >> 1) & 1) * sy + (n >> 2) * sz;
+    const auto s = volume_.strides();
+    for (std::size_t n = 0; n < 8; ++n) corner_offset_[n] = (n & 1) * s[0] + ((n >> 1) & 1) * s[1] + (n >> 2) * s[2];
   }
 
   float first_hit(float t0, float t1) {

@@ -31,9 +31,8 @@ public:
       : tree_(tree), volume_(tree.volume()), data_(tree.volume().data_as<T>()), iso_(isovalue), view_(view),
         options_(options), tile_{tile.x0, tile.y0, tile.x1 - 1, tile.y1 - 1},
         vis_(tile.x1 - tile.x0, tile.y1 - tile.y0, options.start == nullptr) {
-    const auto& d = volume_.dims();
     cell_diagonal_ = length(volume_.spacing());
-    stride_ = {1, static_cast<std::size_t>(d[0]), static_cast<std::size_t>(d[0]) * static_cast<std::size_t>(d[1])};
+    stride_ = volume_.strides();
     if (options.start)
       for (int y = tile.y0; y < tile.y1; ++y)
         for (int x = tile.x0; x < tile.x1; ++x)
@@ -163,6 +162,14 @@ private:
     T mn = data_[index(lo)], mx = mn;
     for (int z = lo[2]; z <= hi[2]; ++z)
       for (int y = lo[1]; y <= hi[1]; ++y) {
+        if (volume_.is_bricked()) {  // no rows: one look-up a voxel
+          for (int x = lo[0]; x <= hi[0]; ++x) {
+            const T v = data_[volume_.index(x, y, z)];
+            mn = std::min(mn, v);
+            mx = std::max(mx, v);
+          }
+          continue;
+        }
         const T* row = data_ + index({0, y, z});
         for (int x = lo[0]; x <= hi[0]; ++x) {
           mn = std::min(mn, row[x]);
@@ -174,10 +181,7 @@ private:
     visit_split(lo, hi, 1, extent <= 1.0f);
   }
 
-  std::size_t index(const Cells& c) const {
-    return static_cast<std::size_t>(c[2]) * stride_[2] + static_cast<std::size_t>(c[1]) * stride_[1] +
-           static_cast<std::size_t>(c[0]);
-  }
+  std::size_t index(const Cells& c) const { return volume_.index(c[0], c[1], c[2]); }
 
   void visit_cell(const Cells& c, bool sub_pixel) {
     const std::size_t base = index(c);

@@ -11,27 +11,58 @@ namespace {
 // [-1, 1] -> [-127, 127], rounded to nearest
 std::int8_t quantise(float x) { return static_cast<std::int8_t>(x * 127.0f + (x >= 0 ? 0.5f : -0.5f)); }
 
+// The quantised normal and shading weight at voxel (i, j, k): central differences, one-sided (and halved
+// accordingly) at the border.
+std::array<std::int8_t, 4> voxel_gradient(const Volume& vol, int i, int j, int k, const Vec3& inv2, float weight_scale) {
+  const auto& d = vol.dims();
+  auto diff = [&](int a, int lo_i, int hi_i, int lo_j, int hi_j, int lo_k, int hi_k) {
+    const float span = static_cast<float>(a == 0 ? (hi_i - lo_i) : a == 1 ? (hi_j - lo_j) : (hi_k - lo_k)) * 0.5f;
+    return span > 0 ? (vol.value(hi_i, hi_j, hi_k) - vol.value(lo_i, lo_j, lo_k)) / span : 0.0f;
+  };
+  const Vec3 grad{diff(0, std::max(i - 1, 0), std::min(i + 1, d[0] - 1), j, j, k, k) * inv2.x,
+                  diff(1, i, i, std::max(j - 1, 0), std::min(j + 1, d[1] - 1), k, k) * inv2.y,
+                  diff(2, i, i, j, j, std::max(k - 1, 0), std::min(k + 1, d[2] - 1)) * inv2.z};
+  const float len = length(grad);
+  const Vec3 n = len > 0 ? grad / len : Vec3{0, 0, 0};
+  const float w = std::min(1.0f, len * weight_scale);
+  return {quantise(n.x), quantise(n.y), quantise(n.z), quantise(w)};
+}
+
+// One gradient per stored voxel, in the volume's layout. A bricked volume's shared bricks are flat
+// (their voxels and the ones beyond hold one value), so their gradient is zero; the other bricks' 9³
+// voxels are each computed, their clamped copies past the grid's end included.
 std::vector<std::array<std::int8_t, 4>> gradient_volume(const Volume& vol, float weight_scale) {
   const auto& d = vol.dims();
-  std::vector<std::array<std::int8_t, 4>> g(vol.voxel_count());
+  std::vector<std::array<std::int8_t, 4>> g(vol.stored_voxel_count());
   const Vec3 inv2{0.5f / vol.spacing().x, 0.5f / vol.spacing().y, 0.5f / vol.spacing().z};
+  if (vol.is_bricked()) {
+    const auto& bricks = vol.brick_grid();
+    parallel_for(static_cast<std::size_t>(bricks[2]) * bricks[1], [&](std::size_t r0, std::size_t r1) {
+      for (std::size_t r = r0; r < r1; ++r) {
+        const int bz = static_cast<int>(r / static_cast<std::size_t>(bricks[1])), by = static_cast<int>(r % static_cast<std::size_t>(bricks[1]));
+        for (int bx = 0; bx < bricks[0]; ++bx) {
+          const std::size_t base = vol.brick_base(bx, by, bz);
+          if (vol.brick_is_shared(bx, by, bz)) {
+            std::fill(g.begin() + static_cast<std::ptrdiff_t>(base), g.begin() + static_cast<std::ptrdiff_t>(base + Volume::kBrickVoxels),
+                      std::array<std::int8_t, 4>{0, 0, 0, 0});
+            continue;
+          }
+          constexpr int n = Volume::kBrickSide, c = Volume::kBrickCells;
+          for (int z = 0; z < n; ++z)
+            for (int y = 0; y < n; ++y)
+              for (int x = 0; x < n; ++x)
+                g[base + (static_cast<std::size_t>(z) * n + y) * n + x] =
+                    voxel_gradient(vol, std::min(bx * c + x, d[0] - 1), std::min(by * c + y, d[1] - 1),
+                                   std::min(bz * c + z, d[2] - 1), inv2, weight_scale);
+        }
+      }
+    });
+    return g;
+  }
   parallel_for(static_cast<std::size_t>(d[2]), [&](std::size_t k0, std::size_t k1) {
     for (int k = static_cast<int>(k0); k < static_cast<int>(k1); ++k)
       for (int j = 0; j < d[1]; ++j)
-        for (int i = 0; i < d[0]; ++i) {
-          // central differences, one-sided (and halved accordingly) at the border
-          auto diff = [&](int a, int lo_i, int hi_i, int lo_j, int hi_j, int lo_k, int hi_k) {
-            const float span = static_cast<float>(a == 0 ? (hi_i - lo_i) : a == 1 ? (hi_j - lo_j) : (hi_k - lo_k)) * 0.5f;
-            return span > 0 ? (vol.value(hi_i, hi_j, hi_k) - vol.value(lo_i, lo_j, lo_k)) / span : 0.0f;
-          };
-          const Vec3 grad{diff(0, std::max(i - 1, 0), std::min(i + 1, d[0] - 1), j, j, k, k) * inv2.x,
-                          diff(1, i, i, std::max(j - 1, 0), std::min(j + 1, d[1] - 1), k, k) * inv2.y,
-                          diff(2, i, i, j, j, std::max(k - 1, 0), std::min(k + 1, d[2] - 1)) * inv2.z};
-          const float len = length(grad);
-          const Vec3 n = len > 0 ? grad / len : Vec3{0, 0, 0};
-          const float w = std::min(1.0f, len * weight_scale);
-          g[vol.index(i, j, k)] = {quantise(n.x), quantise(n.y), quantise(n.z), quantise(w)};
-        }
+        for (int i = 0; i < d[0]; ++i) g[vol.index(i, j, k)] = voxel_gradient(vol, i, j, k, inv2, weight_scale);
   });
   return g;
 }

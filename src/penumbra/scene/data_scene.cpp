@@ -47,7 +47,7 @@ nlohmann::json data_scene(const std::vector<std::string>& files, const VolumeLoa
   doc["volumes"] = nlohmann::json::array();
   doc["particles"] = nlohmann::json::array();
   nlohmann::json dicom_slices = nlohmann::json::array();  // .dcm files given one by one: one volume
-  bool has_dicom = false, has_tiff = false;
+  bool has_dicom = false, has_tiff = false, has_vdb = false;
   for (const std::string& file : files) {
     const std::string path = std::filesystem::absolute(file).lexically_normal().string();
     switch (input_kind(file)) {
@@ -76,6 +76,10 @@ nlohmann::json data_scene(const std::vector<std::string>& files, const VolumeLoa
           has_tiff = true;
           if (volume_options.channel >= 0) v["channel"] = volume_options.channel;
         }
+        if (has_extension(path, ".vdb")) {
+          has_vdb = true;
+          if (!volume_options.grid.empty()) v["grid"] = volume_options.grid;
+        }
         doc["volumes"].push_back(v);
         break;
       }
@@ -94,6 +98,7 @@ nlohmann::json data_scene(const std::vector<std::string>& files, const VolumeLoa
     }
   if (!volume_options.series.empty() && !has_dicom) throw Error("--series: no DICOM series (a folder or .dcm files) among the inputs");
   if (volume_options.channel >= 0 && !has_tiff) throw Error("--channel: no TIFF stack (.tif, .tiff) among the inputs");
+  if (!volume_options.grid.empty() && !has_vdb) throw Error("--grid: no OpenVDB file (.vdb) among the inputs");
   // read once as it stands (loading the data into the cache) to choose from what was loaded
   const Scene loaded = build_scene(doc, "", SceneReadOptions{false, &cache});
   bool hounsfield = false;

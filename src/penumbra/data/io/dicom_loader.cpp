@@ -5,10 +5,11 @@
 // pixel data is then read here and RLE decoded here (GDCM's RLE decoder asserts or reads out of bounds
 // on corrupt segments); only JPEG and JPEG-LS fragments go to GDCM's codecs, in an image assembled from
 // the checked attributes, after the codestream's header has been checked against Rows and Columns.
-// JPEG 2000 is refused. Slices are grouped by SeriesInstanceUID, sorted by ImagePositionPatient along
-// the slice normal and checked to be evenly spaced; the rescale is applied per slice. An axis-aligned
-// series is permuted and flipped so that the volume's axes are patient +x, +y, +z (LPS); an oblique one
-// keeps its grid, without its rotation.
+// JPEG 2000 fragments go to OpenJPEG directly (jpeg2000_decode.h), not to GDCM's JPEG 2000 codec, after
+// the same check of their header. Slices are grouped by SeriesInstanceUID, sorted by
+// ImagePositionPatient along the slice normal and checked to be evenly spaced; the rescale is applied
+// per slice. An axis-aligned series is permuted and flipped so that the volume's axes are patient +x,
+// +y, +z (LPS); an oblique one keeps its grid, without its rotation.
 #include <gdcmDicts.h>
 #include <gdcmGlobal.h>
 #include <gdcmImage.h>
@@ -33,6 +34,7 @@
 #include <vector>
 
 #include "penumbra/data/io/file_checks.h"
+#include "penumbra/data/io/jpeg2000_decode.h"
 #include "penumbra/data/io/text_fields.h"
 #include "penumbra/data/io/volume_io.h"
 
@@ -82,7 +84,7 @@ constexpr std::uint32_t kMaxValueBytes = 4096;    // of an attribute read here (
 // codec allocate gigabytes.
 constexpr std::uint64_t kMaxCompressionRatio = 10000;
 
-enum class Codec { None, Rle, Jpeg };  // Jpeg: JPEG and JPEG-LS (the same marker syntax)
+enum class Codec { None, Rle, Jpeg, Jpeg2000 };  // Jpeg: JPEG and JPEG-LS (the same marker syntax)
 
 struct TransferSyntax {
   const char* uid;
@@ -92,9 +94,11 @@ struct TransferSyntax {
   bool lossy;
 };
 
-// What is decoded: by GDCM (Debian's build: IJG JPEG, CharLS), RLE here. JPEG 2000 is refused (see
-// kJpeg2000): GDCM's JPEG 2000 path reads out of bounds on corrupt codestreams (found by fuzz_dicom,
-// depending on the state of memory, so no check of the header ahead of it can rule it out).
+// What is decoded: JPEG and JPEG-LS by GDCM (Debian's build: IJG JPEG, CharLS), RLE here, JPEG 2000 by
+// OpenJPEG called from here (jpeg2000_decode.cpp). Not by GDCM's JPEG 2000 codec: it read out of bounds
+// on corrupt codestreams (found by fuzz_dicom, depending on the state of memory, so no check of the
+// header ahead of it could rule it out). The JPEG 2000 Part 2 multi-component syntaxes (.92, .93) and
+// High-Throughput JPEG 2000 are not read.
 constexpr TransferSyntax kTransferSyntaxes[] = {
     {"1.2.840.10008.1.2", "Implicit VR Little Endian", true, false, Codec::None, false},
     {"1.2.840.10008.1.2.1", "Explicit VR Little Endian", false, false, Codec::None, false},
@@ -106,8 +110,9 @@ constexpr TransferSyntax kTransferSyntaxes[] = {
     {"1.2.840.10008.1.2.4.70", "JPEG Lossless SV1", false, false, Codec::Jpeg, false},
     {"1.2.840.10008.1.2.4.80", "JPEG-LS Lossless", false, false, Codec::Jpeg, false},
     {"1.2.840.10008.1.2.4.81", "JPEG-LS Near-Lossless", false, false, Codec::Jpeg, true},
+    {"1.2.840.10008.1.2.4.90", "JPEG 2000 Lossless", false, false, Codec::Jpeg2000, false},
+    {"1.2.840.10008.1.2.4.91", "JPEG 2000", false, false, Codec::Jpeg2000, true},  // lossless or lossy
 };
-constexpr const char* kJpeg2000 = "1.2.840.10008.1.2.4.9";  // .90 to .93: the JPEG 2000 transfer syntaxes
 
 const TransferSyntax* find_syntax(const std::string& uid) {
   for (const TransferSyntax& ts : kTransferSyntaxes)
@@ -419,6 +424,26 @@ std::vector<unsigned char> read_bytes(const std::string& path, std::pair<std::ui
   return out;
 }
 
+// The frame a JPEG 2000 codestream must hold, as the slice's attributes say.
+io_detail::Jpeg2000Frame jpeg2000_frame(const Slice& s) {
+  io_detail::Jpeg2000Frame frame;
+  frame.rows = s.rows;
+  frame.cols = s.cols;
+  frame.bits_allocated = s.bits_allocated;
+  frame.is_signed = s.is_signed;
+  return frame;
+}
+
+// A frame's fragments, concatenated (a frame may span several).
+std::vector<unsigned char> read_frame(const Slice& s) {
+  std::vector<unsigned char> data;
+  for (const auto& fragment : s.fragments) {
+    const std::vector<unsigned char> part = read_bytes(s.path, fragment);
+    data.insert(data.end(), part.begin(), part.end());
+  }
+  return data;
+}
+
 // The image a JPEG or JPEG-LS codestream declares must be the one Rows and Columns declare: GDCM
 // asserts (aborts) when the decoded frame is larger, and asserts on any warning of the IJG library
 // while reading a JPEG header (bytes between marker segments, for one). So the codestream's header is
@@ -464,11 +489,8 @@ std::optional<Slice> read_slice(const std::string& path, const std::string& name
     }
     const Attributes a(h);
     if (skip_non_images && !a.has(kRows) && !h.has_pixel_data) return std::nullopt;  // DICOMDIR, reports, ...
-    if (!h.syntax && h.syntax_uid.rfind(kJpeg2000, 0) == 0)
-      throw Error("JPEG 2000 pixel data (transfer syntax " + printable(h.syntax_uid, 80) +
-                  ") is not read: its decoder is not safe on damaged files. Convert the series first, e.g. `gdcmconv --raw IN OUT`");
     if (!h.syntax)
-      throw Error("transfer syntax " + printable(h.syntax_uid, 80) + " is not supported (expected uncompressed, RLE, JPEG or JPEG-LS)");
+      throw Error("transfer syntax " + printable(h.syntax_uid, 80) + " is not supported (expected uncompressed, RLE, JPEG, JPEG-LS or JPEG 2000)");
     Slice s;
     s.path = path;
     s.name = name;
@@ -520,6 +542,7 @@ std::optional<Slice> read_slice(const std::string& path, const std::string& name
       throw Error(std::string("the pixel data is ") + (h.encapsulated ? "" : "not ") + "compressed (encapsulated) but the transfer syntax is " + s.syntax->name);
     if (h.encapsulated && h.fragments.empty()) throw Error("compressed pixel data without a fragment (expected the image after the offset table)");
     if (s.syntax->codec == Codec::Jpeg) check_codestream(s, read_bytes(path, s.fragments[0]));
+    if (s.syntax->codec == Codec::Jpeg2000) io_detail::check_jpeg2000_header(read_bytes(path, s.fragments[0]), jpeg2000_frame(s));
     if (h.encapsulated && needed / kMaxCompressionRatio > h.pixel_bytes)
       throw Error("compressed pixel data of " + bytes_str(h.pixel_bytes) + " cannot hold " + std::to_string(s.cols) + "x" + std::to_string(s.rows) +
                   " pixels (" + bytes_str(needed) + ")");
@@ -735,8 +758,15 @@ Layout arrange(const std::vector<Slice>& input, VolumeFileInfo& info) {
 // The stored values of one slice in host byte order (bits above BitsStored are dealt with by fill).
 // Native pixel data is read here and RLE decoded here. JPEG and JPEG-LS go to GDCM's codecs as an image
 // assembled from the checked attributes and the fragments found by the walk: GDCM never parses the file
-// itself, whose other attributes (spacings, sequences) it reads with asserts.
+// itself, whose other attributes (spacings, sequences) it reads with asserts. JPEG 2000 goes to
+// OpenJPEG (jpeg2000_decode.h), the frame's fragments concatenated.
 void decode_rle(const Slice& s, std::vector<char>& buffer);
+
+void decode_jpeg2000(const Slice& s, std::vector<char>& buffer) {
+  const std::vector<unsigned char> data = read_frame(s);
+  buffer.resize(static_cast<std::size_t>(s.rows) * s.cols * (s.bits_allocated / 8));
+  io_detail::decode_jpeg2000(data, jpeg2000_frame(s), buffer);
+}
 
 void decode_native(const Slice& s, std::vector<char>& buffer) {
   const std::size_t bytes_per_pixel = static_cast<std::size_t>(s.bits_allocated / 8);
@@ -781,13 +811,14 @@ void decode(const Slice& s, std::vector<char>& buffer) {
         case Codec::None: return decode_native(s, buffer);
         case Codec::Rle: return decode_rle(s, buffer);
         case Codec::Jpeg: return decode_jpeg(s, buffer);
+        case Codec::Jpeg2000: return decode_jpeg2000(s, buffer);
       }
     } catch (const Error&) {
       throw;
     } catch (const std::exception& e) {
-      throw Error("GDCM failed decoding the pixel data (" + printable(e.what()) + ")");
+      throw Error(std::string(s.syntax->codec == Codec::Jpeg ? "GDCM failed" : "failed") + " decoding the pixel data (" + printable(e.what()) + ")");
     } catch (...) {
-      throw Error("GDCM failed decoding the pixel data");
+      throw Error(std::string(s.syntax->codec == Codec::Jpeg ? "GDCM failed" : "failed") + " decoding the pixel data");
     }
   });
 }
@@ -796,11 +827,7 @@ void decode(const Slice& s, std::vector<char>& buffer) {
 // reads out of bounds on a corrupt header or segment (and runs even while just reading the file).
 // One segment per byte of a pixel, the most significant first, each PackBits-coded.
 void decode_rle(const Slice& s, std::vector<char>& buffer) {
-  std::vector<unsigned char> data;  // the frame's fragments, concatenated
-  for (const auto& fragment : s.fragments) {
-    const std::vector<unsigned char> part = read_bytes(s.path, fragment);
-    data.insert(data.end(), part.begin(), part.end());
-  }
+  const std::vector<unsigned char> data = read_frame(s);
   auto u32 = [&](std::size_t i) { return std::uint64_t{data[i]} | std::uint64_t{data[i + 1]} << 8 | std::uint64_t{data[i + 2]} << 16 | std::uint64_t{data[i + 3]} << 24; };
   const std::size_t pixels = static_cast<std::size_t>(s.rows) * s.cols, planes = static_cast<std::size_t>(s.bits_allocated / 8);
   if (data.size() < 64) throw Error("RLE data of " + bytes_str(data.size()) + " (expected at least its 64-byte header)");
@@ -855,8 +882,9 @@ bool fill(Volume& volume, const Layout& L) {
     const bool ok = with_stored_type(s, [&](auto stored) {
       using S = decltype(stored);
       const auto slope = static_cast<std::int64_t>(s.slope), intercept = static_cast<std::int64_t>(s.intercept);
-      // Bits above BitsStored are masked off, or copies of the sign bit (GDCM does the same; the RLE path
-      // does not go through GDCM).
+      // Bits above BitsStored are masked off, or copies of the sign bit (GDCM does the same; the RLE and
+      // JPEG 2000 paths do not go through GDCM). So a signed image whose JPEG 2000 codestream holds the
+      // stored bit patterns as unsigned values comes out signed here.
       const std::uint64_t mask = (std::uint64_t{1} << s.bits_stored) - 1;
       const std::uint64_t sign = std::uint64_t{1} << (s.bits_stored - 1);
       for (int j = 0; j < s.rows; ++j) {

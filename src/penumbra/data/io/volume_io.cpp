@@ -14,7 +14,7 @@ using io_detail::ends_with_ci;
 namespace {
 
 bool has_single_file_extension(const std::string& path) {
-  for (const char* ext : {".raw", ".nrrd", ".nhdr", ".nii", ".nii.gz", ".tif", ".tiff", ".vti", ".vtk"})
+  for (const char* ext : {".raw", ".nrrd", ".nhdr", ".nii", ".nii.gz", ".tif", ".tiff", ".vti", ".vtk", ".vdb"})
     if (ends_with_ci(path, ext)) return true;
   return false;
 }
@@ -50,6 +50,8 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
     const std::string& path = paths[0];
     const bool tiff = ends_with_ci(path, ".tif") || ends_with_ci(path, ".tiff");
     if (options.channel >= 0 && !tiff) throw Error("'channel' is for multi-channel TIFF stacks (.tif, .tiff)");
+    const bool vdb = ends_with_ci(path, ".vdb");
+    if (!options.grid.empty() && !vdb) throw Error("'grid' is for OpenVDB files (.vdb)");
     // Each loader already ran recompute_range(), which rejects NaN/inf voxels and sets the range,
     // so the volume is returned as is rather than scanned twice.
     if (ends_with_ci(path, ".raw")) {
@@ -68,7 +70,8 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
     if (tiff) return load_tiff_volume(path, options.channel, &out);
     if (ends_with_ci(path, ".vti")) return load_vti_volume(path, &out);
     if (ends_with_ci(path, ".vtk")) return load_legacy_vtk_volume(path, &out);
-    throw Error("unknown volume file extension (supported: .raw, .nrrd, .nhdr, .nii, .nii.gz, .tif, .tiff, .vti, .vtk, "
+    if (vdb) return load_vdb_volume(path, options.grid, &out);
+    throw Error("unknown volume file extension (supported: .raw, .nrrd, .nhdr, .nii, .nii.gz, .tif, .tiff, .vti, .vtk, .vdb, "
                 ".dcm or a folder of DICOM slices)");
   });
 }

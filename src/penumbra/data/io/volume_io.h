@@ -1,7 +1,7 @@
 // Volume files: raw (dimensions, type and endianness given by the caller), NRRD (attached and detached
 // headers, raw and gzip encodings), NIfTI-1 (.nii, .nii.gz), DICOM series (a folder or a list of
 // slices, through GDCM), multi-page TIFF stacks (through libtiff, with ImageJ metadata) and VTK image
-// data (XML .vti and legacy .vtk STRUCTURED_POINTS). Every loader checks what it reads: truncated data,
+// data (XML .vti and legacy .vtk STRUCTURED_POINTS), OpenVDB grids (sparse). Every loader checks what it reads: truncated data,
 // lying headers, unsupported types, zero or absurd dimensions and NaN voxels give an Error naming the
 // file and what was expected.
 #pragma once
@@ -26,7 +26,7 @@ struct RawVolumeOptions {
 
 // What a reader found beside the voxels, for `penumbra info` and for the user to know what was done.
 struct VolumeFileInfo {
-  std::string format;                // "raw", "nrrd", "nifti", "dicom", "tiff", "vti", "vtk"
+  std::string format;                // "raw", "nrrd", "nifti", "dicom", "tiff", "vti", "vtk", "vdb"
   std::string orientation;           // how the file's axes became the volume's x, y, z ("" = as stored)
   std::vector<std::string> series;   // DICOM: one line per series in the input (UID, description, slices)
   int series_index = -1;             // DICOM: the series loaded (index into `series`)
@@ -40,6 +40,7 @@ struct VolumeLoadOptions {
   std::optional<RawVolumeOptions> raw;  // .raw files: their layout
   std::string series;                   // DICOM: SeriesInstanceUID or index ("" = the series with the most slices)
   int channel = -1;                     // multi-channel TIFF: channel from 0 (-1 = channel 0)
+  std::string grid;                     // OpenVDB: grid name or index ("" = "density", else the first scalar grid)
 };
 
 Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options);
@@ -56,9 +57,11 @@ Volume load_tiff_volume(const std::string& path, int channel, VolumeFileInfo* in
 // not) and legacy STRUCTURED_POINTS (.vtk, ASCII or BINARY).
 Volume load_vti_volume(const std::string& path, VolumeFileInfo* info);
 Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info);
+// OpenVDB (vdb_loader.cpp): one float or double grid, kept sparse as a bricked volume.
+Volume load_vdb_volume(const std::string& path, const std::string& grid, VolumeFileInfo* info);
 
 // Whether the path names a volume: a volume extension (.raw, .nrrd, .nhdr, .nii, .nii.gz, .dcm, .tif,
-// .tiff, .vti, .vtk; any case) or a folder (a DICOM series).
+// .tiff, .vti, .vtk, .vdb; any case) or a folder (a DICOM series).
 bool is_volume_file(const std::string& path);
 
 // Chooses the loader by extension (.raw needs `raw`; a folder or .dcm files are a DICOM series). The
