@@ -150,3 +150,69 @@ def test_series_and_channel_options_reach_the_reader_and_are_refused_where_they_
     assert r.returncode == 0, r.stderr
     saved = json.loads((tmp_path / "saved.json").read_text())
     assert saved["volumes"][0]["channel"] == 1
+
+
+def vdb_pair(tmp_path):
+    """A .vdb with two grids (a fog of three balls far apart, a level-set sphere) written by pyopenvdb."""
+    vdb = pytest.importorskip("pyopenvdb")
+    fog = vdb.FloatGrid(0.0)
+    fog.name = "density"
+    acc = fog.getAccessor()
+    for c in [(-20, 3, 0), (40, -9, 17), (5, 44, 60)]:
+        for i in range(-5, 6):
+            for j in range(-5, 6):
+                for k in range(-5, 6):
+                    r = (i * i + j * j + k * k) ** 0.5
+                    if r < 5:
+                        acc.setValueOn((c[0] + i, c[1] + j, c[2] + k), 1.0 - r / 5)
+    fog.transform = vdb.createLinearTransform(voxelSize=0.25)
+    sphere = vdb.createLevelSetSphere(radius=10.0, center=(1, 2, 3), voxelSize=0.5, halfWidth=3.0)
+    sphere.name = "surface"
+    path = str(tmp_path / "two.vdb")
+    vdb.write(path, grids=[fog, sphere])
+    return vdb, path, fog, sphere
+
+
+def test_openvdb_grids_equal_pyopenvdb_dense_copies(tmp_path):
+    vdb, path, fog, sphere = vdb_pair(tmp_path)
+    for name, grid in [("density", fog), ("surface", sphere), (None, fog), (1, sphere)]:
+        v = penumbra.read_volume(path, grid=name)
+        lo, hi = grid.evalActiveVoxelBoundingBox()
+        lo = [(c // 8) * 8 for c in lo]  # penumbra's grid starts at a leaf corner
+        dims = [h - l + 1 for l, h in zip(lo, hi)]
+        want = np.empty(dims, dtype=np.float32)
+        want.fill(grid.background)
+        grid.copyToArray(want, ijk=tuple(lo))
+        assert v.array.shape == tuple(reversed(dims))
+        np.testing.assert_array_equal(v.array, want.transpose(2, 1, 0))  # every voxel, (z, y, x)
+        size = grid.transform.voxelSize()
+        assert v.spacing == pytest.approx(tuple(reversed(size)))
+        assert v.origin == pytest.approx(tuple(reversed(grid.transform.indexToWorld(tuple(lo)))))
+        assert v.info["format"] == "vdb"
+        assert any(n.startswith("sparse:") for n in v.info["notes"])
+    with pytest.raises(penumbra.Error, match="no grid 'velocity'"):
+        penumbra.read_volume(path, grid="velocity")
+
+
+def test_openvdb_info_render_and_grid_option(tmp_path):
+    _, path, _, _ = vdb_pair(tmp_path)
+    r = subprocess.run([CLI, "info", path, "--grid", "surface"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "grid 'density': float, unknown class" in r.stdout or "grid 'density': float" in r.stdout
+    assert "loaded grid 'surface'" in r.stdout and "level set" in r.stdout
+    assert "sparse:" in r.stdout and "dense:" in r.stdout
+    out = tmp_path / "fog.png"
+    scene = tmp_path / "fog.json"
+    r = subprocess.run([CLI, "render", path, "-o", str(out), "--width", "64", "--height", "48", "--write-scene", str(scene)],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert out.stat().st_size > 0
+    r = subprocess.run([CLI, "render", path, "--grid", "surface", "-o", str(out), "--width", "64", "--height", "48",
+                        "--write-scene", str(scene)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(scene.read_text())["volumes"][0]["grid"] == "surface"  # the choice survives --write-scene
+    tif = staged("nucleus_conf_wf.tif")
+    r = subprocess.run([CLI, "render", tif, "--grid", "density", "-o", str(out)], capture_output=True, text=True)
+    assert r.returncode != 0 and "--grid" in r.stderr
+    r = subprocess.run([CLI, "info", path, "--grid", "nothing"], capture_output=True, text=True)
+    assert r.returncode != 0 and "no grid 'nothing'" in r.stderr and "density" in r.stderr

@@ -12,7 +12,7 @@
 //
 // OpenVDB's reader is not hardened against corrupt files: fuzzing found it allocating what a broken
 // header claims and copying gigabytes before failing. So it runs in a child process (fork) with an
-// address-space limit; the child sends the grid and its bricks back through a pipe, the parent checks
+// memory budget and a time limit; the child sends the grid and its bricks back through a pipe, the parent checks
 // every count it reads and turns a crash, a limit or a short answer into an Error. The child uses no
 // TBB (the parent's thread pool does not survive fork): its walks over the grid are serial.
 //
@@ -24,11 +24,13 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <sstream>
+#include <thread>
 
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
@@ -447,14 +449,48 @@ bool read_answer(PipeReader& in, ParsedGrid& g, std::string& error) {
   return !in.get(extra);  // nothing after the last brick
 }
 
-// Address space the child may use: the machine's memory, and not more than 64 times the file's size
-// (at least 2 GiB): OpenVDB allocates what a corrupt header says before it finds the data missing.
-rlim_t child_memory_limit(const std::string& path) {
+// What the child may use beyond what the process held when it forked. OpenVDB allocates what a corrupt
+// header says before it finds the data missing, so memory is bounded by what the file can hold: zlib
+// and Blosc expand at most about 1000:1, so 1100 times the file's size (at least 256 MiB, at most the
+// machine's memory). Time: 30 s plus 2 s per MiB of file.
+struct ChildLimits {
+  std::uint64_t memory_budget;        // bytes beyond the fork-time size
+  std::uint64_t base_resident;        // resident bytes at fork
+  std::uint64_t base_address_space;   // address space at fork
+  double seconds;
+};
+
+ChildLimits child_limits(const std::string& path) {
   std::error_code ec;
-  const auto file = std::filesystem::file_size(path, ec);
-  const auto physical = static_cast<std::uint64_t>(::sysconf(_SC_PHYS_PAGES)) * static_cast<std::uint64_t>(::sysconf(_SC_PAGE_SIZE));
-  const std::uint64_t wanted = std::max<std::uint64_t>(std::uint64_t{2} << 30, ec ? 0 : 64 * static_cast<std::uint64_t>(file));
-  return static_cast<rlim_t>(std::min(wanted, physical));
+  const std::uint64_t file = std::filesystem::file_size(path, ec);
+  const std::uint64_t page = static_cast<std::uint64_t>(::sysconf(_SC_PAGE_SIZE));
+  const std::uint64_t physical = static_cast<std::uint64_t>(::sysconf(_SC_PHYS_PAGES)) * page;
+  ChildLimits l{};
+  l.memory_budget = std::min(physical, std::max<std::uint64_t>(std::uint64_t{256} << 20, ec ? 0 : 1100 * file));
+  std::ifstream statm("/proc/self/statm");
+  std::uint64_t size = 0, resident = 0;
+  if (statm >> size >> resident) {
+    l.base_address_space = size * page;
+    l.base_resident = resident * page;
+  }
+  l.seconds = 30.0 + 2.0 * static_cast<double>(ec ? 0 : file) / (1 << 20);
+  return l;
+}
+
+// The child's watchdog: ends the child when its resident memory passes the budget (exit 4) or its time
+// runs out (exit 5). A thread, not a signal: AddressSanitizer's builds cannot bound address space.
+void watch_child(const ChildLimits& l) {
+  std::thread([l] {
+    const auto start = std::chrono::steady_clock::now();
+    const std::uint64_t page = static_cast<std::uint64_t>(::sysconf(_SC_PAGE_SIZE));
+    for (;;) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      std::ifstream statm("/proc/self/statm");
+      std::uint64_t size = 0, resident = 0;
+      if (statm >> size >> resident && resident * page > l.base_resident + l.memory_budget) ::_exit(4);
+      if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > l.seconds) ::_exit(5);
+    }
+  }).detach();
 }
 
 #if defined(__SANITIZE_ADDRESS__)
@@ -485,7 +521,7 @@ Volume load_vdb_volume(const std::string& path, const std::string& grid_choice, 
 
   int fds[2];
   if (::pipe(fds) != 0) throw Error("cannot create a pipe for the OpenVDB reader");
-  const rlim_t limit = child_memory_limit(path);
+  const ChildLimits limits = child_limits(path);
   const pid_t child = ::fork();
   if (child < 0) {
     ::close(fds[0]);
@@ -494,26 +530,27 @@ Volume load_vdb_volume(const std::string& path, const std::string& grid_choice, 
   }
   if (child == 0) {  // the child: OpenVDB only, then _exit (no destructors of the parent's state)
     ::close(fds[0]);
-    if (!kAddressSanitizer) {  // AddressSanitizer reserves terabytes of address space: no limit there
-      const rlimit r{limit, limit};
+    if (!kAddressSanitizer && limits.base_address_space > 0) {  // a huge allocation fails at once (ASan reserves terabytes)
+      const rlim_t as = static_cast<rlim_t>(limits.base_address_space + limits.memory_budget);
+      const rlimit r{as, as};
       ::setrlimit(RLIMIT_AS, &r);
     }
-    int status = 0;
+    watch_child(limits);
     {
       PipeWriter w(fds[1]);
       try {
         parse_in_child(path, grid_choice, w);
       } catch (const std::bad_alloc&) {
         w.put('E');
-        w.text("OpenVDB ran out of memory reading it (more than " + mib(static_cast<std::size_t>(limit)) +
-               ", the limit for a file of this size: a corrupt size?)");
+        w.text("OpenVDB ran out of memory reading it (it asked for more than " + mib(limits.memory_budget) +
+               ", the budget for a file of this size: a corrupt size?)");
       } catch (const std::exception& e) {
         w.put('E');
         w.text(e.what());
       }
     }
     ::close(fds[1]);
-    ::_exit(status);
+    ::_exit(0);
   }
   ::close(fds[1]);
   ParsedGrid parsed;
@@ -540,6 +577,11 @@ Volume load_vdb_volume(const std::string& path, const std::string& grid_choice, 
   if (WIFSIGNALED(status))
     throw Error("OpenVDB failed reading it (its reader process ended on signal " + std::to_string(WTERMSIG(status)) +
                 "): a corrupt or truncated file?");
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 4)
+    throw Error("OpenVDB needed more than " + mib(limits.memory_budget) +
+                " reading it (the budget for a file of this size, more than any compression gives back): a corrupt size?");
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 5)
+    throw Error("OpenVDB took more than " + std::to_string(static_cast<int>(limits.seconds)) + " s reading it: a corrupt file?");
   if (!complete || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
     throw Error("OpenVDB failed reading it (its reader process gave an incomplete answer)");
 
