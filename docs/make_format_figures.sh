@@ -17,3 +17,31 @@ $B render "$D/nucleus_conf_wf.tif" --channel 1 -o "$tmp/widefield.png" "${W[@]}"
 $B render "$D/headsq_vtkdefault.vti" -o "$tmp/vti.png" "${W[@]}"
 $B montage "$out/formats_dicom_tiff_vti.png" "$tmp/dicom.png" "$tmp/embryo.png" "$tmp/vti.png"
 $B montage "$out/formats_confocal_widefield.png" "$tmp/confocal.png" "$tmp/widefield.png"
+# OpenVDB: no staged file, so pyopenvdb (python3-openvdb) writes one with two grids: a cloud of soft
+# balls (fog volume) and a level-set sphere.
+/usr/bin/python3 - "$tmp/cloud.vdb" <<'PY'
+import random, sys
+import pyopenvdb as vdb
+fog = vdb.FloatGrid(0.0)
+fog.name = "density"
+acc = fog.getAccessor()
+rng = random.Random(5)
+for _ in range(40):
+    c = [rng.gauss(0, 22) for _ in range(3)]
+    r = rng.uniform(5, 12)
+    n = int(r) + 1
+    for i in range(-n, n + 1):
+        for j in range(-n, n + 1):
+            for k in range(-n, n + 1):
+                d = (i * i + j * j + k * k) ** 0.5
+                if d < r:
+                    p = (int(c[0]) + i, int(c[1]) + j, int(c[2]) + k)
+                    acc.setValueOn(p, max(acc.getValue(p), 1.0 - d / r))
+sphere = vdb.createLevelSetSphere(radius=30.0, center=(0, 0, 0), voxelSize=1.0, halfWidth=3.0)
+sphere.name = "surface"
+vdb.write(sys.argv[1], grids=[fog, sphere])
+PY
+$B render "$tmp/cloud.vdb" -o "$tmp/cloud.png" "${W[@]}" --set camera.zoom=1.8 --accumulate 8
+$B render "$tmp/cloud.vdb" --grid surface -o "$tmp/surface.png" "${W[@]}" --set 'isosurfaces=[{"volume": 0, "value": 0}]' \
+  --set volumes.0.visible=false
+$B montage "$out/formats_vdb.png" "$tmp/cloud.png" "$tmp/surface.png"
