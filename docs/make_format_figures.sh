@@ -42,6 +42,5 @@ sphere.name = "surface"
 vdb.write(sys.argv[1], grids=[fog, sphere])
 PY
 $B render "$tmp/cloud.vdb" -o "$tmp/cloud.png" "${W[@]}" --set camera.zoom=1.8 --accumulate 8
-$B render "$tmp/cloud.vdb" --grid surface -o "$tmp/surface.png" "${W[@]}" --set 'isosurfaces=[{"volume": 0, "value": 0}]' \
-  --set volumes.0.visible=false
+$B render "$tmp/cloud.vdb" --grid surface -o "$tmp/surface.png" "${W[@]}"
 $B montage "$out/formats_vdb.png" "$tmp/cloud.png" "$tmp/surface.png"

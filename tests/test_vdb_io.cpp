@@ -20,6 +20,7 @@
 #include "penumbra/data/volume_stats.h"
 #include "penumbra/render/prepared_volume.h"
 #include "penumbra/render/renderer.h"
+#include "penumbra/scene/data_scene.h"
 #include "penumbra/scene/scene_file.h"
 #include "test_volume_io_util.h"
 
@@ -372,4 +373,25 @@ TEST(VdbFile, BadFilesAreNamed) {
   }
   expect_error(dir.file("missing.vdb"), "", {"cannot open"});
   EXPECT_NO_THROW(load(good, "density")) << "the uncut file loads";
+}
+
+// Opened directly, a level set shows its surface (the isosurface at 0) and a fog volume shows itself.
+TEST(VdbFile, TheAutomaticSceneShowsALevelSetAsItsSurface) {
+  TempDir dir;
+  const std::string path = dir.file("two.vdb");
+  auto ls = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(8.0f, openvdb::Vec3f(0, 0, 0), 0.5f, 3.0f);
+  ls->setName("surface");
+  write_grids(path, {blobs(), ls});
+  SceneDataCache cache;
+  VolumeLoadOptions o;
+  o.grid = "surface";
+  const nlohmann::json surface = data_scene({path}, o, cache);
+  ASSERT_TRUE(surface.contains("isosurfaces")) << surface.dump();
+  EXPECT_EQ(surface["isosurfaces"][0]["volume"], 0);
+  EXPECT_EQ(surface["isosurfaces"][0]["value"], 0.0);
+  EXPECT_EQ(surface["volumes"][0]["visible"], false);
+  EXPECT_TRUE(build_scene(surface, "").volumes[0].volume->level_set());
+  const nlohmann::json fog = data_scene({path}, VolumeLoadOptions{}, cache);
+  EXPECT_FALSE(fog.contains("isosurfaces"));
+  EXPECT_FALSE(fog["volumes"][0].contains("visible"));
 }

@@ -145,18 +145,21 @@ Volume Volume::densified(std::size_t max_bytes) const {
         for (int i = 0; i < dims_[0]; ++i) dense.set_value(dense.index(i, j, k), value(i, j, k));
   });
   dense.range_ = range_;
+  dense.level_set_ = level_set_;
   return dense;
 }
 
 Volume::Volume(const Volume& o)
     : type_(o.type_), dims_(o.dims_), spacing_(o.spacing_), inv_spacing_(o.inv_spacing_), origin_(o.origin_),
       owned_(o.owned_), owner_(o.owner_), data_(o.owner_ ? o.data_ : owned_.data()), range_(o.range_),
-      brick_base_(o.brick_base_), brick_grid_(o.brick_grid_), stored_(o.stored_), shared_end_(o.shared_end_) {}
+      brick_base_(o.brick_base_), brick_grid_(o.brick_grid_), stored_(o.stored_), shared_end_(o.shared_end_),
+      level_set_(o.level_set_) {}
 
 Volume::Volume(Volume&& o) noexcept
     : type_(o.type_), dims_(o.dims_), spacing_(o.spacing_), inv_spacing_(o.inv_spacing_), origin_(o.origin_),
       owned_(std::move(o.owned_)), owner_(std::move(o.owner_)), data_(o.data_), range_(o.range_),
-      brick_base_(std::move(o.brick_base_)), brick_grid_(o.brick_grid_), stored_(o.stored_), shared_end_(o.shared_end_) {
+      brick_base_(std::move(o.brick_base_)), brick_grid_(o.brick_grid_), stored_(o.stored_), shared_end_(o.shared_end_),
+      level_set_(o.level_set_) {
   o.data_ = nullptr;
   o.dims_ = {0, 0, 0};
   o.brick_base_.clear();
@@ -181,6 +184,7 @@ Volume& Volume::operator=(Volume&& o) noexcept {
   brick_grid_ = o.brick_grid_;
   stored_ = o.stored_;
   shared_end_ = o.shared_end_;
+  level_set_ = o.level_set_;
   o.data_ = nullptr;
   o.dims_ = {0, 0, 0};
   o.brick_base_.clear();

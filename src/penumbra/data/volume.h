@@ -115,6 +115,10 @@ public:
     return owned_.size() + brick_base_.size() * sizeof(brick_base_[0]);
   }
   bool is_bricked() const { return !brick_base_.empty(); }
+  // A level set (an OpenVDB grid of that class): signed distance, negative inside; its surface is the
+  // isosurface at 0, which the automatic scene shows.
+  bool level_set() const { return level_set_; }
+  void set_level_set(bool level_set) { level_set_ = level_set; }
   // Voxels stored: voxel_count() when dense; stored bricks × 9³ when bricked.
   std::size_t stored_voxel_count() const { return is_bricked() ? stored_ : voxel_count(); }
   // Bricked only: the bricks per axis, where brick b's 9³ voxels start in data(), and whether it is one
@@ -161,7 +165,7 @@ public:
     return 0;
   }
   float value(int i, int j, int k) const { return value(index(i, j, k)); }
-  void set_value(std::size_t idx, float v);
+  void set_value(std::size_t idx, float v);  // dense volumes (a bricked voxel may be stored twice)
 
   // Continuous voxel coordinates of a world point.
   Vec3 to_voxel(const Vec3& p) const {
@@ -257,6 +261,7 @@ private:
   std::vector<std::size_t> brick_base_;
   std::array<int, 3> brick_grid_{0, 0, 0};
   std::size_t stored_ = 0, shared_end_ = 0;
+  bool level_set_ = false;
 };
 
 }  // namespace penumbra

@@ -104,8 +104,12 @@ nlohmann::json data_scene(const std::vector<std::string>& files, const VolumeLoa
   bool hounsfield = false;
   for (std::size_t i = 0; i < loaded.volumes.size(); ++i) {
     auto& v = doc["volumes"][i];
-    v.erase("visible");
     v["transfer_function"] = choose_transfer_function(*loaded.volumes[i].volume);
+    if (loaded.volumes[i].volume->level_set()) {  // a level set is its surface: the isosurface at 0
+      doc["isosurfaces"].push_back({{"volume", i}, {"value", 0.0}});
+      continue;
+    }
+    v.erase("visible");
     hounsfield = hounsfield || v["transfer_function"].value("preset", "") == "ct-bone";
   }
   const bool molecules_only = loaded.volumes.empty();

@@ -306,6 +306,7 @@ void parse_in_child(const std::string& path, const std::string& grid_choice, Pip
   const BlockMap blocks = map_blocks(*grid, lo, dims);
 
   out.put('V');
+  out.put(static_cast<std::uint8_t>(grid->getGridClass() == openvdb::GRID_LEVEL_SET ? 1 : 0));
   for (int a = 0; a < 3; ++a) out.put(static_cast<std::int32_t>(dims[a]));
   for (int a = 0; a < 3; ++a) out.put(spacing[a]);
   for (int a = 0; a < 3; ++a) out.put(origin[a]);
@@ -405,6 +406,7 @@ struct ParsedGrid {
   std::array<int, 3> dims{};
   Vec3 spacing, origin;
   std::vector<std::string> notes;
+  bool level_set = false;
   std::vector<float> shared;           // per brick: its one value (a stored brick: unused)
   std::vector<std::size_t> stored_at;  // per brick: its first voxel in `stored`, or npos when shared
   std::vector<float> stored;
@@ -416,6 +418,9 @@ bool read_answer(PipeReader& in, ParsedGrid& g, std::string& error) {
   if (!in.get(kind)) return false;
   if (kind == 'E') return in.text(error, 1 << 16);
   if (kind != 'V') return false;
+  std::uint8_t level_set = 2;
+  if (!in.get(level_set) || level_set > 1) return false;
+  g.level_set = level_set == 1;
   std::int32_t d[3];
   for (int a = 0; a < 3; ++a)
     if (!in.get(d[a])) return false;
@@ -598,6 +603,7 @@ Volume load_vdb_volume(const std::string& path, const std::string& grid_choice, 
       [&](const std::array<int, 3>& c, float* voxels) {
         std::memcpy(voxels, parsed.stored.data() + parsed.stored_at[brick_index(c)], Volume::kBrickVoxels * sizeof(float));
       });
+  volume.set_level_set(parsed.level_set);
   out.notes = std::move(parsed.notes);
   const std::size_t stored = parsed.stored.size() / Volume::kBrickVoxels;
   out.notes.push_back("sparse: " + std::to_string(stored) + " of " + std::to_string(parsed.shared.size()) +
