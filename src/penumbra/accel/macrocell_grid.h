@@ -48,6 +48,13 @@ public:
                              std::clamp(static_cast<int>(v.y) / MacrocellGrid::kCellSize, 0, c[1] - 1),
                              std::clamp(static_cast<int>(v.z) / MacrocellGrid::kCellSize, 0, c[2] - 1));
   }
+  // The same cell found from the trilinear cell a sample reads (its lower corner's integers: no
+  // float conversions again).
+  std::size_t cell_of(const TrilinearCell& c) const {
+    constexpr unsigned n = MacrocellGrid::kCellSize;
+    return grid_->cell_index(static_cast<int>(static_cast<unsigned>(c.i) / n), static_cast<int>(static_cast<unsigned>(c.j) / n),
+                             static_cast<int>(static_cast<unsigned>(c.k) / n));
+  }
   bool empty(std::size_t cell) const { return (*empty_)[cell] != 0; }
 
   // Ray parameter (>= t) where r leaves the cell that holds voxel coordinates v.

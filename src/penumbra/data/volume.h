@@ -49,6 +49,7 @@ struct TrilinearCell {
   std::size_t base;              // index of the lower corner voxel
   std::size_t sx, sy, sz;        // index strides to the upper neighbours
   float tx, ty, tz;              // fractional position inside the cell
+  int i, j, k;                   // the lower corner voxel
 };
 
 // Zero: the voxels start at 0. Uninitialized: left as allocated, for a caller that writes every voxel
@@ -182,7 +183,8 @@ public:
     const int j = std::min(static_cast<int>(fy), std::max(dims_[1] - 2, 0));
     const int k = std::min(static_cast<int>(fz), std::max(dims_[2] - 2, 0));
     const auto s = strides();
-    return {index(i, j, k), s[0], s[1], s[2], fx - static_cast<float>(i), fy - static_cast<float>(j), fz - static_cast<float>(k)};
+    return {index(i, j, k), s[0], s[1], s[2], fx - static_cast<float>(i), fy - static_cast<float>(j), fz - static_cast<float>(k),
+            i, j, k};
   }
   float sample_cell(const TrilinearCell& c) const;  // the interpolant in a cell found before
   // The same for a caller that knows the voxel type (T must be the volume's: see with_voxel_type), so

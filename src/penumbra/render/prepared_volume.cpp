@@ -11,6 +11,14 @@ namespace {
 // [-1, 1] -> [-127, 127], rounded to nearest
 std::int8_t quantise(float x) { return static_cast<std::int8_t>(x * 127.0f + (x >= 0 ? 0.5f : -0.5f)); }
 
+// The quantised unit normal of a gradient and its shading weight.
+std::array<std::int8_t, 4> quantised_gradient(const Vec3& grad, float weight_scale) {
+  const float len = length(grad);
+  const Vec3 n = len > 0 ? grad / len : Vec3{0, 0, 0};
+  const float w = std::min(1.0f, len * weight_scale);
+  return {quantise(n.x), quantise(n.y), quantise(n.z), quantise(w)};
+}
+
 // The quantised normal and shading weight at voxel (i, j, k): central differences, one-sided (and halved
 // accordingly) at the border.
 std::array<std::int8_t, 4> voxel_gradient(const Volume& vol, int i, int j, int k, const Vec3& inv2, float weight_scale) {
@@ -22,10 +30,35 @@ std::array<std::int8_t, 4> voxel_gradient(const Volume& vol, int i, int j, int k
   const Vec3 grad{diff(0, std::max(i - 1, 0), std::min(i + 1, d[0] - 1), j, j, k, k) * inv2.x,
                   diff(1, i, i, std::max(j - 1, 0), std::min(j + 1, d[1] - 1), k, k) * inv2.y,
                   diff(2, i, i, j, j, std::max(k - 1, 0), std::min(k + 1, d[2] - 1)) * inv2.z};
-  const float len = length(grad);
-  const Vec3 n = len > 0 ? grad / len : Vec3{0, 0, 0};
-  const float w = std::min(1.0f, len * weight_scale);
-  return {quantise(n.x), quantise(n.y), quantise(n.z), quantise(w)};
+  return quantised_gradient(grad, weight_scale);
+}
+
+// A dense volume's gradients, row by row: interior voxels read their six neighbours straight from the
+// voxels of type T (the arithmetic of voxel_gradient, whose span is 1 there), border voxels go through
+// voxel_gradient.
+template <class T>
+void dense_gradients(const Volume& vol, const Vec3& inv2, float weight_scale, std::vector<std::array<std::int8_t, 4>>& g) {
+  const auto& d = vol.dims();
+  const T* v = vol.data_as<T>();
+  const std::size_t sy = static_cast<std::size_t>(d[0]), sz = sy * static_cast<std::size_t>(d[1]);
+  parallel_for(static_cast<std::size_t>(d[2]), [&](std::size_t k0, std::size_t k1) {
+    for (int k = static_cast<int>(k0); k < static_cast<int>(k1); ++k)
+      for (int j = 0; j < d[1]; ++j) {
+        const std::size_t row = static_cast<std::size_t>(k) * sz + static_cast<std::size_t>(j) * sy;
+        const bool inner_row = j > 0 && j < d[1] - 1 && k > 0 && k < d[2] - 1;
+        for (int i = 0; i < d[0]; ++i) {
+          const std::size_t at = row + static_cast<std::size_t>(i);
+          if (!inner_row || i == 0 || i == d[0] - 1) {
+            g[at] = voxel_gradient(vol, i, j, k, inv2, weight_scale);
+            continue;
+          }
+          const Vec3 grad{(static_cast<float>(v[at + 1]) - static_cast<float>(v[at - 1])) * inv2.x,
+                          (static_cast<float>(v[at + sy]) - static_cast<float>(v[at - sy])) * inv2.y,
+                          (static_cast<float>(v[at + sz]) - static_cast<float>(v[at - sz])) * inv2.z};
+          g[at] = quantised_gradient(grad, weight_scale);
+        }
+      }
+  });
 }
 
 // One gradient per stored voxel, in the volume's layout. A bricked volume's shared bricks are flat
@@ -59,11 +92,7 @@ std::vector<std::array<std::int8_t, 4>> gradient_volume(const Volume& vol, float
     });
     return g;
   }
-  parallel_for(static_cast<std::size_t>(d[2]), [&](std::size_t k0, std::size_t k1) {
-    for (int k = static_cast<int>(k0); k < static_cast<int>(k1); ++k)
-      for (int j = 0; j < d[1]; ++j)
-        for (int i = 0; i < d[0]; ++i) g[vol.index(i, j, k)] = voxel_gradient(vol, i, j, k, inv2, weight_scale);
-  });
+  vol.with_voxel_type([&](auto type) { dense_gradients<decltype(type)>(vol, inv2, weight_scale, g); });
   return g;
 }
 

@@ -5,6 +5,7 @@
 
 #include "penumbra/core/cancel.h"
 #include "penumbra/core/error.h"
+#include "penumbra/core/frame_memory.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/particles/sphere_hits.h"
 #include "penumbra/render/surface_frame.h"
@@ -84,7 +85,10 @@ bool same_shadow_geometry(const Light& a, const Light& b) {
          a.softness == b.softness;
 }
 
-Renderer::Renderer(Scene scene) : scene_(std::move(scene)) { mark_all_stale(); }
+Renderer::Renderer(Scene scene) : scene_(std::move(scene)) {
+  keep_frame_memory_mapped();
+  mark_all_stale();
+}
 
 void Renderer::mark_all_stale() {
   for (std::size_t i = 0; i < scene_.volumes.size(); ++i)

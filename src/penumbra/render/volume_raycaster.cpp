@@ -66,16 +66,28 @@ struct Shader {
         in.shadows[l]->transmittance(points, std::span<Rgb>(T.data(), b.size));
       }
       const Light& light = in.lights[l];
-      for (std::size_t i = 0; i < b.size; ++i) {
-        Vec3 to_light;
+      // a directional light's direction, emission and half vector are the same for every sample
+      const bool directional = light.type == LightType::Directional;
+      Vec3 to_light, half;
+      Rgb emitted;
+      if (directional) {
         float distance;
-        light.towards(b.position[i], to_light, distance);
-        const Rgb e = light.emitted(to_light) * (b.receives[i] ? T[i] : Rgb(1.0f));
+        light.towards(Vec3{0, 0, 0}, to_light, distance);
+        emitted = light.emitted(to_light);
+        half = normalize(to_light + view);
+      }
+      for (std::size_t i = 0; i < b.size; ++i) {
+        if (!directional) {
+          float distance;
+          light.towards(b.position[i], to_light, distance);
+          emitted = light.emitted(to_light);
+        }
+        const Rgb e = emitted * (b.receives[i] ? T[i] : Rgb(1.0f));
         const float ndotl = dot(b.normal[i], to_light);
         const float diffuse = (1 - b.shaded[i]) + b.shaded[i] * std::max(ndotl, 0.0f);
         float spec = 0;
         if (ndotl > 0 && b.shaded[i] > 0) {
-          const float ndoth = dot(b.normal[i], normalize(to_light + view));
+          const float ndoth = dot(b.normal[i], directional ? half : normalize(to_light + view));
           // below this cosine the highlight is under 1e-4 for shininess >= 8: skip the pow
           if (ndoth > kSpecularCutoff) spec = b.shaded[i] * std::pow(ndoth, k.shininess);
         }
@@ -122,7 +134,8 @@ float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, 
     if (t > t1) break;
     const Vec3 p = ray.at(t);
     const Vec3 v = vol.to_voxel(p);
-    const std::size_t cell = skipper.cell_of(v);
+    const TrilinearCell tc = vol.trilinear_cell(v);  // shared by the macrocell, the value and the gradient
+    const std::size_t cell = skipper.cell_of(tc);
     if (cell != last_cell) {
       last_cell = cell;
       if (skipper.empty(cell)) {  // continue with the first lattice sample past the cell
@@ -132,7 +145,6 @@ float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, 
         continue;
       }
     }
-    const TrilinearCell tc = vol.trilinear_cell(v);  // shared by the value and the gradient
     const Rgba s = pv.lut.lookup(vol.sample_cell_as<T>(tc));
     if (s.a <= 0) continue;
     const float w = (1 - opacity) * s.a;
