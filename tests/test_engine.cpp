@@ -183,6 +183,35 @@ TEST(Engine, ParticleColoursRebuildOnlyTheColours) {
   check_edit(j, "particles.0.radius", 0.25);
 }
 
+// Each pixel's nearest sphere is found again only when what the eye sees of the spheres can change:
+// a light edit keeps it (and the image is still a fresh render's), a camera, sphere or rasterizer edit
+// finds it again.
+TEST(Engine, VisibleSpheresAreKeptUntilTheCameraOrTheSpheresChange) {
+  json j;
+  j["particles"] = json::array({{{"procedural", {{"name", "random-spheres"}, {"count", 60}, {"radius", 0.08}, {"seed", 2}}}}});
+  j["lights"] = json::array({{{"type", "directional"}, {"direction", {-0.3, -1, -0.2}}}});
+  j["shadows"] = {{"technique", "issm"}, {"resolution", 64}};
+  j["camera"] = {{"width", 48}, {"height", 40}};
+  Engine engine(j, "");
+  EXPECT_GT(engine.render().frame.hits_ms, 0.0);
+  auto after = [&](const std::string& path, const json& value, bool found_again) {
+    SCOPED_TRACE(path);
+    engine.set(path, value);
+    const EngineFrame f = engine.render();
+    EXPECT_EQ(f.frame.hits_ms > 0.0, found_again);
+    EXPECT_GT(f.frame.sphere_pixels, 0u);
+    const Image fresh = Renderer(build_scene(engine.document(), "")).render().image;
+    ASSERT_EQ(f.image.pixels().size(), fresh.pixels().size());
+    EXPECT_EQ(std::memcmp(f.image.pixels().data(), fresh.pixels().data(), fresh.pixels().size() * sizeof(Rgb)), 0);
+  };
+  after("lights.0.direction", {0.4, -1, 0.1}, false);
+  after("shading.ambient", 0.3, false);
+  after("camera.eye", {1.8, 1.2, 2.2}, true);
+  after("particles.0.procedural.seed", 5, true);
+  after("sphere_renderer", "embree", true);
+  after("lights.0.direction", {0.1, -1, 0.3}, false);
+}
+
 // A refused edit names the path and what was expected, and leaves the engine's scene, document and
 // image as they were.
 TEST(Engine, RefusedEditsChangeNothing) {

@@ -1,7 +1,6 @@
 #include "penumbra/particles/tile_bins.h"
 
 #include <algorithm>
-#include <atomic>
 
 #include "penumbra/core/parallel.h"
 
@@ -16,24 +15,34 @@ TileBins::TileBins(std::span<const PixelRect> rects, int width, int height)
       for (int tx = r.x0 / kRasterTile; tx <= r.x1 / kRasterTile; ++tx)
         body(static_cast<std::size_t>(ty) * static_cast<std::size_t>(tiles_x_) + static_cast<std::size_t>(tx));
   };
-  // count, prefix sum, fill: the order inside a bin does not matter to its users
-  std::vector<std::atomic<std::uint32_t>> counts(tile_count);
-  for (auto& c : counts) c.store(0, std::memory_order_relaxed);
-  parallel_for(rects.size(), [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i)
-      if (!rects[i].empty()) for_each_tile_of(rects[i], [&](std::size_t t) { counts[t].fetch_add(1, std::memory_order_relaxed); });
-  }, 4096);
+  // Count, prefix sum, fill, per chunk of items: each chunk counts its own items per tile and then
+  // writes them at its own offsets, so no counter is shared between threads (atomic counters made the
+  // two passes contend on every tile) and a tile holds its items in increasing order for any thread count.
+  const std::size_t n = rects.size();
+  const std::size_t chunks = std::clamp<std::size_t>(n / 8192, 1, 64), per_chunk = (n + chunks - 1) / chunks;
+  std::vector<std::size_t> at(chunks * tile_count, 0);  // chunk c's count, then its next slot, of tile t: at[c·T + t]
+  auto chunk_items = [&](auto&& body) {
+    parallel_for(chunks, [&](std::size_t c0, std::size_t c1) {
+      for (std::size_t c = c0; c < c1; ++c) {
+        std::size_t* slot = at.data() + c * tile_count;
+        for (std::size_t i = c * per_chunk; i < std::min(n, (c + 1) * per_chunk); ++i)
+          if (!rects[i].empty()) for_each_tile_of(rects[i], [&](std::size_t t) { body(slot[t], i); });
+      }
+    }, 1);
+  };
+  chunk_items([](std::size_t& count, std::size_t) { ++count; });
   offset_.assign(tile_count + 1, 0);
-  for (std::size_t t = 0; t < tile_count; ++t) offset_[t + 1] = offset_[t] + counts[t].load(std::memory_order_relaxed);
-  items_.resize(offset_[tile_count]);
-  for (auto& c : counts) c.store(0, std::memory_order_relaxed);
-  parallel_for(rects.size(), [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i)
-      if (!rects[i].empty())
-        for_each_tile_of(rects[i], [&](std::size_t t) {
-          items_[offset_[t] + counts[t].fetch_add(1, std::memory_order_relaxed)] = static_cast<std::uint32_t>(i);
-        });
-  }, 4096);
+  std::size_t running = 0;
+  for (std::size_t t = 0; t < tile_count; ++t) {
+    for (std::size_t c = 0; c < chunks; ++c) {
+      const std::size_t count = at[c * tile_count + t];
+      at[c * tile_count + t] = running;
+      running += count;
+    }
+    offset_[t + 1] = running;
+  }
+  items_.resize(running);
+  chunk_items([&](std::size_t& next, std::size_t i) { items_[next++] = static_cast<std::uint32_t>(i); });
 }
 
 void TileBins::for_each_tile(const std::function<void(int, int, int, int, std::span<const std::uint32_t>)>& fill) const {

@@ -109,7 +109,8 @@ public:
         std::uint32_t start[kBuckets + 1] = {};
         for (const std::uint32_t id : items) ++start[bucket_of(id) + 1];
         for (int b = 0; b < kBuckets; ++b) start[b + 1] += start[b];
-        std::vector<std::uint32_t> order(items.size());
+        thread_local std::vector<std::uint32_t> order;  // one buffer per thread, not one per tile
+        order.resize(items.size());
         std::uint32_t fill[kBuckets];
         std::copy(start, start + kBuckets, fill);
         for (const std::uint32_t id : items) order[fill[bucket_of(id)]++] = id;

@@ -245,6 +245,7 @@ void Renderer::prepare_particles(FrameResult& frame) {
     }
     rebuilt("spheres", Quality::Full, frame);
     rebuilt("spheres.colors", Quality::Full, frame);
+    hits_for_.reset();
     stale_.insert("bvh");      // it points at the set
     stale_.insert("casters");  // so do they
   } else if (stale("spheres.colors")) {  // new colours, same spheres: in place
@@ -467,12 +468,15 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
 
   Timer render;
   // The opaque surfaces: spheres, isosurfaces, planes.
-  SphereHits hits;
   if (particles_) {
-    Timer t;
-    hits = scene_.sphere_rasterizer == SphereRasterizer::Embree ? trace_spheres(*bvh_, camera) : splat_spheres(*particles_, camera);
-    frame.hits_ms = t.elapsed_ms();
-    frame.sphere_pixels = hits.covered();
+    const auto hits_key = std::make_pair(camera, scene_.sphere_rasterizer);
+    if (hits_for_ != hits_key) {
+      Timer t;
+      hits_ = scene_.sphere_rasterizer == SphereRasterizer::Embree ? trace_spheres(*bvh_, camera) : splat_spheres(*particles_, camera);
+      hits_for_ = hits_key;
+      frame.hits_ms = t.elapsed_ms();
+    }
+    frame.sphere_pixels = hits_.covered();
   }
   std::vector<IsoPoints> eye(isosurfaces_.size());
   for (std::size_t s = 0; s < isosurfaces_.size(); ++s) {
@@ -486,7 +490,7 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   check_cancelled();
   Timer shade;
   const SurfaceInputs surface_in{&scene_, &camera, particles_.get(), particle_offsets_, particle_objects_,
-                                 particles_ ? &hits : nullptr, eye};
+                                 particles_ ? &hits_ : nullptr, eye};
   visible_surfaces(surface_in, surfaces_);
   const VisibleSurfaces& surfaces = surfaces_;
   frame.isosurface.shade_ms += shade.elapsed_ms();

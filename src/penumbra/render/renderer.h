@@ -16,6 +16,7 @@
 #include <atomic>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -24,6 +25,7 @@
 #include "penumbra/accel/light_cache.h"
 #include "penumbra/core/image.h"
 #include "penumbra/particles/sphere_bvh.h"
+#include "penumbra/particles/sphere_hits.h"
 #include "penumbra/render/isosurface_frame.h"
 #include "penumbra/render/light_shadows.h"
 #include "penumbra/render/prepared_volume.h"
@@ -62,7 +64,7 @@ struct FrameResult {
   double prepare_ms = 0;  // transfer-function tables, empty space, gradients, min/max, hierarchies, sphere set
   double render_ms = 0;   // surfaces and ray casting
   double bvh_ms = 0;      // spheres: Embree BVH, when built this frame
-  double hits_ms = 0;     // spheres: each pixel's nearest sphere (splatting or Embree rays)
+  double hits_ms = 0;     // spheres: each pixel's nearest sphere (splatting or Embree rays); 0 when the last frame's were kept
   int issm_rings = -1;    // spheres: the rings t the ISSM used (chosen this frame when automatic)
   std::size_t sphere_pixels = 0;  // pixels showing a sphere
   IsosurfaceFrameStats isosurface;  // isosurfaces: eye pass, shadow passes, counts
@@ -159,6 +161,10 @@ private:
   std::vector<std::unique_ptr<PreparedIsosurface>> isosurfaces_;  // sharing one GridTree per volume
   IsoPoints isosurface_eye_points_;  // the last frame's eye passes
   VisibleSurfaces surfaces_;         // the last frame's opaque surfaces (buffers reused)
+  // Each pixel's nearest sphere, kept while the camera, the spheres and the rasterizer stay: a light,
+  // shadow, colour or transfer-function edit does not move what the eye sees.
+  SphereHits hits_;
+  std::optional<std::pair<Camera, SphereRasterizer>> hits_for_;
   bool first_frame_ = true;
   double prepare_ms_ = 0;
 };

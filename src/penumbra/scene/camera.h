@@ -17,6 +17,8 @@ struct Camera {
   // PrimaryRays, which sets the camera frame up once.
   Ray primary_ray(float px, float py) const;
 
+  bool operator==(const Camera&) const = default;
+
   // The camera turned by `angle` radians about the vertical axis (`up`) through the target.
   Camera orbited(float angle) const {
     Camera c = *this;
