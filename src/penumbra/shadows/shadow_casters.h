@@ -143,8 +143,13 @@ private:
     return len >= step_ * 0.9999f ? a : 1.0f - std::pow(1.0f - a, len / step_);
   }
 
+  // One volume: the voxel type is decided once per ray, so that sampling inlines in the loop.
   template <class Visit>
   void march_one(const CastingVolume& cv, const Ray& r, float t_begin, float t_end, Visit& visit) const {
+    cv.volume->with_voxel_type([&](auto type) { march_one_as<decltype(type)>(cv, r, t_begin, t_end, visit); });
+  }
+  template <class T, class Visit>
+  void march_one_as(const CastingVolume& cv, const Ray& r, float t_begin, float t_end, Visit& visit) const {
     float t0, t1;
     if (!cv.box.clip(r, t0, t1, t_begin, t_end)) return;
     const EmptySpaceSkipper skipper(*cv.volume, *cv.grid, cv.empty);
@@ -157,7 +162,8 @@ private:
       const float tm = 0.5f * (seg0 + seg1);
       const Vec3 p = r.at(tm);
       const Vec3 v = cv.volume->to_voxel(p);
-      const std::size_t cell = skipper.cell_of(v);
+      const TrilinearCell tc = cv.volume->trilinear_cell(v);  // shared by the macrocell and the value
+      const std::size_t cell = skipper.cell_of(tc);
       if (cell != last_cell) {
         last_cell = cell;
         if (skipper.empty(cell)) {  // empty cell: continue with the segment that holds the cell's exit
@@ -167,7 +173,7 @@ private:
           continue;
         }
       }
-      const Rgba s = cv.lut.lookup(cv.volume->sample_voxel(v));
+      const Rgba s = cv.lut.lookup(cv.volume->template sample_cell_as<T>(tc));
       if (s.a > 0) {
         const float a = part_opacity(s.a, seg1 - seg0);
         if (!visit(MediumSegment{k, tm, seg0, seg1, a, cv.achromatic ? Rgb(0.0f) : s.rgb})) return;
