@@ -19,6 +19,7 @@
 
 #include "penumbra/core/cancel.h"
 #include "penumbra/core/error.h"
+#include "penumbra/core/frame_memory.h"
 #include "penumbra/core/image.h"
 #include "penumbra/data/elements.h"
 #include "penumbra/data/io/volume_io.h"
@@ -207,6 +208,7 @@ private:
 }  // namespace
 
 PYBIND11_MODULE(_penumbra, m) {
+  keep_frame_memory_mapped();  // before the first frame: see core/frame_memory.h
   m.doc() = "penumbra's compiled core: the interactive engine over NumPy buffers (use the penumbra package)";
   static py::exception<Error> error(m, "Error", PyExc_ValueError);
   py::register_exception_translator([](std::exception_ptr p) {

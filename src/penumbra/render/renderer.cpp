@@ -5,7 +5,6 @@
 
 #include "penumbra/core/cancel.h"
 #include "penumbra/core/error.h"
-#include "penumbra/core/frame_memory.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/particles/sphere_hits.h"
 #include "penumbra/render/surface_frame.h"
@@ -86,7 +85,6 @@ bool same_shadow_geometry(const Light& a, const Light& b) {
 }
 
 Renderer::Renderer(Scene scene) : scene_(std::move(scene)) {
-  keep_frame_memory_mapped();
   mark_all_stale();
 }
 
