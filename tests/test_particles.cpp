@@ -14,6 +14,7 @@
 #include "penumbra/shadows/ray_traced.h"
 #include "penumbra/shadows/ray_traced_ao.h"
 #include "penumbra/particles/sphere_hits.h"
+#include "penumbra/particles/sphere_cone_cache.h"
 #include "penumbra/particles/tile_bins.h"
 #include "penumbra/render/surface_frame.h"
 #include "penumbra/render/renderer.h"
@@ -454,6 +455,97 @@ TEST(ParticleAo, AFloorsOcclusionHasNoEdgeWhereItLeavesTheGridsFootprint) {
 //    above the RMS budget too, so a constant at the right mean fails both checks.
 // Measured (Release, N = 1024, 2894 points): means 0.548 / 0.640 (SE 0.0002), noise-free RMS 0.122, MC
 // σ 0.0125, r 0.956 of r_max 0.999, a constant AO's RMS 0.266.
+// The cone cache: every sphere its entry when that fits, else entries from a pool for the spheres
+// stored first; a full pool stores no more; cones > 64 are not cached.
+TEST(SphereConeCache, EntriesForEverySphereOrFromAPool) {
+  SphereConeCache all;
+  all.reset(100, 8, 100 * 16);
+  EXPECT_TRUE(all.enabled() && all.every_sphere());
+  std::uint8_t q = 0;
+  EXPECT_FALSE(all.get(7, 3, q));
+  all.put(7, 3, 200);
+  ASSERT_TRUE(all.get(7, 3, q));
+  EXPECT_EQ(q, 200);
+  EXPECT_FALSE(all.get(7, 4, q));
+  EXPECT_EQ(all.memory_bytes(), 100u * 16);
+
+  SphereConeCache pooled;
+  pooled.reset(1000, 8, 1000 * 4 + 10 * 16);  // the sphere table and 10 entries
+  EXPECT_TRUE(pooled.enabled() && !pooled.every_sphere());
+  for (std::uint32_t s = 0; s < 12; ++s)
+    for (std::size_t c = 0; c < 8; ++c) pooled.put(500 + s, c, static_cast<std::uint8_t>(s * 8 + c));
+  for (std::uint32_t s = 0; s < 12; ++s) {
+    SCOPED_TRACE(s);
+    for (std::size_t c = 0; c < 8; ++c) {
+      const bool stored = pooled.get(500 + s, c, q);
+      EXPECT_EQ(stored, s < 10);
+      if (stored) EXPECT_EQ(q, s * 8 + c);
+    }
+  }
+  EXPECT_FALSE(pooled.get(3, 0, q));
+  EXPECT_EQ(pooled.entries_used(), 10u);
+  EXPECT_EQ(pooled.memory_bytes(), 1000u * 4 + 10 * 16);
+
+  SphereConeCache none;
+  none.reset(1000, 65, std::size_t{1} << 30);
+  EXPECT_FALSE(none.enabled());
+  none.put(1, 1, 9);
+  EXPECT_FALSE(none.get(1, 1, q));
+  none.reset(1000, 8, 1000 * 4);  // not even the table fits
+  EXPECT_FALSE(none.enabled());
+}
+
+// Threads storing the same spheres at once give each sphere one entry and lose no cone.
+TEST(SphereConeCache, ConcurrentStoresKeepEveryCone) {
+  constexpr std::uint32_t kSpheres = 4000;
+  constexpr std::size_t kCones = 32;
+  SphereConeCache pooled;
+  pooled.reset(kSpheres, kCones, kSpheres * (kCones + 8) - 1);  // just short of an entry for every sphere
+  ASSERT_FALSE(pooled.every_sphere());
+  const std::size_t capacity = (kSpheres * (kCones + 8) - 1 - kSpheres * 4) / (kCones + 8);  // 3,599
+  // every (sphere, cone) stored by four tasks at once, in an order that differs per task
+  parallel_for(std::size_t{4} * kSpheres * kCones, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      const std::size_t k = i % (std::size_t{kSpheres} * kCones);
+      const auto s = static_cast<std::uint32_t>(((k / kCones) * 2654435761u) % kSpheres);
+      const std::size_t c = k % kCones;
+      pooled.put(s, c, static_cast<std::uint8_t>((s + c) & 0xFF));
+    }
+  }, 64);
+  std::uint8_t q = 0;
+  std::size_t stored = 0;
+  for (std::uint32_t s = 0; s < kSpheres; ++s)
+    for (std::size_t c = 0; c < kCones; ++c)
+      if (pooled.get(s, c, q)) {
+        ++stored;
+        EXPECT_EQ(q, (s + c) & 0xFF);
+      }
+  // the pool holds 90 % of the spheres, each entry one sphere's: a store that meets a sphere being
+  // claimed by another thread is skipped, and the four stores of each cone make up for it
+  EXPECT_EQ(pooled.entries_used(), capacity);
+  EXPECT_EQ(stored, capacity * kCones);
+}
+
+// The cache changes no result: AO with an entry for every sphere, with a pool smaller than the
+// spheres, and with no cache are the same, on a first frame and on one that reads the cache.
+TEST(ParticleAo, TheConeCacheChangesNoResult) {
+  const SphereWorld w(random_spheres(600, 0.05f, 4));
+  const auto pts = frame_points(w, looking_at(w.view.bounds(), 48));
+  AmbientSettings s;
+  s.max_distance = 0.3f;
+  const std::size_t cones = 2 * static_cast<std::size_t>(s.directions);
+  ParticleAmbientOcclusion all(s), pooled(s, 600 * 4 + 150 * (cones + 8)), uncached(s, 0);
+  for (ParticleAmbientOcclusion* ao : {&all, &pooled, &uncached}) ao->build(w.view);
+  for (int frame = 0; frame < 2; ++frame) {
+    SCOPED_TRACE(frame);
+    const std::vector<float> a = ambient_of(all, pts), b = ambient_of(pooled, pts), c = ambient_of(uncached, pts);
+    ASSERT_GT(a.size(), 500u);
+    EXPECT_EQ(a, b);
+    EXPECT_EQ(a, c);
+  }
+  EXPECT_GT(pooled.memory_bytes(), uncached.memory_bytes());
+}
+
 TEST(ParticleAo, AgreesWithMonteCarloAmbientOcclusionOnASmallCluster) {
   const SphereWorld w(random_spheres(800, 0.05f, 9));
   const auto pts = frame_points(w, looking_at(w.view.bounds(), test::sanitize_scale() ? 40 : 64));

@@ -168,16 +168,8 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
     steps_.push_back({d, l0, blend, reach});
     d += step;
   }
-  // The per-sphere cone cache: one byte per cone and a bit mask of the cones traced, kept across
-  // frames (the occlusion depends on the sphere alone) when it fits in kMaxCacheBytes.
-  cache_bits_.reset();
-  cache_values_.reset();
-  const std::size_t cones = cone_dirs_.size();
-  if (cones <= 64 && ps.size() * (cones + sizeof(std::uint64_t)) <= kMaxCacheBytes) {
-    cache_bits_ = std::make_unique<std::atomic<std::uint64_t>[]>(ps.size());
-    cache_values_ = std::make_unique<std::atomic<std::uint8_t>[]>(ps.size() * cones);
-    for (std::size_t i = 0; i < ps.size(); ++i) cache_bits_[i].store(0, std::memory_order_relaxed);
-  }
+  // kept across frames; the spheres seen only when not all fit (sphere_cone_cache.h)
+  cone_cache_.reset(ps.size(), cone_dirs_.size(), cone_cache_bytes_);
   const Level& b0 = pyramid_[0];
   grid_box_ = Box3{origin_, origin_ + Vec3{static_cast<float>(b0.nx), static_cast<float>(b0.ny), static_cast<float>(b0.nz)} * cell};
 }
@@ -233,20 +225,14 @@ float ParticleAmbientOcclusion::occlusion(const Vec3& origin, const Vec3& dir, f
 }
 
 float ParticleAmbientOcclusion::sphere_cone(std::uint32_t sphere, std::size_t cone) const {
-  const std::size_t cones = cone_dirs_.size();
-  if (cache_bits_) {
-    const std::uint64_t bit = std::uint64_t{1} << cone;
-    if (cache_bits_[sphere].load(std::memory_order_acquire) & bit)
-      return static_cast<float>(cache_values_[sphere * cones + cone].load(std::memory_order_relaxed)) * (1.0f / 255.0f);
-  }
-  const Sphere& s = particles_->spheres[sphere];
-  // the first radius out, the coarse cells the cone reads still hold the sphere's own fill
-  const float a = occlusion(s.center + cone_dirs_[cone] * s.radius, cone_dirs_[cone], s.radius);
-  // quantised whether cached or not, so that a frame does not depend on what was cached before
-  const auto q = static_cast<std::uint8_t>(a * 255.0f + 0.5f);
-  if (cache_bits_) {
-    cache_values_[sphere * cones + cone].store(q, std::memory_order_relaxed);
-    cache_bits_[sphere].fetch_or(std::uint64_t{1} << cone, std::memory_order_release);
+  std::uint8_t q;
+  if (!cone_cache_.get(sphere, cone, q)) {
+    const Sphere& s = particles_->spheres[sphere];
+    // the first radius out, the coarse cells the cone reads still hold the sphere's own fill
+    const float a = occlusion(s.center + cone_dirs_[cone] * s.radius, cone_dirs_[cone], s.radius);
+    // quantised whether cached or not, so that a frame does not depend on what was cached before
+    q = static_cast<std::uint8_t>(a * 255.0f + 0.5f);
+    cone_cache_.put(sphere, cone, q);
   }
   return static_cast<float>(q) * (1.0f / 255.0f);
 }
@@ -277,7 +263,7 @@ void ParticleAmbientOcclusion::ambient(std::span<const Vec3> points, std::span<R
 std::size_t ParticleAmbientOcclusion::memory_bytes() const {
   std::size_t bytes = 0;
   for (const auto& l : pyramid_) bytes += l.value.capacity() * sizeof(float);
-  if (cache_bits_) bytes += particles_->size() * (cone_dirs_.size() + sizeof(std::uint64_t));
+  bytes += cone_cache_.memory_bytes();
   return bytes;
 }
 

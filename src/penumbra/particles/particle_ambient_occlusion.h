@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "penumbra/core/math.h"
+#include "penumbra/particles/sphere_cone_cache.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadows/ambient_technique.h"
 
@@ -35,8 +36,10 @@ namespace penumbra {
 // spheres'. A volume sample (no normal) averages the cones of the whole sphere of directions.
 class ParticleAmbientOcclusion final : public AmbientTechnique {
 public:
-  explicit ParticleAmbientOcclusion(const AmbientSettings& s)
-      : directions_(s.directions), max_distance_fraction_(s.max_distance), grid_(s.grid) {}
+  static constexpr std::size_t kMaxCacheBytes = std::size_t{512} << 20;  // the cone cache's budget
+
+  explicit ParticleAmbientOcclusion(const AmbientSettings& s, std::size_t cone_cache_bytes = kMaxCacheBytes)
+      : directions_(s.directions), max_distance_fraction_(s.max_distance), grid_(s.grid), cone_cache_bytes_(cone_cache_bytes) {}
   void build(const ShadowCasters& occluders) override;
   void ambient(std::span<const Vec3> points, std::span<Rgb> out) const override;
   void ambient(std::span<const SurfacePoint> points, std::span<Rgb> out) const override;
@@ -59,13 +62,12 @@ private:
   };
   // Occlusion along one cone from `origin`, ignoring the steps nearer than `skip`.
   float occlusion(const Vec3& origin, const Vec3& dir, float skip) const;
-  float sphere_cone(std::uint32_t sphere, std::size_t cone) const;  // quantised to 1/255, cached
-
-  static constexpr std::size_t kMaxCacheBytes = std::size_t{512} << 20;
+  float sphere_cone(std::uint32_t sphere, std::size_t cone) const;  // quantised to 1/255, cached (cone_cache_)
 
   int directions_;
   float max_distance_fraction_;
   int grid_;
+  std::size_t cone_cache_bytes_;
   Vec3 origin_;  // world position of the grid's lower corner
   std::vector<Level> pyramid_;
   float max_distance_ = 1;
@@ -80,8 +82,7 @@ private:
   Box3 grid_box_;
   std::vector<Vec3> cone_dirs_;  // world directions over the whole sphere
   const ParticleSet* particles_ = nullptr;
-  std::unique_ptr<std::atomic<std::uint64_t>[]> cache_bits_;    // per sphere: cones traced
-  std::unique_ptr<std::atomic<std::uint8_t>[]> cache_values_;   // per sphere and cone: occlusion × 255
+  SphereConeCache cone_cache_;
 };
 
 }  // namespace penumbra

@@ -1,0 +1,78 @@
+#include "penumbra/particles/sphere_cone_cache.h"
+
+#include <algorithm>
+
+namespace penumbra {
+
+void SphereConeCache::reset(std::size_t spheres, std::size_t cones, std::size_t max_bytes) {
+  spheres_ = spheres;
+  cones_ = cones;
+  capacity_ = 0;
+  slot_.reset();
+  bits_.reset();
+  values_.reset();
+  claimed_.store(0, std::memory_order_relaxed);
+  if (spheres == 0 || cones == 0 || cones > kMaxCones) return;
+  if (spheres * entry_bytes() <= max_bytes) {  // every sphere its own entry
+    capacity_ = spheres;
+    bits_.reset(new std::uint64_t[spheres]());
+    values_.reset(new std::uint8_t[spheres * cones]);
+    return;
+  }
+  const std::size_t table = spheres * sizeof(std::uint32_t);
+  if (table >= max_bytes) return;
+  capacity_ = std::min(spheres, (max_bytes - table) / entry_bytes());
+  if (capacity_ == 0) return;
+  slot_.reset(new std::uint32_t[spheres]());
+  bits_.reset(new std::uint64_t[capacity_]);  // an entry's mask is cleared when it is claimed
+  values_.reset(new std::uint8_t[capacity_ * cones]);
+}
+
+bool SphereConeCache::get(std::uint32_t sphere, std::size_t cone, std::uint8_t& q) const {
+  if (!enabled()) return false;
+  std::size_t entry = sphere;
+  if (slot_) {
+    const std::uint32_t s = std::atomic_ref<std::uint32_t>(slot_[sphere]).load(std::memory_order_acquire);
+    if (s == 0 || s >= kNoEntry) return false;
+    entry = s - 1;
+  }
+  if (!(std::atomic_ref<std::uint64_t>(bits_[entry]).load(std::memory_order_acquire) & (std::uint64_t{1} << cone))) return false;
+  q = std::atomic_ref<std::uint8_t>(values_[entry * cones_ + cone]).load(std::memory_order_relaxed);
+  return true;
+}
+
+void SphereConeCache::put(std::uint32_t sphere, std::size_t cone, std::uint8_t q) const {
+  if (!enabled()) return;
+  std::size_t entry = sphere;
+  if (slot_) {
+    std::atomic_ref<std::uint32_t> slot(slot_[sphere]);
+    std::uint32_t s = slot.load(std::memory_order_acquire);
+    if (s == 0 && slot.compare_exchange_strong(s, kClaiming, std::memory_order_acquire)) {
+      // this thread gives the sphere its entry; the others skip storing meanwhile, so none is wasted
+      const std::size_t claim = claimed_.fetch_add(1, std::memory_order_relaxed);
+      if (claim >= capacity_) {
+        slot.store(kNoEntry, std::memory_order_relaxed);  // the pool is used up: traced every time
+        return;
+      }
+      std::atomic_ref<std::uint64_t>(bits_[claim]).store(0, std::memory_order_relaxed);
+      s = static_cast<std::uint32_t>(claim + 1);
+      slot.store(s, std::memory_order_release);
+    }
+    if (s == 0 || s >= kNoEntry) return;  // being claimed by another thread, or no entry
+    entry = s - 1;
+  }
+  std::atomic_ref<std::uint8_t>(values_[entry * cones_ + cone]).store(q, std::memory_order_relaxed);
+  std::atomic_ref<std::uint64_t>(bits_[entry]).fetch_or(std::uint64_t{1} << cone, std::memory_order_release);
+}
+
+std::size_t SphereConeCache::entries_used() const {
+  if (!enabled()) return 0;
+  return slot_ ? std::min(claimed_.load(std::memory_order_relaxed), capacity_) : spheres_;
+}
+
+std::size_t SphereConeCache::memory_bytes() const {
+  if (!enabled()) return 0;
+  return (slot_ ? spheres_ * sizeof(std::uint32_t) : 0) + entries_used() * entry_bytes();
+}
+
+}  // namespace penumbra
