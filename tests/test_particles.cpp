@@ -467,6 +467,12 @@ TEST(SphereConeCache, EntriesForEverySphereOrFromAPool) {
   ASSERT_TRUE(all.get(7, 3, q));
   EXPECT_EQ(q, 200);
   EXPECT_FALSE(all.get(7, 4, q));
+  all.put(7, 5, 17);
+  std::uint8_t every[SphereConeCache::kMaxCones] = {};
+  EXPECT_EQ(all.get_all(7, every), (std::uint64_t{1} << 3) | (std::uint64_t{1} << 5));
+  EXPECT_EQ(every[3], 200);
+  EXPECT_EQ(every[5], 17);
+  EXPECT_EQ(all.get_all(8, every), 0u);
   EXPECT_EQ(all.memory_bytes(), 100u * 16);
 
   SphereConeCache pooled;
@@ -483,6 +489,9 @@ TEST(SphereConeCache, EntriesForEverySphereOrFromAPool) {
     }
   }
   EXPECT_FALSE(pooled.get(3, 0, q));
+  EXPECT_EQ(pooled.get_all(503, every), 0xFFu);
+  EXPECT_EQ(every[6], 3 * 8 + 6);
+  EXPECT_EQ(pooled.get_all(511, every), 0u);  // the pool was full
   EXPECT_EQ(pooled.entries_used(), 10u);
   EXPECT_EQ(pooled.memory_bytes(), 1000u * 4 + 10 * 16);
 

@@ -238,14 +238,30 @@ float ParticleAmbientOcclusion::sphere_cone(std::uint32_t sphere, std::size_t co
 }
 
 void ParticleAmbientOcclusion::ambient(std::span<const SurfacePoint> points, std::span<Rgb> out) const {
+  const std::uint64_t all_cones = cone_dirs_.size() >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << cone_dirs_.size()) - 1;
   for (std::size_t i = 0; i < points.size(); ++i) {
     const SurfacePoint& p = points[i];
     const bool own_sphere = p.self < particles_->size();
+    // the sphere's cones stored so far, read at once (a pixel needs half of them)
+    std::uint8_t stored[SphereConeCache::kMaxCones];
+    const std::uint64_t have = own_sphere ? cone_cache_.get_all(p.self, stored) : 0;
     float sum = 0, weights = 0;
+    if (have == all_cones) {  // every cone stored (the common case after the first frame): no branches
+      for (std::size_t c = 0; c < cone_dirs_.size(); ++c) {
+        const float w = std::max(dot(p.normal, cone_dirs_[c]), 0.0f);  // adds exactly 0 where w <= 0
+        sum += w * (static_cast<float>(stored[c]) * (1.0f / 255.0f));
+        weights += w;
+      }
+      out[i] = Rgb(weights > 0 ? 1.0f - sum / weights : 1.0f);
+      continue;
+    }
     for (std::size_t c = 0; c < cone_dirs_.size(); ++c) {
       const float w = dot(p.normal, cone_dirs_[c]);  // cosine weight over the normal's hemisphere
       if (w <= 0) continue;
-      sum += w * (own_sphere ? sphere_cone(p.self, c) : occlusion(p.position, cone_dirs_[c], 0));
+      const float a = (have >> c) & 1 ? static_cast<float>(stored[c]) * (1.0f / 255.0f)
+                      : own_sphere    ? sphere_cone(p.self, c)
+                                      : occlusion(p.position, cone_dirs_[c], 0);
+      sum += w * a;
       weights += w;
     }
     out[i] = Rgb(weights > 0 ? 1.0f - sum / weights : 1.0f);

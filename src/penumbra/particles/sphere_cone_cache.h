@@ -25,6 +25,8 @@ public:
   // Cone `cone` of sphere `sphere` if stored (q: occlusion × 255).
   bool get(std::uint32_t sphere, std::size_t cone, std::uint8_t& q) const;
   void put(std::uint32_t sphere, std::size_t cone, std::uint8_t q) const;  // a cache behind const queries
+  // Every stored cone of a sphere at once: the mask of those stored, their values in q[cone].
+  std::uint64_t get_all(std::uint32_t sphere, std::uint8_t* q) const;
 
   bool enabled() const { return capacity_ > 0; }
   bool every_sphere() const { return !slot_; }  // sphere i owns entry i
