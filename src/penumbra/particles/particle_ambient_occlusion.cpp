@@ -238,33 +238,38 @@ float ParticleAmbientOcclusion::sphere_cone(std::uint32_t sphere, std::size_t co
 }
 
 void ParticleAmbientOcclusion::ambient(std::span<const SurfacePoint> points, std::span<Rgb> out) const {
-  const std::uint64_t all_cones = cone_dirs_.size() >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << cone_dirs_.size()) - 1;
+  const std::size_t cones = cone_dirs_.size();
+  const std::uint64_t all_cones = cones >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << cones) - 1;
   for (std::size_t i = 0; i < points.size(); ++i) {
     const SurfacePoint& p = points[i];
     const bool own_sphere = p.self < particles_->size();
     // the sphere's cones stored so far, read at once (a pixel needs half of them)
     std::uint8_t stored[SphereConeCache::kMaxCones];
     const std::uint64_t have = own_sphere ? cone_cache_.get_all(p.self, stored) : 0;
-    float sum = 0, weights = 0;
-    if (have == all_cones) {  // every cone stored (the common case after the first frame): no branches
-      for (std::size_t c = 0; c < cone_dirs_.size(); ++c) {
-        const float w = std::max(dot(p.normal, cone_dirs_[c]), 0.0f);  // adds exactly 0 where w <= 0
-        sum += w * (static_cast<float>(stored[c]) * (1.0f / 255.0f));
-        weights += w;
+    // The cosine-weighted mean over the normal's hemisphere, summed in four interleaved partial sums
+    // (cone c into sum c mod 4: four independent chains instead of one) in the same order whether the
+    // cones come from the cache or are traced now. A cone behind the normal has weight 0 and adds
+    // exactly nothing, so when every cone is stored all are summed without a branch.
+    float sum[4] = {0, 0, 0, 0}, weights[4] = {0, 0, 0, 0};
+    if (have == all_cones) {
+      for (std::size_t c = 0; c < cones; ++c) {
+        const float w = std::max(dot(p.normal, cone_dirs_[c]), 0.0f);
+        sum[c & 3] += w * (static_cast<float>(stored[c]) * (1.0f / 255.0f));
+        weights[c & 3] += w;
       }
-      out[i] = Rgb(weights > 0 ? 1.0f - sum / weights : 1.0f);
-      continue;
+    } else {
+      for (std::size_t c = 0; c < cones; ++c) {
+        const float w = dot(p.normal, cone_dirs_[c]);
+        if (w <= 0) continue;
+        const float a = (have >> c) & 1 ? static_cast<float>(stored[c]) * (1.0f / 255.0f)
+                        : own_sphere    ? sphere_cone(p.self, c)
+                                        : occlusion(p.position, cone_dirs_[c], 0);
+        sum[c & 3] += w * a;
+        weights[c & 3] += w;
+      }
     }
-    for (std::size_t c = 0; c < cone_dirs_.size(); ++c) {
-      const float w = dot(p.normal, cone_dirs_[c]);  // cosine weight over the normal's hemisphere
-      if (w <= 0) continue;
-      const float a = (have >> c) & 1 ? static_cast<float>(stored[c]) * (1.0f / 255.0f)
-                      : own_sphere    ? sphere_cone(p.self, c)
-                                      : occlusion(p.position, cone_dirs_[c], 0);
-      sum += w * a;
-      weights += w;
-    }
-    out[i] = Rgb(weights > 0 ? 1.0f - sum / weights : 1.0f);
+    const float total = (sum[0] + sum[1]) + (sum[2] + sum[3]), weight = (weights[0] + weights[1]) + (weights[2] + weights[3]);
+    out[i] = Rgb(weight > 0 ? 1.0f - total / weight : 1.0f);
   }
 }
 
