@@ -29,27 +29,24 @@ void SphereConeCache::reset(std::size_t spheres, std::size_t cones, std::size_t 
   values_.reset(new std::uint8_t[capacity_ * cones]);
 }
 
+std::size_t SphereConeCache::entry_of(std::uint32_t sphere) const {
+  if (!enabled()) return kNone;
+  if (!slot_) return sphere;
+  const std::uint32_t s = std::atomic_ref<std::uint32_t>(slot_[sphere]).load(std::memory_order_acquire);
+  return s == 0 || s >= kNoEntry ? kNone : s - 1;
+}
+
 bool SphereConeCache::get(std::uint32_t sphere, std::size_t cone, std::uint8_t& q) const {
-  if (!enabled()) return false;
-  std::size_t entry = sphere;
-  if (slot_) {
-    const std::uint32_t s = std::atomic_ref<std::uint32_t>(slot_[sphere]).load(std::memory_order_acquire);
-    if (s == 0 || s >= kNoEntry) return false;
-    entry = s - 1;
-  }
-  if (!(std::atomic_ref<std::uint64_t>(bits_[entry]).load(std::memory_order_acquire) & (std::uint64_t{1} << cone))) return false;
+  const std::size_t entry = entry_of(sphere);
+  if (entry == kNone || !(std::atomic_ref<std::uint64_t>(bits_[entry]).load(std::memory_order_acquire) & (std::uint64_t{1} << cone)))
+    return false;
   q = std::atomic_ref<std::uint8_t>(values_[entry * cones_ + cone]).load(std::memory_order_relaxed);
   return true;
 }
 
 std::uint64_t SphereConeCache::get_all(std::uint32_t sphere, std::uint8_t* q) const {
-  if (!enabled()) return 0;
-  std::size_t entry = sphere;
-  if (slot_) {
-    const std::uint32_t s = std::atomic_ref<std::uint32_t>(slot_[sphere]).load(std::memory_order_acquire);
-    if (s == 0 || s >= kNoEntry) return 0;
-    entry = s - 1;
-  }
+  const std::size_t entry = entry_of(sphere);
+  if (entry == kNone) return 0;
   const std::uint64_t stored = std::atomic_ref<std::uint64_t>(bits_[entry]).load(std::memory_order_acquire);
   for (std::uint64_t m = stored; m != 0; m &= m - 1) {
     const auto cone = static_cast<std::size_t>(std::countr_zero(m));

@@ -35,6 +35,8 @@ public:
 
 private:
   static constexpr std::uint32_t kNoEntry = 0xFFFFFFFEu, kClaiming = 0xFFFFFFFFu;  // slot_ markers
+  static constexpr std::size_t kNone = ~std::size_t{0};
+  std::size_t entry_of(std::uint32_t sphere) const;  // the sphere's entry, kNone when it has none (yet)
   std::size_t entry_bytes() const { return cones_ + sizeof(std::uint64_t); }
   std::size_t spheres_ = 0, cones_ = 0, capacity_ = 0;
   std::unique_ptr<std::uint32_t[]> slot_;   // pooled: entry + 1 of each sphere (0: none yet, or a marker); null: entry = sphere

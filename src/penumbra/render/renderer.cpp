@@ -84,9 +84,7 @@ bool same_shadow_geometry(const Light& a, const Light& b) {
          a.softness == b.softness;
 }
 
-Renderer::Renderer(Scene scene) : scene_(std::move(scene)) {
-  mark_all_stale();
-}
+Renderer::Renderer(Scene scene) : scene_(std::move(scene)) { mark_all_stale(); }
 
 void Renderer::mark_all_stale() {
   for (std::size_t i = 0; i < scene_.volumes.size(); ++i)
