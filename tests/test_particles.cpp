@@ -475,6 +475,20 @@ TEST(SphereConeCache, EntriesForEverySphereOrFromAPool) {
   EXPECT_EQ(all.get_all(8, every), 0u);
   EXPECT_EQ(all.memory_bytes(), 100u * 16);
 
+  // cones share 64-bit words, eight to a word: a store leaves its neighbours, unstored cones read 0
+  SphereConeCache wide;
+  wide.reset(4, 12, 4 * 24);
+  EXPECT_TRUE(wide.enabled() && wide.every_sphere());
+  wide.put(2, 9, 255);
+  wide.put(2, 10, 1);
+  wide.put(2, 0, 7);
+  std::fill(std::begin(every), std::end(every), std::uint8_t{99});
+  EXPECT_EQ(wide.get_all(2, every), (std::uint64_t{1} << 0) | (std::uint64_t{1} << 9) | (std::uint64_t{1} << 10));
+  const std::uint8_t expected[12] = {7, 0, 0, 0, 0, 0, 0, 0, 0, 255, 1, 0};
+  for (std::size_t c = 0; c < 12; ++c) EXPECT_EQ(every[c], expected[c]) << "cone " << c;
+  ASSERT_TRUE(wide.get(2, 9, q));
+  EXPECT_EQ(q, 255);
+
   SphereConeCache pooled;
   pooled.reset(1000, 8, 1000 * 4 + 10 * 16);  // the sphere table and 10 entries
   EXPECT_TRUE(pooled.enabled() && !pooled.every_sphere());
@@ -485,7 +499,9 @@ TEST(SphereConeCache, EntriesForEverySphereOrFromAPool) {
     for (std::size_t c = 0; c < 8; ++c) {
       const bool stored = pooled.get(500 + s, c, q);
       EXPECT_EQ(stored, s < 10);
-      if (stored) EXPECT_EQ(q, s * 8 + c);
+      if (stored) {
+        EXPECT_EQ(q, s * 8 + c);
+      }
     }
   }
   EXPECT_FALSE(pooled.get(3, 0, q));

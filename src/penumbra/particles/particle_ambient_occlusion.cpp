@@ -1,12 +1,35 @@
 #include "penumbra/particles/particle_ambient_occlusion.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <span>
+#if defined(__SSE__)
+#include <xmmintrin.h>
+#endif
 
 #include "penumbra/core/cutoffs.h"
 #include "penumbra/core/parallel.h"
 
 namespace penumbra {
+
+namespace {
+
+// Bit i set where w[i] > 0, for up to 64 values (a multiple of 4): four compares and a sign-bit gather
+// per instruction where SSE exists, a compare per value elsewhere.
+std::uint64_t positive_mask(std::span<const float> w) {
+  std::uint64_t mask = 0;
+#if defined(__SSE__)
+  const __m128 zero = _mm_setzero_ps();
+  for (std::size_t g = 0; g < w.size(); g += 4)
+    mask |= static_cast<std::uint64_t>(_mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(w.data() + g), zero))) << g;
+#else
+  for (std::size_t i = 0; i < w.size(); ++i) mask |= static_cast<std::uint64_t>(w[i] > 0) << i;
+#endif
+  return mask;
+}
+
+}  // namespace
 
 void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
   static const ParticleSet kNoSpheres;
@@ -151,6 +174,16 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
     const float phi = static_cast<float>(i) * 2.39996323f;  // golden angle
     cone_dirs_.push_back({sz * std::cos(phi), sz * std::sin(phi), cz});
   }
+  // the same directions by component, padded with zero directions to a multiple of 4 (SIMD lanes)
+  const std::size_t padded = (cone_dirs_.size() + 3) / 4 * 4;
+  cone_x_.assign(padded, 0.0f);
+  cone_y_.assign(padded, 0.0f);
+  cone_z_.assign(padded, 0.0f);
+  for (std::size_t c = 0; c < cone_dirs_.size(); ++c) {
+    cone_x_[c] = cone_dirs_[c].x;
+    cone_y_[c] = cone_dirs_[c].y;
+    cone_z_[c] = cone_dirs_[c].z;
+  }
 
   // The march is the same for every cone: distances from one cell diagonal out (past the receiver's
   // own splat), each step half the cone's diameter there, sampled at the pyramid level whose cell
@@ -238,38 +271,39 @@ float ParticleAmbientOcclusion::sphere_cone(std::uint32_t sphere, std::size_t co
 }
 
 void ParticleAmbientOcclusion::ambient(std::span<const SurfacePoint> points, std::span<Rgb> out) const {
-  const std::size_t cones = cone_dirs_.size();
-  const std::uint64_t all_cones = cones >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << cones) - 1;
+  const std::size_t cones = cone_dirs_.size(), padded = cone_x_.size();
+  // per point: each cone's cosine weight, its occlusion, and the sphere's cones stored so far; the
+  // padding cones (zero directions) weigh exactly 0 and keep an occlusion of 0
+  std::vector<float> weight(padded), occluded(padded, 0.0f);
+  std::vector<std::uint8_t> stored(std::max(padded, SphereConeCache::kMaxCones));
+  const std::uint64_t all_cones = cones >= 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << cones) - 1;  // of a sphere's mask
   for (std::size_t i = 0; i < points.size(); ++i) {
     const SurfacePoint& p = points[i];
     const bool own_sphere = p.self < particles_->size();
-    // the sphere's cones stored so far, read at once (a pixel needs half of them)
-    std::uint8_t stored[SphereConeCache::kMaxCones];
-    const std::uint64_t have = own_sphere ? cone_cache_.get_all(p.self, stored) : 0;
-    // The cosine-weighted mean over the normal's hemisphere, summed in four interleaved partial sums
-    // (cone c into sum c mod 4: four independent chains instead of one) in the same order whether the
-    // cones come from the cache or are traced now. A cone behind the normal has weight 0 and adds
-    // exactly nothing, so when every cone is stored all are summed without a branch.
-    float sum[4] = {0, 0, 0, 0}, weights[4] = {0, 0, 0, 0};
-    if (have == all_cones) {
-      for (std::size_t c = 0; c < cones; ++c) {
-        const float w = std::max(dot(p.normal, cone_dirs_[c]), 0.0f);
-        sum[c & 3] += w * (static_cast<float>(stored[c]) * (1.0f / 255.0f));
-        weights[c & 3] += w;
-      }
-    } else {
-      for (std::size_t c = 0; c < cones; ++c) {
-        const float w = dot(p.normal, cone_dirs_[c]);
-        if (w <= 0) continue;
-        const float a = (have >> c) & 1 ? static_cast<float>(stored[c]) * (1.0f / 255.0f)
-                        : own_sphere    ? sphere_cone(p.self, c)
-                                        : occlusion(p.position, cone_dirs_[c], 0);
-        sum[c & 3] += w * a;
-        weights[c & 3] += w;
+    const Vec3 n = p.normal;
+    for (std::size_t c = 0; c < padded; ++c) weight[c] = std::max(n.x * cone_x_[c] + n.y * cone_y_[c] + n.z * cone_z_[c], 0.0f);
+    // the sphere's stored cones, read at once; the others a pixel needs (weight > 0) are traced now,
+    // found from bit masks rather than by a branch per cone (half of them go each way, unpredictably)
+    const std::uint64_t have = own_sphere ? cone_cache_.get_all(p.self, stored.data()) : 0;
+    for (std::size_t c = 0; c < cones; ++c) occluded[c] = static_cast<float>(stored[c]) * (1.0f / 255.0f);
+    for (std::size_t base = 0; base < cones && have != all_cones; base += 64) {
+      const std::uint64_t needed = positive_mask(std::span<const float>(weight).subspan(base, std::min<std::size_t>(64, padded - base)));
+      for (std::uint64_t m = needed & ~(base == 0 ? have : 0); m != 0; m &= m - 1) {
+        const std::size_t c = base + static_cast<std::size_t>(std::countr_zero(m));
+        occluded[c] = own_sphere ? sphere_cone(p.self, c) : occlusion(p.position, cone_dirs_[c], 0);
       }
     }
-    const float total = (sum[0] + sum[1]) + (sum[2] + sum[3]), weight = (weights[0] + weights[1]) + (weights[2] + weights[3]);
-    out[i] = Rgb(weight > 0 ? 1.0f - total / weight : 1.0f);
+    // The cosine-weighted mean over the normal's hemisphere, summed in four interleaved partial sums
+    // (cone c into sum c mod 4: four independent chains, one SIMD lane each); a cone behind the normal
+    // weighs 0 and adds exactly nothing, whatever its occlusion.
+    float sum[4] = {0, 0, 0, 0}, weights[4] = {0, 0, 0, 0};
+    for (std::size_t g = 0; g < padded; g += 4)
+      for (std::size_t j = 0; j < 4; ++j) {
+        sum[j] += weight[g + j] * occluded[g + j];
+        weights[j] += weight[g + j];
+      }
+    const float total = (sum[0] + sum[1]) + (sum[2] + sum[3]), weight_sum = (weights[0] + weights[1]) + (weights[2] + weights[3]);
+    out[i] = Rgb(weight_sum > 0 ? 1.0f - total / weight_sum : 1.0f);
   }
 }
 

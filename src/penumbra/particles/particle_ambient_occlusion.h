@@ -81,6 +81,7 @@ private:
   std::vector<ConeStep> steps_;
   Box3 grid_box_;
   std::vector<Vec3> cone_dirs_;  // world directions over the whole sphere
+  std::vector<float> cone_x_, cone_y_, cone_z_;  // the same by component, zero-padded to a multiple of 4
   const ParticleSet* particles_ = nullptr;
   SphereConeCache cone_cache_;
 };

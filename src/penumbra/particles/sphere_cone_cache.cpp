@@ -1,13 +1,13 @@
 #include "penumbra/particles/sphere_cone_cache.h"
 
 #include <algorithm>
-#include <bit>
 
 namespace penumbra {
 
 void SphereConeCache::reset(std::size_t spheres, std::size_t cones, std::size_t max_bytes) {
   spheres_ = spheres;
   cones_ = cones;
+  words_ = (cones + 7) / 8;
   capacity_ = 0;
   slot_.reset();
   bits_.reset();
@@ -17,7 +17,7 @@ void SphereConeCache::reset(std::size_t spheres, std::size_t cones, std::size_t 
   if (spheres * entry_bytes() <= max_bytes) {  // every sphere its own entry
     capacity_ = spheres;
     bits_.reset(new std::uint64_t[spheres]());
-    values_.reset(new std::uint8_t[spheres * cones]);
+    values_.reset(new std::uint64_t[spheres * words_]());
     return;
   }
   const std::size_t table = spheres * sizeof(std::uint32_t);
@@ -25,8 +25,8 @@ void SphereConeCache::reset(std::size_t spheres, std::size_t cones, std::size_t 
   capacity_ = std::min(spheres, (max_bytes - table) / entry_bytes());
   if (capacity_ == 0) return;
   slot_.reset(new std::uint32_t[spheres]());
-  bits_.reset(new std::uint64_t[capacity_]);  // an entry's mask is cleared when it is claimed
-  values_.reset(new std::uint8_t[capacity_ * cones]);
+  bits_.reset(new std::uint64_t[capacity_]);  // an entry's mask and values are cleared when it is claimed
+  values_.reset(new std::uint64_t[capacity_ * words_]);
 }
 
 std::size_t SphereConeCache::entry_of(std::uint32_t sphere) const {
@@ -40,7 +40,8 @@ bool SphereConeCache::get(std::uint32_t sphere, std::size_t cone, std::uint8_t& 
   const std::size_t entry = entry_of(sphere);
   if (entry == kNone || !(std::atomic_ref<std::uint64_t>(bits_[entry]).load(std::memory_order_acquire) & (std::uint64_t{1} << cone)))
     return false;
-  q = std::atomic_ref<std::uint8_t>(values_[entry * cones_ + cone]).load(std::memory_order_relaxed);
+  const std::uint64_t word = std::atomic_ref<std::uint64_t>(values_[entry * words_ + cone / 8]).load(std::memory_order_relaxed);
+  q = static_cast<std::uint8_t>(word >> (8 * (cone % 8)));
   return true;
 }
 
@@ -48,9 +49,9 @@ std::uint64_t SphereConeCache::get_all(std::uint32_t sphere, std::uint8_t* q) co
   const std::size_t entry = entry_of(sphere);
   if (entry == kNone) return 0;
   const std::uint64_t stored = std::atomic_ref<std::uint64_t>(bits_[entry]).load(std::memory_order_acquire);
-  for (std::uint64_t m = stored; m != 0; m &= m - 1) {
-    const auto cone = static_cast<std::size_t>(std::countr_zero(m));
-    q[cone] = std::atomic_ref<std::uint8_t>(values_[entry * cones_ + cone]).load(std::memory_order_relaxed);
+  for (std::size_t w = 0; w < words_; ++w) {
+    const std::uint64_t word = std::atomic_ref<std::uint64_t>(values_[entry * words_ + w]).load(std::memory_order_relaxed);
+    for (std::size_t b = 0; b < 8; ++b) q[8 * w + b] = static_cast<std::uint8_t>(word >> (8 * b));
   }
   return stored;
 }
@@ -69,13 +70,16 @@ void SphereConeCache::put(std::uint32_t sphere, std::size_t cone, std::uint8_t q
         return;
       }
       std::atomic_ref<std::uint64_t>(bits_[claim]).store(0, std::memory_order_relaxed);
+      for (std::size_t w = 0; w < words_; ++w) std::atomic_ref<std::uint64_t>(values_[claim * words_ + w]).store(0, std::memory_order_relaxed);
       s = static_cast<std::uint32_t>(claim + 1);
       slot.store(s, std::memory_order_release);
     }
     if (s == 0 || s >= kNoEntry) return;  // being claimed by another thread, or no entry
     entry = s - 1;
   }
-  std::atomic_ref<std::uint8_t>(values_[entry * cones_ + cone]).store(q, std::memory_order_relaxed);
+  // a byte of a word other cones share: or-ed in (it is 0 until stored; a cone traced twice by two
+  // threads at once has the same value)
+  std::atomic_ref<std::uint64_t>(values_[entry * words_ + cone / 8]).fetch_or(std::uint64_t{q} << (8 * (cone % 8)), std::memory_order_relaxed);
   std::atomic_ref<std::uint64_t>(bits_[entry]).fetch_or(std::uint64_t{1} << cone, std::memory_order_release);
 }
 

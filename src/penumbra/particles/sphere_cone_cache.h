@@ -1,6 +1,6 @@
 // Per-sphere results of the particle AO's cones, kept across frames (a sphere's cone occlusion depends
-// on the sphere and the density volume alone): one byte a cone (occlusion × 255) and a mask of the
-// cones traced. When an entry for every sphere fits the byte budget, sphere i owns entry i. Otherwise
+// on the sphere and the density volume alone): one byte a cone (occlusion × 255), eight to a 64-bit
+// word so that a pixel reads its sphere's cones in a few loads, and a mask of the cones traced. When an entry for every sphere fits the byte budget, sphere i owns entry i. Otherwise
 // (1M4X: 16 M spheres × 40 bytes = 650 MB) a sphere is given an entry the first time one of its cones
 // is stored, from a pool the budget sizes, so that only the spheres a frame shades pay; when the pool
 // is used up, further spheres are traced every time. Thread-safe: a sphere's entry is claimed by one
@@ -25,7 +25,8 @@ public:
   // Cone `cone` of sphere `sphere` if stored (q: occlusion × 255).
   bool get(std::uint32_t sphere, std::size_t cone, std::uint8_t& q) const;
   void put(std::uint32_t sphere, std::size_t cone, std::uint8_t q) const;  // a cache behind const queries
-  // Every stored cone of a sphere at once: the mask of those stored, their values in q[cone].
+  // Every cone of a sphere at once: returns the mask of those stored; q[cone] holds their values and 0
+  // for the others (q has room for cones rounded up to a multiple of 8).
   std::uint64_t get_all(std::uint32_t sphere, std::uint8_t* q) const;
 
   bool enabled() const { return capacity_ > 0; }
@@ -37,11 +38,11 @@ private:
   static constexpr std::uint32_t kNoEntry = 0xFFFFFFFEu, kClaiming = 0xFFFFFFFFu;  // slot_ markers
   static constexpr std::size_t kNone = ~std::size_t{0};
   std::size_t entry_of(std::uint32_t sphere) const;  // the sphere's entry, kNone when it has none (yet)
-  std::size_t entry_bytes() const { return cones_ + sizeof(std::uint64_t); }
-  std::size_t spheres_ = 0, cones_ = 0, capacity_ = 0;
+  std::size_t entry_bytes() const { return (words_ + 1) * sizeof(std::uint64_t); }
+  std::size_t spheres_ = 0, cones_ = 0, words_ = 0, capacity_ = 0;  // words_: value words per entry
   std::unique_ptr<std::uint32_t[]> slot_;   // pooled: entry + 1 of each sphere (0: none yet, or a marker); null: entry = sphere
   std::unique_ptr<std::uint64_t[]> bits_;   // per entry: the cones stored
-  std::unique_ptr<std::uint8_t[]> values_;  // per entry and cone: occlusion × 255
+  std::unique_ptr<std::uint64_t[]> values_;  // per entry, words_ words: cone c in byte c mod 8 of word c / 8 (0 until stored)
   mutable std::atomic<std::size_t> claimed_{0};
 };
 
