@@ -5,7 +5,7 @@
 #include <cmath>
 #include <span>
 #if defined(__SSE__)
-#include <xmmintrin.h>
+#include <xmmintrin.h>  // SSE: the per-pixel cone weighting
 #endif
 
 #include "penumbra/core/cutoffs.h"
@@ -15,8 +15,25 @@ namespace penumbra {
 
 namespace {
 
-// Bit i set where w[i] > 0, for up to 64 values (a multiple of 4): four compares and a sign-bit gather
-// per instruction where SSE exists, a compare per value elsewhere.
+// The per-pixel cone arithmetic over arrays padded to a multiple of 4, four lanes at a time with SSE
+// (lane j takes the values j, j + 4, …; the scalar forms below, for other processors, do the same
+// operations in the same order, so both give the same bits).
+
+// w[c] = max(n · d_c, 0) for the directions d_c given by component.
+void cone_weights(const Vec3& n, std::span<const float> dx, std::span<const float> dy, std::span<const float> dz, std::span<float> w) {
+#if defined(__SSE__)
+  const __m128 nx = _mm_set1_ps(n.x), ny = _mm_set1_ps(n.y), nz = _mm_set1_ps(n.z), zero = _mm_setzero_ps();
+  for (std::size_t g = 0; g < w.size(); g += 4) {
+    const __m128 d = _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, _mm_loadu_ps(dx.data() + g)), _mm_mul_ps(ny, _mm_loadu_ps(dy.data() + g))),
+                                _mm_mul_ps(nz, _mm_loadu_ps(dz.data() + g)));
+    _mm_storeu_ps(w.data() + g, _mm_max_ps(d, zero));
+  }
+#else
+  for (std::size_t c = 0; c < w.size(); ++c) w[c] = std::max(n.x * dx[c] + n.y * dy[c] + n.z * dz[c], 0.0f);
+#endif
+}
+
+// Bit i set where w[i] > 0, for up to 64 values.
 std::uint64_t positive_mask(std::span<const float> w) {
   std::uint64_t mask = 0;
 #if defined(__SSE__)
@@ -27,6 +44,32 @@ std::uint64_t positive_mask(std::span<const float> w) {
   for (std::size_t i = 0; i < w.size(); ++i) mask |= static_cast<std::uint64_t>(w[i] > 0) << i;
 #endif
   return mask;
+}
+
+// 1 − Σ w·a / Σ w (1 where no weight), the sums in four interleaved partial sums (four independent
+// chains, one lane each) added pairwise at the end. A zero weight adds exactly nothing, whatever a.
+float weighted_clearance(std::span<const float> w, std::span<const float> a) {
+  float sum[4], weights[4];
+#if defined(__SSE__)
+  __m128 s = _mm_setzero_ps(), ws = _mm_setzero_ps();
+  for (std::size_t g = 0; g < w.size(); g += 4) {
+    const __m128 wg = _mm_loadu_ps(w.data() + g);
+    s = _mm_add_ps(s, _mm_mul_ps(wg, _mm_loadu_ps(a.data() + g)));
+    ws = _mm_add_ps(ws, wg);
+  }
+  _mm_storeu_ps(sum, s);
+  _mm_storeu_ps(weights, ws);
+#else
+  std::fill(std::begin(sum), std::end(sum), 0.0f);
+  std::fill(std::begin(weights), std::end(weights), 0.0f);
+  for (std::size_t g = 0; g < w.size(); g += 4)
+    for (std::size_t j = 0; j < 4; ++j) {
+      sum[j] += w[g + j] * a[g + j];
+      weights[j] += w[g + j];
+    }
+#endif
+  const float total = (sum[0] + sum[1]) + (sum[2] + sum[3]), weight = (weights[0] + weights[1]) + (weights[2] + weights[3]);
+  return weight > 0 ? 1.0f - total / weight : 1.0f;
 }
 
 }  // namespace
@@ -280,8 +323,7 @@ void ParticleAmbientOcclusion::ambient(std::span<const SurfacePoint> points, std
   for (std::size_t i = 0; i < points.size(); ++i) {
     const SurfacePoint& p = points[i];
     const bool own_sphere = p.self < particles_->size();
-    const Vec3 n = p.normal;
-    for (std::size_t c = 0; c < padded; ++c) weight[c] = std::max(n.x * cone_x_[c] + n.y * cone_y_[c] + n.z * cone_z_[c], 0.0f);
+    cone_weights(p.normal, cone_x_, cone_y_, cone_z_, weight);
     // the sphere's stored cones, read at once; the others a pixel needs (weight > 0) are traced now,
     // found from bit masks rather than by a branch per cone (half of them go each way, unpredictably)
     const std::uint64_t have = own_sphere ? cone_cache_.get_all(p.self, stored.data()) : 0;
@@ -293,17 +335,8 @@ void ParticleAmbientOcclusion::ambient(std::span<const SurfacePoint> points, std
         occluded[c] = own_sphere ? sphere_cone(p.self, c) : occlusion(p.position, cone_dirs_[c], 0);
       }
     }
-    // The cosine-weighted mean over the normal's hemisphere, summed in four interleaved partial sums
-    // (cone c into sum c mod 4: four independent chains, one SIMD lane each); a cone behind the normal
-    // weighs 0 and adds exactly nothing, whatever its occlusion.
-    float sum[4] = {0, 0, 0, 0}, weights[4] = {0, 0, 0, 0};
-    for (std::size_t g = 0; g < padded; g += 4)
-      for (std::size_t j = 0; j < 4; ++j) {
-        sum[j] += weight[g + j] * occluded[g + j];
-        weights[j] += weight[g + j];
-      }
-    const float total = (sum[0] + sum[1]) + (sum[2] + sum[3]), weight_sum = (weights[0] + weights[1]) + (weights[2] + weights[3]);
-    out[i] = Rgb(weight_sum > 0 ? 1.0f - total / weight_sum : 1.0f);
+    // the cosine-weighted mean over the normal's hemisphere; a cone behind the normal weighs 0
+    out[i] = Rgb(weighted_clearance(weight, occluded));
   }
 }
 
