@@ -44,6 +44,12 @@ void write_png_file(const std::string& path, const Image& image) {
   png_set_IHDR(png, info, static_cast<png_uint_32>(image.width()), static_cast<png_uint_32>(image.height()), 8,
                PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+  // Every row filtered by its difference from the row above and zlib at level 3: a 1920×1200 frame
+  // in ~35 ms instead of ~100 (libpng's default: level 6, all five filters tried per row), and smaller
+  // on the shipped scenes (cranium 131 against 145 kB, spheres-floor 192 against 208 kB); the
+  // playback frames of a trajectory 3 % larger.
+  png_set_compression_level(png, 3);
+  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_UP);
   png_write_info(png, info);
   for (int y = 0; y < image.height(); ++y) {
     for (int x = 0; x < image.width(); ++x)
