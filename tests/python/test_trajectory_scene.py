@@ -69,7 +69,7 @@ def test_the_playback_benchmark_runs(tmp_path):
                          capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     results = json.loads((tmp_path / "playback.json").read_text())["results"]
-    assert set(results) == {"local lighting", "issm", "issm + particle_ao"}
+    assert set(results) == {"local lighting", "issm", "issm + particle_ao", "issm 512²", "issm 512² + particle_ao"}
     assert all(r["frames"] == 2 and r["fps"] > 0 and r["read_ms"] > 0 for r in results.values())
     assert "spheres" in results["issm"]["rebuilt"] and "lights.0.shadows" in results["issm"]["rebuilt"]
 

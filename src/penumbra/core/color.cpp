@@ -1,6 +1,7 @@
 #include "penumbra/core/color.h"
 
 #include <bit>
+#include <limits>
 
 namespace penumbra::detail {
 namespace {
@@ -17,6 +18,7 @@ SrgbByteTable make_srgb_byte_table() {
     }
     t.steps[static_cast<std::size_t>(k)] = std::bit_cast<float>(hi);
   }
+  t.steps[255] = std::numeric_limits<float>::infinity();  // no byte above 255
   // one bucket back: v * 4096 may round up into the next bucket
   for (std::size_t i = 0; i < t.below.size(); ++i)
     t.below[i] = static_cast<std::uint8_t>(srgb_byte_of(static_cast<float>(i == 0 ? 0 : i - 1) / 4096.0f));

@@ -42,10 +42,10 @@ inline float srgb_to_linear(float v) {
 }
 
 namespace detail {
-// steps[k]: the smallest float whose sRGB byte exceeds k; below[i]: a byte no larger than that of any
-// value in [i/4096, (i+1)/4096) (so that a few comparisons finish the count).
+// steps[k]: the smallest float whose sRGB byte exceeds k (steps[255] = infinity); below[i]: a byte no
+// larger than that of any value in [i/4096, (i+1)/4096) (so that a few comparisons finish the count).
 struct SrgbByteTable {
-  std::array<float, 255> steps;
+  std::array<float, 256> steps;
   std::array<std::uint8_t, 4097> below;
 };
 extern const SrgbByteTable srgb_byte_table;
@@ -58,7 +58,10 @@ inline std::uint8_t linear_to_srgb8(float v) {
   if (v >= 1) return 255;
   const auto& t = detail::srgb_byte_table;
   unsigned b = t.below[static_cast<std::size_t>(v * 4096.0f)];
-  while (b < 255 && v >= t.steps[b]) ++b;
+  // `below` is one bucket back, and two buckets (2/4096) hold at most two steps (the closest lie
+  // 1/(255 · 12.92) apart, on the linear segment): two comparisons, no branch
+  b += v >= t.steps[b] ? 1u : 0u;
+  b += v >= t.steps[b] ? 1u : 0u;
   return static_cast<std::uint8_t>(b);
 }
 
