@@ -15,6 +15,7 @@
 #include "penumbra/engine/engine.h"
 #include "penumbra/scene/data_scene.h"
 #include "image_check.h"
+#include "shared_data.h"
 #include "test_scenes.h"
 
 using namespace penumbra;
@@ -23,7 +24,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string data(const std::string& name) { return quote(std::string(PENUMBRA_SHARED_DATA_DIR) + "/" + name); }
+std::string data(const std::string& name) { return quote(shared_data_dir() + "/" + name); }
 bool contains(const std::string& haystack, const std::string& needle) { return haystack.find(needle) != std::string::npos; }
 
 void expect_same_pixels(const std::string& a, const std::string& b) {
@@ -36,6 +37,7 @@ void expect_same_pixels(const std::string& a, const std::string& b) {
 }  // namespace
 
 TEST(OpenData, AVolumeFileRendersAndItsSavedSceneRendersTheSameImage) {
+  SKIP_WITHOUT_SHARED_DATA("neghip.nhdr");
   ScratchDir dir;
   const CliRun first = penumbra_cli("render " + data("neghip.nhdr") + " -o " + quote(dir.file("direct.pfm")) + " --width 48 --height 40 --write-scene " +
                                     quote(dir.file("neghip.json")));
@@ -53,6 +55,8 @@ TEST(OpenData, AVolumeFileRendersAndItsSavedSceneRendersTheSameImage) {
 }
 
 TEST(OpenData, AVolumeAndAMoleculeMakeOneMixedScene) {
+  SKIP_WITHOUT_SHARED_DATA("neghip.nhdr");
+  SKIP_WITHOUT_SHARED_DATA("1tii.pdb");
   ScratchDir dir;
   const CliRun r = penumbra_cli("render " + data("neghip.nhdr") + " " + data("1tii.pdb") + " -o " + quote(dir.file("mixed.png")) +
                                 " --width 40 --height 32 --set shadows.resolution=128 --write-scene " + quote(dir.file("mixed.json")));
@@ -67,6 +71,8 @@ TEST(OpenData, AVolumeAndAMoleculeMakeOneMixedScene) {
 }
 
 TEST(OpenData, ARawVolumeWithItsLayoutEqualsItsNrrdHeader) {
+  SKIP_WITHOUT_SHARED_DATA("headsq.raw");
+  SKIP_WITHOUT_SHARED_DATA("headsq.nhdr");
   ScratchDir dir;
   const CliRun raw = penumbra_cli("render " + data("headsq.raw") + " --raw-dims 64 64 93 --raw-type int16 --raw-spacing 3.2 3.2 1.5 -o " +
                                   quote(dir.file("raw.pfm")) + " --width 32 --height 32 --set shadows.resolution=64");
@@ -77,6 +83,9 @@ TEST(OpenData, ARawVolumeWithItsLayoutEqualsItsNrrdHeader) {
 }
 
 TEST(OpenData, BadInputsNameTheFileOrOptionAndLeaveNoOutput) {
+  SKIP_WITHOUT_SHARED_DATA("headsq.raw");
+  SKIP_WITHOUT_SHARED_DATA("neghip.nhdr");
+  SKIP_WITHOUT_SHARED_DATA("1tii.pdb");
   ScratchDir dir;
   const std::string text = dir.file("notes.txt");
   std::ofstream(text) << "not data\n";

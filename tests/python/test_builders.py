@@ -14,7 +14,7 @@ import penumbra
 
 CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
 ROOT = os.environ.get("PENUMBRA_ROOT", os.path.join(os.path.dirname(__file__), "..", ".."))
-DATA = os.path.join(ROOT, "..", "shared", "data")
+DATA = os.environ.get("PENUMBRA_DATA_DIR", os.path.join(ROOT, "..", "shared", "data"))
 
 
 def read_pfm(path):
@@ -248,6 +248,8 @@ def test_a_scene_file_cannot_name_an_array(tmp_path):
 
 def test_a_trajectory_from_mdanalysis_moves_the_atoms_frame_by_frame():
     mda = pytest.importorskip("MDAnalysis")
+    if not all(os.path.exists(os.path.join(DATA, f)) for f in ("md_1tii_chainD.tpr", "md_1tii_chainD.xtc")):
+        pytest.skip(f"staged MD trajectory not found in {DATA} (set PENUMBRA_DATA_DIR)")
     u = mda.Universe(os.path.join(DATA, "md_1tii_chainD.tpr"), os.path.join(DATA, "md_1tii_chainD.xtc"))
     protein = u.select_atoms("protein")
     common = particle_common() | {"camera": {"width": 48, "height": 40, "direction": [0.2, 0.3, 1]}}

@@ -11,7 +11,7 @@ import pytest
 import penumbra
 
 ROOT = os.environ.get("PENUMBRA_ROOT", os.path.join(os.path.dirname(__file__), "..", ".."))
-DATA = os.path.join(ROOT, "..", "shared", "data")
+DATA = os.environ.get("PENUMBRA_DATA_DIR", os.path.join(ROOT, "..", "shared", "data"))
 GRO = os.path.join(DATA, "md_1tii_chainD.gro")
 XTC = os.path.join(DATA, "md_1tii_chainD.xtc")
 CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
