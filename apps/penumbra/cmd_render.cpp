@@ -1,6 +1,6 @@
 // `penumbra render (SCENE.json | DATA_FILE...) -o OUT.png|.pfm|.exr [--depth] [--width W --height H] [--set key=value ...]
 //  [--stats S.json] [--threads N] [--orbit N | --light-orbit N | --frames A:B[:STEP] [--video V.mp4] | --edits FILE]
-//  [--strict]
+//  [--strict] [--slabs N]
 //  [--write-scene S.json] [--raw-dims X Y Z --raw-type T ...]`
 // Data files (volumes, molecules) make a scene of their own (scene/data_scene.h). Every frame goes
 // through the interactive engine (engine/engine.h): an orbit edits camera.eye or the first light each
@@ -24,6 +24,7 @@
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/distributed/volume_slabs.h"
 #include "penumbra/isosurface/light_pass.h"
 #include "penumbra/render/isosurface_buffers.h"
 #include "penumbra/engine/engine.h"
@@ -38,7 +39,7 @@ namespace {
 struct RenderOptions {
   InputOptions in;
   std::string output, stats, buffers, edits, write_scene, frames, video;
-  int width = 0, height = 0, threads = 0, orbit = 0, light_orbit = 0, accumulate = 1, fps = 10;
+  int width = 0, height = 0, threads = 0, orbit = 0, light_orbit = 0, accumulate = 1, fps = 10, slabs = 0;
   bool preview = false, depth = false;
 };
 
@@ -278,7 +279,40 @@ void write_video(const std::string& output, const std::string& video, int count,
   std::fprintf(stderr, "%s: %d frames at %d fps\n", video.c_str(), count, fps);
 }
 
+// --slabs N: sort-last rendering as a brick loop in one process (distributed/volume_slabs.h): every
+// slab's samples ray cast alone over black, then composited along each pixel's ray over the background.
+void render_slabs(const RenderOptions& o, const Engine& engine) {
+  const Scene& scene = engine.scene();
+  if (scene.volumes.empty() || !scene.particles.empty() || !scene.isosurfaces.empty() || !scene.planes.empty())
+    throw Error("--slabs: the scene must hold volumes only (spheres, isosurfaces and planes are not split into bricks yet)");
+  const std::vector<SampleSlab> slabs = volume_slabs(*scene.volumes.front().volume, o.slabs);
+  Scene over_black = scene;
+  over_black.background = Rgb(0.0f);
+  Renderer renderer(over_black);
+  std::vector<FrameResult> frames;
+  Timer total;
+  for (std::size_t b = 0; b < slabs.size(); ++b) {
+    FrameRequest request;
+    request.slab = slabs[b];
+    frames.push_back(renderer.render(request));
+    std::fprintf(stderr, "slab %zu of %zu: z from %g to %g, render %.1f ms\n", b + 1, slabs.size(), static_cast<double>(slabs[b].z_lo),
+                 static_cast<double>(slabs[b].z_hi), frames.back().render_ms);
+  }
+  std::vector<BrickImage> bricks;
+  for (const FrameResult& f : frames) bricks.push_back({&f.image, f.alpha});
+  Timer composite;
+  const Image image = composite_slabs(bricks, scene.camera, scene.background);
+  std::fprintf(stderr, "%s: %zu slabs composited in %.1f ms (%.1f ms in all)\n", o.output.c_str(), slabs.size(), composite.elapsed_ms(),
+               total.elapsed_ms());
+  write_image(o.output, image);
+}
+
 void run_render(const RenderOptions& o) {
+  if (o.slabs > 0 && (sequence_requested(o) || !o.edits.empty() || o.accumulate > 1 || o.preview || o.depth || !o.buffers.empty() ||
+                      !o.stats.empty() || !o.write_scene.empty()))
+    throw Error("--slabs renders one frame to a .png or .pfm (not with --orbit, --light-orbit, --frames, --edits, --accumulate, "
+                "--preview, --depth, --buffers, --stats or --write-scene)");
+  if (o.slabs > 0 && lower_extension(o.output) == ".exr") throw Error("--slabs: the output must be .png or .pfm");
   if (int(o.orbit > 0) + int(o.light_orbit > 0) + int(!o.frames.empty()) > 1)
     throw Error("--orbit, --light-orbit and --frames cannot be combined");
   if (!o.video.empty() && o.frames.empty() && o.orbit == 0 && o.light_orbit == 0)
@@ -310,6 +344,7 @@ void run_render(const RenderOptions& o) {
   Engine engine = open_inputs(o.in, sizes);
   const Scene& scene = engine.scene();
   for (const auto& note : scene.unread_keys) std::fprintf(stderr, "penumbra: note: %s\n", note.c_str());
+  if (o.slabs > 0) return render_slabs(o, engine);
   if (!o.buffers.empty() && !scene.has_isosurfaces()) throw Error("--buffers: the scene has no isosurface");
   const std::vector<std::size_t> times = o.frames.empty() ? std::vector<std::size_t>{} : time_frames(o.frames, scene.frame_count());
   const int frames = std::max({1, o.orbit, o.light_orbit, static_cast<int>(times.size())});
@@ -398,6 +433,10 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--video", o->video, "With a sequence: also encode its frames as a video (.mp4) through ffmpeg");
   cmd->add_option("--fps", o->fps, "Frames per second of --video (default 10)")->check(CLI::Range(1, 240));
   cmd->add_flag("--depth", o->depth, "With -o NAME.exr: also write the depth (channel Z: distance along each primary ray; +inf where nothing is hit)");
+  cmd->add_option("--slabs", o->slabs,
+                  "Sort-last brick loop: split the volume into N slabs along z, ray cast each alone and composite them "
+                  "along every pixel's ray (what a data-parallel frame does; volume scenes)")
+      ->check(CLI::Range(1, 65536));
   cmd->add_flag("--preview", o->preview, "Render what the viewer shows while the hand moves: the engine's preview quality");
   cmd->add_option("--edits", o->edits,
                   "Replay an interaction: a JSON list of steps {\"set\": {\"PATH\": VALUE, ...}, \"idle_ms\": N}; each step's "

@@ -527,7 +527,7 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
     const OpaqueLayer layer{&surfaces.distance, &opaque};
     VolumeFrame vf = render_volume_frame(
         RayCastInputs{&scene_, &camera, volume_ptrs, lights, shadow_ptrs, ambient_.get(), light_cache_.get(), light_slot_,
-                      &layer, request.sample});
+                      &layer, request.sample, request.slab ? &*request.slab : nullptr});
     frame.image = std::move(vf.image);
     for (std::size_t p = 0; p < pixels; ++p) {
       frame.alpha[p] = frame.alpha[p] + (1 - frame.alpha[p]) * vf.opacity[p];

@@ -30,6 +30,7 @@
 #include "penumbra/render/light_shadows.h"
 #include "penumbra/render/prepared_volume.h"
 #include "penumbra/render/surface_frame.h"
+#include "penumbra/render/volume_raycaster.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadows/ambient_technique.h"
 #include "penumbra/shadows/shadow_casters.h"
@@ -51,6 +52,9 @@ struct FrameRequest {
   std::uint32_t sample = 0;
   // Set from another thread to cancel the frame: render() then throws Cancelled soon after.
   const std::atomic<bool>* cancel = nullptr;
+  // Sort-last bricks (distributed/volume_slabs.h): only the volume samples of this slab are composited;
+  // unset: all of them.
+  std::optional<SampleSlab> slab;
 };
 
 struct FrameResult {

@@ -117,6 +117,16 @@ struct Shader {
 };
 
 // One volume: the lattice walk with macrocell skipping, for voxels of type T (the volume's).
+// [t0, t1] narrowed to where the ray crosses the slab, widened by a step on each side so that no
+// owned sample is lost to rounding (owns() decides each sample); false when the ray misses it.
+bool clip_to_slab(const Ray& ray, const SampleSlab& slab, float dt, float& t0, float& t1) {
+  if (ray.direction.z == 0) return ray.origin.z >= slab.z_lo && ray.origin.z < slab.z_hi;
+  const float a = (slab.z_lo - ray.origin.z) / ray.direction.z, b = (slab.z_hi - ray.origin.z) / ray.direction.z;
+  t0 = std::max(t0, std::min(a, b) - dt);
+  t1 = std::min(t1, std::max(a, b) + dt);
+  return t0 <= t1;
+}
+
 // `half` becomes the ray parameter where the opacity first reaches 1/2 (left as it is when it never does).
 template <class T>
 float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, float jitter, float t_surface,
@@ -124,6 +134,8 @@ float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, 
   float opacity = 0;
   float t0, t1;
   if (!pv.volume->bounds().clip(ray, t0, t1, 0, t_surface)) return opacity;
+  const SampleSlab* owned = shader.in.owned;
+  if (owned && !clip_to_slab(ray, *owned, pv.step, t0, t1)) return opacity;
   const Volume& vol = *pv.volume;
   const float dt = pv.step;
   const EmptySpaceSkipper skipper(vol, pv.grid, pv.empty);
@@ -133,6 +145,7 @@ float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, 
     const float t = (static_cast<float>(k) + jitter) * dt;
     if (t > t1) break;
     const Vec3 p = ray.at(t);
+    if (owned && !owned->owns(p)) continue;  // another brick's sample
     const Vec3 v = vol.to_voxel(p);
     const TrilinearCell tc = vol.trilinear_cell(v);  // shared by the macrocell, the value and the gradient
     const std::size_t cell = skipper.cell_of(tc);
@@ -172,6 +185,8 @@ float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& s
   }
   if (!(t0 <= t1)) return opacity;
   const float dt = volumes.front()->step;  // the renderer gives every volume the same step
+  const SampleSlab* owned = shader.in.owned;
+  if (owned && !clip_to_slab(ray, *owned, dt, t0, t1)) return opacity;
   constexpr std::size_t kMaxOverlap = 8;
   std::array<Rgba, kMaxOverlap> sample;
   std::array<TrilinearCell, kMaxOverlap> cells;
@@ -180,6 +195,7 @@ float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& s
     const float t = (static_cast<float>(k) + jitter) * dt;
     if (t > t1) break;
     const Vec3 p = ray.at(t);
+    if (owned && !owned->owns(p)) continue;  // another brick's sample
     std::size_t n = 0;
     float skip_to = kInfinity;
     bool occupied = false;

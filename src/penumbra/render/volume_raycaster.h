@@ -39,6 +39,13 @@ struct OpaqueLayer {
   const Image* color;
 };
 
+// The volume samples one brick of a sort-last decomposition owns (distributed/volume_slabs.h): those
+// at world z_lo ≤ z < z_hi, so that every sample of a ray's lattice lies in exactly one brick.
+struct SampleSlab {
+  float z_lo = -kInfinity, z_hi = kInfinity;
+  bool owns(const Vec3& p) const { return p.z >= z_lo && p.z < z_hi; }
+};
+
 struct RayCastInputs {
   const Scene* scene;
   const Camera* camera;
@@ -52,6 +59,7 @@ struct RayCastInputs {
   std::span<const int> cached_light_slot;
   const OpaqueLayer* opaque = nullptr;
   std::uint32_t sample = 0;  // accumulation sample: 0 the batch frame; others move every pixel's jitter
+  const SampleSlab* owned = nullptr;  // a brick's samples only; null: every sample
 };
 
 struct VolumeFrame {

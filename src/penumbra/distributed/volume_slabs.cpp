@@ -1,0 +1,50 @@
+#include "penumbra/distributed/volume_slabs.h"
+
+#include <string>
+
+#include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
+
+namespace penumbra {
+
+std::vector<SampleSlab> volume_slabs(const Volume& volume, int count) {
+  const int nz = volume.dims()[2];
+  if (count < 1 || count > nz)
+    throw Error(std::to_string(count) + " slabs for a volume of " + std::to_string(nz) + " voxel slices along z (expected 1 to " +
+                std::to_string(nz) + ")");
+  const Box3 box = volume.bounds();  // through the first and last voxel centres
+  const float spacing = nz > 1 ? (box.hi.z - box.lo.z) / static_cast<float>(nz - 1) : 0.0f;
+  std::vector<SampleSlab> slabs(static_cast<std::size_t>(count));
+  for (int b = 1; b < count; ++b) {  // between slice first − 1 and first
+    const int first = static_cast<int>(static_cast<long long>(nz) * b / count);
+    const float z = box.lo.z + (static_cast<float>(first) - 0.5f) * spacing;
+    slabs[static_cast<std::size_t>(b - 1)].z_hi = z;
+    slabs[static_cast<std::size_t>(b)].z_lo = z;
+  }
+  return slabs;
+}
+
+Image composite_slabs(std::span<const BrickImage> bricks, const Camera& camera, const Rgb& background) {
+  Image out(camera.width, camera.height);
+  const PrimaryRays rays(camera);
+  const std::size_t n = bricks.size();
+  parallel_for(static_cast<std::size_t>(camera.height), [&](std::size_t y0, std::size_t y1) {
+    for (int y = static_cast<int>(y0); y < static_cast<int>(y1); ++y)
+      for (int x = 0; x < camera.width; ++x) {
+        const std::size_t pixel = static_cast<std::size_t>(y) * static_cast<std::size_t>(camera.width) + static_cast<std::size_t>(x);
+        // a ray going down in z meets the slabs from the last to the first
+        const bool downwards = rays.direction(x, y).z < 0;
+        Rgb color(0.0f);
+        float transmittance = 1;
+        for (std::size_t k = 0; k < n; ++k) {
+          const BrickImage& b = bricks[downwards ? n - 1 - k : k];
+          color += b.color->at(x, y) * transmittance;
+          transmittance *= 1 - b.opacity[pixel];
+        }
+        out.at(x, y) = color + background * transmittance;
+      }
+  });
+  return out;
+}
+
+}  // namespace penumbra
