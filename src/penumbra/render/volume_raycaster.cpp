@@ -116,7 +116,6 @@ struct Shader {
   }
 };
 
-// One volume: the lattice walk with macrocell skipping, for voxels of type T (the volume's).
 // [t0, t1] narrowed to where the ray crosses the slab, widened by a step on each side so that no
 // owned sample is lost to rounding (owns() decides each sample); false when the ray misses it.
 bool clip_to_slab(const Ray& ray, const SampleSlab& slab, float dt, float& t0, float& t1) {
@@ -127,6 +126,7 @@ bool clip_to_slab(const Ray& ray, const SampleSlab& slab, float dt, float& t0, f
   return t0 <= t1;
 }
 
+// One volume: the lattice walk with macrocell skipping, for voxels of type T (the volume's).
 // `half` becomes the ray parameter where the opacity first reaches 1/2 (left as it is when it never does).
 template <class T>
 float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, float jitter, float t_surface,

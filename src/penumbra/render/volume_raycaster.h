@@ -16,7 +16,8 @@
 // volume's α_v is read in its own mode (alpha or extinction) before they combine.
 //
 // With a packed light cache (accel/light_cache.h) a sample reads the ambient term and the shadows of
-// every cached light with one fetch; the other lights are asked per batch as usual.
+// every cached light with one fetch; the other lights are asked per batch as usual. With a SampleSlab
+// only the samples that slab owns are composited (sort-last bricks, distributed/volume_slabs.h).
 #pragma once
 
 #include <span>
