@@ -23,25 +23,6 @@
 using namespace penumbra;
 using namespace penumbra::test;
 
-namespace {
-
-Image render_in_slabs(const Scene& scene, int count) {
-  Scene over_black = scene;
-  over_black.background = Rgb(0.0f);
-  Renderer renderer(over_black);
-  std::vector<FrameResult> frames;
-  for (const SampleSlab& slab : volume_slabs(*scene.volumes.front().volume, count)) {
-    FrameRequest request;
-    request.slab = slab;
-    frames.push_back(renderer.render(request));
-  }
-  std::vector<BrickImage> bricks;
-  for (const FrameResult& f : frames) bricks.push_back({&f.image, f.alpha});
-  return composite_slabs(bricks, scene.camera, scene.background);
-}
-
-}  // namespace
-
 TEST(VolumeSlabs, EverySampleHasOneSlabAndTooManySlabsAreAnError) {
   const Scene scene = build_scene(volume_scene({{"name", "sphere"}, {"size", 10}}, constant_tf(0.1)), "");
   const Volume& v = *scene.volumes.front().volume;
@@ -92,12 +73,12 @@ TEST(VolumeSlabs, CompositedSlabsGiveTheWholeVolumeFrame) {
     const Image whole = whole_renderer.render().image;
     ASSERT_TRUE(non_trivial(whole));
     FailureImages keep;
-    const Image one = render_in_slabs(scene, 1);
+    const Image one = render_in_slabs(scene, 1).image;
     keep.add(name + "_1", one, whole);
     EXPECT_EQ(one.pixels(), whole.pixels());
     for (int count : {2, 3, 4}) {
       SCOPED_TRACE(count);
-      const Image split = render_in_slabs(scene, count);
+      const Image split = render_in_slabs(scene, count).image;
       keep.add(name + "_" + std::to_string(count), split, whole);
       const ImageDifference d = compare_images(split, whole);
       EXPECT_LE(d.max_abs, 1.0 - kEarlyTermination + 1e-4);

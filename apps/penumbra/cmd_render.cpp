@@ -279,32 +279,16 @@ void write_video(const std::string& output, const std::string& video, int count,
   std::fprintf(stderr, "%s: %d frames at %d fps\n", video.c_str(), count, fps);
 }
 
-// --slabs N: sort-last rendering as a brick loop in one process (distributed/volume_slabs.h): every
-// slab's samples ray cast alone over black, then composited along each pixel's ray over the background.
+// --slabs N: sort-last rendering as a brick loop in one process (distributed/volume_slabs.h).
 void render_slabs(const RenderOptions& o, const Engine& engine) {
-  const Scene& scene = engine.scene();
-  if (scene.volumes.empty() || !scene.particles.empty() || !scene.isosurfaces.empty() || !scene.planes.empty())
-    throw Error("--slabs: the scene must hold volumes only (spheres, isosurfaces and planes are not split into bricks yet)");
-  const std::vector<SampleSlab> slabs = volume_slabs(*scene.volumes.front().volume, o.slabs);
-  Scene over_black = scene;
-  over_black.background = Rgb(0.0f);
-  Renderer renderer(over_black);
-  std::vector<FrameResult> frames;
   Timer total;
-  for (std::size_t b = 0; b < slabs.size(); ++b) {
-    FrameRequest request;
-    request.slab = slabs[b];
-    frames.push_back(renderer.render(request));
-    std::fprintf(stderr, "slab %zu of %zu: z from %g to %g, render %.1f ms\n", b + 1, slabs.size(), static_cast<double>(slabs[b].z_lo),
-                 static_cast<double>(slabs[b].z_hi), frames.back().render_ms);
-  }
-  std::vector<BrickImage> bricks;
-  for (const FrameResult& f : frames) bricks.push_back({&f.image, f.alpha});
-  Timer composite;
-  const Image image = composite_slabs(bricks, scene.camera, scene.background);
-  std::fprintf(stderr, "%s: %zu slabs composited in %.1f ms (%.1f ms in all)\n", o.output.c_str(), slabs.size(), composite.elapsed_ms(),
+  const SlabFrame f = with_context("--slabs", [&] { return render_in_slabs(engine.scene(), o.slabs); });
+  for (std::size_t b = 0; b < f.slabs.size(); ++b)
+    std::fprintf(stderr, "slab %zu of %zu: z from %g to %g, render %.1f ms\n", b + 1, f.slabs.size(), static_cast<double>(f.slabs[b].z_lo),
+                 static_cast<double>(f.slabs[b].z_hi), f.render_ms[b]);
+  std::fprintf(stderr, "%s: %zu slabs composited in %.1f ms (%.1f ms in all)\n", o.output.c_str(), f.slabs.size(), f.composite_ms,
                total.elapsed_ms());
-  write_image(o.output, image);
+  write_image(o.output, f.image);
 }
 
 void run_render(const RenderOptions& o) {

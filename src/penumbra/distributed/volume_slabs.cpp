@@ -4,6 +4,8 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/render/renderer.h"
 
 namespace penumbra {
 
@@ -44,6 +46,29 @@ Image composite_slabs(std::span<const BrickImage> bricks, const Camera& camera, 
         out.at(x, y) = color + background * transmittance;
       }
   });
+  return out;
+}
+
+SlabFrame render_in_slabs(const Scene& scene, int count) {
+  if (scene.volumes.empty() || !scene.particles.empty() || !scene.isosurfaces.empty() || !scene.planes.empty())
+    throw Error("the scene must hold volumes only (spheres, isosurfaces and planes are not split into bricks yet)");
+  SlabFrame out;
+  out.slabs = volume_slabs(*scene.volumes.front().volume, count);
+  Scene over_black = scene;
+  over_black.background = Rgb(0.0f);
+  Renderer renderer(over_black);
+  std::vector<FrameResult> frames;
+  for (const SampleSlab& slab : out.slabs) {
+    FrameRequest request;
+    request.slab = slab;
+    frames.push_back(renderer.render(request));
+    out.render_ms.push_back(frames.back().render_ms);
+  }
+  std::vector<BrickImage> bricks;
+  for (const FrameResult& f : frames) bricks.push_back({&f.image, f.alpha});
+  Timer composite;
+  out.image = composite_slabs(bricks, scene.camera, scene.background);
+  out.composite_ms = composite.elapsed_ms();
   return out;
 }
 

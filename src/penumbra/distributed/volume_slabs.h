@@ -4,11 +4,11 @@
 // a ray's lattice in exactly one brick) into premultiplied colour and opacity over black, and the
 // bricks' images are composited per pixel in the order its ray crosses them ("over", front to back).
 //
-// This is the step a distributed frame runs on every rank; here it also runs as a brick loop in one
-// process (`penumbra render --slabs N`), which checks the decomposition against the whole-volume
-// frame. What it does not yet do: shadows and ambient occlusion across bricks (each brick is shaded
-// unshadowed), surfaces (spheres, isosurfaces, planes) in the bricked scene, reading only a brick's
-// voxels from disk.
+// This is the step a distributed frame runs on every rank; here it runs as a brick loop in one
+// process (render_in_slabs, `penumbra render --slabs N`), which checks the decomposition against the
+// whole-volume frame. Each slab's renderer holds the whole scene, so its shadows and ambient occlusion
+// are the whole volume's. Not yet: light structures built per brick and combined (what ranks need),
+// surfaces (spheres, isosurfaces, planes) in the bricked scene, reading only a brick's voxels.
 //
 // | parameter | meaning                                                             |
 // | count     | slabs (bricks); at most the volume's voxel slices along z             |
@@ -21,6 +21,7 @@
 #include "penumbra/data/volume.h"
 #include "penumbra/render/volume_raycaster.h"
 #include "penumbra/scene/camera.h"
+#include "penumbra/scene/scene.h"
 
 namespace penumbra {
 
@@ -39,5 +40,16 @@ struct BrickImage {
 // over `background`: C = Σ_b (Π_{b' before b} (1 − A_b')) C_b, plus the transmittance left times the
 // background.
 Image composite_slabs(std::span<const BrickImage> bricks, const Camera& camera, const Rgb& background);
+
+// The brick loop: the scene's first volume split into `count` slabs, each rendered alone over black at
+// full quality, composited over the scene's background. Throws Error for a scene with anything but
+// volumes, or for count outside 1 … the volume's slices.
+struct SlabFrame {
+  Image image;
+  std::vector<SampleSlab> slabs;
+  std::vector<double> render_ms;  // per slab
+  double composite_ms = 0;
+};
+SlabFrame render_in_slabs(const Scene& scene, int count);
 
 }  // namespace penumbra

@@ -1,6 +1,7 @@
 // Per-sphere results of the particle AO's cones, kept across frames (a sphere's cone occlusion depends
 // on the sphere and the density volume alone): one byte a cone (occlusion × 255), eight to a 64-bit
-// word so that a pixel reads its sphere's cones in a few loads, and a mask of the cones traced. When an entry for every sphere fits the byte budget, sphere i owns entry i. Otherwise
+// word so that a pixel reads its sphere's cones in a few loads, and a mask of the cones traced. When
+// an entry for every sphere fits the byte budget, sphere i owns entry i. Otherwise
 // (1M4X: 16 M spheres × 40 bytes = 650 MB) a sphere is given an entry the first time one of its cones
 // is stored, from a pool the budget sizes, so that only the spheres a frame shades pay; when the pool
 // is used up, further spheres are traced every time. Thread-safe: a sphere's entry is claimed by one
@@ -25,8 +26,9 @@ public:
   // Cone `cone` of sphere `sphere` if stored (q: occlusion × 255).
   bool get(std::uint32_t sphere, std::size_t cone, std::uint8_t& q) const;
   void put(std::uint32_t sphere, std::size_t cone, std::uint8_t q) const;  // a cache behind const queries
-  // Every cone of a sphere at once: returns the mask of those stored; q[cone] holds their values and 0
-  // for the others (q has room for cones rounded up to a multiple of 8).
+  // Every cone of a sphere at once: returns the mask of those stored. A sphere with an entry writes
+  // q[cone] for all its cones (0 where not stored; q has room for cones rounded up to a multiple of
+  // 8); one without (mask 0) leaves q as it was.
   std::uint64_t get_all(std::uint32_t sphere, std::uint8_t* q) const;
 
   bool enabled() const { return capacity_ > 0; }
