@@ -126,16 +126,20 @@ bool clip_to_slab(const Ray& ray, const SampleSlab& slab, float dt, float& t0, f
   return t0 <= t1;
 }
 
-// One volume: the lattice walk with macrocell skipping, for voxels of type T (the volume's).
+// One volume: the lattice walk with macrocell skipping, for voxels of type T (the volume's), of every
+// sample or (kSlab) of the samples in.owned holds — two instances, so that the whole frame's walk
+// carries no ownership test.
 // `half` becomes the ray parameter where the opacity first reaches 1/2 (left as it is when it never does).
-template <class T>
+template <class T, bool kSlab>
 float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, float jitter, float t_surface,
                 SampleBatch& batch, Rgb& color, float& half) {
   float opacity = 0;
   float t0, t1;
   if (!pv.volume->bounds().clip(ray, t0, t1, 0, t_surface)) return opacity;
   const SampleSlab* owned = shader.in.owned;
-  if (owned && !clip_to_slab(ray, *owned, pv.step, t0, t1)) return opacity;
+  if constexpr (kSlab) {
+    if (!clip_to_slab(ray, *owned, pv.step, t0, t1)) return opacity;
+  }
   const Volume& vol = *pv.volume;
   const float dt = pv.step;
   const EmptySpaceSkipper skipper(vol, pv.grid, pv.empty);
@@ -145,7 +149,9 @@ float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, 
     const float t = (static_cast<float>(k) + jitter) * dt;
     if (t > t1) break;
     const Vec3 p = ray.at(t);
-    if (owned && !owned->owns(p)) continue;  // another brick's sample
+    if constexpr (kSlab) {
+      if (!owned->owns(p)) continue;  // another brick's sample
+    }
     const Vec3 v = vol.to_voxel(p);
     const TrilinearCell tc = vol.trilinear_cell(v);  // shared by the macrocell, the value and the gradient
     const std::size_t cell = skipper.cell_of(tc);
@@ -270,7 +276,8 @@ VolumeFrame render_volume_frame(const RayCastInputs& in) {
         float& half = out.half_depth[pixel];
         if (in.volumes.size() == 1)
           opacity = in.volumes.front()->volume->with_voxel_type([&](auto type) {
-            return trace_one<decltype(type)>(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color, half);
+            return in.owned ? trace_one<decltype(type), true>(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color, half)
+                            : trace_one<decltype(type), false>(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color, half);
           });
         else if (!in.volumes.empty()) opacity = trace_many(in.volumes, shader, ray, jitter, t_surface, batch, color, half);
         const Rgb behind = in.opaque ? in.opaque->color->at(x, y) : in.scene->background;
