@@ -11,6 +11,7 @@ packages=(build-essential cmake ninja-build g++ pkg-config
           python3-dev pybind11-dev python3-numpy python3-pytest  # the Python package (python/)
           python3-mdanalysis jupyter-nbconvert python3-ipykernel  # trajectories, the example notebook
           python3-matplotlib  # the bench's error-against-time charts (scripts/bench_charts.py)
+          libopenmpi-dev openmpi-bin  # data-parallel rendering under mpirun (src/penumbra/distributed/)
           libboost-dev libjpeg62-turbo-dev  # the viewer's server (Beast) and its JPEG frames
           chromium chromium-driver python3-selenium python3-websocket  # the viewer's browser and protocol tests
           clang-14 libfuzzer-14-dev libclang-rt-14-dev)  # the libFuzzer targets (scripts/fuzz.sh)

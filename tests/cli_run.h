@@ -27,9 +27,10 @@ inline std::string slurp(const std::string& path) {
 
 inline std::string quote(const std::string& s) { return "'" + s + "'"; }
 
-// Runs `penumbra ARGS` with stdout and stderr captured in files outside any scratch directory of the
-// test (so that such a directory holds only what the command itself wrote).
-inline CliRun penumbra_cli(const std::string& args) {
+// Runs `LAUNCHER penumbra ARGS` (the launcher e.g. "mpirun -np 2 ") with stdout and stderr captured in
+// files outside any scratch directory of the test (so that such a directory holds only what the
+// command itself wrote).
+inline CliRun penumbra_cli_with_launcher(const std::string& launcher, const std::string& args) {
   static int counter = 0;
   namespace fs = std::filesystem;
   const fs::path logs = fs::temp_directory_path() / ("penumbra_cli_logs_" + std::to_string(::getpid()));
@@ -37,7 +38,7 @@ inline CliRun penumbra_cli(const std::string& args) {
   const std::string out = (logs / ("out" + std::to_string(counter) + ".txt")).string();
   const std::string err = (logs / ("err" + std::to_string(counter) + ".txt")).string();
   ++counter;
-  const std::string cmd = quote(PENUMBRA_CLI) + " " + args + " >" + quote(out) + " 2>" + quote(err);
+  const std::string cmd = launcher + quote(PENUMBRA_CLI) + " " + args + " >" + quote(out) + " 2>" + quote(err);
   const int raw = std::system(cmd.c_str());
   CliRun r;
   r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + (WIFSIGNALED(raw) ? WTERMSIG(raw) : 0);
@@ -49,5 +50,7 @@ inline CliRun penumbra_cli(const std::string& args) {
   fs::remove(logs, ec);  // only when empty
   return r;
 }
+
+inline CliRun penumbra_cli(const std::string& args) { return penumbra_cli_with_launcher("", args); }
 
 }  // namespace penumbra::test

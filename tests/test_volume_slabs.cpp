@@ -5,7 +5,10 @@
 // weighted by at most 1 − kEarlyTermination (plus float rounding of the split sums).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstring>
 #include <filesystem>
+#include <span>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -116,4 +119,97 @@ TEST(VolumeSlabs, TheCommandLineSplitsVolumeScenesAndRefusesTheRest) {
     EXPECT_NE(r.err.find(c.needle), std::string::npos) << r.err;
   }
   for (const char* name : {"a.png", "b.png", "c_000.png", "d.exr"}) EXPECT_FALSE(std::filesystem::exists(dir.file(name))) << name;
+}
+
+namespace {
+
+// A brick's reduction when it is the only brick: records the partial map it is given, leaves it as is.
+struct RecordingReduction final : BrickReduction {
+  std::vector<float> seen;
+  void minimum(std::span<float> values) override { seen.assign(values.begin(), values.end()); }
+};
+
+// Hands back a combined map computed beforehand (what the ranks' allreduce gives every brick).
+struct GivenReduction final : BrickReduction {
+  explicit GivenReduction(std::vector<float> c) : combined(std::move(c)) {}
+  std::vector<float> combined;
+  void minimum(std::span<float> values) override {
+    ASSERT_EQ(values.size(), combined.size());
+    std::copy(combined.begin(), combined.end(), values.begin());
+  }
+};
+
+FrameResult render_brick(const Scene& scene, const SampleSlab& slab, BrickReduction& reduction) {
+  Scene over_black = scene;
+  over_black.background = Rgb(0.0f);
+  Renderer renderer(over_black);
+  FrameRequest request;
+  request.slab = slab;
+  request.reduction = &reduction;
+  return renderer.render(request);
+}
+
+Image composite(const std::vector<FrameResult>& frames, const Scene& scene) {
+  std::vector<BrickImage> bricks;
+  for (const FrameResult& f : frames) bricks.push_back({&f.image, f.alpha});
+  return composite_slabs(bricks, scene.camera, scene.background);
+}
+
+}  // namespace
+
+// Shadows across bricks (shadows/shadow_brick.h): each brick builds the CSSM from the light segments it
+// owns; the per-channel minimum of the bricks' maps is the whole volume's map, bit for bit, though no
+// brick's own map is (the shell's upper half shadows its lower half across the slab faces); rendered
+// with the combined map, the bricks composite to the brick loop's frame exactly, and without it the
+// lower shell comes out lit.
+TEST(VolumeSlabs, CssmBuiltPerBrickAndCombinedByMinimumIsTheWholeVolumesMap) {
+  nlohmann::json j = volume_scene({{"name", "hollow-sphere"}, {"size", 32}}, step_tf(0.5, 0.9, 0.8, 0.6));
+  j["lights"] = nlohmann::json::array({{{"type", "directional"}, {"direction", {0.1, 0.2, -1.0}}}});
+  j["shadows"] = {{"technique", "cssm"}, {"resolution", 64}};
+  j["camera"] = {{"width", 40}, {"height", 40}, {"eye", {1.6, 0.4, -1.2}}, {"target", {0.0, 0.0, 0.0}}};
+  const Scene scene = build_scene(j, "");
+  const Volume& volume = *scene.volumes.front().volume;
+
+  RecordingReduction whole_map;
+  const FrameResult whole_brick = render_brick(scene, SampleSlab{}, whole_map);  // one brick: the whole volume
+  ASSERT_EQ(whole_map.seen.size(), 64u * 64u * 3u);
+  Scene over_black = scene;
+  over_black.background = Rgb(0.0f);
+  EXPECT_EQ(whole_brick.image.pixels(), Renderer(over_black).render().image.pixels()) << "a whole-volume brick loses or adds segments";
+
+  for (int count : {2, 3, 4}) {
+    SCOPED_TRACE(count);
+    const std::vector<SampleSlab> slabs = volume_slabs(volume, count);
+    std::vector<std::vector<float>> partial;
+    for (const SampleSlab& slab : slabs) {
+      RecordingReduction r;
+      render_brick(scene, slab, r);
+      partial.push_back(r.seen);
+    }
+    std::vector<float> combined = partial.front();
+    for (const auto& p : partial)
+      for (std::size_t i = 0; i < p.size(); ++i) combined[i] = std::min(combined[i], p[i]);
+    EXPECT_EQ(std::memcmp(combined.data(), whole_map.seen.data(), combined.size() * sizeof(float)), 0)
+        << "the minimum of the bricks' maps is not the whole volume's map";
+    for (std::size_t b = 0; b < partial.size(); ++b) {
+      std::size_t differing = 0;
+      for (std::size_t i = 0; i < partial[b].size(); ++i) differing += partial[b][i] != whole_map.seen[i] ? 1 : 0;
+      EXPECT_GT(differing, 0u) << "brick " << b << " alone already has the whole map: the test shows nothing";
+    }
+
+    std::vector<FrameResult> combined_frames, alone_frames;
+    for (std::size_t b = 0; b < slabs.size(); ++b) {
+      GivenReduction given(combined);
+      combined_frames.push_back(render_brick(scene, slabs[b], given));
+      RecordingReduction alone;
+      alone_frames.push_back(render_brick(scene, slabs[b], alone));
+    }
+    const Image loop = render_in_slabs(scene, count).image;
+    const Image with_combined = composite(combined_frames, scene), with_own = composite(alone_frames, scene);
+    FailureImages keep;
+    keep.add("combined_" + std::to_string(count), with_combined, loop);
+    keep.add("own_maps_" + std::to_string(count), with_own, loop);
+    EXPECT_EQ(with_combined.pixels(), loop.pixels());
+    EXPECT_GT(compare_images(with_own, loop).max_abs, 0.05) << "bricks with only their own shadows look the same";
+  }
 }

@@ -18,6 +18,8 @@
 
 #include "commands.h"
 #include "inputs.h"
+#include "mpi_launch.h"
+#include "render_options.h"
 #include "penumbra/core/cancel.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/exr_io.h"
@@ -34,20 +36,39 @@
 #include "stats.h"
 
 namespace penumbra::cli {
-namespace {
-
-struct RenderOptions {
-  InputOptions in;
-  std::string output, stats, buffers, edits, write_scene, frames, video;
-  int width = 0, height = 0, threads = 0, orbit = 0, light_orbit = 0, accumulate = 1, fps = 10, slabs = 0;
-  bool preview = false, depth = false;
-};
 
 std::string lower_extension(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return ext;
 }
+
+void check_output_path(const std::string& output) {
+  const std::string ext = lower_extension(output);
+  if (ext != ".png" && ext != ".pfm" && ext != ".exr")
+    throw Error("-o " + output + ": unknown image extension '" + std::filesystem::path(output).extension().string() +
+                "' (expected .png, .pfm or .exr)");
+  const auto dir = std::filesystem::path(output).parent_path();
+  if (!dir.empty() && !std::filesystem::is_directory(dir))
+    throw Error("-o " + output + ": directory '" + dir.string() + "' does not exist");
+}
+
+void check_stats_path(const std::string& stats) {
+  const auto dir = std::filesystem::path(stats).parent_path();
+  if (!dir.empty() && !std::filesystem::is_directory(dir))
+    throw Error("--stats " + stats + ": directory '" + dir.string() + "' does not exist");
+}
+
+bool sequence_requested(const RenderOptions& o) { return o.orbit > 0 || o.light_orbit > 0 || !o.frames.empty(); }
+
+std::vector<std::string> size_overrides(const RenderOptions& o) {
+  std::vector<std::string> sizes;
+  if (o.width > 0) sizes.push_back("camera.width=" + std::to_string(o.width));
+  if (o.height > 0) sizes.push_back("camera.height=" + std::to_string(o.height));
+  return sizes;
+}
+
+namespace {
 
 // PNG and PFM hold the picture over the scene's background. EXR holds linear colour with premultiplied
 // alpha (nothing behind the data: alpha 0, to composite over anything) and, with --depth, the distance
@@ -91,16 +112,6 @@ void write_isosurface_buffers(const std::string& dir, const Renderer& renderer, 
         write_image(stem + "_points.png", distance_image(passes[k].light_points.points, passes[k].view.width, passes[k].view.height));
       }
     }
-}
-
-void check_output_path(const std::string& output) {
-  const std::string ext = lower_extension(output);
-  if (ext != ".png" && ext != ".pfm" && ext != ".exr")
-    throw Error("-o " + output + ": unknown image extension '" + std::filesystem::path(output).extension().string() +
-                "' (expected .png, .pfm or .exr)");
-  const auto dir = std::filesystem::path(output).parent_path();
-  if (!dir.empty() && !std::filesystem::is_directory(dir))
-    throw Error("-o " + output + ": directory '" + dir.string() + "' does not exist");
 }
 
 // The first light turned by `angle` about the camera's up axis through the scene's centre (the axis the
@@ -235,7 +246,6 @@ nlohmann::json replay_edits(Engine& engine, const std::vector<EditStep>& steps, 
   return out;
 }
 
-bool sequence_requested(const RenderOptions& o) { return o.orbit > 0 || o.light_orbit > 0 || !o.frames.empty(); }
 
 // --frames A:B[:STEP]: the frames A, A + STEP, … up to B (inclusive; B left out: the last frame).
 std::vector<std::size_t> time_frames(const std::string& spec, std::size_t count) {
@@ -314,18 +324,11 @@ void run_render(const RenderOptions& o) {
   if (o.depth && lower_extension(o.output) != ".exr") throw Error("--depth: the depth is written into an .exr output (-o NAME.exr)");
   if (!o.buffers.empty() && !std::filesystem::is_directory(o.buffers))
     throw Error("--buffers " + o.buffers + ": not a directory");
-  if (!o.stats.empty()) {
-    const auto dir = std::filesystem::path(o.stats).parent_path();
-    if (!dir.empty() && !std::filesystem::is_directory(dir))
-      throw Error("--stats " + o.stats + ": directory '" + dir.string() + "' does not exist");
-  }
+  if (!o.stats.empty()) check_stats_path(o.stats);
   const std::vector<EditStep> steps = o.edits.empty() ? std::vector<EditStep>{} : read_edit_steps(o.edits);
   if (!o.write_scene.empty()) check_scene_file_path(o.write_scene);
-  std::vector<std::string> sizes;
-  if (o.width > 0) sizes.push_back("camera.width=" + std::to_string(o.width));
-  if (o.height > 0) sizes.push_back("camera.height=" + std::to_string(o.height));
   ThreadLimit limit(o.threads);
-  Engine engine = open_inputs(o.in, sizes);
+  Engine engine = open_inputs(o.in, size_overrides(o));
   const Scene& scene = engine.scene();
   for (const auto& note : scene.unread_keys) std::fprintf(stderr, "penumbra: note: %s\n", note.c_str());
   if (o.slabs > 0) return render_slabs(o, engine);
@@ -425,7 +428,12 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--edits", o->edits,
                   "Replay an interaction: a JSON list of steps {\"set\": {\"PATH\": VALUE, ...}, \"idle_ms\": N}; each step's "
                   "preview and full-quality times (and what it rebuilt) go to --stats under 'edits'; -o gets the last image");
-  cmd->callback([o] { run_render(*o); });
+  cmd->callback([o] {
+    if (mpi_world() != nullptr)
+      defer_to_all_ranks([o] { run_render_distributed(*o); });
+    else
+      run_render(*o);
+  });
 }
 
 }  // namespace penumbra::cli

@@ -2,13 +2,18 @@
 // its exact reference. `penumbra --help` lists the commands.
 #include <cstdio>
 #include <exception>
+#include <memory>
 
 #include "commands.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/frame_memory.h"
+#include "mpi_launch.h"
 
 int main(int argc, char** argv) {
   penumbra::keep_frame_memory_mapped();
+  // Started by mpirun: every rank runs this same executable, and `render` renders data-parallel.
+  std::unique_ptr<penumbra::MpiWorld> world;
+  if (penumbra::MpiWorld::launched_by_mpirun()) world = std::make_unique<penumbra::MpiWorld>(argc, argv);
   CLI::App app{"penumbra: shadowed volume rendering, every technique measured against an exact reference"};
   app.require_subcommand(1);
   penumbra::cli::add_render_command(app);
@@ -18,6 +23,7 @@ int main(int argc, char** argv) {
   penumbra::cli::add_montage_command(app);
   penumbra::cli::add_info_command(app);
   penumbra::cli::add_bench_command(app);
+  if (world) return penumbra::cli::run_on_all_ranks(app, argc, argv, *world);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

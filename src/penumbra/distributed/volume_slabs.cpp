@@ -1,6 +1,7 @@
 #include "penumbra/distributed/volume_slabs.h"
 
 #include <string>
+#include <utility>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
@@ -34,24 +35,21 @@ Image composite_slabs(std::span<const BrickImage> bricks, const Camera& camera, 
     for (int y = static_cast<int>(y0); y < static_cast<int>(y1); ++y)
       for (int x = 0; x < camera.width; ++x) {
         const std::size_t pixel = static_cast<std::size_t>(y) * static_cast<std::size_t>(camera.width) + static_cast<std::size_t>(x);
-        // a ray going down in z meets the slabs from the last to the first
-        const bool downwards = rays.direction(x, y).z < 0;
-        Rgb color(0.0f);
-        float transmittance = 1;
-        for (std::size_t k = 0; k < n; ++k) {
-          const BrickImage& b = bricks[downwards ? n - 1 - k : k];
-          color += b.color->at(x, y) * transmittance;
-          transmittance *= 1 - b.opacity[pixel];
-        }
-        out.at(x, y) = color + background * transmittance;
+        out.at(x, y) = composite_pixel(n, rays.direction(x, y).z < 0, background, [&](std::size_t b) {
+          return std::pair<Rgb, float>(bricks[b].color->at(x, y), bricks[b].opacity[pixel]);
+        });
       }
   });
   return out;
 }
 
-SlabFrame render_in_slabs(const Scene& scene, int count) {
+void check_volumes_only(const Scene& scene) {
   if (scene.volumes.empty() || !scene.particles.empty() || !scene.isosurfaces.empty() || !scene.planes.empty())
     throw Error("the scene must hold volumes only (spheres, isosurfaces and planes are not split into bricks yet)");
+}
+
+SlabFrame render_in_slabs(const Scene& scene, int count) {
+  check_volumes_only(scene);
   SlabFrame out;
   out.slabs = volume_slabs(*scene.volumes.front().volume, count);
   Scene over_black = scene;

@@ -36,10 +36,27 @@ struct BrickImage {
   std::span<const float> opacity;
 };
 
-// The bricks (in slab order, z increasing) composited front to back along each pixel's primary ray,
+// One pixel of the bricks (in slab order, z increasing) composited front to back along its primary ray,
 // over `background`: C = Σ_b (Π_{b' before b} (1 − A_b')) C_b, plus the transmittance left times the
-// background.
+// background. brick(b) gives slab b's premultiplied colour and opacity there; `downwards`: the ray's
+// direction has z < 0, so it meets the slabs from the last to the first.
+template <class BrickAt>
+Rgb composite_pixel(std::size_t bricks, bool downwards, const Rgb& background, BrickAt&& brick) {
+  Rgb color(0.0f);
+  float transmittance = 1;
+  for (std::size_t k = 0; k < bricks; ++k) {
+    const auto [c, a] = brick(downwards ? bricks - 1 - k : k);
+    color += c * transmittance;
+    transmittance *= 1 - a;
+  }
+  return color + background * transmittance;
+}
+
+// Every pixel so composited (the brick loop's compositing).
 Image composite_slabs(std::span<const BrickImage> bricks, const Camera& camera, const Rgb& background);
+
+// Throws Error unless the scene holds volumes and nothing else (what is split into slabs so far).
+void check_volumes_only(const Scene& scene);
 
 // The brick loop: the scene's first volume split into `count` slabs, each rendered alone over black at
 // full quality, composited over the scene's background. Throws Error for a scene with anything but

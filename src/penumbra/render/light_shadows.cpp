@@ -7,10 +7,12 @@
 
 namespace penumbra {
 
-LightShadows::LightShadows(const Scene& scene, const ShadowCasters& all, const Light& light) {
+LightShadows::LightShadows(const Scene& scene, const ShadowCasters& all, const Light& light, const ShadowBrick* brick) {
   for (const ShadowAssignment& a : shadow_assignments(scene)) {
-    casters_.push_back(std::make_unique<ShadowCasters>(all.restricted_to(a.casters)));
     auto technique = make_shadow_technique(a.technique, scene.shadows);
+    ShadowCasters casters = all.restricted_to(a.casters);
+    if (brick != nullptr && technique->combines_over_bricks()) casters = casters.restricted_to_brick(*brick);
+    casters_.push_back(std::make_unique<ShadowCasters>(std::move(casters)));
     technique->build(*casters_.back(), light);
     techniques_.push_back(std::move(technique));
   }

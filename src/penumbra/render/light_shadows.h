@@ -14,8 +14,10 @@ namespace penumbra {
 
 class LightShadows {
 public:
-  // Builds every group's technique for `light` from `all` (which must outlive this).
-  LightShadows(const Scene& scene, const ShadowCasters& all, const Light& light);
+  // Builds every group's technique for `light` from `all` (which must outlive this). With a brick, the
+  // techniques that combine over bricks build from its segments only and combine with the other
+  // bricks' (shadow_brick.h); the others build from `all`, which then holds the whole scene.
+  LightShadows(const Scene& scene, const ShadowCasters& all, const Light& light, const ShadowBrick* brick = nullptr);
 
   void fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples);
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const;

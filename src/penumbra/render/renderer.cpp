@@ -385,7 +385,8 @@ void Renderer::prepare(Quality quality, FrameResult& frame) {
   }
 }
 
-void Renderer::update_shadows(const std::vector<Light>& lights, Quality quality, std::uint32_t sample, FrameResult& frame) {
+void Renderer::update_shadows(const std::vector<Light>& lights, Quality quality, std::uint32_t sample, const ShadowBrick* brick,
+                              FrameResult& frame) {
   if (shadows_.size() != lights.size()) {
     shadows_.clear();
     built_for_.clear();
@@ -407,7 +408,7 @@ void Renderer::update_shadows(const std::vector<Light>& lights, Quality quality,
     const bool have = i < shadows_.size();
     if (have && !stale(name) && same_shadow_geometry(built_for_[i], lights[i]) && (!seeded || seed_of_[i] == seed)) continue;
     Timer t;
-    auto s = std::make_unique<LightShadows>(*settings, *casters_, lights[i]);
+    auto s = std::make_unique<LightShadows>(*settings, *casters_, lights[i], brick);
     if (quality == Quality::Full) full_shadow_ms_of_[i] = t.elapsed_ms();
     if (have) {
       shadows_[i] = std::move(s);
@@ -454,7 +455,9 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   Timer total;
   prepare(request.quality, frame);
   Timer build;
-  update_shadows(lights, request.quality, request.sample, frame);
+  std::optional<ShadowBrick> brick;
+  if (request.slab && request.reduction != nullptr) brick = ShadowBrick{*request.slab, request.reduction};
+  update_shadows(lights, request.quality, request.sample, brick ? &*brick : nullptr, frame);
   update_light_cache();
   frame.build_ms = build.elapsed_ms();
   if (first_frame_) {

@@ -55,6 +55,10 @@ struct FrameRequest {
   // Sort-last bricks (distributed/volume_slabs.h): only the volume samples of this slab are composited;
   // unset: all of them.
   std::optional<SampleSlab> slab;
+  // With a slab, on one rank of a data-parallel frame: the shadow techniques that combine over bricks
+  // build from the slab's own segments and combine with the other ranks' through this
+  // (shadows/shadow_brick.h); unset: every structure is built from the whole scene.
+  BrickReduction* reduction = nullptr;
 };
 
 struct FrameResult {
@@ -125,7 +129,8 @@ private:
   void prepare_particles(FrameResult& frame);
   void prepare_isosurfaces(FrameResult& frame);
   void prepare_casters();
-  void update_shadows(const std::vector<Light>& lights, Quality quality, std::uint32_t sample, FrameResult& frame);
+  void update_shadows(const std::vector<Light>& lights, Quality quality, std::uint32_t sample, const ShadowBrick* brick,
+                      FrameResult& frame);
   void update_light_cache();
   bool stale(const std::string& name) const { return stale_.count(name) != 0; }
   void rebuilt(const std::string& name, Quality quality, FrameResult& frame);

@@ -116,16 +116,6 @@ struct Shader {
   }
 };
 
-// [t0, t1] narrowed to where the ray crosses the slab, widened by a step on each side so that no
-// owned sample is lost to rounding (owns() decides each sample); false when the ray misses it.
-bool clip_to_slab(const Ray& ray, const SampleSlab& slab, float dt, float& t0, float& t1) {
-  if (ray.direction.z == 0) return ray.origin.z >= slab.z_lo && ray.origin.z < slab.z_hi;
-  const float a = (slab.z_lo - ray.origin.z) / ray.direction.z, b = (slab.z_hi - ray.origin.z) / ray.direction.z;
-  t0 = std::max(t0, std::min(a, b) - dt);
-  t1 = std::min(t1, std::max(a, b) + dt);
-  return t0 <= t1;
-}
-
 // One volume: the lattice walk with macrocell skipping, for voxels of type T (the volume's), of every
 // sample or (kSlab) of the samples in.owned holds — two instances, so that the whole frame's walk
 // carries no ownership test.
@@ -138,7 +128,7 @@ float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, 
   if (!pv.volume->bounds().clip(ray, t0, t1, 0, t_surface)) return opacity;
   const SampleSlab* owned = shader.in.owned;
   if constexpr (kSlab) {
-    if (!clip_to_slab(ray, *owned, pv.step, t0, t1)) return opacity;
+    if (!owned->clip(ray, pv.step, t0, t1)) return opacity;
   }
   const Volume& vol = *pv.volume;
   const float dt = pv.step;
@@ -192,7 +182,7 @@ float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& s
   if (!(t0 <= t1)) return opacity;
   const float dt = volumes.front()->step;  // the renderer gives every volume the same step
   const SampleSlab* owned = shader.in.owned;
-  if (owned && !clip_to_slab(ray, *owned, dt, t0, t1)) return opacity;
+  if (owned && !owned->clip(ray, dt, t0, t1)) return opacity;
   constexpr std::size_t kMaxOverlap = 8;
   std::array<Rgba, kMaxOverlap> sample;
   std::array<TrilinearCell, kMaxOverlap> cells;

@@ -26,6 +26,7 @@
 #include "penumbra/accel/light_cache.h"
 #include "penumbra/core/cutoffs.h"
 #include "penumbra/core/image.h"
+#include "penumbra/core/sample_slab.h"
 #include "penumbra/render/light_shadows.h"
 #include "penumbra/render/prepared_volume.h"
 #include "penumbra/scene/scene.h"
@@ -38,13 +39,6 @@ namespace penumbra {
 struct OpaqueLayer {
   const std::vector<float>* distance;  // infinity: nothing opaque (the background shows)
   const Image* color;
-};
-
-// The volume samples one brick of a sort-last decomposition owns (distributed/volume_slabs.h): those
-// at world z_lo ≤ z < z_hi, so that every sample of a ray's lattice lies in exactly one brick.
-struct SampleSlab {
-  float z_lo = -kInfinity, z_hi = kInfinity;
-  bool owns(const Vec3& p) const { return p.z >= z_lo && p.z < z_hi; }
 };
 
 struct RayCastInputs {

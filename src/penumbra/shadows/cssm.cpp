@@ -51,6 +51,7 @@ void ColoredStochasticShadowMap::build_map(const ShadowCasters& medium) {
     });
     for (int l = 0; l < 3; ++l) depth_[texel * 3 + l] = c[l];
   });
+  if (const ShadowBrick* brick = medium.brick()) brick->reduction->minimum(depth_);
 }
 
 void ColoredStochasticShadowMap::transmittance(std::span<const Vec3> points, std::span<Rgb> out) const {

@@ -37,6 +37,9 @@ public:
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
   std::size_t memory_bytes() const override { return depth_.size() * sizeof(float); }
   std::string_view name() const override { return "cssm"; }
+  // Per brick: the first stops among the brick's own segments (r_i keyed by texel and segment, the
+  // same in every brick), combined by the per-channel minimum — the whole volume's map, bit for bit.
+  bool combines_over_bricks() const override { return true; }
   // Stored first-stop depth of a channel (infinity: the photon was never stopped).
   float depth_at(int ix, int iy, int channel) const { return depth_[texel_index(ix, iy) * 3 + channel]; }
 

@@ -64,6 +64,12 @@ ShadowCasters ShadowCasters::restricted_to(KindMask kinds) const {
   return c;
 }
 
+ShadowCasters ShadowCasters::restricted_to_brick(const ShadowBrick& brick) const {
+  ShadowCasters c = *this;
+  c.brick_ = brick;
+  return c;
+}
+
 float ShadowCasters::surface_hit(const Ray& r, float t0, float t1) const {
   float best = t1;
   for (const auto& p : planes_) best = std::min(best, p.intersect(r, t0, best));

@@ -17,6 +17,7 @@
 
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -30,6 +31,7 @@
 #include "penumbra/isosurface/isosurface_raycaster.h"
 #include "penumbra/particles/sphere_bvh.h"
 #include "penumbra/scene/scene.h"
+#include "penumbra/shadows/shadow_brick.h"
 #include "penumbra/shadows/surface_point.h"
 
 namespace penumbra {
@@ -99,11 +101,28 @@ public:
 
   // Visits the volume segments of r inside [t_begin, t_end] in order (lattice k·Δ from the ray
   // origin), skipping space that is empty in every volume; visit(segment) returns false to stop.
+  // In a copy restricted to a brick, only the segments the brick owns (their midpoints in its slab).
   template <class Visit>
   void march(const Ray& r, float t_begin, float t_end, Visit&& visit) const {
-    if (volumes_.size() == 1) march_one(*volumes_.front(), r, t_begin, t_end, visit);
-    else if (!volumes_.empty()) march_many(r, t_begin, t_end, visit);
+    if (!brick_) {
+      march_lattice(r, t_begin, t_end, -kInfinity, visit);
+      return;
+    }
+    // The lattice walk starts a step before the slab (its segments cut by the volume boxes only, the
+    // same as in the whole volume's walk) and ends a step after it.
+    float lo = -kInfinity, hi = kInfinity;
+    if (!brick_->slab.clip(r, step_, lo, hi)) return;
+    auto owned = [&](const MediumSegment& s) {
+      if (s.t > hi) return false;
+      return !brick_->slab.owns(r.at(s.t)) || visit(s);
+    };
+    march_lattice(r, t_begin, t_end, lo, owned);
   }
+
+  // A copy whose march visits only the segments `brick` owns (for a technique that combines over
+  // bricks); brick() is then set.
+  ShadowCasters restricted_to_brick(const ShadowBrick& brick) const;
+  const ShadowBrick* brick() const { return brick_ ? &*brick_ : nullptr; }
 
   // Exact transmittance along r over [t_begin, t_end] (the product of the colour model over all
   // segments, zero if an opaque caster is hit), stopping early below kShadowOpaque.
@@ -130,6 +149,13 @@ public:
 private:
   void update_bounds();
 
+  // The lattice segments inside [t_begin, t_end], from the one holding t_from on.
+  template <class Visit>
+  void march_lattice(const Ray& r, float t_begin, float t_end, float t_from, Visit& visit) const {
+    if (volumes_.size() == 1) march_one(*volumes_.front(), r, t_begin, t_end, t_from, visit);
+    else if (!volumes_.empty()) march_many(r, t_begin, t_end, t_from, visit);
+  }
+
   // Segment k of the lattice, [kΔ, (k+1)Δ], cut to [t0, t1] (only the first and last are cut); false
   // once it starts past t1.
   bool lattice_segment(std::int64_t k, float t0, float t1, float& seg0, float& seg1) const {
@@ -145,16 +171,16 @@ private:
 
   // One volume: the voxel type is decided once per ray, so that sampling inlines in the loop.
   template <class Visit>
-  void march_one(const CastingVolume& cv, const Ray& r, float t_begin, float t_end, Visit& visit) const {
-    cv.volume->with_voxel_type([&](auto type) { march_one_as<decltype(type)>(cv, r, t_begin, t_end, visit); });
+  void march_one(const CastingVolume& cv, const Ray& r, float t_begin, float t_end, float t_from, Visit& visit) const {
+    cv.volume->with_voxel_type([&](auto type) { march_one_as<decltype(type)>(cv, r, t_begin, t_end, t_from, visit); });
   }
   template <class T, class Visit>
-  void march_one_as(const CastingVolume& cv, const Ray& r, float t_begin, float t_end, Visit& visit) const {
+  void march_one_as(const CastingVolume& cv, const Ray& r, float t_begin, float t_end, float t_from, Visit& visit) const {
     float t0, t1;
     if (!cv.box.clip(r, t0, t1, t_begin, t_end)) return;
     const EmptySpaceSkipper skipper(*cv.volume, *cv.grid, cv.empty);
     std::size_t last_cell = SIZE_MAX;
-    std::int64_t k = static_cast<std::int64_t>(std::floor(t0 / step_));
+    std::int64_t k = static_cast<std::int64_t>(std::floor(std::max(t0, t_from) / step_));
     while (true) {
       float seg0, seg1;
       if (!lattice_segment(k, t0, t1, seg0, seg1)) return;
@@ -185,7 +211,7 @@ private:
   // Overlapping volumes: the segment's midpoint is classified in every volume that holds it; space
   // is skipped only where every volume is empty (or absent).
   template <class Visit>
-  void march_many(const Ray& r, float t_begin, float t_end, Visit& visit) const {
+  void march_many(const Ray& r, float t_begin, float t_end, float t_from, Visit& visit) const {
     float t0 = kInfinity, t1 = -kInfinity;
     for (const auto& cv : volumes_) {
       float a, b;
@@ -195,7 +221,7 @@ private:
       }
     }
     if (!(t0 <= t1)) return;
-    std::int64_t k = static_cast<std::int64_t>(std::floor(t0 / step_));
+    std::int64_t k = static_cast<std::int64_t>(std::floor(std::max(t0, t_from) / step_));
     while (true) {
       float seg0, seg1;
       if (!lattice_segment(k, t0, t1, seg0, seg1)) return;
@@ -251,6 +277,7 @@ private:
   float step_ = 1;
   float epsilon_ = 1e-4f;
   const ExtinctionSat* sat_ = nullptr;
+  std::optional<ShadowBrick> brick_;
 };
 
 }  // namespace penumbra

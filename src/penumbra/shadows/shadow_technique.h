@@ -38,6 +38,9 @@ public:
   virtual void fit_to_receivers(std::span<const SurfacePoint> /*receivers*/, bool /*volume_samples*/) {}
   // Whether fit_to_receivers rebuilds the structure (then every frame reports "shadows" rebuilt).
   virtual bool view_dependent() const { return false; }
+  // True when build() from casters restricted to a brick (ShadowCasters::brick) builds the brick's
+  // partial structure and combines it over the bricks (shadow_brick.h), giving the whole scene's.
+  virtual bool combines_over_bricks() const { return false; }
   // Per-channel transmittance in [0, 1]^3 from the light to each volume sample.
   virtual void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const = 0;
   // The same for points on opaque surfaces. By default each point is moved by surface_receiver and

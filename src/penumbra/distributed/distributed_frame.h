@@ -1,0 +1,59 @@
+// A data-parallel frame on MPI ranks (`mpirun -np N penumbra render`): sort-last rendering with
+// direct-send compositing, the scheme of IceT's and OSPRay's MPI compositors.
+//
+// 1. Rank r takes slab r of the scene's volume (distributed/volume_slabs.h: every sample of a ray's
+//    lattice in exactly one slab) and ray casts only the samples it owns, into premultiplied colour
+//    and opacity over black.
+// 2. Direct send: the image is cut into N bands of rows; rank r owns band r, and every rank sends each
+//    band of its image (RGBA floats) to the band's owner (one all-to-all).
+// 3. Each rank composites its band's N layers along each pixel's ray (composite_pixel, the brick loop's
+//    arithmetic: the frame is bit for bit `render --slabs N`), over the scene's background.
+// 4. Rank 0 gathers the bands (RGB floats) into the image.
+//
+// Shadows across ranks: the light structures that combine over bricks (the CSSM, shadows/shadow_brick.h)
+// are built by each rank from the light segments its slab owns and reduced across the ranks (per-channel
+// minimum), so an occluder in one rank's slab shadows a receiver in another's, exactly as in one
+// process. The others (deep and classic shadow maps, the SAT, ray-traced shadows) and the ambient
+// occlusion are still built by every rank from the whole volume, which every rank holds (it reads the
+// whole file): not yet per-brick reading.
+//
+// Bytes sent per frame and rank: the CSSM reduction, resolution² × 3 floats per round of the
+// allreduce (⌈log2 N⌉ rounds in recursive doubling); (N−1)/N of a W×H×4-float image in the exchange;
+// its band's W×H/N×3 floats to rank 0.
+//
+// | parameter | meaning                                                        |
+// | ranks     | MPI ranks: slabs, one per rank (1 … the volume's slices along z) |
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "penumbra/core/image.h"
+#include "penumbra/distributed/mpi_world.h"
+#include "penumbra/render/volume_raycaster.h"
+#include "penumbra/scene/scene.h"
+
+namespace penumbra {
+
+// What one rank did in a frame (every rank's, gathered on rank 0).
+struct RankFrameStats {
+  SampleSlab slab;
+  double prepare_ms = 0, build_ms = 0, render_ms = 0;  // the rank's FrameResult times
+  double composite_ms = 0;      // compositing its band (after the exchange)
+  double communication_ms = 0;  // in MPI calls (reductions, exchange, gather, agreement), waiting included
+  double bytes_sent = 0;        // in all
+  double shadow_bytes_sent = 0; // combining the light structures built per brick
+  double image_bytes_sent = 0;  // direct send and the gather of the bands
+};
+
+struct DistributedFrame {
+  Image image;                         // rank 0: the frame over the scene's background; others: empty
+  std::vector<RankFrameStats> ranks;   // rank 0: every rank's, in rank order; others: empty
+};
+
+// Renders the scene's frame across the world's ranks; every rank calls it with the same scene. Throws
+// Error on every rank alike (the lowest failing rank's message, MpiWorld::agree) when the scene cannot
+// be split (not volumes only, more ranks than voxel slices) or a rank's render fails.
+DistributedFrame render_distributed(const Scene& scene, MpiWorld& world);
+
+}  // namespace penumbra

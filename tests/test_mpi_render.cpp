@@ -1,0 +1,149 @@
+// `mpirun -np N penumbra render` (distributed/distributed_frame.h): the same executable on N ranks,
+// oversubscribed on this machine's cores. Each N gives the brick loop's frame (`render --slabs N`) bit
+// for bit — the same slabs, the same per-pixel compositing, and the CSSM built per rank and combined
+// by the minimum is the whole volume's map — so N = 1 is the single-process frame, and N > 1 differs
+// from it only below the early-termination bound (test_volume_slabs.cpp). Bad launches stop every rank
+// with the same message, and none hangs (each run is under `timeout`).
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "cli_run.h"
+#include "image_check.h"
+#include "penumbra/core/cutoffs.h"
+#include "penumbra/core/image_io.h"
+#include "test_scenes.h"
+
+using namespace penumbra;
+using namespace penumbra::test;
+
+namespace {
+
+bool have_mpirun() { return std::system("command -v mpirun > /dev/null 2>&1") == 0; }
+
+// `penumbra ARGS` on `np` ranks. Open MPI refuses root unless told; leak checking is off in the ranks
+// (Open MPI's own allocations at exit are not ours; the single-process tests check penumbra's).
+CliRun mpirun_cli(int np, const std::string& args) {
+  ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+  ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+  const std::string launch = "timeout 300 mpirun --oversubscribe --bind-to none -np " + std::to_string(np) +
+                             " -x ASAN_OPTIONS=detect_leaks=0 ";
+  return penumbra_cli_with_launcher(launch, args);
+}
+
+std::size_t count(const std::string& text, const std::string& needle) {
+  std::size_t n = 0;
+  for (std::size_t at = text.find(needle); at != std::string::npos; at = text.find(needle, at + needle.size())) ++n;
+  return n;
+}
+
+// A hollow shell lit from above (+z) and seen from below the side: its upper half, in the upper ranks'
+// slabs, shadows its lower half, in the lower ranks'.
+nlohmann::json shell_scene() {
+  nlohmann::json j = volume_scene({{"name", "hollow-sphere"}, {"size", 32}}, step_tf(0.5, 0.9, 0.8, 0.6));
+  j["lights"] = nlohmann::json::array({{{"type", "directional"}, {"direction", {0.1, 0.2, -1.0}}}});
+  j["shadows"] = {{"technique", "cssm"}, {"resolution", 128}};
+  j["background"] = {0.1, 0.15, 0.2};
+  j["camera"] = {{"width", 64}, {"height", 56}, {"eye", {1.6, 0.4, -1.2}}, {"target", {0.0, 0.0, 0.0}}};
+  return j;
+}
+
+}  // namespace
+
+TEST(MpiRender, OneToFourRanksGiveTheBrickLoopsFrameBitForBit) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun not installed (scripts/install-deps.sh installs Open MPI)";
+  ScratchDir dir;
+  std::ofstream(dir.file("shell.json")) << shell_scene().dump();
+  nlohmann::json deep = shell_scene();
+  deep["shadows"] = {{"technique", "deep_shadow_map"}, {"resolution", 96}};  // built whole on every rank
+  std::ofstream(dir.file("deep.json")) << deep.dump();
+  for (const std::string scene : {"shell", "deep"}) {
+    SCOPED_TRACE(scene);
+    const std::string json = quote(dir.file(scene + ".json"));
+    const CliRun whole = penumbra_cli("render " + json + " -o " + quote(dir.file(scene + "_whole.pfm")));
+    ASSERT_EQ(whole.status, 0) << whole.err;
+    const Image reference = read_image(dir.file(scene + "_whole.pfm"));
+    ASSERT_TRUE(non_trivial(reference));
+    for (int np = 1; np <= 4; ++np) {
+      SCOPED_TRACE(np);
+      const std::string n = std::to_string(np);
+      const std::string out = dir.file(scene + "_np" + n + ".pfm"), loop = dir.file(scene + "_loop" + n + ".pfm");
+      const CliRun ranks = mpirun_cli(np, "render " + json + " -o " + quote(out) + " --stats " + quote(dir.file("stats" + n + ".json")));
+      ASSERT_EQ(ranks.status, 0) << ranks.out << ranks.err;
+      EXPECT_NE(ranks.err.find(n + " ranks"), std::string::npos) << ranks.err;
+      const CliRun brick_loop = penumbra_cli("render " + json + " --slabs " + n + " -o " + quote(loop));
+      ASSERT_EQ(brick_loop.status, 0) << brick_loop.err;
+      const Image distributed = read_image(out);
+      FailureImages keep;
+      keep.add(scene + "_np" + n, distributed, read_image(loop));
+      EXPECT_EQ(distributed.pixels(), read_image(loop).pixels());
+      if (np == 1) EXPECT_EQ(distributed.pixels(), reference.pixels());
+      const ImageDifference d = compare_images(distributed, reference);
+      EXPECT_LE(d.max_abs, 1.0 - kEarlyTermination + 1e-4);
+      EXPECT_GT(d.psnr, 50.0);
+
+      // --stats: one entry per rank; only the CSSM is reduced across ranks
+      const nlohmann::json stats = nlohmann::json::parse(slurp(dir.file("stats" + n + ".json")));
+      ASSERT_EQ(stats["ranks"].size(), static_cast<std::size_t>(np));
+      for (const auto& r : stats["ranks"]) {
+        EXPECT_EQ(r["shadow_bytes_sent"].get<double>() > 0, np > 1 && scene == "shell") << r.dump();
+        EXPECT_EQ(r["image_bytes_sent"].get<double>() > 0, np > 1) << r.dump();
+        EXPECT_GE(r["render_ms"].get<double>(), 0.0);
+      }
+    }
+  }
+}
+
+// More ranks than voxel slices, a scene with what is not split yet, a file that one rank cannot read
+// (an MPMD launch: rank 1 is given another scene), a command that does not run distributed: every rank
+// exits non-zero with the same message, and nothing is written.
+TEST(MpiRender, BadLaunchesStopEveryRankWithTheSameMessage) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun not installed (scripts/install-deps.sh installs Open MPI)";
+  ScratchDir dir;
+  std::ofstream(dir.file("thin.json")) << volume_scene({{"name", "sphere"}, {"size", 3}}, constant_tf(0.2, 1, 1, 1)).dump();
+  nlohmann::json plane = shell_scene();
+  plane["planes"] = nlohmann::json::array({{{"point", {0, 0, -0.6}}, {"normal", {0, 0, 1}}}});
+  std::ofstream(dir.file("plane.json")) << plane.dump();
+  nlohmann::json missing = shell_scene();
+  missing["volumes"][0].erase("procedural");
+  missing["volumes"][0]["file"] = dir.file("not-there.nrrd");
+  std::ofstream(dir.file("missing.json")) << missing.dump();
+  std::ofstream(dir.file("shell.json")) << shell_scene().dump();
+
+  struct Case {
+    int np;
+    std::string args, needle;
+  };
+  const std::string out = " -o " + quote(dir.file("out.png"));
+  const std::vector<Case> cases{
+      {4, "render " + quote(dir.file("thin.json")) + out, "4 slabs for a volume of 3 voxel slices"},
+      {2, "render " + quote(dir.file("plane.json")) + out, "volumes only"},
+      {2, "render " + quote(dir.file("shell.json")) + out + " --orbit 3", "one frame"},
+      {2, "render " + quote(dir.file("shell.json")) + out + " --slabs 2", "the ranks are the slabs"},
+      {2, "info " + quote(dir.file("shell.json")), "only `penumbra render` runs"},
+      {3, "render " + quote(dir.file("shell.json")) + " --bogus" + out, "--bogus"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.args);
+    const CliRun r = mpirun_cli(c.np, c.args);
+    EXPECT_NE(r.status, 0);
+    EXPECT_NE(r.status, 124) << "timed out: a rank hung";
+    EXPECT_EQ(count(r.err, "penumbra: error: rank "), static_cast<std::size_t>(c.np)) << r.err;
+    EXPECT_EQ(count(r.err, c.needle), static_cast<std::size_t>(c.np)) << r.err;
+  }
+  // MPMD: rank 0 renders the shell, rank 1 a scene whose volume file it cannot open
+  const CliRun mpmd = penumbra_cli_with_launcher(
+      "timeout 300 mpirun --oversubscribe --bind-to none -x ASAN_OPTIONS=detect_leaks=0 -np 1 " + quote(PENUMBRA_CLI) + " render " +
+          quote(dir.file("shell.json")) + out + " : -np 1 ",
+      "render " + quote(dir.file("missing.json")) + out);
+  EXPECT_NE(mpmd.status, 0);
+  EXPECT_NE(mpmd.status, 124) << "timed out: a rank hung";
+  EXPECT_EQ(count(mpmd.err, "penumbra: error: rank 1 of 2: "), 2u) << mpmd.err;
+  EXPECT_EQ(count(mpmd.err, "not-there.nrrd"), 2u) << mpmd.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("out.png")));
+}
