@@ -1,0 +1,109 @@
+#!/usr/bin/env python3
+"""Data-parallel frames under mpirun (docs/distributed.md, issue 20): 1-4 ranks on the shipped CT scenes,
+per-rank times and bytes sent for the image and for the shadow structure, each frame checked bit for
+bit against the brick loop (`render --slabs N`); then the communication model for 8-1,024 ranks on a
+4096^3 volume at 1920x1080, checked against the measured byte counts first.
+
+  scripts/bench_mpi.py [--penumbra build/release/penumbra] [--ranks 1,2,3,4] [--json out.json]
+
+On one machine the ranks are oversubscribed (they share its cores), so the times are not scaling figures.
+"""
+import argparse
+import filecmp
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+
+SCENES = [  # (scene, --set overrides, what shadows it)
+    ("mri-head", [], "cssm"),
+    ("cranium", ["planes=[]"], "cssm"),
+    ("chest", ["planes=[]"], "deep_shadow_map"),
+]
+
+
+def run(cmd, env=None):
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    if r.returncode != 0:
+        sys.exit(f"failed ({r.returncode}): {' '.join(cmd)}\n{r.stdout}{r.stderr}")
+    return r
+
+
+# Bytes one rank sends per frame (distributed/distributed_frame.h): the shadow reduction (resolution^2 x 3
+# floats per round, ceil(log2 N) rounds of recursive doubling; CSSM only), the direct-send exchange
+# ((N-1)/N of a W x H x 4-float image, exactly the other ranks' bands) and its band to rank 0.
+def band_rows(height, n, r):
+    return height * (r + 1) // n - height * r // n
+
+
+def model_image_bytes(width, height, n, rank):
+    exchange = sum(band_rows(height, n, r) for r in range(n) if r != rank) * width * 16
+    gather = 0 if rank == 0 else band_rows(height, n, rank) * width * 12
+    return exchange + gather
+
+
+def model_shadow_bytes(resolution, n, cssm):
+    return 12 * resolution * resolution * math.ceil(math.log2(n)) if cssm and n > 1 else 0
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--penumbra", default="build/release/penumbra")
+    ap.add_argument("--ranks", default="1,2,3,4")
+    ap.add_argument("--json")
+    a = ap.parse_args()
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    ranks = [int(x) for x in a.ranks.split(",")]
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for scene, sets, shadows in SCENES:
+            args = [f"scenes/{scene}.json"] + [x for s in sets for x in ("--set", s)]
+            for n in ranks:
+                out, loop, stats = (os.path.join(tmp, f) for f in (f"{scene}{n}.pfm", f"{scene}{n}_loop.pfm", f"{scene}{n}.json"))
+                r = run(["mpirun", "--oversubscribe", "--bind-to", "none", "-np", str(n), a.penumbra, "render", *args, "-o", out,
+                         "--stats", stats], env)
+                run([a.penumbra, "render", *args, "--slabs", str(n), "-o", loop])
+                same = filecmp.cmp(out, loop, shallow=False)
+                s = json.load(open(stats))
+                resolution = 1024
+                for rank in s["ranks"]:
+                    want_image = model_image_bytes(s["width"], s["height"], n, rank["rank"])
+                    want_shadow = model_shadow_bytes(resolution, n, shadows == "cssm")
+                    if rank["image_bytes_sent"] != want_image or rank["shadow_bytes_sent"] != want_shadow:
+                        sys.exit(f"{scene} np {n} rank {rank['rank']}: bytes {rank['image_bytes_sent']}/{rank['shadow_bytes_sent']} "
+                                 f"against the model's {want_image}/{want_shadow}")
+                worst = lambda k: max(x[k] for x in s["ranks"])
+                rows.append({"scene": scene, "shadows": shadows, "ranks": n, "same_as_brick_loop": same,
+                             "build_ms": worst("build_ms"), "render_ms": worst("render_ms"), "composite_ms": worst("composite_ms"),
+                             "communication_ms": worst("communication_ms"),
+                             "shadow_kB": s["ranks"][-1]["shadow_bytes_sent"] / 1024, "image_kB": s["ranks"][-1]["image_bytes_sent"] / 1024,
+                             "size": f"{s['width']}x{s['height']}"})
+    print("| scene | shadows | ranks | = --slabs N | shadows ms | render ms | composite ms | communication ms | kB sent: shadows | image |")
+    print("|---|---|---:|---|---:|---:|---:|---:|---:|---:|")
+    for r in rows:
+        print(f"| {r['scene']} ({r['size']}) | {r['shadows']} | {r['ranks']} | {'bit for bit' if r['same_as_brick_loop'] else 'DIFFERS'} | "
+              f"{r['build_ms']:.0f} | {r['render_ms']:.0f} | {r['composite_ms']:.1f} | {r['communication_ms']:.0f} | "
+              f"{r['shadow_kB']:.0f} | {r['image_kB']:.0f} |")
+    print("\nbyte counts of every rank equal the model's (checked above)\n")
+
+    # The model at scale: 4096^3 floats (256 GiB) in z-slabs, 1920x1080, a 1024^2 CSSM; a 100 Gb/s link
+    # (12.5 GB/s) and 1.5 us a message.
+    width, height, resolution, bandwidth, latency = 1920, 1080, 1024, 12.5e9, 1.5e-6
+    print("| ranks | voxel slices a rank | brick GiB | image MB sent a rank | messages | image ms | CSSM MB sent a rank | CSSM ms |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+    model = []
+    for n in (8, 64, 512, 1024):
+        image = max(model_image_bytes(width, height, n, r) for r in (1, n - 1))
+        shadow = model_shadow_bytes(resolution, n, True)
+        image_ms = 1e3 * (image / bandwidth + n * latency)
+        shadow_ms = 1e3 * (shadow / bandwidth + math.ceil(math.log2(n)) * latency)
+        model.append({"ranks": n, "image_bytes": image, "shadow_bytes": shadow, "image_ms": image_ms, "shadow_ms": shadow_ms})
+        print(f"| {n} | {4096 // n} | {4096 ** 3 * 4 / n / 2 ** 30:.2f} | {image / 1e6:.1f} | {n} | {image_ms:.1f} | {shadow / 1e6:.1f} | {shadow_ms:.1f} |")
+    if a.json:
+        json.dump({"measured": rows, "model": model}, open(a.json, "w"), indent=1)
+
+
+if __name__ == "__main__":
+    main()
