@@ -2,7 +2,8 @@
 """Data-parallel frames under mpirun (docs/distributed.md, issue 20): 1-4 ranks on the shipped CT scenes,
 per-rank times and bytes sent for the image and for the shadow structure, each frame checked bit for
 bit against the brick loop (`render --slabs N`); then the communication model for 8-1,024 ranks on a
-4096^3 volume at 1920x1080, checked against the measured byte counts first.
+4096^3 volume at 1920x1080 (full-frame bound for the image), checked against the measured byte counts
+first.
 
   scripts/bench_mpi.py [--penumbra build/release/penumbra] [--ranks 1,2,3,4] [--json out.json]
 
@@ -38,10 +39,13 @@ def band_rows(height, n, r):
     return height * (r + 1) // n - height * r // n
 
 
+# The image's bound: every rank's active rectangle the whole frame (the exchange sends only the part of
+# each band inside the rank's rectangle, after an all-gather of the rectangles, 16 bytes to each rank).
 def model_image_bytes(width, height, n, rank):
+    rectangles = 16 * (n - 1)
     exchange = sum(band_rows(height, n, r) for r in range(n) if r != rank) * width * 16
     gather = 0 if rank == 0 else band_rows(height, n, rank) * width * 12
-    return exchange + gather
+    return rectangles + exchange + gather
 
 
 def model_shadow_bytes(resolution, n, cssm):
@@ -71,27 +75,29 @@ def main():
                 for rank in s["ranks"]:
                     want_image = model_image_bytes(s["width"], s["height"], n, rank["rank"])
                     want_shadow = model_shadow_bytes(resolution, n, shadows == "cssm")
-                    if rank["image_bytes_sent"] != want_image or rank["shadow_bytes_sent"] != want_shadow:
+                    if rank["image_bytes_sent"] > want_image or rank["shadow_bytes_sent"] != want_shadow:
                         sys.exit(f"{scene} np {n} rank {rank['rank']}: bytes {rank['image_bytes_sent']}/{rank['shadow_bytes_sent']} "
-                                 f"against the model's {want_image}/{want_shadow}")
+                                 f"against the model's {want_image} (at most)/{want_shadow}")
                 worst = lambda k: max(x[k] for x in s["ranks"])
                 rows.append({"scene": scene, "shadows": shadows, "ranks": n, "same_as_brick_loop": same,
                              "build_ms": worst("build_ms"), "render_ms": worst("render_ms"), "composite_ms": worst("composite_ms"),
                              "communication_ms": worst("communication_ms"),
-                             "shadow_kB": s["ranks"][-1]["shadow_bytes_sent"] / 1024, "image_kB": s["ranks"][-1]["image_bytes_sent"] / 1024,
+                             "shadow_kB": s["ranks"][-1]["shadow_bytes_sent"] / 1024,
+                             "image_kB": max(x["image_bytes_sent"] for x in s["ranks"]) / 1024,
+                             "image_bound_kB": max(model_image_bytes(s["width"], s["height"], n, x["rank"]) for x in s["ranks"]) / 1024,
                              "size": f"{s['width']}x{s['height']}"})
-    print("| scene | shadows | ranks | = --slabs N | shadows ms | render ms | composite ms | communication ms | kB sent: shadows | image |")
-    print("|---|---|---:|---|---:|---:|---:|---:|---:|---:|")
+    print("| scene | shadows | ranks | = --slabs N | shadows ms | render ms | composite ms | communication ms | kB sent: shadows | image | image, full frame |")
+    print("|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         print(f"| {r['scene']} ({r['size']}) | {r['shadows']} | {r['ranks']} | {'bit for bit' if r['same_as_brick_loop'] else 'DIFFERS'} | "
               f"{r['build_ms']:.0f} | {r['render_ms']:.0f} | {r['composite_ms']:.1f} | {r['communication_ms']:.0f} | "
-              f"{r['shadow_kB']:.0f} | {r['image_kB']:.0f} |")
-    print("\nbyte counts of every rank equal the model's (checked above)\n")
+              f"{r['shadow_kB']:.0f} | {r['image_kB']:.0f} | {r['image_bound_kB']:.0f} |")
+    print("\nevery rank's shadow bytes equal the model's, its image bytes at most the full-frame bound (checked above)\n")
 
     # The model at scale: 4096^3 floats (256 GiB) in z-slabs, 1920x1080, a 1024^2 CSSM; a 100 Gb/s link
     # (12.5 GB/s) and 1.5 us a message.
     width, height, resolution, bandwidth, latency = 1920, 1080, 1024, 12.5e9, 1.5e-6
-    print("| ranks | voxel slices a rank | brick GiB | image MB sent a rank | messages | image ms | CSSM MB sent a rank | CSSM ms |")
+    print("| ranks | voxel slices a rank | brick GiB | image MB sent a rank (bound) | messages | image ms | CSSM MB sent a rank | CSSM ms |")
     print("|---:|---:|---:|---:|---:|---:|---:|---:|")
     model = []
     for n in (8, 64, 512, 1024):

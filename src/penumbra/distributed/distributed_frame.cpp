@@ -1,5 +1,6 @@
 #include "penumbra/distributed/distributed_frame.h"
 
+#include <algorithm>
 #include <utility>
 
 #include "penumbra/core/error.h"
@@ -34,6 +35,44 @@ auto on_every_rank(MpiWorld& world, F&& f) -> decltype(f()) {
   return result;
 }
 
+// A half-open pixel rectangle [x0, x1) × [y0, y1); empty when x0 ≥ x1 or y0 ≥ y1.
+struct Rect {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  bool contains(int x, int y) const { return x >= x0 && x < x1 && y >= y0 && y < y1; }
+  std::size_t area() const { return x1 > x0 && y1 > y0 ? static_cast<std::size_t>(x1 - x0) * static_cast<std::size_t>(y1 - y0) : 0; }
+  Rect within_rows(int first, int last) const {
+    Rect r{x0, std::max(y0, first), x1, std::min(y1, last)};
+    return r.area() > 0 ? r : Rect{};
+  }
+};
+
+// The smallest rectangle holding every pixel the rank's samples touched (opacity or colour not zero);
+// outside it the rank's layer is transparent black, so it sends only this (IceT's bounding boxes).
+Rect active_rect(const FrameResult& frame) {
+  const int width = frame.image.width(), height = frame.image.height();
+  std::vector<int> row_x0(static_cast<std::size_t>(height), width), row_x1(static_cast<std::size_t>(height), 0);
+  parallel_for(static_cast<std::size_t>(height), [&](std::size_t y0, std::size_t y1) {
+    for (std::size_t y = y0; y < y1; ++y)
+      for (int x = 0; x < width; ++x) {
+        const std::size_t p = y * static_cast<std::size_t>(width) + static_cast<std::size_t>(x);
+        const Rgb& c = frame.image.pixels()[p];
+        if (frame.alpha[p] != 0 || c.r != 0 || c.g != 0 || c.b != 0) {
+          row_x0[y] = std::min(row_x0[y], x);
+          row_x1[y] = x + 1;
+        }
+      }
+  });
+  Rect r{width, height, 0, 0};
+  for (int y = 0; y < height; ++y)
+    if (row_x1[static_cast<std::size_t>(y)] > 0) {
+      r.x0 = std::min(r.x0, row_x0[static_cast<std::size_t>(y)]);
+      r.x1 = std::max(r.x1, row_x1[static_cast<std::size_t>(y)]);
+      r.y0 = std::min(r.y0, y);
+      r.y1 = y + 1;
+    }
+  return r.area() > 0 ? r : Rect{};
+}
+
 }  // namespace
 
 DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
@@ -60,38 +99,56 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   });
   const std::size_t bytes_before_image = world.bytes_sent();
 
-  // 2. direct send: band r of every rank's RGBA to rank r
-  const int width = scene.camera.width;
-  const Bands bands{scene.camera.height, n};
-  const auto floats = [&](int r, int channels) { return bands.rows(r) * width * channels; };
-  std::vector<float> send(static_cast<std::size_t>(width) * static_cast<std::size_t>(scene.camera.height) * 4);
-  parallel_for(static_cast<std::size_t>(scene.camera.height), [&](std::size_t y0, std::size_t y1) {
-    for (std::size_t p = y0 * static_cast<std::size_t>(width); p < y1 * static_cast<std::size_t>(width); ++p) {
-      const Rgb& c = frame.image.pixels()[p];
-      float* out = &send[p * 4];
-      out[0] = c.r, out[1] = c.g, out[2] = c.b, out[3] = frame.alpha[p];
-    }
-  });
-  std::vector<int> send_counts(static_cast<std::size_t>(n)), recv_counts(static_cast<std::size_t>(n), floats(me, 4));
-  for (int r = 0; r < n; ++r) send_counts[static_cast<std::size_t>(r)] = floats(r, 4);
-  std::vector<float> layers(static_cast<std::size_t>(floats(me, 4)) * static_cast<std::size_t>(n));
+  // 2. direct send: the part of band r inside this rank's active rectangle, as RGBA, to rank r
+  const int width = scene.camera.width, height = scene.camera.height;
+  const Bands bands{height, n};
+  const Rect active = active_rect(frame);
+  const int active_ints[] = {active.x0, active.y0, active.x1, active.y1};
+  const std::vector<int> all_rects = world.all_gather(active_ints);
+  const auto rect_of = [&](int r) {
+    const int* v = &all_rects[static_cast<std::size_t>(r) * 4];
+    return Rect{v[0], v[1], v[2], v[3]};
+  };
+  std::vector<int> send_counts(static_cast<std::size_t>(n)), recv_counts(static_cast<std::size_t>(n));
+  std::vector<Rect> sent(static_cast<std::size_t>(n)), received(static_cast<std::size_t>(n));
+  for (int r = 0; r < n; ++r) {
+    sent[static_cast<std::size_t>(r)] = active.within_rows(bands.first(r), bands.first(r + 1));
+    received[static_cast<std::size_t>(r)] = rect_of(r).within_rows(bands.first(me), bands.first(me + 1));
+    send_counts[static_cast<std::size_t>(r)] = static_cast<int>(sent[static_cast<std::size_t>(r)].area() * 4);
+    recv_counts[static_cast<std::size_t>(r)] = static_cast<int>(received[static_cast<std::size_t>(r)].area() * 4);
+  }
+  std::vector<float> send;
+  for (const Rect& part : sent)
+    for (int y = part.y0; y < part.y1; ++y)
+      for (int x = part.x0; x < part.x1; ++x) {
+        const std::size_t p = static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x);
+        const Rgb& c = frame.image.pixels()[p];
+        send.insert(send.end(), {c.r, c.g, c.b, frame.alpha[p]});
+      }
+  std::vector<std::size_t> layer_start(static_cast<std::size_t>(n) + 1, 0);
+  for (int r = 0; r < n; ++r)
+    layer_start[static_cast<std::size_t>(r) + 1] = layer_start[static_cast<std::size_t>(r)] + static_cast<std::size_t>(recv_counts[static_cast<std::size_t>(r)]);
+  std::vector<float> layers(layer_start.back());
   world.all_to_all(send, send_counts, layers, recv_counts);
 
-  // 3. this rank's band, composited along each pixel's ray
+  // 3. this rank's band, composited along each pixel's ray (outside a rank's rectangle its layer is
+  // transparent black, which leaves the sum as it is)
   Timer composite;
   const PrimaryRays rays(scene.camera);
   const int y_first = bands.first(me), rows = bands.rows(me);
-  const std::size_t layer_floats = static_cast<std::size_t>(floats(me, 4));
-  std::vector<float> band(static_cast<std::size_t>(floats(me, 3)));
+  std::vector<float> band(static_cast<std::size_t>(rows) * static_cast<std::size_t>(width) * 3);
   parallel_for(static_cast<std::size_t>(rows), [&](std::size_t r0, std::size_t r1) {
     for (int row = static_cast<int>(r0); row < static_cast<int>(r1); ++row)
       for (int x = 0; x < width; ++x) {
+        const int y = y_first + row;
+        const Rgb c = composite_pixel(static_cast<std::size_t>(n), rays.direction(x, y).z < 0, scene.background, [&](std::size_t b) {
+          const Rect& part = received[b];
+          if (!part.contains(x, y)) return std::pair<Rgb, float>(Rgb(0.0f), 0.0f);
+          const float* l = &layers[layer_start[b] + (static_cast<std::size_t>(y - part.y0) * static_cast<std::size_t>(part.x1 - part.x0) +
+                                                     static_cast<std::size_t>(x - part.x0)) * 4];
+          return std::pair<Rgb, float>(Rgb(l[0], l[1], l[2]), l[3]);
+        });
         const std::size_t local = static_cast<std::size_t>(row) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x);
-        const Rgb c = composite_pixel(static_cast<std::size_t>(n), rays.direction(x, y_first + row).z < 0, scene.background,
-                                      [&](std::size_t b) {
-                                        const float* l = &layers[b * layer_floats + local * 4];
-                                        return std::pair<Rgb, float>(Rgb(l[0], l[1], l[2]), l[3]);
-                                      });
         band[local * 3] = c.r, band[local * 3 + 1] = c.g, band[local * 3 + 2] = c.b;
       }
   });
@@ -100,11 +157,11 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   // 4. the bands to rank 0
   DistributedFrame out;
   std::vector<int> band_counts(static_cast<std::size_t>(n));
-  for (int r = 0; r < n; ++r) band_counts[static_cast<std::size_t>(r)] = floats(r, 3);
-  std::vector<float> image(me == 0 ? static_cast<std::size_t>(width) * static_cast<std::size_t>(scene.camera.height) * 3 : 0);
+  for (int r = 0; r < n; ++r) band_counts[static_cast<std::size_t>(r)] = bands.rows(r) * width * 3;
+  std::vector<float> image(me == 0 ? static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3 : 0);
   world.gather(band, image, band_counts);
   if (me == 0) {
-    out.image = Image(width, scene.camera.height);
+    out.image = Image(width, height);
     for (std::size_t p = 0; p < out.image.pixels().size(); ++p) out.image.pixels()[p] = Rgb(image[p * 3], image[p * 3 + 1], image[p * 3 + 2]);
   }
 

@@ -5,7 +5,8 @@
 //    lattice in exactly one slab) and ray casts only the samples it owns, into premultiplied colour
 //    and opacity over black.
 // 2. Direct send: the image is cut into N bands of rows; rank r owns band r, and every rank sends each
-//    band of its image (RGBA floats) to the band's owner (one all-to-all).
+//    band's part of its active rectangle (the pixels its samples touched; IceT's bounding boxes) as
+//    RGBA floats to the band's owner (an all-gather of the rectangles, then one all-to-all).
 // 3. Each rank composites its band's N layers along each pixel's ray (composite_pixel, the brick loop's
 //    arithmetic: the frame is bit for bit `render --slabs N`), over the scene's background.
 // 4. Rank 0 gathers the bands (RGB floats) into the image.
@@ -18,8 +19,9 @@
 // whole file): not yet per-brick reading.
 //
 // Bytes sent per frame and rank: the CSSM reduction, resolution² × 3 floats per round of the
-// allreduce (⌈log2 N⌉ rounds in recursive doubling); (N−1)/N of a W×H×4-float image in the exchange;
-// its band's W×H/N×3 floats to rank 0.
+// allreduce (⌈log2 N⌉ rounds in recursive doubling); in the exchange the other ranks' bands of its
+// active rectangle, 4 floats a pixel (at most (N−1)/N of the W×H image); its band's W×H/N×3 floats to
+// rank 0.
 //
 // | parameter | meaning                                                        |
 // | ranks     | MPI ranks: slabs, one per rank (1 … the volume's slices along z) |

@@ -74,6 +74,17 @@ std::string MpiWorld::agree(const std::string& error) {
   return message;
 }
 
+std::vector<int> MpiWorld::all_gather(std::span<const int> values) {
+  Timer t;
+  std::vector<int> all(values.size() * static_cast<std::size_t>(size_));
+  check(MPI_Allgather(values.data(), static_cast<int>(values.size()), MPI_INT, all.data(), static_cast<int>(values.size()), MPI_INT,
+                      MPI_COMM_WORLD),
+        "MPI_Allgather");
+  bytes_sent_ += values.size() * sizeof(int) * static_cast<std::size_t>(size_ - 1);
+  communication_ms_ += t.elapsed_ms();
+  return all;
+}
+
 void MpiWorld::all_to_all(std::span<const float> send, std::span<const int> send_counts, std::span<float> recv,
                           std::span<const int> recv_counts) {
   Timer t;

@@ -37,6 +37,8 @@ public:
   // "rank R of N: <message>" of the lowest failing rank R.
   std::string agree(const std::string& error);
 
+  // Every rank's `values` (the same count on each), concatenated in rank order, on every rank.
+  std::vector<int> all_gather(std::span<const int> values);
   // Every rank sends send[counts[0] …) to rank 0, the next counts[1] to rank 1, …; gets back what each
   // rank sent it, in rank order, recv_counts[r] floats from rank r (MPI_Alltoallv).
   void all_to_all(std::span<const float> send, std::span<const int> send_counts, std::span<float> recv,
