@@ -123,20 +123,32 @@ TEST(VolumeSlabs, TheCommandLineSplitsVolumeScenesAndRefusesTheRest) {
 
 namespace {
 
-// A brick's reduction when it is the only brick: records the partial map it is given, leaves it as is.
-struct RecordingReduction final : BrickReduction {
-  std::vector<float> seen;
-  void minimum(std::span<float> values) override { seen.assign(values.begin(), values.end()); }
+// A brick's reductions in one process, where no other brick answers: records what the brick passes
+// (its partial map, its transparencies), and hands back what the test computed for the other bricks
+// beforehand (what the ranks' collectives would give), or leaves the values as they are.
+struct RecordingReduction : BrickReduction {
+  std::vector<float> seen;                 // the last values given to minimum()
+  std::vector<float> products[2];          // the values given to exclusive_product(…, increasing_z)
+  std::vector<float> given_minimum;        // handed back by minimum() when set
+  std::vector<float> given_products[2];    // handed back by exclusive_product() when set; else 1
+  void minimum(std::span<float> values) override {
+    seen.assign(values.begin(), values.end());
+    if (!given_minimum.empty()) {
+      ASSERT_EQ(values.size(), given_minimum.size());
+      std::copy(given_minimum.begin(), given_minimum.end(), values.begin());
+    }
+  }
+  void exclusive_product(std::span<float> values, bool increasing_z) override {
+    products[increasing_z].assign(values.begin(), values.end());
+    const std::vector<float>& given = given_products[increasing_z];
+    if (given.empty()) std::fill(values.begin(), values.end(), 1.0f);
+    else std::copy(given.begin(), given.end(), values.begin());
+  }
 };
 
 // Hands back a combined map computed beforehand (what the ranks' allreduce gives every brick).
-struct GivenReduction final : BrickReduction {
-  explicit GivenReduction(std::vector<float> c) : combined(std::move(c)) {}
-  std::vector<float> combined;
-  void minimum(std::span<float> values) override {
-    ASSERT_EQ(values.size(), combined.size());
-    std::copy(combined.begin(), combined.end(), values.begin());
-  }
+struct GivenReduction final : RecordingReduction {
+  explicit GivenReduction(std::vector<float> c) { given_minimum = std::move(c); }
 };
 
 FrameResult render_brick(const Scene& scene, const SampleSlab& slab, BrickReduction& reduction) {
@@ -211,5 +223,55 @@ TEST(VolumeSlabs, CssmBuiltPerBrickAndCombinedByMinimumIsTheWholeVolumesMap) {
     keep.add("own_maps_" + std::to_string(count), with_own, loop);
     EXPECT_EQ(with_combined.pixels(), loop.pixels());
     EXPECT_GT(compare_images(with_own, loop).max_abs, 0.05) << "bricks with only their own shadows look the same";
+  }
+}
+
+// The classic shadow map across bricks: each brick's transparency along a texel's ray, the product of
+// the bricks in front (in the order the ray crosses them), each brick's crossing of 0.5 continued from
+// there, the nearest crossing — the whole volume's map, except where the running product lands within
+// rounding of 0.5 (the bricks' partial products are multiplied in another order; none on this shell);
+// no brick's own map is the whole one.
+TEST(VolumeSlabs, ClassicShadowMapBuiltPerBrickFromTheTransparencyInFront) {
+  nlohmann::json j = volume_scene({{"name", "hollow-sphere"}, {"size", 32}}, step_tf(0.3, 0.9, 0.8, 0.6));
+  j["lights"] = nlohmann::json::array({{{"type", "point"}, {"position", {0.2, 0.3, 1.5}}}});  // rays down and sideways
+  j["shadows"] = {{"technique", "shadow_map"}, {"resolution", 64}};
+  j["camera"] = {{"width", 40}, {"height", 40}, {"eye", {1.6, 0.4, -1.2}}, {"target", {0.0, 0.0, 0.0}}};
+  const Scene scene = build_scene(j, "");
+  RecordingReduction whole;
+  const FrameResult whole_brick = render_brick(scene, SampleSlab{}, whole);
+  ASSERT_EQ(whole.seen.size(), 64u * 64u);
+  Scene over_black = scene;
+  over_black.background = Rgb(0.0f);
+  EXPECT_EQ(whole_brick.image.pixels(), Renderer(over_black).render().image.pixels());
+  for (int count : {2, 3, 4}) {
+    SCOPED_TRACE(count);
+    const std::vector<SampleSlab> slabs = volume_slabs(*scene.volumes.front().volume, count);
+    // the bricks' transparencies, then the products in front of each, both ways
+    std::vector<RecordingReduction> first(slabs.size());
+    for (std::size_t b = 0; b < slabs.size(); ++b) render_brick(scene, slabs[b], first[b]);
+    std::vector<RecordingReduction> second(slabs.size());
+    for (int up = 0; up < 2; ++up) {
+      if (first[0].products[up].empty()) continue;
+      const std::size_t texels = first[0].products[up].size();
+      for (std::size_t k = 0; k < slabs.size(); ++k) {
+        const std::size_t b = up ? k : slabs.size() - 1 - k;  // the order a ray going up or down meets them
+        std::vector<float> in_front(texels, 1.0f);
+        for (std::size_t k2 = 0; k2 < k; ++k2) {
+          const std::size_t before = up ? k2 : slabs.size() - 1 - k2;
+          for (std::size_t t = 0; t < texels; ++t) in_front[t] *= first[before].products[up][t];
+        }
+        second[b].given_products[up] = in_front;
+      }
+    }
+    std::vector<float> combined(whole.seen.size(), kInfinity);
+    for (std::size_t b = 0; b < slabs.size(); ++b) {
+      render_brick(scene, slabs[b], second[b]);
+      for (std::size_t t = 0; t < combined.size(); ++t) combined[t] = std::min(combined[t], second[b].seen[t]);
+      std::size_t own_differs = 0;
+      for (std::size_t t = 0; t < combined.size(); ++t) own_differs += first[b].seen[t] != whole.seen[t] ? 1 : 0;
+      EXPECT_GT(own_differs, 0u) << "brick " << b << " alone already has the whole map";
+    }
+    EXPECT_EQ(std::memcmp(combined.data(), whole.seen.data(), combined.size() * sizeof(float)), 0)
+        << "the combined map is not the whole volume's";
   }
 }

@@ -5,6 +5,7 @@
 #define MPICH_SKIP_MPICXX 1
 #include <mpi.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <numeric>
 
@@ -28,6 +29,14 @@ std::size_t sum_except(std::span<const int> counts, int skip) {
   for (std::size_t r = 0; r < counts.size(); ++r)
     if (static_cast<int>(r) != skip) n += static_cast<std::size_t>(counts[r]);
   return n;
+}
+
+// What recursive doubling sends for an allreduce or a scan: the whole array once per round, ⌈log2 N⌉
+// rounds.
+int rounds(int ranks) {
+  int r = 0;
+  while ((1 << r) < ranks) ++r;
+  return r;
 }
 
 std::vector<int> displacements(std::span<const int> counts) {
@@ -120,10 +129,22 @@ std::vector<double> MpiWorld::gather_doubles(std::span<const double> send) {
 void MpiWorld::minimum(std::span<float> data) {
   Timer t;
   check(MPI_Allreduce(MPI_IN_PLACE, data.data(), static_cast<int>(data.size()), MPI_FLOAT, MPI_MIN, MPI_COMM_WORLD), "MPI_Allreduce");
-  // what recursive doubling sends: the whole array once per round, ⌈log2 N⌉ rounds
-  int rounds = 0;
-  while ((1 << rounds) < size_) ++rounds;
-  bytes_sent_ += data.size() * sizeof(float) * static_cast<std::size_t>(rounds);
+  bytes_sent_ += data.size() * sizeof(float) * static_cast<std::size_t>(rounds(size_));
+  communication_ms_ += t.elapsed_ms();
+}
+
+void MpiWorld::exclusive_product(std::span<float> values, bool increasing_z) {
+  Timer t;
+  MPI_Comm comm = MPI_COMM_WORLD;
+  if (!increasing_z)  // the ranks in reverse order
+    check(MPI_Comm_split(MPI_COMM_WORLD, 0, size_ - 1 - rank_, &comm), "MPI_Comm_split");
+  std::vector<float> in(values.begin(), values.end());
+  check(MPI_Exscan(in.data(), values.data(), static_cast<int>(values.size()), MPI_FLOAT, MPI_PROD, comm), "MPI_Exscan");
+  int position = 0;
+  MPI_Comm_rank(comm, &position);
+  if (position == 0) std::fill(values.begin(), values.end(), 1.0f);  // MPI leaves the first rank's undefined
+  if (!increasing_z) MPI_Comm_free(&comm);
+  bytes_sent_ += values.size() * sizeof(float) * static_cast<std::size_t>(rounds(size_));
   communication_ms_ += t.elapsed_ms();
 }
 

@@ -52,6 +52,9 @@ public:
   // values = elementwise minimum over the ranks, on every rank (MPI_Allreduce): how light structures
   // built per brick combine (shadows/shadow_brick.h).
   void minimum(std::span<float> values) override;
+  // values = the product of the values of the ranks before this one (rank order when increasing_z,
+  // else the reverse; ranks hold slabs in order), 1 on the first (MPI_Exscan).
+  void exclusive_product(std::span<float> values, bool increasing_z) override;
 
   std::size_t bytes_sent() const { return bytes_sent_; }
   double communication_ms() const { return communication_ms_; }

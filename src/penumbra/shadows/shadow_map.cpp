@@ -1,9 +1,13 @@
 #include "penumbra/shadows/shadow_map.h"
 
+#include <algorithm>
+#include <cstdint>
+
 namespace penumbra {
 
 void ClassicShadowMap::build_map(const ShadowCasters& medium) {
   depth_.assign(static_cast<std::size_t>(resolution_) * resolution_, kInfinity);
+  if (const ShadowBrick* brick = medium.brick()) return build_brick(medium, *brick);
   for_each_texel([&](int ix, int iy, const Ray& ray) {
     float depth = first_surface(medium, ray);
     float transparency = 1;  // Π(1 − α_i): colour plays no part in the classic map
@@ -17,6 +21,53 @@ void ClassicShadowMap::build_map(const ShadowCasters& medium) {
     });
     depth_[texel_index(ix, iy)] = depth;
   });
+}
+
+void ClassicShadowMap::build_brick(const ShadowCasters& medium, const ShadowBrick& brick) {
+  // 1. this brick's transparency Π(1 − α_i) along each texel's ray, and which way the ray goes in z
+  const std::size_t texels = depth_.size();
+  std::vector<float> through(texels, 1.0f), surface(texels, kInfinity);
+  std::vector<std::uint8_t> upwards(texels, 0);
+  for_each_texel([&](int ix, int iy, const Ray& ray) {
+    const std::size_t texel = texel_index(ix, iy);
+    surface[texel] = first_surface(medium, ray);
+    upwards[texel] = ray.direction.z >= 0 ? 1 : 0;
+    float transparency = 1;
+    medium.march(ray, 0, surface[texel], [&](const MediumSegment& s) {
+      transparency *= 1 - s.alpha;
+      return transparency > 0;
+    });
+    through[texel] = transparency;
+  });
+  // 2. the transparency of the bricks in front of this one, in the order each ray crosses them (the
+  // same on every brick: the light projection is the whole scene's)
+  std::vector<float> in_front_up, in_front_down;
+  if (std::find(upwards.begin(), upwards.end(), 1) != upwards.end()) {
+    in_front_up = through;
+    brick.reduction->exclusive_product(in_front_up, true);
+  }
+  if (std::find(upwards.begin(), upwards.end(), 0) != upwards.end()) {
+    in_front_down = through;
+    brick.reduction->exclusive_product(in_front_down, false);
+  }
+  // 3. where the running product, continued through this brick, first reaches the threshold; the
+  // nearest brick's crossing (or the surface) is the map's depth
+  for_each_texel([&](int ix, int iy, const Ray& ray) {
+    const std::size_t texel = texel_index(ix, iy);
+    float transparency = upwards[texel] ? in_front_up[texel] : in_front_down[texel];
+    float depth = surface[texel];
+    if (1 - transparency < kOpacityThreshold)  // else a brick in front already crossed
+      medium.march(ray, 0, depth, [&](const MediumSegment& s) {
+        transparency *= 1 - s.alpha;
+        if (1 - transparency >= kOpacityThreshold) {
+          depth = s.t;
+          return false;
+        }
+        return true;
+      });
+    depth_[texel] = depth;
+  });
+  brick.reduction->minimum(depth_);
 }
 
 void ClassicShadowMap::transmittance(std::span<const Vec3> points, std::span<Rgb> out) const {
