@@ -11,15 +11,17 @@
 //    arithmetic: the frame is bit for bit `render --slabs N`), over the scene's background.
 // 4. Rank 0 gathers the bands (RGB floats) into the image.
 //
-// Shadows across ranks: the light structures that combine over bricks (the CSSM, shadows/shadow_brick.h)
-// are built by each rank from the light segments its slab owns and reduced across the ranks (per-channel
-// minimum), so an occluder in one rank's slab shadows a receiver in another's, exactly as in one
-// process. The others (deep and classic shadow maps, the SAT, ray-traced shadows) and the ambient
-// occlusion are still built by every rank from the whole volume, which every rank holds (it reads the
-// whole file): not yet per-brick reading.
+// Shadows across ranks: the light structures that combine over bricks (shadows/shadow_brick.h: the
+// CSSM by the per-channel minimum, the classic shadow map from the transparency in front and the
+// nearest crossing) are built by each rank from the light segments its slab owns and reduced across
+// the ranks, so an occluder in one rank's slab shadows a receiver in another's, as in one process. The
+// others (deep shadow map, the SAT, ray-traced shadows) and the ambient occlusion are still built by
+// every rank from the whole volume, which every rank holds (it reads the whole file): not yet
+// per-brick reading.
 //
 // Bytes sent per frame and rank: the CSSM reduction, resolution² × 3 floats per round of the
-// allreduce (⌈log2 N⌉ rounds in recursive doubling); in the exchange the other ranks' bands of its
+// allreduce (⌈log2 N⌉ rounds in recursive doubling; the classic map resolution² floats a round for its
+// scan and as many for its minimum); in the exchange the other ranks' bands of its
 // active rectangle, 4 floats a pixel (at most (N−1)/N of the W×H image); its band's W×H/N×3 floats to
 // rank 0.
 //
