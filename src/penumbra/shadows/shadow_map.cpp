@@ -4,22 +4,32 @@
 #include <cstdint>
 
 namespace penumbra {
+namespace {
+
+// The light depth where the opacity along `ray`, continuing from `transparency` (Π(1 − α_i) of what
+// lies in front; colour plays no part in the classic map), first reaches the threshold; `surface`
+// when it does not before it (or had already in front).
+float threshold_crossing(const ShadowCasters& medium, const Ray& ray, float transparency, float surface) {
+  float depth = surface;
+  if (1 - transparency >= ClassicShadowMap::kOpacityThreshold) return depth;
+  medium.march(ray, 0, surface, [&](const MediumSegment& s) {
+    transparency *= 1 - s.alpha;
+    if (1 - transparency >= ClassicShadowMap::kOpacityThreshold) {
+      depth = s.t;
+      return false;
+    }
+    return true;
+  });
+  return depth;
+}
+
+}  // namespace
 
 void ClassicShadowMap::build_map(const ShadowCasters& medium) {
   depth_.assign(static_cast<std::size_t>(resolution_) * resolution_, kInfinity);
   if (const ShadowBrick* brick = medium.brick()) return build_brick(medium, *brick);
   for_each_texel([&](int ix, int iy, const Ray& ray) {
-    float depth = first_surface(medium, ray);
-    float transparency = 1;  // Π(1 − α_i): colour plays no part in the classic map
-    medium.march(ray, 0, depth, [&](const MediumSegment& s) {
-      transparency *= 1 - s.alpha;
-      if (1 - transparency >= kOpacityThreshold) {
-        depth = s.t;
-        return false;
-      }
-      return true;
-    });
-    depth_[texel_index(ix, iy)] = depth;
+    depth_[texel_index(ix, iy)] = threshold_crossing(medium, ray, 1, first_surface(medium, ray));
   });
 }
 
@@ -54,18 +64,8 @@ void ClassicShadowMap::build_brick(const ShadowCasters& medium, const ShadowBric
   // nearest brick's crossing (or the surface) is the map's depth
   for_each_texel([&](int ix, int iy, const Ray& ray) {
     const std::size_t texel = texel_index(ix, iy);
-    float transparency = upwards[texel] ? in_front_up[texel] : in_front_down[texel];
-    float depth = surface[texel];
-    if (1 - transparency < kOpacityThreshold)  // else a brick in front already crossed
-      medium.march(ray, 0, depth, [&](const MediumSegment& s) {
-        transparency *= 1 - s.alpha;
-        if (1 - transparency >= kOpacityThreshold) {
-          depth = s.t;
-          return false;
-        }
-        return true;
-      });
-    depth_[texel] = depth;
+    const float in_front = upwards[texel] ? in_front_up[texel] : in_front_down[texel];
+    depth_[texel] = threshold_crossing(medium, ray, in_front, surface[texel]);
   });
   brick.reduction->minimum(depth_);
 }
