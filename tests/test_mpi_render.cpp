@@ -18,7 +18,10 @@
 #include "image_check.h"
 #include "penumbra/core/cutoffs.h"
 #include "penumbra/core/image_io.h"
+#include "penumbra/distributed/brick_reading.h"
+#include "penumbra/data/procedural.h"
 #include "test_scenes.h"
+#include "test_volume_io_util.h"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -103,6 +106,75 @@ TEST(MpiRender, OneToFourRanksGiveTheBrickLoopsFrameBitForBit) {
         EXPECT_EQ(r["image_bytes_sent"].get<double>() > 0, np > 1) << r.dump();
         EXPECT_GE(r["render_ms"].get<double>(), 0.0);
       }
+    }
+  }
+}
+
+// Each rank reads only its brick (distributed/brick_reading.h) of a volume file: NRRD raw data and raw
+// files by seeking, NRRD gzip data by decompressing up to the brick's last slice. The ranks then find the
+// value range and (without a transfer function) the histogram of the whole grid, so the frame is still
+// the brick loop's, which reads the whole file, bit for bit.
+TEST(MpiRender, RanksReadOnlyTheirBrickAndGiveTheSameFrame) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun not installed (scripts/install-deps.sh installs Open MPI)";
+  ScratchDir dir;
+  // the shell's voxels in files: 32 slices of 32 x 32 floats
+  const Volume shell = make_procedural_volume({{"name", "hollow-sphere"}, {"size", 32}});
+  ASSERT_EQ(shell.type(), ScalarType::Float32);
+  std::vector<float> voxels(shell.voxel_count());
+  for (std::size_t i = 0; i < voxels.size(); ++i) voxels[i] = shell.value(i) + 0.01f * static_cast<float>(i % 7);  // not two-valued
+  const Vec3 s = shell.spacing(), o = shell.origin();
+  const std::string header = "type: float\ndimension: 3\nsizes: 32 32 32\nendian: little\nspacings: " + std::to_string(s.x) + " " +
+                             std::to_string(s.y) + " " + std::to_string(s.z) + "\n";
+  write_file(dir.file("raw.nrrd"), nrrd_file(header + "encoding: raw\n", to_bytes(voxels)));
+  write_file(dir.file("gzip.nrrd"), nrrd_file(header + "encoding: gzip\n", gzip(to_bytes(voxels))));
+  write_file(dir.file("shell.raw"), to_bytes(voxels));
+  const auto scene_of = [&](const nlohmann::json& volume, bool with_tf) {
+    nlohmann::json j = shell_scene();
+    nlohmann::json v = volume;
+    v["origin"] = {o.x, o.y, o.z};
+    if (with_tf) v["transfer_function"] = j["volumes"][0]["transfer_function"];
+    j["volumes"] = nlohmann::json::array({v});
+    return j;
+  };
+  const std::uint64_t file_bytes = voxels.size() * sizeof(float);
+  std::ofstream(dir.file("raw.json")) << scene_of({{"file", dir.file("raw.nrrd")}}, true).dump();
+  std::ofstream(dir.file("gzip.json")) << scene_of({{"file", dir.file("gzip.nrrd")}}, true).dump();
+  std::ofstream(dir.file("plain.json")) << scene_of({{"file", dir.file("shell.raw")},
+                                                     {"raw", {{"dims", {32, 32, 32}}, {"type", "float32"}, {"spacing", {s.x, s.y, s.z}}}}},
+                                                    true).dump();
+  std::ofstream(dir.file("chosen.json")) << scene_of({{"file", dir.file("raw.nrrd")}}, false).dump();  // transfer function from the data
+  for (const std::string scene : {"raw", "gzip", "plain", "chosen"}) {
+    SCOPED_TRACE(scene);
+    const std::string json = quote(dir.file(scene + ".json"));
+    for (int np : {2, 3}) {
+      SCOPED_TRACE(np);
+      const std::string n = std::to_string(np);
+      const std::string out = dir.file(scene + "_np" + n + ".pfm"), loop = dir.file(scene + "_loop" + n + ".pfm");
+      const std::string stats_file = dir.file(scene + "_stats" + n + ".json");
+      const CliRun ranks = mpirun_cli(np, "render " + json + " -o " + quote(out) + " --stats " + quote(stats_file));
+      ASSERT_EQ(ranks.status, 0) << ranks.out << ranks.err;
+      const CliRun brick_loop = penumbra_cli("render " + json + " --slabs " + n + " -o " + quote(loop));
+      ASSERT_EQ(brick_loop.status, 0) << brick_loop.err;
+      FailureImages keep;
+      keep.add(scene + "_np" + n, read_image(out), read_image(loop));
+      EXPECT_EQ(read_image(out).pixels(), read_image(loop).pixels());
+      ASSERT_TRUE(non_trivial(read_image(out)));
+
+      const nlohmann::json stats = nlohmann::json::parse(slurp(stats_file));
+      EXPECT_TRUE(stats["bricks_read"].get<bool>()) << stats.dump();
+      EXPECT_EQ(stats["whole_slices"], 32);
+      int next = 0;  // the bricks cover the grid in order, each with up to two ghost slices a side
+      for (const auto& r : stats["ranks"]) {
+        const int first = r["slices"][0].get<int>(), end = r["slices"][1].get<int>();
+        EXPECT_LE(first, next);
+        EXPECT_GE(first, next - 2 * kGhostSlices);
+        EXPECT_LT(end - first, 32) << r.dump();
+        next = end;
+        EXPECT_EQ(r["volume_bytes"].get<std::uint64_t>(), static_cast<std::uint64_t>(end - first) * 32 * 32 * sizeof(float));
+        if (scene != "gzip") EXPECT_EQ(r["bytes_read"].get<std::uint64_t>(), r["volume_bytes"].get<std::uint64_t>());
+        EXPECT_LT(r["bytes_read"].get<std::uint64_t>(), file_bytes);
+      }
+      EXPECT_EQ(next, 32);
     }
   }
 }

@@ -2,7 +2,9 @@
 //  [--set key=value ...]`: one frame rendered data-parallel (distributed/distributed_frame.h). Every
 // rank opens the scene; rank 0 writes the image and the statistics, with one entry per rank.
 #include <algorithm>
+#include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <optional>
 #include <thread>
 
@@ -13,6 +15,7 @@
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/distributed/brick_reading.h"
 #include "penumbra/distributed/distributed_frame.h"
 #include "render_options.h"
 #include "stats.h"
@@ -38,10 +41,25 @@ int threads_per_rank(const RenderOptions& o, const MpiWorld& world) {
   return std::max(1, cores / world.local_size());
 }
 
-nlohmann::json rank_stats(const RankFrameStats& s, int rank) {
+// What a rank read (distributed/brick_reading.h), gathered on rank 0.
+struct RankReadStats {
+  int first_slice = 0, slices = 0;
+  std::uint64_t bytes_read = 0, volume_bytes = 0;
+};
+
+std::uint64_t file_bytes(const std::string& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::is_regular_file(path, ec) ? std::filesystem::file_size(path, ec) : 0;
+  return ec ? 0 : static_cast<std::uint64_t>(size);
+}
+
+nlohmann::json rank_stats(const RankFrameStats& s, const RankReadStats& read, int rank) {
   const auto z = [](float v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
   return {{"rank", rank},
           {"slab_z", {z(s.slab.z_lo), z(s.slab.z_hi)}},
+          {"slices", {read.first_slice, read.first_slice + read.slices}},
+          {"bytes_read", read.bytes_read},
+          {"volume_bytes", read.volume_bytes},
           {"prepare_ms", s.prepare_ms},
           {"build_ms", s.build_ms},
           {"render_ms", s.render_ms},
@@ -58,21 +76,43 @@ void run_render_distributed(const RenderOptions& o) {
   MpiWorld& world = *mpi_world();
   Timer total;
   ThreadLimit limit(threads_per_rank(o, world));
+  std::optional<SceneDocument> document;
   std::optional<Engine> engine;
   std::string error;
   try {
     check_distributed_options(o);
-    engine.emplace(open_inputs(o.in, size_overrides(o)));
+    document = scene_file_document(o.in, size_overrides(o));
+    if (!document) engine.emplace(open_inputs(o.in, size_overrides(o)));
   } catch (const std::exception& e) {
     error = e.what();
   }
   error = world.agree(error);
   if (!error.empty()) throw Error(error);
-  const Scene& scene = engine->scene();
+  // a scene file's volume is read as bricks; data files opened directly are read whole by every rank
+  BrickReading reading;
+  const Scene scene = document ? build_distributed_scene(document->document, document->base_dir, o.in.strict, world, reading)
+                               : engine->scene();
+  if (!document) {
+    reading.why = "data files opened directly are read whole by every rank (a scene file's volume is read as bricks)";
+    for (const std::string& f : o.in.inputs) reading.bytes_read += file_bytes(f);
+    if (!scene.volumes.empty()) {
+      reading.whole_slices = scene.volumes.front().volume->dims()[2];
+      reading.slices = {0, reading.whole_slices};
+      reading.volume_bytes = scene.volumes.front().volume->memory_bytes();
+    }
+  }
   if (world.rank() == 0)
     for (const auto& note : scene.unread_keys) std::fprintf(stderr, "penumbra: note: %s\n", note.c_str());
 
   const DistributedFrame frame = render_distributed(scene, world);
+  // every rank's reading to rank 0
+  const double read_fields[] = {static_cast<double>(reading.slices.first), static_cast<double>(reading.slices.count),
+                                static_cast<double>(reading.bytes_read), static_cast<double>(reading.volume_bytes)};
+  const std::vector<double> reads = world.gather_doubles(read_fields);
+  const auto read_of = [&](std::size_t r) {
+    const double* f = &reads[r * std::size(read_fields)];
+    return RankReadStats{static_cast<int>(f[0]), static_cast<int>(f[1]), static_cast<std::uint64_t>(f[2]), static_cast<std::uint64_t>(f[3])};
+  };
 
   if (world.rank() == 0) {
     try {
@@ -82,15 +122,25 @@ void run_render_distributed(const RenderOptions& o) {
                                 {"width", scene.camera.width},
                                 {"height", scene.camera.height},
                                 {"threads_per_rank", ThreadLimit::current_max()},
-                                {"compositing", "direct-send"}};
-        for (std::size_t r = 0; r < frame.ranks.size(); ++r) stats["ranks"].push_back(rank_stats(frame.ranks[r], static_cast<int>(r)));
+                                {"compositing", "direct-send"},
+                                {"bricks_read", reading.bricked},
+                                {"whole_slices", reading.whole_slices},
+                                {"cut_from_whole_file", reading.cut_from_whole}};
+        if (!reading.bricked) stats["read_whole_because"] = reading.why;
+        for (std::size_t r = 0; r < frame.ranks.size(); ++r)
+          stats["ranks"].push_back(rank_stats(frame.ranks[r], read_of(r), static_cast<int>(r)));
         write_json_file(o.stats, stats);
       }
     } catch (const std::exception& e) {
       error = e.what();
     }
+    if (!reading.bricked) std::fprintf(stderr, "penumbra: note: every rank read the whole volume: %s\n", reading.why.c_str());
     for (std::size_t r = 0; r < frame.ranks.size(); ++r) {
       const RankFrameStats& s = frame.ranks[r];
+      const RankReadStats read = read_of(r);
+      std::fprintf(stderr, "rank %zu: slices %d to %d of %d (%.1f MB read, %.1f MB held)\n", r, read.first_slice,
+                   read.first_slice + read.slices - 1, reading.whole_slices, static_cast<double>(read.bytes_read) / 1e6,
+                   static_cast<double>(read.volume_bytes) / 1e6);
       std::fprintf(stderr, "rank %zu: slab z %g to %g, shadows %.1f ms, render %.1f ms, composite %.1f ms, communication %.1f ms, sent %.0f kB (shadows %.0f, image %.0f)\n",
                    r, static_cast<double>(s.slab.z_lo), static_cast<double>(s.slab.z_hi), s.build_ms, s.render_ms, s.composite_ms,
                    s.communication_ms, s.bytes_sent / 1024.0, s.shadow_bytes_sent / 1024.0, s.image_bytes_sent / 1024.0);

@@ -48,17 +48,27 @@ void add_input_options(CLI::App& cmd, InputOptions& o) {
                                    "'density', else the first float grid)");
 }
 
+std::optional<SceneDocument> scene_file_document(const InputOptions& o, const std::vector<std::string>& extra_sets) {
+  if (o.inputs.size() != 1 || input_kind(o.inputs.front()) != InputKind::SceneFile) return std::nullopt;
+  if (raw_options(o)) throw Error("--raw-dims, --raw-type: the layout of .raw volumes opened directly (a scene file gives 'raw' per volume)");
+  if (!o.series.empty() || o.channel >= 0 || !o.grid.empty())
+    throw Error("--series, --channel, --grid: for volumes opened directly (a scene file gives 'series', 'channel' and "
+                "'grid' per volume)");
+  const std::string& path = o.inputs.front();
+  SceneDocument d{read_json_file(path), std::filesystem::path(path).parent_path().string()};
+  with_context(path, [&] {
+    for (const auto& s : extra_sets) apply_override(d.document, s);
+    for (const auto& s : o.sets) apply_override(d.document, s);
+  });
+  return d;
+}
+
 Engine open_inputs(const InputOptions& o, const std::vector<std::string>& extra_sets) {
+  if (auto d = scene_file_document(o, extra_sets))
+    return with_context(o.inputs.front(), [&] { return Engine(std::move(d->document), d->base_dir, SceneReadOptions{o.strict}); });
   std::vector<std::string> sets = extra_sets;
   sets.insert(sets.end(), o.sets.begin(), o.sets.end());
   const std::optional<RawVolumeOptions> raw = raw_options(o);
-  if (o.inputs.size() == 1 && input_kind(o.inputs.front()) == InputKind::SceneFile) {
-    if (raw) throw Error("--raw-dims, --raw-type: the layout of .raw volumes opened directly (a scene file gives 'raw' per volume)");
-    if (!o.series.empty() || o.channel >= 0 || !o.grid.empty())
-      throw Error("--series, --channel, --grid: for volumes opened directly (a scene file gives 'series', 'channel' and "
-                  "'grid' per volume)");
-    return Engine::open(o.inputs.front(), sets, SceneReadOptions{o.strict});
-  }
   bool has_raw = false;
   for (const auto& f : o.inputs) has_raw = has_raw || std::filesystem::path(f).extension() == ".raw" || std::filesystem::path(f).extension() == ".RAW";
   if (raw && !has_raw) throw Error("--raw-dims, --raw-type: no .raw file among the inputs");

@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,14 @@ void add_input_options(CLI::App& cmd, InputOptions& o);
 // The engine over the inputs; `extra_sets` go before the user's --set (e.g. --width). Errors name the
 // file or option.
 Engine open_inputs(const InputOptions& o, const std::vector<std::string>& extra_sets = {});
+// When the inputs are one scene file: its document, `extra_sets` then the user's --set applied, and the
+// folder its relative paths resolve against (what open_inputs builds; a distributed render builds it
+// on every rank, distributed/brick_reading.h). Errors name the file or option.
+struct SceneDocument {
+  nlohmann::json document;
+  std::string base_dir;
+};
+std::optional<SceneDocument> scene_file_document(const InputOptions& o, const std::vector<std::string>& extra_sets = {});
 
 // Error unless `path` can name a scene file to write: a .json in an existing folder.
 void check_scene_file_path(const std::string& path);

@@ -9,12 +9,11 @@
 namespace penumbra {
 namespace {
 
-constexpr int kBins = 1024;
 constexpr double kBackgroundShare = 0.2;
 
-bool is_hounsfield_ct(const Volume& v) {
-  const bool signed_type = v.type() == ScalarType::Int16 || v.type() == ScalarType::Float32;
-  return signed_type && v.min_value() <= -900.0f && v.max_value() >= 300.0f;
+bool is_hounsfield_ct(ScalarType type, float lo, float hi) {
+  const bool signed_type = type == ScalarType::Int16 || type == ScalarType::Float32;
+  return signed_type && lo <= -900.0f && hi >= 300.0f;
 }
 
 // The value below which `share` of the counted voxels lie (bins [first, last) of the histogram).
@@ -36,17 +35,24 @@ double percentile(const VolumeHistogram& h, std::size_t first, std::size_t last,
 }  // namespace
 
 nlohmann::json choose_transfer_function(const Volume& volume) {
-  if (is_hounsfield_ct(volume)) return {{"preset", "ct-bone"}};
+  if (is_hounsfield_ct(volume.type(), volume.min_value(), volume.max_value())) return {{"preset", "ct-bone"}};
   if (!(volume.max_value() > volume.min_value())) return {{"preset", "grayscale"}};
-  const VolumeHistogram h = compute_histogram(volume, kBins);
+  return choose_transfer_function(compute_histogram(volume, kTransferChoiceBins), volume.type());
+}
+
+nlohmann::json choose_transfer_function(const VolumeHistogram& h, ScalarType type) {
+  if (is_hounsfield_ct(type, h.lo, h.hi)) return {{"preset", "ct-bone"}};
+  if (!(h.hi > h.lo)) return {{"preset", "grayscale"}};
+  const auto bins = static_cast<double>(h.counts.size());
   const auto mode = static_cast<std::size_t>(std::max_element(h.counts.begin(), h.counts.end()) - h.counts.begin());
-  const auto voxels = static_cast<double>(volume.voxel_count());
+  double voxels = 0;
+  for (const std::uint64_t c : h.counts) voxels += static_cast<double>(c);
   std::size_t first = 0;
   if (static_cast<double>(h.counts[mode]) >= kBackgroundShare * voxels && mode < h.counts.size() / 2) first = mode + 1;
   double lo = percentile(h, first, h.counts.size(), 0.5);
   double hi = percentile(h, first, h.counts.size(), 0.995);
   if (!(hi > lo)) {  // nearly all foreground voxels in one bin: ramp over that bin to the maximum
-    lo = h.lo + (static_cast<double>(h.hi) - h.lo) * static_cast<double>(first) / kBins;
+    lo = h.lo + (static_cast<double>(h.hi) - h.lo) * static_cast<double>(first) / bins;
     hi = h.hi;
   }
   auto at = [&](double t) { return lo + t * (hi - lo); };
@@ -57,7 +63,7 @@ nlohmann::json choose_transfer_function(const Volume& volume) {
       {at(0.6), 0.9, 0.55, 0.3, 0.15},
       {hi, 1.0, 0.92, 0.8, 0.6},
   });
-  if (volume.max_value() > hi) points.push_back({volume.max_value(), 1.0, 0.95, 0.9, 0.6});
+  if (h.hi > hi) points.push_back({h.hi, 1.0, 0.95, 0.9, 0.6});
   return {{"points", points}};
 }
 

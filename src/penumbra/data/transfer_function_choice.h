@@ -19,9 +19,15 @@
 #include <nlohmann/json.hpp>
 
 #include "penumbra/data/volume.h"
+#include "penumbra/data/volume_stats.h"
 
 namespace penumbra {
 
 nlohmann::json choose_transfer_function(const Volume& volume);
+
+// The same choice from the data's histogram (1024 bins over its range; kTransferChoiceBins), for data
+// that no one process holds: the histograms of a distributed volume's slices, added up.
+constexpr int kTransferChoiceBins = 1024;
+nlohmann::json choose_transfer_function(const VolumeHistogram& histogram, ScalarType type);
 
 }  // namespace penumbra

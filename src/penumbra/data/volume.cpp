@@ -51,7 +51,7 @@ std::size_t checked_voxel_count(const std::array<std::int64_t, 3>& dims) {
 }
 
 Volume::Volume(ScalarType type, std::array<int, 3> dims, Vec3 spacing, Vec3 origin, VoxelFill fill)
-    : type_(type), dims_(dims), origin_(origin) {
+    : type_(type), dims_(dims), origin_(origin), grid_origin_z_(origin.z) {
   const std::size_t count = checked_voxel_count({dims[0], dims[1], dims[2]});
   set_spacing(spacing);
   if (!is_finite(origin)) throw Error("origin is not finite");
@@ -70,7 +70,7 @@ Volume Volume::view(ScalarType type, std::array<int, 3> dims, const std::byte* v
   v.dims_ = dims;
   v.set_spacing(spacing);
   if (!is_finite(origin)) throw Error("origin is not finite");
-  v.origin_ = origin;
+  v.set_origin(origin);
   v.owner_ = std::move(owner);
   v.data_ = const_cast<std::byte*>(voxels);  // never written: a view is read by the renderer only
   v.recompute_range();
@@ -86,7 +86,7 @@ Volume Volume::bricked(std::array<int, 3> dims, Vec3 spacing, Vec3 origin,
   v.dims_ = dims;
   v.set_spacing(spacing);
   if (!is_finite(origin)) throw Error("origin is not finite");
-  v.origin_ = origin;
+  v.set_origin(origin);
   v.brick_grid_ = bricks(dims);
   const auto& g = v.brick_grid_;
   const std::size_t count = static_cast<std::size_t>(g[0]) * g[1] * g[2];
@@ -153,13 +153,15 @@ Volume::Volume(const Volume& o)
     : type_(o.type_), dims_(o.dims_), spacing_(o.spacing_), inv_spacing_(o.inv_spacing_), origin_(o.origin_),
       owned_(o.owned_), owner_(o.owner_), data_(o.owner_ ? o.data_ : owned_.data()), range_(o.range_),
       brick_base_(o.brick_base_), brick_grid_(o.brick_grid_), stored_(o.stored_), shared_end_(o.shared_end_),
-      level_set_(o.level_set_) {}
+      level_set_(o.level_set_), window_first_(o.window_first_), whole_slices_(o.whole_slices_),
+      window_offset_(o.window_offset_), grid_origin_z_(o.grid_origin_z_) {}
 
 Volume::Volume(Volume&& o) noexcept
     : type_(o.type_), dims_(o.dims_), spacing_(o.spacing_), inv_spacing_(o.inv_spacing_), origin_(o.origin_),
       owned_(std::move(o.owned_)), owner_(std::move(o.owner_)), data_(o.data_), range_(o.range_),
       brick_base_(std::move(o.brick_base_)), brick_grid_(o.brick_grid_), stored_(o.stored_), shared_end_(o.shared_end_),
-      level_set_(o.level_set_) {
+      level_set_(o.level_set_), window_first_(o.window_first_), whole_slices_(o.whole_slices_),
+      window_offset_(o.window_offset_), grid_origin_z_(o.grid_origin_z_) {
   o.data_ = nullptr;
   o.dims_ = {0, 0, 0};
   o.brick_base_.clear();
@@ -185,6 +187,10 @@ Volume& Volume::operator=(Volume&& o) noexcept {
   stored_ = o.stored_;
   shared_end_ = o.shared_end_;
   level_set_ = o.level_set_;
+  window_first_ = o.window_first_;
+  whole_slices_ = o.whole_slices_;
+  window_offset_ = o.window_offset_;
+  grid_origin_z_ = o.grid_origin_z_;
   o.data_ = nullptr;
   o.dims_ = {0, 0, 0};
   o.brick_base_.clear();
@@ -196,14 +202,51 @@ void Volume::set_spacing(const Vec3& spacing) {
     if (!(spacing[a] > 0) || !std::isfinite(spacing[a]))
       throw Error("spacing " + std::to_string(spacing[a]) + " on axis " + std::to_string(a) + " (expected a positive number)");
   spacing_ = spacing;
+  if (is_window()) origin_.z = grid_origin_z_ + window_offset_ * spacing.z;  // it keeps the whole grid's origin
   inv_spacing_ = {1.0f / spacing.x, 1.0f / spacing.y, 1.0f / spacing.z};
 }
 
+Volume Volume::window_z(int first, int count) const {
+  if (is_bricked()) throw Error("a window of a bricked (sparse) volume is not supported");
+  if (first < 0 || count < 1 || first > dims_[2] - count)
+    throw Error("slices " + std::to_string(first) + " to " + std::to_string(first + count - 1) + " of a volume of " +
+                std::to_string(dims_[2]) + " slices");
+  Volume w(type_, {dims_[0], dims_[1], count}, spacing_, origin_, VoxelFill::Uninitialized);
+  const std::size_t slice = static_cast<std::size_t>(dims_[0]) * static_cast<std::size_t>(dims_[1]) * scalar_size(type_);
+  std::memcpy(w.data(), data_ + static_cast<std::size_t>(first) * slice, static_cast<std::size_t>(count) * slice);
+  w.range_ = range_;
+  w.level_set_ = level_set_;
+  w.window_first_ = window_first_ + first;
+  w.whole_slices_ = whole_dims()[2];
+  w.window_offset_ = static_cast<float>(w.window_first_);
+  w.grid_origin_z_ = grid_origin_z_;
+  w.origin_.z = grid_origin_z_ + w.window_offset_ * spacing_.z;
+  return w;
+}
+
+void Volume::set_window(int first, int whole_slices) {
+  if (is_bricked() || is_window() || first < 0 || whole_slices < first + dims_[2])
+    throw Error("slices " + std::to_string(first) + " to " + std::to_string(first + dims_[2] - 1) + " are not a window of " +
+                std::to_string(whole_slices) + " slices");
+  window_first_ = first;
+  whole_slices_ = whole_slices;
+  window_offset_ = static_cast<float>(first);
+  origin_.z = grid_origin_z_ + window_offset_ * spacing_.z;
+}
+
+void Volume::set_value_range(float lo, float hi) {
+  if (!std::isfinite(lo) || !std::isfinite(hi) || lo > hi)
+    throw Error("value range " + std::to_string(lo) + " to " + std::to_string(hi) + " (expected finite lo <= hi)");
+  range_ = {lo, hi};
+}
+
 Box3 Volume::bounds() const {
+  const std::array<int, 3> d = whole_dims();
+  const Vec3 o{origin_.x, origin_.y, grid_origin_z_};
   Box3 b;
-  b.extend(origin_);
-  b.extend(origin_ + Vec3{static_cast<float>(dims_[0] - 1) * spacing_.x, static_cast<float>(dims_[1] - 1) * spacing_.y,
-                          static_cast<float>(dims_[2] - 1) * spacing_.z});
+  b.extend(o);
+  b.extend(o + Vec3{static_cast<float>(d[0] - 1) * spacing_.x, static_cast<float>(d[1] - 1) * spacing_.y,
+                    static_cast<float>(d[2] - 1) * spacing_.z});
   return b;
 }
 

@@ -13,6 +13,12 @@
 // Code that reads a cell's corners takes index(i, j, k) of its lower corner and adds strides(); code
 // that walks every voxel uses for_each_value() or value(i, j, k); data() is the storage of either
 // layout, and only dense code may walk it as rows.
+//
+// A window (one rank's brick, data/io/volume_io.h load_volume_window): slices [window_first(),
+// window_first() + dims()[2]) of a dense grid of whole_dims(). Its voxels, dims(), origin() (its first
+// voxel), index() and sampling are the window's own; bounds() is the whole grid's box and the value range
+// is the whole grid's (set_value_range), so that everything fitted to the data — light frustums, the
+// ray lattices cut by the box, transfer functions, gradient weights — is the same on every rank.
 #pragma once
 
 #include <algorithm>
@@ -99,6 +105,15 @@ public:
   }
   // The same voxels in the dense layout (Error when that would exceed `max_bytes`).
   Volume densified(std::size_t max_bytes) const;
+  // Slices [first, first + count) of this dense grid's z (this grid's own numbering) as a window of the
+  // whole grid (a copy of those voxels, the range kept). Error outside the grid or on a bricked volume.
+  Volume window_z(int first, int count) const;
+  // Makes this dense volume, whose origin() is the whole grid's and whose voxels hold slices [first, first
+  // + dims()[2]) of a grid of `whole_slices` slices, that window: its origin moves to slice `first`.
+  void set_window(int first, int whole_slices);
+  bool is_window() const { return whole_slices_ > 0; }
+  int window_first() const { return window_first_; }
+  std::array<int, 3> whole_dims() const { return {dims_[0], dims_[1], is_window() ? whole_slices_ : dims_[2]}; }
 
   Volume(const Volume& other);
   Volume(Volume&& other) noexcept;
@@ -108,8 +123,12 @@ public:
   ScalarType type() const { return type_; }
   const std::array<int, 3>& dims() const { return dims_; }
   const Vec3& spacing() const { return spacing_; }
-  const Vec3& origin() const { return origin_; }
-  void set_origin(const Vec3& o) { origin_ = o; }
+  const Vec3& origin() const { return origin_; }  // the first stored voxel's position
+  // The whole grid's origin (a window moves with it).
+  void set_origin(const Vec3& o) {
+    grid_origin_z_ = o.z;
+    origin_ = o + Vec3{0, 0, static_cast<float>(window_first_) * spacing_.z};
+  }
   void set_spacing(const Vec3& spacing);  // Error unless positive and finite
   std::size_t voxel_count() const { return static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2]; }
   std::size_t memory_bytes() const {  // what this volume allocated (a view: 0)
@@ -130,7 +149,7 @@ public:
   }
   bool brick_is_shared(int bx, int by, int bz) const { return brick_base(bx, by, bz) < shared_end_; }
   bool is_view() const { return static_cast<bool>(owner_); }
-  Box3 bounds() const;  // world box through the first and last voxel centres
+  Box3 bounds() const;  // world box through the first and last voxel centres (of the whole grid, for a window)
 
   // Storage in the volume's own type (its layout: see the top of this file).
   std::byte* data() { return data_; }
@@ -169,8 +188,11 @@ public:
   void set_value(std::size_t idx, float v);  // dense volumes (a bricked voxel may be stored twice)
 
   // Continuous voxel coordinates of a world point.
+  // A window's z is the whole grid's less its first slice (exact for its samples: both are integers'
+  // worth apart), so that its samples interpolate with the same weights as the whole grid's.
   Vec3 to_voxel(const Vec3& p) const {
-    return {(p.x - origin_.x) * inv_spacing_.x, (p.y - origin_.y) * inv_spacing_.y, (p.z - origin_.z) * inv_spacing_.z};
+    return {(p.x - origin_.x) * inv_spacing_.x, (p.y - origin_.y) * inv_spacing_.y,
+            (p.z - grid_origin_z_) * inv_spacing_.z - window_offset_};
   }
   // Trilinear interpolation at a world point; positions outside are clamped to the border voxels.
   float sample(const Vec3& p) const { return sample_voxel(to_voxel(p)); }
@@ -228,6 +250,8 @@ public:
   float min_value() const { return range_[0]; }
   float max_value() const { return range_[1]; }
   void recompute_range();  // also rejects NaN or infinite voxels with an Error (in parallel)
+  // A window: the whole grid's range, found across the ranks (Error unless lo <= hi, both finite).
+  void set_value_range(float lo, float hi);
 
 private:
   // Bricked: each brick's voxels that no lower brick owns (local 0..7, and 8 on the grid's last voxel).
@@ -264,6 +288,10 @@ private:
   std::array<int, 3> brick_grid_{0, 0, 0};
   std::size_t stored_ = 0, shared_end_ = 0;
   bool level_set_ = false;
+  // A window: its first slice, the whole grid's slices (0: not a window), the first slice as a float,
+  // and the whole grid's origin z (origin_.z otherwise).
+  int window_first_ = 0, whole_slices_ = 0;
+  float window_offset_ = 0, grid_origin_z_ = 0;
 };
 
 }  // namespace penumbra

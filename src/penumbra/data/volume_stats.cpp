@@ -10,6 +10,25 @@
 #include "penumbra/core/error.h"
 
 namespace penumbra {
+namespace {
+
+// Counts values into h's bins over [h.lo, h.hi], in double so that integer data with bins == value count
+// maps one value to one bin exactly.
+struct Binning {
+  VolumeHistogram& h;
+  double lo, scale;
+  std::size_t last;
+  explicit Binning(VolumeHistogram& histogram)
+      : h(histogram), lo(histogram.lo),
+        scale(histogram.hi > histogram.lo ? static_cast<double>(histogram.counts.size()) / (static_cast<double>(histogram.hi) - lo) : 0.0),
+        last(histogram.counts.size() - 1) {}
+  void operator()(float v, std::size_t count) const {
+    const double t = (static_cast<double>(v) - lo) * scale;
+    h.counts[std::min(static_cast<std::size_t>(t), last)] += count;
+  }
+};
+
+}  // namespace
 
 VolumeHistogram compute_histogram(const Volume& volume, int bins) {
   if (bins <= 0) throw Error("histogram needs a positive number of bins, got " + std::to_string(bins));
@@ -30,14 +49,29 @@ VolumeHistogram compute_histogram(const Volume& volume, int bins) {
   h.hi = hi;
   h.mean = sum / static_cast<double>(n);
 
-  // Bin in double so that integer data with bins == value count maps one value to one bin exactly.
-  const double width = static_cast<double>(hi) - static_cast<double>(lo);
-  const double scale = width > 0 ? static_cast<double>(bins) / width : 0.0;
-  const auto last = static_cast<std::size_t>(bins - 1);
-  volume.for_each_value([&](float v, std::size_t count) {
-    const double t = (static_cast<double>(v) - lo) * scale;
-    h.counts[std::min(static_cast<std::size_t>(t), last)] += count;
-  });
+  volume.for_each_value(Binning(h));
+  return h;
+}
+
+VolumeHistogram compute_histogram_part(const Volume& volume, int bins, float lo, float hi, int z_first, int z_end) {
+  if (bins <= 0) throw Error("histogram needs a positive number of bins, got " + std::to_string(bins));
+  if (volume.is_bricked() || z_first < 0 || z_end > volume.dims()[2] || z_first > z_end)
+    throw Error("slices " + std::to_string(z_first) + " to " + std::to_string(z_end) + " of a volume of " +
+                std::to_string(volume.dims()[2]) + " (dense) slices");
+  VolumeHistogram h;
+  h.counts.assign(static_cast<std::size_t>(bins), 0);
+  h.lo = lo;
+  h.hi = hi;
+  const std::size_t slice = static_cast<std::size_t>(volume.dims()[0]) * static_cast<std::size_t>(volume.dims()[1]);
+  const std::size_t begin = static_cast<std::size_t>(z_first) * slice, end = static_cast<std::size_t>(z_end) * slice;
+  const Binning bin(h);
+  double sum = 0;
+  for (std::size_t i = begin; i < end; ++i) {
+    const float v = volume.value(i);
+    bin(std::clamp(v, lo, hi), 1);
+    sum += static_cast<double>(v);
+  }
+  h.mean = end > begin ? sum / static_cast<double>(end - begin) : 0.0;
   return h;
 }
 

@@ -19,4 +19,9 @@ struct VolumeHistogram {
 // Error. When all voxels are equal (lo == hi) every voxel is counted in bin 0.
 VolumeHistogram compute_histogram(const Volume& volume, int bins);
 
+// The part of a histogram over [lo, hi] (the whole grid's range, found before) that slices [z_first,
+// z_end) of a dense volume hold: the parts of the slices a grid is cut into add up, bin by bin, to the
+// whole grid's histogram (a distributed volume's, distributed/brick_reading.h). `mean` is theirs alone.
+VolumeHistogram compute_histogram_part(const Volume& volume, int bins, float lo, float hi, int z_first, int z_end);
+
 }  // namespace penumbra

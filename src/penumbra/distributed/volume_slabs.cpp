@@ -11,7 +11,7 @@
 namespace penumbra {
 
 std::vector<SampleSlab> volume_slabs(const Volume& volume, int count) {
-  const int nz = volume.dims()[2];
+  const int nz = volume.whole_dims()[2];  // a window (one rank's brick) is cut from the whole grid
   if (count < 1 || count > nz)
     throw Error(std::to_string(count) + " slabs for a volume of " + std::to_string(nz) + " voxel slices along z (expected 1 to " +
                 std::to_string(nz) + ")");

@@ -285,7 +285,10 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
     std::vector<std::string> paths = file.empty() ? volume_file_list(r, base_dir) : std::vector<std::string>{file};
     VolumeLoadOptions lo = read_volume_load_options(r);
     const std::string key = r.has("files") ? "files" : "file";
-    load = [&r, paths, lo, key] { return with_context(r.key_path(key), [&] { return load_volume(paths, lo); }); };
+    const auto* reader = options.volume_reader;
+    load = [&r, paths, lo, key, reader] {
+      return with_context(r.key_path(key), [&] { return reader ? (*reader)(paths, lo) : load_volume(paths, lo); });
+    };
     v.source = paths.size() == 1 ? paths[0] : paths[0] + " (+" + std::to_string(paths.size() - 1) + " slices)";
   } else if (r.has("procedural")) {
     nlohmann::json spec = r.raw("procedural");
@@ -753,8 +756,17 @@ TrajectoryReader& SceneDataCache::trajectory(const std::string& key, const std::
 const nlohmann::json& SceneDataCache::chosen_transfer_function(const std::string& key, const Volume& volume) {
   used_.insert("t" + key);
   auto& tf = transfer_functions_[key];
-  if (tf.is_null()) tf = choose_transfer_function(volume);
+  if (tf.is_null()) tf = chooser_ ? chooser_(volume) : choose_transfer_function(volume);
   return tf;
+}
+
+void SceneDataCache::set_transfer_function_chooser(std::function<nlohmann::json(const Volume&)> chooser) {
+  chooser_ = std::move(chooser);
+  transfer_functions_.clear();
+}
+
+void SceneDataCache::for_each_volume(const std::function<void(Volume&)>& f) {
+  for (auto& [key, volume] : volumes_) f(*volume);
 }
 
 void SceneDataCache::drop_unused() {

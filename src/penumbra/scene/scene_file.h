@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "penumbra/data/io/trajectory_io.h"
+#include "penumbra/data/io/volume_io.h"
 #include "penumbra/scene/scene.h"
 
 namespace penumbra {
@@ -55,6 +56,12 @@ public:
   const SeriesGrid& series(const std::string& key, const Volume& step, const std::string& file);
   // The transfer function chosen from a volume's data (data/transfer_function_choice.h), once per data.
   const nlohmann::json& chosen_transfer_function(const std::string& key, const Volume& volume);
+  // Chooses transfer functions with `chooser` from now on (forgetting those chosen before): for data
+  // that one process holds only part of (a distributed volume, chosen from the whole grid's histogram).
+  void set_transfer_function_chooser(std::function<nlohmann::json(const Volume&)> chooser);
+  // Every volume held, for a caller that completes what one process could not know of it (a window's
+  // whole-grid value range).
+  void for_each_volume(const std::function<void(Volume&)>& f);
   // Forgets what the reads since the last call did not use.
   void drop_unused();
 
@@ -65,6 +72,7 @@ private:
   std::map<std::string, double> frame_times_;
   std::map<std::string, SeriesGrid> series_;
   std::map<std::string, nlohmann::json> transfer_functions_;
+  std::function<nlohmann::json(const Volume&)> chooser_;  // empty: choose_transfer_function
   std::set<std::string> used_;
 };
 
@@ -80,6 +88,9 @@ struct SceneReadOptions {
   bool strict = false;
   SceneDataCache* cache = nullptr;  // reuse data loaded before (null: load everything)
   const SceneArrays* arrays = nullptr;  // what "array" names (null: "array" is an error)
+  // Reads the volumes named by "file" or "files" (null: load_volume); a rank of a distributed render
+  // reads only its brick (distributed/brick_reading.h).
+  const std::function<Volume(const std::vector<std::string>& paths, const VolumeLoadOptions& options)>* volume_reader = nullptr;
 };
 
 // Builds the scene; relative file paths are resolved against base_dir. Every error names the key.

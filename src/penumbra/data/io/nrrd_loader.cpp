@@ -486,19 +486,28 @@ void read_voxels(Next&& next, int nrrd_type, bool swap, Volume& volume) {
   }
 }
 
-// Raw or gzip data, read from the file teem left open at the data straight into the volume.
-void read_data_file(const TeemRead& teem, const NrrdHeader& h, const Checked& c, Volume& volume) {
+// Raw or gzip data, read from the file teem left open at the data straight into the volume, which
+// holds slices [first_slice, first_slice + its slices) of the file's grid: raw data seeks past the
+// slices before them, gzip data decompresses and drops them, and neither reads past the last (a window
+// that stops short of the end leaves the gzip checksum unread). Returns the bytes read from the file.
+std::uint64_t read_data_file(const TeemRead& teem, const NrrdHeader& h, const Checked& c, int first_slice, Volume& volume) {
   const int type = teem.nrrd->type;
   const bool swap = nrrdTypeSize[type] > 1 && teem.endian != airEndianUnknown && teem.endian != airMyEndian();
+  const std::uint64_t before = static_cast<std::uint64_t>(c.dims[0]) * static_cast<std::uint64_t>(c.dims[1]) *
+                               static_cast<std::uint64_t>(first_slice) * nrrdTypeSize[type];
+  const bool to_the_end = first_slice + volume.dims()[2] == c.dims[2];
+  const long start = std::ftell(teem.data.get());
   if (h.encoding == nrrdEncodingTypeGzip) {
     const auto skip = static_cast<std::uint64_t>(h.byte_skip);  // counted in the decompressed bytes
     GzipStream gz(teem.data.get(), "NRRD gzip data", c.needed_bytes + skip, need_text(c, h, c.needed_bytes + skip));
-    gz.read(nullptr, skip);
+    gz.read(nullptr, skip + before);
     read_voxels([&](std::byte* dst, std::size_t bytes) { gz.read(dst, bytes); }, type, swap, volume);
-    gz.finish();
-    return;
+    if (to_the_end) gz.finish();
+    return static_cast<std::uint64_t>(std::max(0L, std::ftell(teem.data.get()) - start));
   }
-  std::uint64_t done = 0;
+  std::uint64_t done = before;
+  if (before > 0 && fseeko(teem.data.get(), static_cast<off_t>(before), SEEK_CUR) != 0)
+    throw Error("NRRD raw data: cannot seek to slice " + std::to_string(first_slice));
   const auto next = [&](std::byte* dst, std::size_t bytes) {
     const std::size_t got = std::fread(dst, 1, bytes, teem.data.get());
     done += got;
@@ -507,6 +516,7 @@ void read_data_file(const TeemRead& teem, const NrrdHeader& h, const Checked& c,
                   " needed (truncated data or lying sizes)");
   };
   read_voxels(next, type, swap, volume);
+  return done - before;
 }
 
 Vec3 axis_spacing(const Nrrd& nrrd) {
@@ -541,7 +551,9 @@ Vec3 space_origin(const Nrrd& nrrd) {
 
 }  // namespace
 
-Volume load_nrrd_volume(const std::string& path) {
+Volume load_nrrd_volume(const std::string& path) { return load_nrrd_volume(path, nullptr, nullptr); }
+
+Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, WindowRead* read) {
   const std::uint64_t file_bytes = io_detail::regular_file_size(path);
   const NrrdHeader header = parse_header(path, file_bytes);
   // teem resolves a relative data file against the header's directory, which it needs spelled out.
@@ -564,11 +576,23 @@ Volume load_nrrd_volume(const std::string& path) {
       throw Error("teem read NRRD size " + std::to_string(n.axis[a].size) + " on axis " + std::to_string(a) +
                   " but the header says " + std::to_string(checked.dims[a]));
 
-  Volume volume(storage_type(n.type),
-                {static_cast<int>(checked.dims[0]), static_cast<int>(checked.dims[1]), static_cast<int>(checked.dims[2])},
-                axis_spacing(n), space_origin(n), VoxelFill::Uninitialized);  // both paths below fill every voxel
+  const std::array<int, 3> dims{static_cast<int>(checked.dims[0]), static_cast<int>(checked.dims[1]), static_cast<int>(checked.dims[2])};
+  const SliceRange slices = choose ? checked_slices(*choose, dims) : SliceRange{0, dims[2]};
+  if (read) *read = WindowRead{0, !direct};
+  if (direct && slices.count < dims[2]) {  // only the window's slices are read
+    Volume window(storage_type(n.type), {dims[0], dims[1], slices.count}, axis_spacing(n), space_origin(n), VoxelFill::Uninitialized);
+    const std::uint64_t bytes = read_data_file(teem, header, checked, slices.first, window);
+    if (read) read->bytes_read = bytes;
+    teem = TeemRead{};
+    window.recompute_range();  // this window's own; a distributed scene replaces it by the whole grid's
+    window.set_window(slices.first, dims[2]);
+    return window;
+  }
+  Volume volume(storage_type(n.type), dims, axis_spacing(n), space_origin(n), VoxelFill::Uninitialized);  // both paths below fill every voxel
+  if (read) read->bytes_read = file_bytes;
   if (direct) {
-    read_data_file(teem, header, checked, volume);
+    const std::uint64_t bytes = read_data_file(teem, header, checked, 0, volume);
+    if (read && checked.data_path != abs_path) read->bytes_read = bytes;  // a detached header's data file
   } else {
     const auto* src = static_cast<const std::byte*>(teem.nrrd->data);  // teem has fixed the byte order
     const auto next = [&](std::byte* dst, std::size_t bytes) {
@@ -578,6 +602,7 @@ Volume load_nrrd_volume(const std::string& path) {
     read_voxels(next, n.type, false, volume);
   }
   teem = TeemRead{};  // free teem's copy, if any, before the range pass
+  if (slices.count < dims[2]) volume = volume.window_z(slices.first, slices.count);  // read whole, kept in part
   volume.recompute_range();  // rejects NaN/inf voxels and gives the volume its range
   return volume;
 }

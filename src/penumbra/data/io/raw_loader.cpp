@@ -24,7 +24,9 @@ std::string dims_str(const std::array<std::int64_t, 3>& d) {
 
 }  // namespace
 
-Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options) {
+Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options) { return load_raw_volume(path, options, nullptr, nullptr); }
+
+Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options, const SliceChooser* choose, WindowRead* read) {
   using io_detail::bytes_str;
   const std::size_t count = checked_voxel_count(options.dims);
   for (int a = 0; a < 3; ++a)
@@ -42,18 +44,22 @@ Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options)
                 (short_file ? "truncated" : "longer than the data") + " or the dims/type are wrong");
   }
 
-  Volume volume(options.type,
-                {static_cast<int>(options.dims[0]), static_cast<int>(options.dims[1]), static_cast<int>(options.dims[2])},
-                options.spacing, {0, 0, 0}, VoxelFill::Uninitialized);  // the read below fills every voxel
+  const std::array<int, 3> dims{static_cast<int>(options.dims[0]), static_cast<int>(options.dims[1]), static_cast<int>(options.dims[2])};
+  const SliceRange slices = choose ? checked_slices(*choose, dims) : SliceRange{0, dims[2]};
+  const std::uint64_t slice_bytes = static_cast<std::uint64_t>(dims[0]) * static_cast<std::uint64_t>(dims[1]) * voxel_size;
+  const std::uint64_t bytes = slice_bytes * static_cast<std::uint64_t>(slices.count);
+  Volume volume(options.type, {dims[0], dims[1], slices.count}, options.spacing, {0, 0, 0},
+                VoxelFill::Uninitialized);  // the read below fills every voxel
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot open the file for reading");
-  in.seekg(static_cast<std::streamoff>(options.header_bytes));
-  in.read(reinterpret_cast<char*>(volume.data()), static_cast<std::streamsize>(data_bytes));
-  if (!in || static_cast<std::uint64_t>(in.gcount()) != data_bytes)
-    throw Error("read only " + bytes_str(static_cast<std::uint64_t>(in.gcount())) + " of " + bytes_str(data_bytes) +
-                " of voxel data");
-  if (options.big_endian != (std::endian::native == std::endian::big)) swap_bytes(volume.data(), count, voxel_size);
+  in.seekg(static_cast<std::streamoff>(options.header_bytes + slice_bytes * static_cast<std::uint64_t>(slices.first)));
+  in.read(reinterpret_cast<char*>(volume.data()), static_cast<std::streamsize>(bytes));
+  if (!in || static_cast<std::uint64_t>(in.gcount()) != bytes)
+    throw Error("read only " + bytes_str(static_cast<std::uint64_t>(in.gcount())) + " of " + bytes_str(bytes) + " of voxel data");
+  if (options.big_endian != (std::endian::native == std::endian::big)) swap_bytes(volume.data(), volume.voxel_count(), voxel_size);
   volume.recompute_range();  // rejects NaN/inf in float data and gives the volume its range
+  if (slices.count < dims[2]) volume.set_window(slices.first, dims[2]);
+  if (read) *read = WindowRead{bytes, false};
   return volume;
 }
 

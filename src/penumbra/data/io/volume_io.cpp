@@ -76,6 +76,36 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
   });
 }
 
+SliceRange checked_slices(const SliceChooser& choose, const std::array<int, 3>& dims) {
+  const SliceRange r = choose(dims);
+  if (r.first < 0 || r.count < 1 || r.first > dims[2] - r.count)
+    throw Error("slices " + std::to_string(r.first) + " to " + std::to_string(r.first + r.count - 1) + " of a volume of " +
+                std::to_string(dims[2]) + " slices along z");
+  return r;
+}
+
+Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoadOptions& options, const SliceChooser& choose,
+                          WindowRead& read) {
+  read = WindowRead{};
+  if (paths.size() == 1 && ends_with_ci(paths[0], ".raw") && options.raw)
+    return with_context(paths[0], [&] { return load_raw_volume(paths[0], *options.raw, &choose, &read); });
+  if (paths.size() == 1 && (ends_with_ci(paths[0], ".nrrd") || ends_with_ci(paths[0], ".nhdr")))
+    return with_context(paths[0], [&] { return load_nrrd_volume(paths[0], &choose, &read); });
+  Volume whole = load_volume(paths, options);
+  read.whole = true;
+  for (const std::string& p : paths) {
+    std::error_code ec;
+    const auto size = std::filesystem::is_regular_file(p, ec) ? std::filesystem::file_size(p, ec) : 0;
+    read.bytes_read += ec ? 0 : static_cast<std::uint64_t>(size);
+  }
+  if (whole.is_bricked()) return whole;  // sparse (OpenVDB): kept whole
+  const SliceRange r = with_context(joined(paths), [&] { return checked_slices(choose, whole.dims()); });
+  if (r.count == whole.dims()[2]) return whole;
+  Volume window = whole.window_z(r.first, r.count);
+  window.recompute_range();
+  return window;
+}
+
 Volume load_volume(const std::string& path, const VolumeLoadOptions& options, VolumeFileInfo* info) {
   return load_volume(std::vector<std::string>{path}, options, info);
 }

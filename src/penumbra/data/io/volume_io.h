@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -43,8 +44,30 @@ struct VolumeLoadOptions {
   std::string grid;                     // OpenVDB: grid name or index ("" = "density", else the first scalar grid)
 };
 
+// Reading part of a volume (one rank's brick, distributed/brick_reading.h): slices [first, first +
+// count) along z of the file's grid.
+struct SliceRange {
+  int first = 0, count = 0;
+};
+// Chooses the slices from the whole grid's dimensions, known once the header is read; throws Error when
+// it cannot (more bricks than slices).
+using SliceChooser = std::function<SliceRange(const std::array<int, 3>& dims)>;
+// What reading part of a volume cost.
+struct WindowRead {
+  std::uint64_t bytes_read = 0;  // from the file(s)
+  bool whole = false;            // read whole and then cut: a format or encoding that cannot seek to a slice
+};
+// The chosen slices, checked against the grid (Error naming them when they do not lie in it).
+SliceRange checked_slices(const SliceChooser& choose, const std::array<int, 3>& dims);
+
 Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options);
 Volume load_nrrd_volume(const std::string& path);   // .nrrd or .nhdr
+// Only the chosen slices of a raw file or of NRRD raw data (seeking past the others), or of NRRD gzip
+// data (decompressing and dropping the slices before them, stopping after the last); other NRRD
+// encodings are read whole and cut. The result is a window of the whole grid (Volume::is_window) unless
+// the slices are all of them; its value range is its own.
+Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options, const SliceChooser* choose, WindowRead* read);
+Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, WindowRead* read);
 Volume load_nifti_volume(const std::string& path);  // .nii or .nii.gz
 
 // DICOM (dicom_loader.cpp): `paths` is one folder (every DICOM file in it and its subfolders) or a list
@@ -69,5 +92,9 @@ bool is_volume_file(const std::string& path);
 Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOptions& options, VolumeFileInfo* info = nullptr);
 Volume load_volume(const std::string& path, const VolumeLoadOptions& options, VolumeFileInfo* info = nullptr);
 Volume load_volume(const std::string& path, const std::optional<RawVolumeOptions>& raw = std::nullopt);
+// load_volume of the chosen slices only: raw and NRRD files read just those (above); every other format
+// (and a DICOM series) is read whole and cut, which `read.whole` says.
+Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoadOptions& options, const SliceChooser& choose,
+                          WindowRead& read);
 
 }  // namespace penumbra

@@ -1,0 +1,125 @@
+// A window of a volume (data/volume.h; one rank's brick, distributed/brick_reading.h) samples exactly
+// as the whole grid where its samples reach, keeps the whole grid's box, and reads from files only its
+// slices; the parts of a histogram over the slices add up to the whole grid's, and choose the same
+// transfer function.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <random>
+
+#include "penumbra/core/error.h"
+
+#include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/procedural.h"
+#include "penumbra/data/transfer_function_choice.h"
+#include "penumbra/data/volume_stats.h"
+#include "test_scenes.h"
+#include "test_volume_io_util.h"
+
+using namespace penumbra;
+using namespace penumbra::test;
+
+namespace {
+
+Volume noisy_volume() {
+  Volume v(ScalarType::Float32, {9, 7, 20}, {0.7f, 1.1f, 0.9f}, {-3.3f, 2.1f, -4.7f});
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-1.0f, 4.0f);
+  for (std::size_t i = 0; i < v.voxel_count(); ++i) v.set_value(i, u(rng));
+  v.recompute_range();
+  return v;
+}
+
+std::uint32_t bits(float f) {
+  std::uint32_t b;
+  std::memcpy(&b, &f, sizeof b);
+  return b;
+}
+
+}  // namespace
+
+TEST(VolumeWindow, SamplesAndGradientsMatchTheWholeGridAwayFromItsEnds) {
+  const Volume whole = noisy_volume();
+  const Volume window = whole.window_z(6, 9);  // slices 6 … 14
+  EXPECT_TRUE(window.is_window());
+  EXPECT_EQ(window.window_first(), 6);
+  EXPECT_EQ(window.whole_dims(), whole.dims());
+  EXPECT_EQ(window.dims()[2], 9);
+  EXPECT_EQ(window.bounds().lo, whole.bounds().lo);
+  EXPECT_EQ(window.bounds().hi, whole.bounds().hi);
+  EXPECT_EQ(window.min_value(), whole.min_value());
+  EXPECT_EQ(window.value(2, 3, 0), whole.value(2, 3, 6));
+  // every point whose trilinear cell and gradient stencil lie in the window: the same bits
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> x(-3.3f, -3.3f + 8 * 0.7f), y(2.1f, 2.1f + 6 * 1.1f), z(-4.7f + 7.1f * 0.9f, -4.7f + 12.9f * 0.9f);
+  for (int i = 0; i < 2000; ++i) {
+    const Vec3 p{x(rng), y(rng), z(rng)};
+    ASSERT_EQ(bits(window.sample(p)), bits(whole.sample(p))) << p.x << " " << p.y << " " << p.z;
+    const TrilinearCell a = window.trilinear_cell(window.to_voxel(p)), b = whole.trilinear_cell(whole.to_voxel(p));
+    ASSERT_EQ(a.k + 6, b.k);
+    ASSERT_EQ(bits(a.tz), bits(b.tz));
+  }
+  // the scene's "origin" moves the whole grid, and the window with it
+  Volume moved = window;
+  moved.set_origin({1, 2, 3});
+  EXPECT_EQ(moved.bounds().lo, (Vec3{1, 2, 3}));
+  EXPECT_FLOAT_EQ(moved.origin().z, 3 + 6 * 0.9f);
+  EXPECT_THROW(whole.window_z(15, 6), Error);
+  EXPECT_THROW(whole.window_z(-1, 3), Error);
+}
+
+TEST(VolumeWindow, HistogramPartsAddUpToTheWholeGridsAndChooseItsTransferFunction) {
+  const Volume whole = make_procedural_volume({{"name", "hollow-sphere"}, {"size", 24}});
+  const VolumeHistogram h = compute_histogram(whole, kTransferChoiceBins);
+  VolumeHistogram sum = compute_histogram_part(whole, kTransferChoiceBins, h.lo, h.hi, 0, 0);
+  for (const auto& [first, end] : {std::pair{0, 7}, std::pair{7, 16}, std::pair{16, 24}}) {
+    const VolumeHistogram part = compute_histogram_part(whole.window_z(std::max(0, first - 2), std::min(24, end + 2) - std::max(0, first - 2)),
+                                                        kTransferChoiceBins, h.lo, h.hi, first - std::max(0, first - 2),
+                                                        end - std::max(0, first - 2));
+    for (std::size_t b = 0; b < sum.counts.size(); ++b) sum.counts[b] += part.counts[b];
+  }
+  EXPECT_EQ(sum.counts, h.counts);
+  EXPECT_EQ(choose_transfer_function(sum, whole.type()), choose_transfer_function(whole));
+  EXPECT_THROW(compute_histogram_part(whole, 16, h.lo, h.hi, 3, 25), Error);
+}
+
+TEST(VolumeWindow, FilesAreReadOnlyForTheChosenSlices) {
+  ScratchDir dir;
+  std::vector<std::int16_t> voxels(5 * 4 * 12);
+  for (std::size_t i = 0; i < voxels.size(); ++i) voxels[i] = static_cast<std::int16_t>(i * 37 % 1001 - 300);
+  const std::string header = "type: short\ndimension: 3\nsizes: 5 4 12\nendian: big\nspacings: 1 1 2\n";
+  write_file(dir.file("raw.nrrd"), nrrd_file(header + "encoding: raw\n", to_bytes(voxels, true)));
+  write_file(dir.file("gzip.nrrd"), nrrd_file(header + "encoding: gzip\n", gzip(to_bytes(voxels, true))));
+  write_file(dir.file("plain.raw"), to_bytes(voxels));
+  std::string ascii;
+  for (const std::int16_t v : voxels) ascii += std::to_string(v) + "\n";
+  write_file(dir.file("ascii.nrrd"), nrrd_file(header + "encoding: ascii\n", Bytes(ascii.begin(), ascii.end())));
+  const SliceChooser slices_3_to_8 = [](const std::array<int, 3>& dims) {
+    EXPECT_EQ(dims[2], 12);
+    return SliceRange{3, 6};
+  };
+  VolumeLoadOptions raw;
+  raw.raw = RawVolumeOptions{{5, 4, 12}, ScalarType::Int16, false, {1, 1, 2}, 0};
+  for (const std::string file : {"raw.nrrd", "gzip.nrrd", "plain.raw", "ascii.nrrd"}) {
+    SCOPED_TRACE(file);
+    const Volume whole = load_volume(dir.file(file), raw);
+    WindowRead read;
+    const Volume window = load_volume_window({dir.file(file)}, raw, slices_3_to_8, read);
+    ASSERT_TRUE(window.is_window());
+    EXPECT_EQ(window.dims(), (std::array<int, 3>{5, 4, 6}));
+    EXPECT_EQ(window.bounds().hi, whole.bounds().hi);
+    for (int k = 0; k < 6; ++k)
+      for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 5; ++i) ASSERT_EQ(window.value(i, j, k), whole.value(i, j, k + 3));
+    EXPECT_EQ(read.whole, file == "ascii.nrrd");
+    if (file == "raw.nrrd" || file == "plain.raw") EXPECT_EQ(read.bytes_read, 6u * 5 * 4 * 2);
+  }
+  const SliceChooser too_many = [](const std::array<int, 3>&) { return SliceRange{10, 3}; };
+  WindowRead read;
+  try {
+    (void)load_volume_window({dir.file("raw.nrrd")}, raw, too_many, read);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("slices 10 to 12 of a volume of 12"), std::string::npos) << e.what();
+  }
+}
