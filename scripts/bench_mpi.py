@@ -18,10 +18,10 @@ import subprocess
 import sys
 import tempfile
 
-SCENES = [  # (scene, --set overrides, what shadows it)
-    ("mri-head", [], "cssm"),
-    ("cranium", ["planes=[]"], "cssm"),
-    ("chest", ["planes=[]"], "deep_shadow_map"),
+SCENES = [  # (scene, --set overrides, what shadows it, deep shadow map nodes)
+    ("mri-head", [], "cssm", 0),
+    ("cranium", ["planes=[]"], "cssm", 0),
+    ("chest", ["planes=[]"], "deep_shadow_map", 4),
 ]
 
 
@@ -48,8 +48,20 @@ def model_image_bytes(width, height, n, rank):
     return rectangles + exchange + gather
 
 
-def model_shadow_bytes(resolution, n, cssm):
-    return 12 * resolution * resolution * math.ceil(math.log2(n)) if cssm and n > 1 else 0
+# Floats per texel in the shadow reductions, each sent in ceil(log2 N) rounds (shadows/*.h "Across
+# bricks"): the CSSM's minimum of 3 depths; the deep shadow map's two exclusive products of 3
+# transmittances (rays up and down in z), its ends (2 depths, then 6 values) and per interior node
+# three minima (per_channel: 3 errors, 3 depths, 3 values; shared_depth: 1, 1, 3).
+def model_shadow_floats(shadows, nodes=3, shared=False):
+    if shadows == "cssm":
+        return 3
+    if shadows == "deep_shadow_map":
+        return 6 + 2 + 6 + max(0, nodes - 2) * (5 if shared else 9)
+    return 0
+
+
+def model_shadow_bytes(resolution, n, shadows, nodes=3):
+    return 4 * resolution * resolution * model_shadow_floats(shadows, nodes) * math.ceil(math.log2(n)) if n > 1 else 0
 
 
 def main():
@@ -62,7 +74,7 @@ def main():
     ranks = [int(x) for x in a.ranks.split(",")]
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for scene, sets, shadows in SCENES:
+        for scene, sets, shadows, nodes in SCENES:
             args = [f"scenes/{scene}.json"] + [x for s in sets for x in ("--set", s)]
             for n in ranks:
                 out, loop, stats = (os.path.join(tmp, f) for f in (f"{scene}{n}.pfm", f"{scene}{n}_loop.pfm", f"{scene}{n}.json"))
@@ -70,26 +82,31 @@ def main():
                          "--stats", stats], env)
                 run([a.penumbra, "render", *args, "--slabs", str(n), "-o", loop])
                 same = filecmp.cmp(out, loop, shallow=False)
+                psnr = "inf" if same else dict(l.split()[:2] for l in run([a.penumbra, "compare", out, loop]).stdout.splitlines())["psnr"]
                 s = json.load(open(stats))
                 resolution = 1024
                 for rank in s["ranks"]:
                     want_image = model_image_bytes(s["width"], s["height"], n, rank["rank"])
-                    want_shadow = model_shadow_bytes(resolution, n, shadows == "cssm")
+                    want_shadow = model_shadow_bytes(resolution, n, shadows, nodes)
                     if rank["image_bytes_sent"] > want_image or rank["shadow_bytes_sent"] != want_shadow:
                         sys.exit(f"{scene} np {n} rank {rank['rank']}: bytes {rank['image_bytes_sent']}/{rank['shadow_bytes_sent']} "
                                  f"against the model's {want_image} (at most)/{want_shadow}")
                 worst = lambda k: max(x[k] for x in s["ranks"])
-                rows.append({"scene": scene, "shadows": shadows, "ranks": n, "same_as_brick_loop": same,
+                rows.append({"scene": scene, "shadows": shadows, "ranks": n, "same_as_brick_loop": same, "psnr": psnr,
+                             "bricks_read": s.get("bricks_read", False),
+                             "read_MB": max(x["bytes_read"] for x in s["ranks"]) / 1e6,
+                             "held_MB": max(x["volume_bytes"] for x in s["ranks"]) / 1e6,
                              "build_ms": worst("build_ms"), "render_ms": worst("render_ms"), "composite_ms": worst("composite_ms"),
                              "communication_ms": worst("communication_ms"),
                              "shadow_kB": s["ranks"][-1]["shadow_bytes_sent"] / 1024,
                              "image_kB": max(x["image_bytes_sent"] for x in s["ranks"]) / 1024,
                              "image_bound_kB": max(model_image_bytes(s["width"], s["height"], n, x["rank"]) for x in s["ranks"]) / 1024,
                              "size": f"{s['width']}x{s['height']}"})
-    print("| scene | shadows | ranks | = --slabs N | shadows ms | render ms | composite ms | communication ms | kB sent: shadows | image | image, full frame |")
-    print("|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("| scene | shadows | ranks | = --slabs N | MB read / held a rank (most) | shadows ms | render ms | composite ms | communication ms | kB sent: shadows | image | image, full frame |")
+    print("|---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
-        print(f"| {r['scene']} ({r['size']}) | {r['shadows']} | {r['ranks']} | {'bit for bit' if r['same_as_brick_loop'] else 'DIFFERS'} | "
+        same = "bit for bit" if r["same_as_brick_loop"] else f"{r['psnr']} dB"
+        print(f"| {r['scene']} ({r['size']}) | {r['shadows']} | {r['ranks']} | {same} | {r['read_MB']:.1f} / {r['held_MB']:.1f} | "
               f"{r['build_ms']:.0f} | {r['render_ms']:.0f} | {r['composite_ms']:.1f} | {r['communication_ms']:.0f} | "
               f"{r['shadow_kB']:.0f} | {r['image_kB']:.0f} | {r['image_bound_kB']:.0f} |")
     print("\nevery rank's shadow bytes equal the model's, its image bytes at most the full-frame bound (checked above)\n")
@@ -102,7 +119,7 @@ def main():
     model = []
     for n in (8, 64, 512, 1024):
         image = max(model_image_bytes(width, height, n, r) for r in (1, n - 1))
-        shadow = model_shadow_bytes(resolution, n, True)
+        shadow = model_shadow_bytes(resolution, n, "cssm")
         image_ms = 1e3 * (image / bandwidth + n * latency)
         shadow_ms = 1e3 * (shadow / bandwidth + math.ceil(math.log2(n)) * latency)
         model.append({"ranks": n, "image_bytes": image, "shadow_bytes": shadow, "image_ms": image_ms, "shadow_ms": shadow_ms})

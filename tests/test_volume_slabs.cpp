@@ -103,11 +103,30 @@ TEST(VolumeSlabs, TheCommandLineSplitsVolumeScenesAndRefusesTheRest) {
   ASSERT_EQ(whole.status, 0) << whole.err;
   EXPECT_LE(compare_images(read_image(dir.file("split.pfm")), read_image(dir.file("whole.pfm"))).max_abs, 1.0 - kEarlyTermination + 1e-4);
 
-  j["planes"] = nlohmann::json::array({{{"point", {0, -0.6, 0}}, {"normal", {0, 1, 0}}}});
-  std::ofstream(dir.file("plane.json")) << j.dump();
+  // opaque surfaces: the brick whose slab holds a pixel's visible point shows it; the others stop there
+  nlohmann::json surfaces = j;
+  surfaces["planes"] = nlohmann::json::array({{{"point", {0, -0.6, 0}}, {"normal", {0, 1, 0}}}});
+  surfaces["particles"] = nlohmann::json::array(
+      {{{"procedural", {{"name", "random-spheres"}, {"count", 12}, {"radius", 0.08}, {"seed", 3}}}, {"origin", {0.1, 0.0, 0.3}}}});
+  std::ofstream(dir.file("surfaces.json")) << surfaces.dump();
+  const CliRun split = penumbra_cli("render " + quote(dir.file("surfaces.json")) + " --slabs 3 -o " + quote(dir.file("s_split.pfm")));
+  ASSERT_EQ(split.status, 0) << split.err;
+  const CliRun one = penumbra_cli("render " + quote(dir.file("surfaces.json")) + " -o " + quote(dir.file("s_whole.pfm")));
+  ASSERT_EQ(one.status, 0) << one.err;
+  {
+    const Image a = read_image(dir.file("s_split.pfm")), b = read_image(dir.file("s_whole.pfm"));
+    FailureImages keep;
+    keep.add("surfaces_3_slabs", a, b);
+    EXPECT_LE(compare_images(a, b).max_abs, 1.0 - kEarlyTermination + 1e-4);
+    EXPECT_GT(compare_images(b, read_image(dir.file("whole.pfm"))).max_abs, 0.2) << "the surfaces do not show";
+  }
+
+  nlohmann::json spheres_only = surfaces;
+  spheres_only.erase("volumes");
+  std::ofstream(dir.file("spheres.json")) << spheres_only.dump();
   struct Case { std::string args, needle; };
   const std::vector<Case> cases{
-      {"render " + quote(dir.file("plane.json")) + " --slabs 2 -o " + quote(dir.file("a.png")), "volumes only"},
+      {"render " + quote(dir.file("spheres.json")) + " --slabs 2 -o " + quote(dir.file("a.png")), "must hold a volume"},
       {"render " + quote(dir.file("volume.json")) + " --slabs 13 -o " + quote(dir.file("b.png")), "13 slabs for a volume of 12 voxel slices"},
       {"render " + quote(dir.file("volume.json")) + " --slabs 2 --orbit 3 -o " + quote(dir.file("c.png")), "--slabs renders one frame"},
       {"render " + quote(dir.file("volume.json")) + " --slabs 2 -o " + quote(dir.file("d.exr")), ".png or .pfm"},

@@ -422,7 +422,7 @@ void add_render_command(CLI::App& app) {
   cmd->add_flag("--depth", o->depth, "With -o NAME.exr: also write the depth (channel Z: distance along each primary ray; +inf where nothing is hit)");
   cmd->add_option("--slabs", o->slabs,
                   "Sort-last brick loop: split the volume into N slabs along z, ray cast each alone and composite them "
-                  "along every pixel's ray (what a data-parallel frame does; volume scenes)")
+                  "along every pixel's ray (what a data-parallel frame does; scenes with a volume)")
       ->check(CLI::Range(1, 65536));
   cmd->add_flag("--preview", o->preview, "Render what the viewer shows while the hand moves: the engine's preview quality");
   cmd->add_option("--edits", o->edits,

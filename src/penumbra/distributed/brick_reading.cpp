@@ -52,11 +52,13 @@ SliceRange brick_slices(int whole_slices, int rank, int ranks) {
 std::string why_read_whole(const Scene& scene) {
   if (scene.volumes.size() != 1)
     return "the scene has " + std::to_string(scene.volumes.size()) + " volumes (bricks are read for one)";
-  if (scene.ambient.technique != "none")
+  if (!scene.isosurfaces.empty()) return "isosurfaces are extracted from the whole volume on every rank";
+  if (scene.ambient.technique != "none" && scene.ambient.technique != "particle_ao")  // particle_ao: the spheres only
     return "ambient occlusion (" + scene.ambient.technique + ") is built from the whole volume on every rank";
   for (const ShadowAssignment& a : shadow_assignments(scene))
-    if (a.technique != "none" && !make_shadow_technique(a.technique, scene.shadows)->combines_over_bricks())
-      return "the " + a.technique + " shadows are built from the whole volume on every rank (cssm and shadow_map are built per brick)";
+    if ((a.casters & kind_bit(ObjectKind::Volume)) && a.technique != "none" &&
+        !make_shadow_technique(a.technique, scene.shadows)->combines_over_bricks())
+      return "the " + a.technique + " shadows are built from the whole volume on every rank (cssm, shadow_map and deep_shadow_map are built per brick)";
   return "";
 }
 
@@ -89,7 +91,7 @@ Scene build_distributed_scene(const nlohmann::json& document, const std::string&
     SceneReadOptions options{strict, &cache};
     options.volume_reader = &brick_reader;
     scene = build_scene(document, base_dir, options);
-    check_volumes_only(*scene);
+    check_has_volume(*scene);
     reading.why = why_read_whole(*scene);
     if (reading.why.empty() && files_read != 1) reading.why = "the volume is not read from a file";
   });
@@ -112,7 +114,10 @@ Scene build_distributed_scene(const nlohmann::json& document, const std::string&
         scene = build_scene(document, base_dir, options);
       });
     }
-    reading.volume_bytes = scene->volumes.front().volume->memory_bytes();
+    const Volume& volume = *scene->volumes.front().volume;
+    if (reading.whole_slices == 0) reading.whole_slices = volume.dims()[2];  // not read from a file
+    reading.slices = {0, reading.whole_slices};
+    reading.volume_bytes = volume.memory_bytes();
     return std::move(*scene);
   }
 

@@ -14,8 +14,8 @@
 // volume's. The frame is then the one where every rank holds the whole volume, bit for bit.
 //
 // A scene is read as bricks when its one volume comes from a file and every light structure is built
-// per brick and combined (CSSM, the classic shadow map; or no shadows) with no ambient occlusion;
-// otherwise every rank reads the whole volume (the deep shadow map, SAT and ray-traced shadows and
+// per brick and combined (CSSM, the classic shadow map, the deep shadow map; or no shadows) with no
+// ambient occlusion; otherwise every rank reads the whole volume (the SAT, ray-traced shadows and
 // ambient occlusion are still built whole on each rank), and the statistics say why.
 //
 // | parameter     | meaning                                                                  |

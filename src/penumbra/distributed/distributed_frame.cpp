@@ -78,7 +78,7 @@ Rect active_rect(const FrameResult& frame) {
 DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   const int n = world.size(), me = world.rank();
   const SampleSlab slab = on_every_rank(world, [&] {
-    check_volumes_only(scene);
+    check_has_volume(scene);
     return volume_slabs(*scene.volumes.front().volume, n)[static_cast<std::size_t>(me)];
   });
 

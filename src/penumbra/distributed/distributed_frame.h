@@ -57,7 +57,7 @@ struct DistributedFrame {
 
 // Renders the scene's frame across the world's ranks; every rank calls it with the same scene. Throws
 // Error on every rank alike (the lowest failing rank's message, MpiWorld::agree) when the scene cannot
-// be split (not volumes only, more ranks than voxel slices) or a rank's render fails.
+// be split (no volume, more ranks than voxel slices) or a rank's render fails.
 DistributedFrame render_distributed(const Scene& scene, MpiWorld& world);
 
 }  // namespace penumbra

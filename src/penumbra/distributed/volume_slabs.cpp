@@ -43,13 +43,13 @@ Image composite_slabs(std::span<const BrickImage> bricks, const Camera& camera, 
   return out;
 }
 
-void check_volumes_only(const Scene& scene) {
-  if (scene.volumes.empty() || !scene.particles.empty() || !scene.isosurfaces.empty() || !scene.planes.empty())
-    throw Error("the scene must hold volumes only (spheres, isosurfaces and planes are not split into bricks yet)");
+void check_has_volume(const Scene& scene) {
+  if (scene.volumes.empty())
+    throw Error("the scene must hold a volume, whose slabs split the frame (spheres, isosurfaces and planes alone are not split)");
 }
 
 SlabFrame render_in_slabs(const Scene& scene, int count) {
-  check_volumes_only(scene);
+  check_has_volume(scene);
   SlabFrame out;
   out.slabs = volume_slabs(*scene.volumes.front().volume, count);
   Scene over_black = scene;

@@ -7,8 +7,9 @@
 // This is the step a distributed frame runs on every rank; here it runs as a brick loop in one
 // process (render_in_slabs, `penumbra render --slabs N`), which checks the decomposition against the
 // whole-volume frame. Each slab's renderer holds the whole scene, so its shadows and ambient occlusion
-// are the whole volume's. Not yet: light structures built per brick and combined (what ranks need),
-// surfaces (spheres, isosurfaces, planes) in the bricked scene, reading only a brick's voxels.
+// are the whole volume's (on MPI ranks the structures that combine over bricks are built per brick,
+// distributed_frame.h, and each rank reads only its brick, brick_reading.h). Opaque surfaces (planes,
+// spheres, isosurfaces) are held whole by every slab, which shows those whose visible point it holds.
 //
 // | parameter | meaning                                                             |
 // | count     | slabs (bricks); at most the volume's voxel slices along z             |
@@ -55,12 +56,14 @@ Rgb composite_pixel(std::size_t bricks, bool downwards, const Rgb& background, B
 // Every pixel so composited (the brick loop's compositing).
 Image composite_slabs(std::span<const BrickImage> bricks, const Camera& camera, const Rgb& background);
 
-// Throws Error unless the scene holds volumes and nothing else (what is split into slabs so far).
-void check_volumes_only(const Scene& scene);
+// Throws Error unless the scene holds a volume: its first volume's slabs split the frame. Opaque surfaces
+// (planes, spheres, isosurfaces) are held whole by every brick, which shows those whose visible point
+// lies in its slab (FrameRequest::slab).
+void check_has_volume(const Scene& scene);
 
 // The brick loop: the scene's first volume split into `count` slabs, each rendered alone over black at
-// full quality, composited over the scene's background. Throws Error for a scene with anything but
-// volumes, or for count outside 1 … the volume's slices.
+// full quality, composited over the scene's background. Throws Error for a scene without a volume, or
+// for count outside 1 … the volume's slices.
 struct SlabFrame {
   Image image;
   std::vector<SampleSlab> slabs;

@@ -5,6 +5,7 @@
 
 #include "penumbra/core/cancel.h"
 #include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/particles/sphere_hits.h"
 #include "penumbra/render/surface_frame.h"
@@ -522,6 +523,7 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   frame.depth = surfaces.distance;
   frame.alpha.assign(pixels, 0.0f);
   for (std::size_t p = 0; p < pixels; ++p) frame.alpha[p] = std::isfinite(surfaces.distance[p]) ? 1.0f : 0.0f;
+  if (request.slab) drop_surfaces_outside(*request.slab, camera, surfaces.distance, opaque, frame.alpha);
   if (volumes_.empty()) {
     frame.image = std::move(opaque);
   } else {
@@ -546,6 +548,20 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   frame.render_ms = render.elapsed_ms();
   frame.total_ms = total.elapsed_ms();
   return frame;
+}
+
+void Renderer::drop_surfaces_outside(const SampleSlab& slab, const Camera& camera, std::span<const float> distance, Image& opaque,
+                                     std::span<float> alpha) const {
+  const PrimaryRays rays(camera);
+  parallel_for(static_cast<std::size_t>(camera.height), [&](std::size_t y0, std::size_t y1) {
+    for (std::size_t y = y0; y < y1; ++y)
+      for (int x = 0; x < camera.width; ++x) {
+        const std::size_t p = y * static_cast<std::size_t>(camera.width) + static_cast<std::size_t>(x);
+        if (!std::isfinite(distance[p]) || slab.owns(rays.ray(x, static_cast<int>(y)).at(distance[p]))) continue;
+        opaque.at(x, static_cast<int>(y)) = scene_.background;
+        alpha[p] = 0;
+      }
+  });
 }
 
 void Renderer::update_light_cache() {

@@ -52,7 +52,8 @@ struct FrameRequest {
   std::uint32_t sample = 0;
   // Set from another thread to cancel the frame: render() then throws Cancelled soon after.
   const std::atomic<bool>* cancel = nullptr;
-  // Sort-last bricks (distributed/volume_slabs.h): only the volume samples of this slab are composited;
+  // Sort-last bricks (distributed/volume_slabs.h): only the volume samples of this slab are composited,
+  // and only the opaque surfaces whose visible point lies in it (the others end its samples, over black);
   // unset: all of them.
   std::optional<SampleSlab> slab;
   // With a slab, on one rank of a data-parallel frame: the shadow techniques that combine over bricks
@@ -132,6 +133,11 @@ private:
   void update_shadows(const std::vector<Light>& lights, Quality quality, std::uint32_t sample, const ShadowBrick* brick,
                       FrameResult& frame);
   void update_light_cache();
+  // A brick's frame holds the opaque surfaces whose visible point lies in its slab: elsewhere the
+  // surface only ends the brick's samples (another brick shows it), its colour the background's and
+  // its opacity 0.
+  void drop_surfaces_outside(const SampleSlab& slab, const Camera& camera, std::span<const float> distance, Image& opaque,
+                             std::span<float> alpha) const;
   bool stale(const std::string& name) const { return stale_.count(name) != 0; }
   void rebuilt(const std::string& name, Quality quality, FrameResult& frame);
   void mark_all_stale();

@@ -45,6 +45,23 @@ void compress(const std::vector<float>& z, std::span<const std::vector<float>* c
   }
 }
 
+// The exact polyline along `ray` (see the header): vertex(z, T) at each absorbing segment's end, and
+// where an absorbing run begins; T continues from `T` (1, or the bricks' in front) and is left as it
+// ends. Stops once every channel is opaque.
+template <class Vertex>
+void march_polyline(const ShadowCasters& medium, const Ray& ray, float surface, Rgb& T, Vertex&& vertex) {
+  const float step = medium.step();
+  float last_end = -kInfinity;
+  medium.march(ray, 0, surface, [&](const MediumSegment& seg) {
+    // T before the segment at its start (unless it continues the previous one), T after it at its end
+    if (seg.t_begin > last_end + 1e-6f * step) vertex(seg.t_begin, T);
+    T *= Rgb(1.0f) - (Rgb(1.0f) - seg.transmission) * seg.alpha;
+    vertex(seg.t_end, T);
+    last_end = seg.t_end;
+    return T.max_component() > kShadowOpaque;
+  });
+}
+
 struct Scratch {
   std::vector<float> z;
   std::vector<float> T[3];
@@ -83,7 +100,8 @@ void DeepShadowMap::build_map(const ShadowCasters& medium) {
   node_value_.assign(texels * 3 * nodes_, 1.0f);
   node_count_.assign(shared ? texels : texels * 3, 0);
   surface_depth_.assign(texels, kInfinity);
-  const float step = medium.step();
+  const ShadowBrick* brick = medium.brick();
+  if (brick && !brick->slab.whole()) return build_brick(medium, *brick);  // one brick of the whole volume: the map itself
   tbb::enumerable_thread_specific<Scratch> scratch;
   for_each_texel([&](int ix, int iy, const Ray& ray) {
     Scratch& s = scratch.local();
@@ -91,19 +109,9 @@ void DeepShadowMap::build_map(const ShadowCasters& medium) {
     for (auto& t : s.T) t.clear();
     const float surface = first_surface(medium, ray);
     Rgb T(1.0f);
-    float last_end = -kInfinity;
-    medium.march(ray, 0, surface, [&](const MediumSegment& seg) {
-      // the polyline: T before the segment at its start (unless it continues the previous one), T after it at its end
-      const float start = seg.t_begin, end = seg.t_end;
-      if (start > last_end + 1e-6f * step) {
-        s.z.push_back(start);
-        for (int c = 0; c < 3; ++c) s.T[c].push_back(T[c]);
-      }
-      T *= Rgb(1.0f) - (Rgb(1.0f) - seg.transmission) * seg.alpha;
-      s.z.push_back(end);
-      for (int c = 0; c < 3; ++c) s.T[c].push_back(T[c]);
-      last_end = end;
-      return T.max_component() > kShadowOpaque;
+    march_polyline(medium, ray, surface, T, [&](float z, const Rgb& v) {
+      s.z.push_back(z);
+      for (int c = 0; c < 3; ++c) s.T[c].push_back(v[c]);
     });
     const std::size_t texel = texel_index(ix, iy);
     surface_depth_[texel] = surface;
@@ -133,6 +141,142 @@ void DeepShadowMap::build_map(const ShadowCasters& medium) {
       node_count_[texel * 3 + c] = static_cast<std::uint8_t>(s.chosen.size());
     }
   });
+}
+
+// The same compression spread over the bricks (the header's "Across bricks"): every round marches this
+// brick's part of each texel's polyline again and the bricks agree, through minima, on the vertex to
+// insert — the ends first, then the farthest from the nodes so far (the earliest where several are),
+// its depth and its transmittance from the brick that holds it.
+void DeepShadowMap::build_brick(const ShadowCasters& medium, const ShadowBrick& brick) {
+  const std::size_t texels = surface_depth_.size();
+  const bool shared = layout_ == DsmLayout::SharedDepth;
+  const int curves = shared ? 1 : 3, channels = shared ? 3 : 1;  // curves per texel, channels per curve
+  const std::size_t n_curves = texels * static_cast<std::size_t>(curves);
+  BrickReduction& reduction = *brick.reduction;
+  // 1. each texel's transmittance through this brick alone, then through the bricks in front of it
+  std::vector<float> through[2] = {std::vector<float>(texels * 3, 1.0f), std::vector<float>(texels * 3, 1.0f)};
+  std::vector<std::uint8_t> upwards(texels, 0);
+  for_each_texel([&](int ix, int iy, const Ray& ray) {
+    const std::size_t texel = texel_index(ix, iy);
+    surface_depth_[texel] = first_surface(medium, ray);
+    upwards[texel] = ray.direction.z >= 0 ? 1 : 0;
+    Rgb T(1.0f);
+    march_polyline(medium, ray, surface_depth_[texel], T, [](float, const Rgb&) {});
+    for (int c = 0; c < 3; ++c) through[upwards[texel]][texel * 3 + static_cast<std::size_t>(c)] = T[c];
+  });
+  reduction.exclusive_product(through[1], true);
+  reduction.exclusive_product(through[0], false);
+  const auto in_front = [&](std::size_t texel) {
+    const float* f = &through[upwards[texel]][texel * 3];
+    return Rgb(f[0], f[1], f[2]);
+  };
+  // This brick's part of a texel's polyline, continued from the bricks in front (none once they are opaque).
+  const auto polyline = [&](std::size_t texel, const Ray& ray, auto&& vertex) {
+    Rgb T = in_front(texel);
+    if (T.max_component() > kShadowOpaque) march_polyline(medium, ray, surface_depth_[texel], T, vertex);
+  };
+
+  // 2. the polyline's first and last vertices: the nearest first and farthest last over the bricks
+  std::vector<float> ends(texels * 2, kInfinity);  // [first depth] [−last depth]
+  std::vector<Rgb> first_T(texels), last_T(texels);
+  for_each_texel([&](int ix, int iy, const Ray& ray) {
+    const std::size_t texel = texel_index(ix, iy);
+    polyline(texel, ray, [&](float z, const Rgb& T) {
+      if (ends[texel] == kInfinity) ends[texel] = z, first_T[texel] = T;
+      ends[texels + texel] = -z;
+      last_T[texel] = T;
+    });
+  });
+  const std::vector<float> own_ends = ends;
+  reduction.minimum(ends);
+  std::vector<float> end_values(texels * 6, kInfinity);  // [texel][first RGB, last RGB] from the brick holding each
+  for (std::size_t t = 0; t < texels; ++t)
+    for (int c = 0; c < 3; ++c) {
+      if (own_ends[t] == ends[t] && ends[t] < kInfinity) end_values[t * 6 + static_cast<std::size_t>(c)] = first_T[t][c];
+      if (own_ends[texels + t] == ends[texels + t] && ends[t] < kInfinity) end_values[t * 6 + 3 + static_cast<std::size_t>(c)] = last_T[t][c];
+    }
+  reduction.minimum(end_values);
+  const auto value_slot = [&](std::size_t texel, int curve, int j, int c) {  // channel c of curve `curve`'s node j
+    return shared ? (slot(texel, 0) + static_cast<std::size_t>(j)) * 3 + static_cast<std::size_t>(c)
+                  : slot(texel, curve) + static_cast<std::size_t>(j);
+  };
+  for (std::size_t t = 0; t < texels; ++t) {
+    if (ends[t] == kInfinity) continue;  // nothing absorbed along this texel's ray
+    for (int k = 0; k < curves; ++k) {
+      bool absorbed = false;
+      for (int c = 0; c < channels; ++c) absorbed = absorbed || end_values[t * 6 + 3 + static_cast<std::size_t>(k * channels + c)] < 1.0f;
+      if (!absorbed) continue;
+      const std::size_t base = slot(t, k);
+      const float depth[2] = {ends[t], -ends[texels + t]};
+      const int count = depth[1] > depth[0] && nodes_ > 1 ? 2 : 1;
+      for (int j = 0; j < count; ++j) {
+        node_depth_[base + static_cast<std::size_t>(j)] = depth[j];
+        for (int c = 0; c < channels; ++c)
+          node_value_[value_slot(t, k, j, c)] = end_values[t * 6 + static_cast<std::size_t>(3 * j + k * channels + c)];
+      }
+      node_count_[count_index(t, k)] = static_cast<std::uint8_t>(count);
+    }
+  }
+
+  // 3. the interior nodes, one a round: the vertex farthest from the piecewise-linear nodes so far
+  std::vector<float> worst(n_curves), where(n_curves), values(n_curves * static_cast<std::size_t>(channels));
+  std::vector<float> own_worst(n_curves), own_where(n_curves), own_values(values.size());
+  for (int round = 2; round < nodes_; ++round) {
+    std::fill(own_worst.begin(), own_worst.end(), kInfinity);  // −error, +∞ where no vertex is above the tolerance
+    for_each_texel([&](int ix, int iy, const Ray& ray) {
+      const std::size_t texel = texel_index(ix, iy);
+      float best[3] = {kCompressionTolerance, kCompressionTolerance, kCompressionTolerance};
+      polyline(texel, ray, [&](float z, const Rgb& T) {
+        for (int k = 0; k < curves; ++k) {
+          const std::size_t curve = texel * static_cast<std::size_t>(curves) + static_cast<std::size_t>(k);
+          const int n = node_count_[count_index(texel, k)];
+          const float* depth = &node_depth_[slot(texel, k)];
+          int j = 0;
+          while (j + 1 < n && depth[j + 1] < z) ++j;
+          if (n < 2 || z < depth[0] || z > depth[n - 1]) continue;
+          const float za = depth[j], zb = depth[j + 1];
+          const float w = zb > za ? (z - za) / (zb - za) : 0;
+          float err = 0;
+          for (int c = 0; c < channels; ++c) {
+            const float a = node_value_[value_slot(texel, k, j, c)], b = node_value_[value_slot(texel, k, j + 1, c)];
+            err = std::max(err, std::abs(T[k * channels + c] - (a + (b - a) * w)));
+          }
+          if (err > best[k]) {
+            best[k] = err;
+            own_worst[curve] = -err;
+            own_where[curve] = z;
+            for (int c = 0; c < channels; ++c) own_values[curve * static_cast<std::size_t>(channels) + static_cast<std::size_t>(c)] = T[k * channels + c];
+          }
+        }
+      });
+    });
+    worst = own_worst;
+    reduction.minimum(worst);
+    for (std::size_t i = 0; i < n_curves; ++i) where[i] = own_worst[i] == worst[i] && worst[i] < kInfinity ? own_where[i] : kInfinity;
+    reduction.minimum(where);
+    for (std::size_t i = 0; i < n_curves; ++i)
+      for (int c = 0; c < channels; ++c) {
+        const std::size_t v = i * static_cast<std::size_t>(channels) + static_cast<std::size_t>(c);
+        values[v] = own_worst[i] == worst[i] && own_where[i] == where[i] && where[i] < kInfinity ? own_values[v] : kInfinity;
+      }
+    reduction.minimum(values);
+    for (std::size_t i = 0; i < n_curves; ++i) {
+      if (where[i] == kInfinity) continue;
+      const std::size_t texel = i / static_cast<std::size_t>(curves);
+      const int k = static_cast<int>(i % static_cast<std::size_t>(curves));
+      const int n = node_count_[count_index(texel, k)];
+      float* depth = &node_depth_[slot(texel, k)];
+      int at = n;
+      while (at > 0 && depth[at - 1] > where[i]) --at;
+      for (int j = n; j > at; --j) {
+        depth[j] = depth[j - 1];
+        for (int c = 0; c < channels; ++c) node_value_[value_slot(texel, k, j, c)] = node_value_[value_slot(texel, k, j - 1, c)];
+      }
+      depth[at] = where[i];
+      for (int c = 0; c < channels; ++c) node_value_[value_slot(texel, k, at, c)] = values[i * static_cast<std::size_t>(channels) + static_cast<std::size_t>(c)];
+      node_count_[count_index(texel, k)] = static_cast<std::uint8_t>(n + 1);
+    }
+  }
 }
 
 int DeepShadowMap::node_count(int ix, int iy, int channel) const { return node_count_[count_index(texel_index(ix, iy), channel)]; }

@@ -23,6 +23,16 @@
 // | shadows.nodes       | 3               | N: nodes per colour channel (per_channel) or per texel (shared_depth) |
 // | shadows.dsm_layout  | per_channel     | per_channel or shared_depth (the paper's)             |
 // | shadows.bias        | one shadow step | world units                                           |
+// Across bricks (shadows/shadow_brick.h; a distributed frame): each brick marches the segments it
+// owns. The transmittance through the bricks in front of it (an exclusive product over the bricks, in
+// the order each ray crosses them) continues its part of every texel's polyline, so the bricks' parts
+// are the whole polyline, cut at the brick faces. The compression then runs over the bricks: the
+// first and last vertices are the nearest and farthest over them, and each further node is the vertex
+// farthest from the nodes so far over all bricks (the earliest where several are), found by minima of
+// −error, then depth, then its transmittance from the brick holding it — the whole map's greedy
+// insertion, one round of three reductions a node, each brick marching its part again. It differs from
+// the whole map only by rounding: the bricks' products multiply in another order, and a brick face adds
+// a vertex where an absorbing run crosses it (the same point as its neighbour's last).
 // Opaque planes are not folded into the function (with few nodes, the vertical drop to zero would
 // pull the interpolated T down well before the surface); each texel keeps the depth of its first
 // opaque surface, as a classic shadow map does, and T = 0 beyond it.
@@ -60,8 +70,11 @@ public:
   int node_count(int ix, int iy, int channel) const;
   float node_depth(int ix, int iy, int channel, int j) const;
 
+  bool combines_over_bricks() const override { return true; }
+
 private:
   void build_map(const ShadowCasters& medium) override;
+  void build_brick(const ShadowCasters& medium, const ShadowBrick& brick);
   Rgb evaluate_shared(std::size_t texel, float z) const;
   // per_channel: [texel][channel][node]; shared_depth: depths [texel][node], values [texel][node][channel]
   std::size_t slot(std::size_t texel, int channel) const {
