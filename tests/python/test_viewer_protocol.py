@@ -48,7 +48,9 @@ class Viewer:
             return e.code, e.read(), e.headers
 
     def connect(self):
-        ws = websocket.create_connection(self.ws_url, timeout=30)
+        # a hang guard, not a timing check: a sanitizer build beside oversubscribed MPI tests can take
+        # tens of seconds for a frame
+        ws = websocket.create_connection(self.ws_url, timeout=180)
         return ws
 
     def alive(self):
@@ -71,7 +73,7 @@ def viewer(tmp_path):
     assert v.close() == 0, "Ctrl-C must stop the server cleanly"
 
 
-def receive(ws, kind, timeout=60):
+def receive(ws, kind, timeout=180):
     """Messages until one of type `kind` (the binary JPEG after a frame header is returned with it)."""
     end = time.time() + timeout
     while time.time() < end:

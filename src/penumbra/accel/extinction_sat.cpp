@@ -52,12 +52,13 @@ std::array<int, 3> sat_dims(const Vec3& extent, int resolution) {
 }
 
 ExtinctionSat::ExtinctionSat(const Volume& volume, const TransferFunction& tf, Compositing compositing,
-                             float reference_step, int resolution, bool with_colour, const ParticleSet* spheres) {
+                             float reference_step, int resolution, bool with_colour, const ParticleSet* spheres,
+                             const ShadowBrick* brick) {
   if (resolution < kMinSatResolution || resolution > kMaxSatResolution)
     throw Error("light_cache.resolution " + std::to_string(resolution) + " (expected " +
                 std::to_string(kMinSatResolution) + " to " + std::to_string(kMaxSatResolution) + ")");
   if (!(reference_step > 0)) throw Error("extinction SAT: reference step must be positive");
-  const auto& vd = volume.dims();
+  const std::array<int, 3> vd = volume.whole_dims();  // a window (one brick's voxels) is cut from the whole grid
   const Vec3& sp = volume.spacing();
   // The box through the voxel centres; an axis one voxel thick gets that voxel's width.
   bounds_ = volume.bounds();
@@ -90,7 +91,8 @@ ExtinctionSat::ExtinctionSat(const Volume& volume, const TransferFunction& tf, C
   tau_.assign(cells, 0.0f);
   if (with_colour) tau_colour_.assign(cells * 3, 0.0f);
   const int nx = dims_[0], ny = dims_[1];
-  parallel_for(static_cast<std::size_t>(dims_[2]), [&](std::size_t k0, std::size_t k1) {
+  if (brick) cell_means_of_brick(volume, table, first_voxel, *brick, with_colour);
+  else parallel_for(static_cast<std::size_t>(dims_[2]), [&](std::size_t k0, std::size_t k1) {
     std::vector<double> acc(static_cast<std::size_t>(nx) * ny * 4);
     std::vector<int> count(static_cast<std::size_t>(nx) * ny);
     for (int ck = static_cast<int>(k0); ck < static_cast<int>(k1); ++ck) {
@@ -166,6 +168,53 @@ ExtinctionSat::ExtinctionSat(const Volume& volume, const TransferFunction& tf, C
   };
   build_table(tau_, 1, sat_);
   if (with_colour) build_table(tau_colour_, 3, sat_colour_);
+}
+
+template <class Table>
+void ExtinctionSat::cell_means_of_brick(const Volume& volume, const Table& table, const std::array<std::vector<int>, 3>& first_voxel,
+                                        const ShadowBrick& brick, bool with_colour) {
+  // per cell: Σ τ, Σ τ·c and the voxel count of this brick's voxels; a cell without voxels gets the
+  // sample at its centre from the brick that owns the centre
+  const int nx = dims_[0], ny = dims_[1];
+  const std::size_t cells = cell_count();
+  std::vector<double> sums(cells * 5, 0.0);
+  const int first_slice = volume.window_first(), slices = volume.dims()[2];
+  const float z0 = bounds_.lo.z, dz = volume.spacing().z;
+  parallel_for(static_cast<std::size_t>(dims_[2]), [&](std::size_t k0, std::size_t k1) {
+    for (int ck = static_cast<int>(k0); ck < static_cast<int>(k1); ++ck) {
+      const int kz0 = first_voxel[2][static_cast<std::size_t>(ck)], kz1 = first_voxel[2][static_cast<std::size_t>(ck) + 1];
+      for (int k = std::max(kz0, first_slice); k < std::min(kz1, first_slice + slices); ++k) {
+        if (!brick.slab.owns({0, 0, z0 + static_cast<float>(k) * dz})) continue;  // another brick's voxel
+        for (int cj = 0; cj < ny; ++cj)
+          for (int j = first_voxel[1][static_cast<std::size_t>(cj)]; j < first_voxel[1][static_cast<std::size_t>(cj) + 1]; ++j)
+            for (int ci = 0; ci < nx; ++ci) {
+              double* s = &sums[cell_index(ci, cj, ck) * 5];
+              for (int i = first_voxel[0][static_cast<std::size_t>(ci)]; i < first_voxel[0][static_cast<std::size_t>(ci) + 1]; ++i) {
+                const auto e = table.lookup(volume.value(i, j, k - first_slice));
+                for (int q = 0; q < 4; ++q) s[q] += e[q];
+                s[4] += 1;
+              }
+            }
+      }
+      for (int cj = 0; cj < ny; ++cj)
+        for (int ci = 0; ci < nx; ++ci) {
+          const bool voxelless = kz0 == kz1 || first_voxel[1][static_cast<std::size_t>(cj)] == first_voxel[1][static_cast<std::size_t>(cj) + 1] ||
+                                 first_voxel[0][static_cast<std::size_t>(ci)] == first_voxel[0][static_cast<std::size_t>(ci) + 1];
+          const Vec3 centre = cell_center(ci, cj, ck);
+          if (!voxelless || !brick.slab.owns(centre)) continue;
+          const auto e = table.lookup(volume.sample(centre));
+          for (int q = 0; q < 4; ++q) sums[cell_index(ci, cj, ck) * 5 + static_cast<std::size_t>(q)] = e[q];
+        }
+    }
+  });
+  brick.reduction->sum(sums);
+  for (std::size_t c = 0; c < cells; ++c) {
+    const double* s = &sums[c * 5];
+    const double n = s[4] > 0 ? s[4] : 1.0;  // a voxel-less cell holds its centre's sample
+    tau_[c] = static_cast<float>(s[0] / n);
+    if (with_colour)
+      for (int q = 0; q < 3; ++q) tau_colour_[c * 3 + static_cast<std::size_t>(q)] = static_cast<float>(s[q + 1] / n);
+  }
 }
 
 void ExtinctionSat::add_spheres(const ParticleSet& spheres) {

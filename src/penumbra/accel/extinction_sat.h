@@ -25,6 +25,7 @@
 #include "penumbra/data/particles.h"
 #include "penumbra/data/transfer_function.h"
 #include "penumbra/data/volume.h"
+#include "penumbra/shadows/shadow_brick.h"
 
 namespace penumbra {
 
@@ -50,8 +51,12 @@ public:
   // sphere fills (a ramp one cell wide across the surface) times τ_s = kOpaqueDepth / (2r), so that a
   // ray through a sphere's diameter loses all but 10⁻⁴ of its light (spheres outside the volume's box
   // are not in the table).
+  // `brick` (a distributed frame, shadows/shadow_brick.h): `volume` may be a window of the whole grid;
+  // this brick sums the voxels whose centres its slab owns (and samples the voxel-less cells whose
+  // centres it owns), and the bricks' sums are added up before the means are taken, so that every
+  // brick holds the whole volume's table (the same up to the order of the double sums).
   ExtinctionSat(const Volume& volume, const TransferFunction& tf, Compositing compositing, float reference_step,
-                int resolution, bool with_colour, const ParticleSet* spheres = nullptr);
+                int resolution, bool with_colour, const ParticleSet* spheres = nullptr, const ShadowBrick* brick = nullptr);
 
   const std::array<int, 3>& dims() const { return dims_; }
   const Box3& bounds() const { return bounds_; }
@@ -100,6 +105,10 @@ public:
 
 private:
   void add_spheres(const ParticleSet& spheres);
+  // The cells' means from every brick's sums (see the constructor).
+  template <class Table>
+  void cell_means_of_brick(const Volume& volume, const Table& table, const std::array<std::vector<int>, 3>& first_voxel,
+                           const ShadowBrick& brick, bool with_colour);
   bool clip(const CellBox& box, std::array<int, 3>& lo, std::array<int, 3>& hi) const {
     for (int a = 0; a < 3; ++a) {
       lo[a] = std::clamp(box.lo[a], 0, dims_[a]);

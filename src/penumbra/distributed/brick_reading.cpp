@@ -53,12 +53,13 @@ std::string why_read_whole(const Scene& scene) {
   if (scene.volumes.size() != 1)
     return "the scene has " + std::to_string(scene.volumes.size()) + " volumes (bricks are read for one)";
   if (!scene.isosurfaces.empty()) return "isosurfaces are extracted from the whole volume on every rank";
-  if (scene.ambient.technique != "none" && scene.ambient.technique != "particle_ao")  // particle_ao: the spheres only
+  if (const auto ambient = make_ambient_technique(scene.ambient); ambient && ambient->reads_whole_volume())
     return "ambient occlusion (" + scene.ambient.technique + ") is built from the whole volume on every rank";
   for (const ShadowAssignment& a : shadow_assignments(scene))
     if ((a.casters & kind_bit(ObjectKind::Volume)) && a.technique != "none" &&
-        !make_shadow_technique(a.technique, scene.shadows)->combines_over_bricks())
-      return "the " + a.technique + " shadows are built from the whole volume on every rank (cssm, shadow_map and deep_shadow_map are built per brick)";
+        make_shadow_technique(a.technique, scene.shadows)->reads_whole_volume())
+      return "the " + a.technique + " shadows are built from the whole volume on every rank (cssm, shadow_map, deep_shadow_map "
+             "and sat_cone are built per brick)";
   return "";
 }
 

@@ -141,6 +141,13 @@ void MpiWorld::sum(std::span<std::uint64_t> values) {
   communication_ms_ += t.elapsed_ms();
 }
 
+void MpiWorld::sum(std::span<double> values) {
+  Timer t;
+  check(MPI_Allreduce(MPI_IN_PLACE, values.data(), static_cast<int>(values.size()), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD), "MPI_Allreduce");
+  bytes_sent_ += values.size() * sizeof(double) * static_cast<std::size_t>(rounds(size_));
+  communication_ms_ += t.elapsed_ms();
+}
+
 void MpiWorld::exclusive_product(std::span<float> values, bool increasing_z) {
   Timer t;
   MPI_Comm comm = MPI_COMM_WORLD;

@@ -53,8 +53,10 @@ public:
   // values = elementwise minimum over the ranks, on every rank (MPI_Allreduce): how light structures
   // built per brick combine (shadows/shadow_brick.h).
   void minimum(std::span<float> values) override;
-  // values = elementwise sum over the ranks, on every rank (MPI_Allreduce): histogram counts.
+  // values = elementwise sum over the ranks, on every rank (MPI_Allreduce): histogram counts, and the
+  // extinction SAT's per-cell sums.
   void sum(std::span<std::uint64_t> values);
+  void sum(std::span<double> values) override;
   // values = the product of the values of the ranks before this one (rank order when increasing_z,
   // else the reverse; ranks hold slabs in order), 1 on the first (MPI_Exscan).
   void exclusive_product(std::span<float> values, bool increasing_z) override;

@@ -45,6 +45,7 @@ public:
   void ambient(std::span<const SurfacePoint> points, std::span<Rgb> out) const override;
   std::size_t memory_bytes() const override;
   std::string_view name() const override { return "particle_ao"; }
+  bool reads_whole_volume() const override { return false; }  // the spheres only
 
   // Density (filled fraction) of level `level` at world point p, trilinear; 0 outside the grid.
   float density(int level, const Vec3& p) const;

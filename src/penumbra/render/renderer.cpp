@@ -348,7 +348,11 @@ void Renderer::prepare(Quality quality, FrameResult& frame) {
   check_cancelled();
   // the structures that hang off each other: SAT → casters → ambient and every light's shadows
   const bool wants_sat = needs_extinction_sat(scene_);
-  if (stale("sat") || (wants_sat && !sat_) || (!wants_sat && sat_)) {
+  // a distributed frame's SAT is summed over the bricks (built again for another slab)
+  const std::optional<SampleSlab> sat_slab = sat_brick_ ? std::optional<SampleSlab>(sat_brick_->slab) : std::nullopt;
+  const bool other_slab = sat_slab.has_value() != sat_slab_.has_value() ||
+                          (sat_slab && (sat_slab->z_lo != sat_slab_->z_lo || sat_slab->z_hi != sat_slab_->z_hi));
+  if (stale("sat") || (wants_sat && !sat_) || (!wants_sat && sat_) || (wants_sat && other_slab)) {
     stale_.insert("casters");
     sat_.reset();
     if (wants_sat) {
@@ -358,7 +362,8 @@ void Renderer::prepare(Quality quality, FrameResult& frame) {
       // the casting spheres enter the table too (approximate ambient occlusion and cone shadows by spheres)
       sat_ = std::make_unique<ExtinctionSat>(*v->volume, v->shadow_tf(), v->compositing, v->reference_step(),
                                              settings_.light_cache.resolution, needs_extinction_colour(scene_),
-                                             casting_particles_.get());
+                                             casting_particles_.get(), sat_brick_);
+      sat_slab_ = sat_slab;
       frame.sat_ms = t.elapsed_ms();
       rebuilt("sat", quality, frame);
     }
@@ -454,10 +459,12 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   frame.quality = request.quality;
   frame.sample = request.sample;
   Timer total;
-  prepare(request.quality, frame);
-  Timer build;
   std::optional<ShadowBrick> brick;
   if (request.slab && request.reduction != nullptr) brick = ShadowBrick{*request.slab, request.reduction};
+  sat_brick_ = brick ? &*brick : nullptr;
+  prepare(request.quality, frame);
+  sat_brick_ = nullptr;
+  Timer build;
   update_shadows(lights, request.quality, request.sample, brick ? &*brick : nullptr, frame);
   update_light_cache();
   frame.build_ms = build.elapsed_ms();

@@ -153,6 +153,8 @@ private:
   std::unique_ptr<ShadowCasters> casters_;
   std::unique_ptr<ShadowCasters> occluders_;              // the ambient technique's kinds
   std::unique_ptr<ExtinctionSat> sat_;
+  const ShadowBrick* sat_brick_ = nullptr;    // during prepare(): the frame's brick, whose SAT is summed over bricks
+  std::optional<SampleSlab> sat_slab_;         // the slab the SAT was summed for (none: the whole volume's)
   std::unique_ptr<AmbientTechnique> ambient_;
   std::vector<std::unique_ptr<LightShadows>> shadows_;
   // Paper 001's light cache texture: the ambient term and the sat_cone lights' terms packed per cell

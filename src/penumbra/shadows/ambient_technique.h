@@ -30,6 +30,8 @@ public:
   }
   virtual std::size_t memory_bytes() const = 0;
   virtual std::string_view name() const = 0;
+  // False when one brick's voxels suffice in a distributed frame (ShadowTechnique::reads_whole_volume).
+  virtual bool reads_whole_volume() const { return true; }
 
   Rgb ambient(const Vec3& p) const {
     Rgb out;

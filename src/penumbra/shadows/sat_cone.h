@@ -29,6 +29,7 @@ public:
   Vec3 surface_receiver(const Vec3& p, const Vec3& n) const override;
   std::size_t memory_bytes() const override { return cache_.memory_bytes(); }
   std::string_view name() const override { return "sat_cone"; }
+  bool reads_whole_volume() const override { return false; }  // the SAT only
 
   // The attenuation at p computed from the SAT (what the cache stores at cell centres).
   float attenuation(const Vec3& p) const;

@@ -25,6 +25,8 @@ public:
   // `increasing_z`, else decreasing (the order a light ray going up or down in z crosses them); 1 for
   // the first brick.
   virtual void exclusive_product(std::span<float> values, bool increasing_z) = 0;
+  // Elementwise sum over the bricks (the extinction SAT's per-cell sums, accel/extinction_sat.h).
+  virtual void sum(std::span<double> values) = 0;
 };
 
 struct ShadowBrick {

@@ -41,6 +41,10 @@ public:
   // True when build() from casters restricted to a brick (ShadowCasters::brick) builds the brick's
   // partial structure and combines it over the bricks (shadow_brick.h), giving the whole scene's.
   virtual bool combines_over_bricks() const { return false; }
+  // False when one brick's voxels suffice in a distributed frame (distributed/brick_reading.h): the
+  // technique combines over bricks, or reads the volume only through the extinction SAT, which is
+  // summed over the bricks.
+  virtual bool reads_whole_volume() const { return !combines_over_bricks(); }
   // Per-channel transmittance in [0, 1]^3 from the light to each volume sample.
   virtual void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const = 0;
   // The same for points on opaque surfaces. By default each point is moved by surface_receiver and

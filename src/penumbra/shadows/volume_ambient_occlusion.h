@@ -41,6 +41,7 @@ class VolumeAmbientOcclusion : public AmbientTechnique {
 public:
   using AmbientTechnique::ambient;
   void build(const ShadowCasters& medium) override;
+  bool reads_whole_volume() const override { return false; }  // the SAT only
   void ambient(std::span<const Vec3> points, std::span<Rgb> out) const override;
   std::size_t memory_bytes() const override { return cache_.memory_bytes(); }
 
