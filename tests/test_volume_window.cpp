@@ -112,7 +112,9 @@ TEST(VolumeWindow, FilesAreReadOnlyForTheChosenSlices) {
       for (int j = 0; j < 4; ++j)
         for (int i = 0; i < 5; ++i) ASSERT_EQ(window.value(i, j, k), whole.value(i, j, k + 3));
     EXPECT_EQ(read.whole, file == "ascii.nrrd");
-    if (file == "raw.nrrd" || file == "plain.raw") EXPECT_EQ(read.bytes_read, 6u * 5 * 4 * 2);
+    if (file == "raw.nrrd" || file == "plain.raw") {
+      EXPECT_EQ(read.bytes_read, 6u * 5 * 4 * 2);
+    }
   }
   const SliceChooser too_many = [](const std::array<int, 3>&) { return SliceRange{10, 3}; };
   WindowRead read;
