@@ -83,20 +83,26 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   });
 
   // 1. this rank's samples, over black
-  // (the shadow maps that combine over bricks are reduced across the ranks inside render())
+  // (the light structures that combine over bricks are reduced across the ranks inside render(); a
+  // rank that fails there may leave the others inside one of those collectives, so it stops them all)
   std::size_t shadow_bytes = 0;
-  const FrameResult frame = on_every_rank(world, [&] {
-    Scene over_black = scene;
-    over_black.background = Rgb(0.0f);
-    Renderer renderer(std::move(over_black));
-    FrameRequest request;
-    request.slab = slab;
-    request.reduction = &world;
-    const std::size_t before = world.bytes_sent();
-    FrameResult f = renderer.render(request);
-    shadow_bytes = world.bytes_sent() - before;
-    return f;
-  });
+  const FrameResult frame = [&] {
+    try {
+      Scene over_black = scene;
+      over_black.background = Rgb(0.0f);
+      Renderer renderer(std::move(over_black));
+      FrameRequest request;
+      request.slab = slab;
+      request.reduction = &world;
+      const std::size_t before = world.bytes_sent();
+      FrameResult f = renderer.render(request);
+      shadow_bytes = world.bytes_sent() - before;
+      return f;
+    } catch (const std::exception& e) {
+      if (n == 1) throw;
+      world.abort(e.what());
+    }
+  }();
   const std::size_t bytes_before_image = world.bytes_sent();
 
   // 2. direct send: the part of band r inside this rank's active rectangle, as RGBA, to rank r

@@ -57,7 +57,9 @@ struct DistributedFrame {
 
 // Renders the scene's frame across the world's ranks; every rank calls it with the same scene. Throws
 // Error on every rank alike (the lowest failing rank's message, MpiWorld::agree) when the scene cannot
-// be split (no volume, more ranks than voxel slices) or a rank's render fails.
+// be split (no volume, more ranks than voxel slices). A rank whose render fails (its light structures
+// reduce across the ranks inside it, where the others may be waiting) stops every rank with its
+// message (MpiWorld::abort); on one rank the Error is thrown.
 DistributedFrame render_distributed(const Scene& scene, MpiWorld& world);
 
 }  // namespace penumbra

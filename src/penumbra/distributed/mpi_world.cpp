@@ -6,6 +6,7 @@
 #include <mpi.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <numeric>
 
@@ -62,6 +63,13 @@ MpiWorld::MpiWorld(int& argc, char**& argv) {
 }
 
 MpiWorld::~MpiWorld() { MPI_Finalize(); }
+
+void MpiWorld::abort(const std::string& message) {
+  std::fprintf(stderr, "penumbra: error: rank %d of %d: %s (stopping every rank)\n", rank_, size_, message.c_str());
+  std::fflush(stderr);
+  MPI_Abort(MPI_COMM_WORLD, 1);
+  std::_Exit(1);  // MPI_Abort does not return; should it, this rank still stops
+}
 
 std::string MpiWorld::agree(const std::string& error) {
   Timer t;

@@ -38,6 +38,10 @@ public:
   // "rank R of N: <message>" of the lowest failing rank R.
   std::string agree(const std::string& error);
 
+  // For a failure that other ranks cannot be told of through agree() (they may be waiting in a
+  // collective the failing rank never reaches): prints "penumbra: error: rank R of N: <message>" and
+  // stops every rank (MPI_Abort, exit status 1).
+  [[noreturn]] void abort(const std::string& message);
   // Every rank's `values` (the same count on each), concatenated in rank order, on every rank.
   std::vector<int> all_gather(std::span<const int> values);
   // Every rank sends send[counts[0] …) to rank 0, the next counts[1] to rank 1, …; gets back what each
