@@ -26,19 +26,6 @@ SliceRange own_slices(int whole_slices, int rank, int ranks) {
   return {first(rank), first(rank + 1) - first(rank)};
 }
 
-// Runs f() on this rank; an exception on any rank becomes the same Error on all of them.
-void on_every_rank(MpiWorld& world, const std::function<void()>& f) {
-  std::string error;
-  try {
-    f();
-  } catch (const std::exception& e) {
-    error = e.what();
-    if (error.empty()) error = "unknown error";
-  }
-  error = world.agree(error);
-  if (!error.empty()) throw Error(error);
-}
-
 using VolumeReader = std::function<Volume(const std::vector<std::string>&, const VolumeLoadOptions&)>;
 
 }  // namespace
@@ -88,7 +75,7 @@ Scene build_distributed_scene(const nlohmann::json& document, const std::string&
   std::optional<Scene> scene;
   SceneDataCache cache;
   const VolumeReader brick_reader = reader_of(true);
-  on_every_rank(world, [&] {
+  world.run_agreed([&] {
     SceneReadOptions options{strict, &cache};
     options.volume_reader = &brick_reader;
     scene = build_scene(document, base_dir, options);
@@ -109,7 +96,7 @@ Scene build_distributed_scene(const nlohmann::json& document, const std::string&
       reading.bytes_read = 0;
       reading.cut_from_whole = false;
       const VolumeReader whole_reader = reader_of(false);
-      on_every_rank(world, [&] {
+      world.run_agreed([&] {
         SceneReadOptions options{strict};
         options.volume_reader = &whole_reader;
         scene = build_scene(document, base_dir, options);
@@ -130,7 +117,7 @@ Scene build_distributed_scene(const nlohmann::json& document, const std::string&
   world.minimum(range);
   const float lo = range[0], hi = -range[1];
   VolumeHistogram histogram;
-  on_every_rank(world, [&] {
+  world.run_agreed([&] {
     volume->set_value_range(lo, hi);
     const SliceRange own = own_slices(reading.whole_slices, me, ranks);
     const int from = own.first - volume->window_first();
@@ -140,7 +127,7 @@ Scene build_distributed_scene(const nlohmann::json& document, const std::string&
   cache.set_transfer_function_chooser([histogram](const Volume& v) { return choose_transfer_function(histogram, v.type()); });
 
   // 4. the scene again, from the voxels already read, with what the ranks found
-  on_every_rank(world, [&] { scene = build_scene(document, base_dir, SceneReadOptions{strict, &cache}); });
+  world.run_agreed([&] { scene = build_scene(document, base_dir, SceneReadOptions{strict, &cache}); });
   reading.bricked = true;
   reading.volume_bytes = volume->memory_bytes();
   return std::move(*scene);

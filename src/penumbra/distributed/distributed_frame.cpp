@@ -19,22 +19,6 @@ struct Bands {
   int rows(int r) const { return first(r + 1) - first(r); }
 };
 
-// Runs f() on every rank; an exception on any rank becomes the same Error on all of them.
-template <class F>
-auto on_every_rank(MpiWorld& world, F&& f) -> decltype(f()) {
-  std::string error;
-  decltype(f()) result{};
-  try {
-    result = f();
-  } catch (const std::exception& e) {
-    error = e.what();
-    if (error.empty()) error = "unknown error";
-  }
-  const std::string agreed = world.agree(error);
-  if (!agreed.empty()) throw Error(agreed);
-  return result;
-}
-
 // A half-open pixel rectangle [x0, x1) × [y0, y1); empty when x0 ≥ x1 or y0 ≥ y1.
 struct Rect {
   int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
@@ -77,9 +61,10 @@ Rect active_rect(const FrameResult& frame) {
 
 DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   const int n = world.size(), me = world.rank();
-  const SampleSlab slab = on_every_rank(world, [&] {
+  SampleSlab slab;
+  world.run_agreed([&] {
     check_has_volume(scene);
-    return volume_slabs(*scene.volumes.front().volume, n)[static_cast<std::size_t>(me)];
+    slab = volume_slabs(*scene.volumes.front().volume, n)[static_cast<std::size_t>(me)];
   });
 
   // 1. this rank's samples, over black

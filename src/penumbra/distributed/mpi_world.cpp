@@ -71,6 +71,18 @@ void MpiWorld::abort(const std::string& message) {
   std::_Exit(1);  // MPI_Abort does not return; should it, this rank still stops
 }
 
+void MpiWorld::run_agreed(const std::function<void()>& f) {
+  std::string error;
+  try {
+    f();
+  } catch (const std::exception& e) {
+    error = e.what();
+    if (error.empty()) error = "unknown error";
+  }
+  error = agree(error);
+  if (!error.empty()) throw Error(error);
+}
+
 std::string MpiWorld::agree(const std::string& error) {
   Timer t;
   const int mine = static_cast<int>(error.size());

@@ -10,6 +10,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
@@ -37,6 +38,8 @@ public:
   // Every rank passes its error ("" when none); every rank gets "" when none failed, else
   // "rank R of N: <message>" of the lowest failing rank R.
   std::string agree(const std::string& error);
+  // Runs f() on this rank, then agree(): an exception on any rank becomes the same Error on all of them.
+  void run_agreed(const std::function<void()>& f);
 
   // For a failure that other ranks cannot be told of through agree() (they may be waiting in a
   // collective the failing rank never reaches): prints "penumbra: error: rank R of N: <message>" and
