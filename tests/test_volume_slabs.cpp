@@ -158,6 +158,7 @@ struct RecordingReduction : BrickReduction {
     }
   }
   void sum(std::span<double>) override {}  // the brick's own sums
+  void nearest(std::span<SphereCandidate>) override {}  // the brick's own candidates
   void exclusive_product(std::span<float> values, bool increasing_z) override {
     products[increasing_z].assign(values.begin(), values.end());
     const std::vector<float>& given = given_products[increasing_z];

@@ -55,7 +55,7 @@ std::uint64_t file_bytes(const std::string& path) {
 
 nlohmann::json rank_stats(const RankFrameStats& s, const RankReadStats& read, int rank) {
   const auto z = [](float v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-  return {{"rank", rank},
+  nlohmann::json out = {{"rank", rank},
           {"slab_z", {z(s.slab.z_lo), z(s.slab.z_hi)}},
           {"slices", {read.first_slice, read.first_slice + read.slices}},
           {"bytes_read", read.bytes_read},
@@ -68,6 +68,8 @@ nlohmann::json rank_stats(const RankFrameStats& s, const RankReadStats& read, in
           {"bytes_sent", s.bytes_sent},
           {"shadow_bytes_sent", s.shadow_bytes_sent},
           {"image_bytes_sent", s.image_bytes_sent}};
+  if (s.spheres) out["spheres"] = *s.spheres;
+  return out;
 }
 
 }  // namespace
@@ -122,7 +124,8 @@ void run_render_distributed(const RenderOptions& o) {
                                 {"width", scene.camera.width},
                                 {"height", scene.camera.height},
                                 {"threads_per_rank", ThreadLimit::current_max()},
-                                {"compositing", "direct-send"},
+                                {"compositing", scene.volumes.empty() ? "direct-send, by depth" : "direct-send, in visibility order"},
+                                {"split", scene.volumes.empty() ? "spheres by z order" : "volume slabs"},
                                 {"bricks_read", reading.bricked},
                                 {"whole_slices", reading.whole_slices},
                                 {"cut_from_whole_file", reading.cut_from_whole}};
@@ -134,15 +137,20 @@ void run_render_distributed(const RenderOptions& o) {
     } catch (const std::exception& e) {
       error = e.what();
     }
-    if (!reading.bricked) std::fprintf(stderr, "penumbra: note: every rank read the whole volume: %s\n", reading.why.c_str());
+    if (!reading.bricked && !scene.volumes.empty())
+      std::fprintf(stderr, "penumbra: note: every rank read the whole volume: %s\n", reading.why.c_str());
     for (std::size_t r = 0; r < frame.ranks.size(); ++r) {
       const RankFrameStats& s = frame.ranks[r];
       const RankReadStats read = read_of(r);
-      std::fprintf(stderr, "rank %zu: slices %d to %d of %d (%.1f MB read, %.1f MB held)\n", r, read.first_slice,
-                   read.first_slice + read.slices - 1, reading.whole_slices, static_cast<double>(read.bytes_read) / 1e6,
-                   static_cast<double>(read.volume_bytes) / 1e6);
-      std::fprintf(stderr, "rank %zu: slab z %g to %g, shadows %.1f ms, render %.1f ms, composite %.1f ms, communication %.1f ms, sent %.0f kB (shadows %.0f, image %.0f)\n",
-                   r, static_cast<double>(s.slab.z_lo), static_cast<double>(s.slab.z_hi), s.build_ms, s.render_ms, s.composite_ms,
+      if (s.spheres)
+        std::fprintf(stderr, "rank %zu: %zu spheres, centres at z %g to %g\n", r, *s.spheres, static_cast<double>(s.slab.z_lo),
+                     static_cast<double>(s.slab.z_hi));
+      else
+        std::fprintf(stderr, "rank %zu: slices %d to %d of %d (%.1f MB read, %.1f MB held)\n", r, read.first_slice,
+                     read.first_slice + read.slices - 1, reading.whole_slices, static_cast<double>(read.bytes_read) / 1e6,
+                     static_cast<double>(read.volume_bytes) / 1e6);
+      std::fprintf(stderr, "rank %zu: %s z %g to %g, shadows %.1f ms, render %.1f ms, composite %.1f ms, communication %.1f ms, sent %.0f kB (shadows %.0f, image %.0f)\n",
+                   r, s.spheres ? "spheres" : "slab", static_cast<double>(s.slab.z_lo), static_cast<double>(s.slab.z_hi), s.build_ms, s.render_ms, s.composite_ms,
                    s.communication_ms, s.bytes_sent / 1024.0, s.shadow_bytes_sent / 1024.0, s.image_bytes_sent / 1024.0);
     }
     if (error.empty())

@@ -9,6 +9,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/data/transfer_function_choice.h"
 #include "penumbra/data/volume_stats.h"
+#include "penumbra/distributed/sphere_split.h"
 #include "penumbra/distributed/volume_slabs.h"
 #include "penumbra/scene/scene_file.h"
 #include "penumbra/scene/technique_catalog.h"
@@ -37,6 +38,7 @@ SliceRange brick_slices(int whole_slices, int rank, int ranks) {
 }
 
 std::string why_read_whole(const Scene& scene) {
+  if (splits_spheres(scene)) return "the scene has no volume: every rank reads the particle files and keeps its share of the spheres";
   if (scene.volumes.size() != 1)
     return "the scene has " + std::to_string(scene.volumes.size()) + " volumes (bricks are read for one)";
   if (!scene.isosurfaces.empty()) return "isosurfaces are extracted from the whole volume on every rank";
@@ -79,7 +81,7 @@ Scene build_distributed_scene(const nlohmann::json& document, const std::string&
     SceneReadOptions options{strict, &cache};
     options.volume_reader = &brick_reader;
     scene = build_scene(document, base_dir, options);
-    check_has_volume(*scene);
+    check_splittable(*scene);
     reading.why = why_read_whole(*scene);
     if (reading.why.empty() && files_read != 1) reading.why = "the volume is not read from a file";
   });
@@ -102,6 +104,7 @@ Scene build_distributed_scene(const nlohmann::json& document, const std::string&
         scene = build_scene(document, base_dir, options);
       });
     }
+    if (scene->volumes.empty()) return std::move(*scene);  // spheres, split by space once read (sphere_split.h)
     const Volume& volume = *scene->volumes.front().volume;
     if (reading.whole_slices == 0) reading.whole_slices = volume.dims()[2];  // not read from a file
     reading.slices = {0, reading.whole_slices};

@@ -1,11 +1,13 @@
 #include "penumbra/distributed/distributed_frame.h"
 
 #include <algorithm>
+#include <optional>
 #include <utility>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/distributed/sphere_split.h"
 #include "penumbra/distributed/volume_slabs.h"
 #include "penumbra/render/renderer.h"
 
@@ -61,9 +63,18 @@ Rect active_rect(const FrameResult& frame) {
 
 DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   const int n = world.size(), me = world.rank();
+  // a volume's slabs, or (no volume) the spheres split by space and the frames composited by depth
+  const bool by_depth = splits_spheres(scene);
   SampleSlab slab;
+  std::optional<SphereShare> share;
   world.run_agreed([&] {
-    check_has_volume(scene);
+    check_splittable(scene);
+    if (by_depth) {
+      check_spheres_split(scene, n);
+      share = sphere_share(scene, n, me);
+      slab = share->slab;
+      return;
+    }
     slab = volume_slabs(*scene.volumes.front().volume, n)[static_cast<std::size_t>(me)];
   });
 
@@ -73,11 +84,12 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   std::size_t shadow_bytes = 0;
   const FrameResult frame = [&] {
     try {
-      Scene over_black = scene;
+      Scene over_black = by_depth ? std::move(share->scene) : scene;
       over_black.background = Rgb(0.0f);
       Renderer renderer(std::move(over_black));
       FrameRequest request;
-      request.slab = slab;
+      if (!by_depth) request.slab = slab;
+      request.own_spheres = by_depth;
       request.reduction = &world;
       const std::size_t before = world.bytes_sent();
       FrameResult f = renderer.render(request);
@@ -90,7 +102,8 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   }();
   const std::size_t bytes_before_image = world.bytes_sent();
 
-  // 2. direct send: the part of band r inside this rank's active rectangle, as RGBA, to rank r
+  // 2. direct send: the part of band r inside this rank's active rectangle, as RGBA (by depth: RGB and
+  // the depth), to rank r
   const int width = scene.camera.width, height = scene.camera.height;
   const Bands bands{height, n};
   const Rect active = active_rect(frame);
@@ -114,7 +127,7 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
       for (int x = part.x0; x < part.x1; ++x) {
         const std::size_t p = static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x);
         const Rgb& c = frame.image.pixels()[p];
-        send.insert(send.end(), {c.r, c.g, c.b, frame.alpha[p]});
+        send.insert(send.end(), {c.r, c.g, c.b, by_depth ? frame.depth[p] : frame.alpha[p]});
       }
   std::vector<std::size_t> layer_start(static_cast<std::size_t>(n) + 1, 0);
   for (int r = 0; r < n; ++r)
@@ -123,7 +136,8 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   world.all_to_all(send, send_counts, layers, recv_counts);
 
   // 3. this rank's band, composited along each pixel's ray (outside a rank's rectangle its layer is
-  // transparent black, which leaves the sum as it is)
+  // transparent black, which leaves the sum as it is), or by depth: the nearest rank's surface, the
+  // lowest rank on a tie, else the background (outside a rank's rectangle it shows nothing)
   Timer composite;
   const PrimaryRays rays(scene.camera);
   const int y_first = bands.first(me), rows = bands.rows(me);
@@ -132,13 +146,23 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
     for (int row = static_cast<int>(r0); row < static_cast<int>(r1); ++row)
       for (int x = 0; x < width; ++x) {
         const int y = y_first + row;
-        const Rgb c = composite_pixel(static_cast<std::size_t>(n), rays.direction(x, y).z < 0, scene.background, [&](std::size_t b) {
+        const auto layer = [&](std::size_t b) -> const float* {
           const Rect& part = received[b];
-          if (!part.contains(x, y)) return std::pair<Rgb, float>(Rgb(0.0f), 0.0f);
-          const float* l = &layers[layer_start[b] + (static_cast<std::size_t>(y - part.y0) * static_cast<std::size_t>(part.x1 - part.x0) +
-                                                     static_cast<std::size_t>(x - part.x0)) * 4];
-          return std::pair<Rgb, float>(Rgb(l[0], l[1], l[2]), l[3]);
-        });
+          if (!part.contains(x, y)) return nullptr;
+          return &layers[layer_start[b] + (static_cast<std::size_t>(y - part.y0) * static_cast<std::size_t>(part.x1 - part.x0) +
+                                           static_cast<std::size_t>(x - part.x0)) * 4];
+        };
+        Rgb c = scene.background;
+        if (by_depth) {
+          float nearest = kInfinity;
+          for (std::size_t b = 0; b < static_cast<std::size_t>(n); ++b)
+            if (const float* l = layer(b); l && l[3] < nearest) nearest = l[3], c = Rgb(l[0], l[1], l[2]);
+        } else {
+          c = composite_pixel(static_cast<std::size_t>(n), rays.direction(x, y).z < 0, scene.background, [&](std::size_t b) {
+            const float* l = layer(b);
+            return l ? std::pair<Rgb, float>(Rgb(l[0], l[1], l[2]), l[3]) : std::pair<Rgb, float>(Rgb(0.0f), 0.0f);
+          });
+        }
         const std::size_t local = static_cast<std::size_t>(row) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x);
         band[local * 3] = c.r, band[local * 3 + 1] = c.g, band[local * 3 + 2] = c.b;
       }
@@ -159,7 +183,8 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   // every rank's figures to rank 0 (this gather's own bytes and time are not in them)
   const double mine[] = {static_cast<double>(slab.z_lo), static_cast<double>(slab.z_hi), frame.prepare_ms, frame.build_ms,
                          frame.render_ms, composite_ms, world.communication_ms(), static_cast<double>(world.bytes_sent()),
-                         static_cast<double>(shadow_bytes), static_cast<double>(world.bytes_sent() - bytes_before_image)};
+                         static_cast<double>(shadow_bytes), static_cast<double>(world.bytes_sent() - bytes_before_image),
+                         by_depth ? static_cast<double>(share->spheres) : -1.0};
   const std::vector<double> all = world.gather_doubles(mine);
   constexpr std::size_t kFields = std::size(mine);
   for (std::size_t r = 0; r < all.size() / kFields; ++r) {
@@ -168,6 +193,7 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
     s.slab = {static_cast<float>(f[0]), static_cast<float>(f[1])};
     s.prepare_ms = f[2], s.build_ms = f[3], s.render_ms = f[4], s.composite_ms = f[5], s.communication_ms = f[6], s.bytes_sent = f[7];
     s.shadow_bytes_sent = f[8], s.image_bytes_sent = f[9];
+    if (f[10] >= 0) s.spheres = static_cast<std::size_t>(f[10]);
     out.ranks.push_back(s);
   }
   return out;

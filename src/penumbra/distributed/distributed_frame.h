@@ -11,13 +11,18 @@
 //    arithmetic: the frame is bit for bit `render --slabs N`), over the scene's background.
 // 4. Rank 0 gathers the bands (RGB floats) into the image.
 //
+// A scene of spheres without a volume is split by space instead (distributed/sphere_split.h): each
+// rank renders its share of the spheres and the planes into colour and depth, sends RGB and depth, and
+// the bands are composited by depth (the nearest surface shows).
+//
 // Shadows across ranks: the light structures that combine over bricks (shadows/shadow_brick.h: the
 // CSSM by the per-channel minimum, the classic shadow map from the transparency in front and the
-// nearest crossing) are built by each rank from the light segments its slab owns and reduced across
-// the ranks, so an occluder in one rank's slab shadows a receiver in another's, as in one process. The
-// others (deep shadow map, the SAT, ray-traced shadows) and the ambient occlusion are still built by
-// every rank from the whole volume, which every rank holds (it reads the whole file): not yet
-// per-brick reading.
+// nearest crossing, the deep shadow map by products and a compression over the ranks, the extinction
+// SAT by sums; for split spheres the implicit sphere shadow map by the nearest candidate and the
+// particle AO by sums) are built by each rank from what it owns and reduced across the ranks, so an
+// occluder on one rank shadows a receiver on another, as in one process. The others (ray-traced shadows
+// and AO, the isosurface light pass) are built by every rank from the whole volume, which every rank
+// then reads (distributed/brick_reading.h).
 //
 // Bytes sent per frame and rank: the CSSM reduction, resolution² × 3 floats per round of the
 // allreduce (⌈log2 N⌉ rounds in recursive doubling; the classic map resolution² floats a round for its
@@ -29,6 +34,7 @@
 // | ranks     | MPI ranks: slabs, one per rank (1 … the volume's slices along z) |
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,7 +47,8 @@ namespace penumbra {
 
 // What one rank did in a frame (every rank's, gathered on rank 0).
 struct RankFrameStats {
-  SampleSlab slab;
+  SampleSlab slab;              // a volume's: the samples the rank owns; split spheres: its centres' z
+  std::optional<std::size_t> spheres;  // split spheres: how many the rank holds
   double prepare_ms = 0, build_ms = 0, render_ms = 0;  // the rank's FrameResult times
   double composite_ms = 0;      // compositing its band (after the exchange)
   double communication_ms = 0;  // in MPI calls (reductions, exchange, gather, agreement), waiting included
@@ -57,7 +64,8 @@ struct DistributedFrame {
 
 // Renders the scene's frame across the world's ranks; every rank calls it with the same scene. Throws
 // Error on every rank alike (the lowest failing rank's message, MpiWorld::agree) when the scene cannot
-// be split (no volume, more ranks than voxel slices). A rank whose render fails (its light structures
+// be split (neither a volume nor spheres, more ranks than voxel slices or spheres, sphere shadows other
+// than issm). A rank whose render fails (its light structures
 // reduce across the ranks inside it, where the others may be waiting) stops every rank with its
 // message (MpiWorld::abort); on one rank the Error is thrown.
 DistributedFrame render_distributed(const Scene& scene, MpiWorld& world);

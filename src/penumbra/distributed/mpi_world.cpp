@@ -183,4 +183,29 @@ void MpiWorld::exclusive_product(std::span<float> values, bool increasing_z) {
   communication_ms_ += t.elapsed_ms();
 }
 
+namespace {
+
+void first_candidate(void* in, void* inout, int* count, MPI_Datatype*) {
+  const auto* a = static_cast<const SphereCandidate*>(in);
+  auto* b = static_cast<SphereCandidate*>(inout);
+  for (int i = 0; i < *count; ++i)
+    if (a[i].before(b[i])) b[i] = a[i];
+}
+
+}  // namespace
+
+void MpiWorld::nearest(std::span<SphereCandidate> values) {
+  Timer t;
+  MPI_Datatype candidate;
+  check(MPI_Type_contiguous(5, MPI_FLOAT, &candidate), "MPI_Type_contiguous");
+  check(MPI_Type_commit(&candidate), "MPI_Type_commit");
+  MPI_Op first;
+  check(MPI_Op_create(&first_candidate, 1, &first), "MPI_Op_create");
+  check(MPI_Allreduce(MPI_IN_PLACE, values.data(), static_cast<int>(values.size()), candidate, first, MPI_COMM_WORLD), "MPI_Allreduce");
+  MPI_Op_free(&first);
+  MPI_Type_free(&candidate);
+  bytes_sent_ += values.size() * sizeof(SphereCandidate) * static_cast<std::size_t>(rounds(size_));
+  communication_ms_ += t.elapsed_ms();
+}
+
 }  // namespace penumbra

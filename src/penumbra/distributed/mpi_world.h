@@ -67,6 +67,10 @@ public:
   // values = the product of the values of the ranks before this one (rank order when increasing_z,
   // else the reverse; ranks hold slabs in order), 1 on the first (MPI_Exscan).
   void exclusive_product(std::span<float> values, bool increasing_z) override;
+  // values = elementwise the first candidate over the ranks, on every rank (MPI_Allreduce with a
+  // commutative user operation on five floats): the implicit sphere shadow map of a particle scene
+  // split by space.
+  void nearest(std::span<SphereCandidate> values) override;
 
   std::size_t bytes_sent() const { return bytes_sent_; }
   double communication_ms() const { return communication_ms_; }

@@ -4,6 +4,7 @@
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/particles/tile_bins.h"
+#include "penumbra/shadows/shadow_brick.h"
 
 namespace penumbra {
 
@@ -11,7 +12,12 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
   static const ParticleSet kNoSpheres;
   particles_ = casters.spheres().set ? casters.spheres().set : &kNoSpheres;
   light_ = light;
-  projection_ = LightProjection::fit(light, casters.spheres().set ? casters.spheres().bounds : casters.bounds());
+  const ShadowBrick* brick = casters.brick();
+  reduction_ = brick && brick->own_spheres ? brick->reduction : nullptr;
+  Box3 fitted = casters.spheres().set ? casters.spheres().bounds : casters.bounds();
+  // every brick's map covers all the spheres (a brick may hold no casting sphere: it adds nothing)
+  if (reduction_) fitted = combined_bounds(casters.spheres().set ? casters.spheres().bounds : Box3{}, *reduction_);
+  projection_ = LightProjection::fit(light, fitted);
   const int n = params_.resolution;
   const float fn = static_cast<float>(n);
   // the smallest texel of the map: at the near side for a perspective light
@@ -63,6 +69,7 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
 
   map_.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(n), kNoSphere);
   map_spheres_.resize(map_.size());
+  std::vector<float> depth_of(reduction_ ? map_.size() : 0);
   const float world_per_texel = projection_.perspective() ? 0.0f : 1.0f / texels_per_world;
   TileBins(rects, n, n).nearest_per_pixel(
       rects, nearest, [](int, int, int, int) { return 0; },
@@ -80,11 +87,32 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
         const Ray ray = projection_.texel_ray((static_cast<float>(k) + 0.5f) / fn, (static_cast<float>(j) + 0.5f) / fn);
         return intersect_sphere(ray, s, -kInfinity, kInfinity);
       },
-      [&](int k, int j, float, std::uint32_t id) {
+      [&](int k, int j, float depth, std::uint32_t id) {
         const std::size_t texel_index = static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(k);
         map_[texel_index] = id;
         map_spheres_[texel_index] = id == kNoSphere ? Sphere{} : ps.spheres[id];
+        if (reduction_) depth_of[texel_index] = id == kNoSphere ? kInfinity : depth;
       });
+  if (reduction_) keep_nearest_over_bricks(depth_of);
+}
+
+void ImplicitSphereShadowMap::keep_nearest_over_bricks(std::span<const float> depth_of) {
+  std::vector<SphereCandidate> candidates(map_.size());
+  for (std::size_t t = 0; t < map_.size(); ++t)
+    if (map_[t] != kNoSphere) candidates[t] = {depth_of[t], map_spheres_[t]};
+  reduction_->nearest(candidates);
+  parallel_for(map_.size(), [&](std::size_t b, std::size_t e) {
+    for (std::size_t t = b; t < e; ++t) {
+      const SphereCandidate& c = candidates[t];
+      if (c.depth == kInfinity) continue;  // no brick's sphere (this brick's texel is empty too)
+      // c is the first over the bricks: it is this brick's own unless it comes before it
+      const bool mine = map_[t] != kNoSphere && !c.before(SphereCandidate{depth_of[t], map_spheres_[t]});
+      if (!mine) {
+        map_[t] = kOtherBrickSphere;
+        map_spheres_[t] = c.sphere;
+      }
+    }
+  }, 1 << 14);
 }
 
 float ImplicitSphereShadowMap::light_at(const Vec3& position, std::uint32_t self) const {
@@ -151,7 +179,10 @@ int ImplicitSphereShadowMap::choose_rings(std::span<const SurfacePoint> points, 
     evaluate(current);
     std::size_t changed = 0;
     for (std::size_t i = 0; i < points.size(); ++i) changed += std::abs(current[i].r - previous[i].r) > 1.0f / 255.0f;
-    if (static_cast<double>(changed) <= max_changed * static_cast<double>(points.size())) {
+    // split over bricks: every brick's receivers count, so that all choose the same t
+    double counts[] = {static_cast<double>(changed), static_cast<double>(points.size())};
+    if (reduction_) reduction_->sum(counts);
+    if (counts[0] <= max_changed * counts[1]) {
       set_rings(t - 1);  // t − 1 rings already gave this image
       return t - 1;
     }

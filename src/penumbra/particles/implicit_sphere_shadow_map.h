@@ -12,6 +12,11 @@
 // an orthographic map (the paper); point and spot lights a perspective one fitted to the spheres (the
 // paper's future work).
 //
+// A particle scene split by space over MPI ranks (shadows/shadow_brick.h) builds one map per rank from
+// its share of the spheres, fitted to the box of all of them, and keeps per texel the nearest of the
+// ranks' candidates (depth, centre and radius: one allreduce of 20 bytes a texel); a texel whose sphere
+// another rank holds is marked so (kOtherBrickSphere), never mistaken for a receiver's own sphere.
+//
 // | parameter             | default | meaning                                                          |
 // | shadows.resolution    | 1024    | N, texels per side (the paper's benchmarks: 512)                  |
 // | shadows.rings         | 1       | t, texel rings searched around the receiver's texel; −1 automatic |
@@ -47,7 +52,12 @@ public:
   explicit ImplicitSphereShadowMap(const IssmParams& params) : params_(params), automatic_rings_(params.rings < 0) {
     if (automatic_rings_) params_.rings = 0;
   }
+  // A texel holding a sphere of another brick (its centre and radius are in the map; its id is not ours).
+  static constexpr std::uint32_t kOtherBrickSphere = kNoSphere - 1;
+
   void build(const ShadowCasters& casters, const Light& light) override;
+  // Built from one brick's spheres, combined with the other bricks' (a particle scene split by space).
+  bool combines_over_bricks() const override { return true; }
   void fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples) override;
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
   void transmittance(std::span<const SurfacePoint> points, std::span<Rgb> out) const override;
@@ -63,7 +73,8 @@ public:
   // The rings used: the asked t, raised for soft shadows to ⌈s / texel⌉ so that the patch reaches
   // every occluder whose grown radius can cross the shadow ray (§3.2: "t must be chosen large enough").
   int rings() const { return std::max(params_.rings, soft_rings_); }
-  // The sphere stored in texel (i, j), kNoSphere where the light reaches the far side (for figures).
+  // The sphere stored in texel (i, j), kNoSphere where the light reaches the far side,
+  // kOtherBrickSphere for another brick's (for figures).
   std::uint32_t texel(int i, int j) const { return map_[static_cast<std::size_t>(j) * static_cast<std::size_t>(params_.resolution) + static_cast<std::size_t>(i)]; }
   int resolution() const { return params_.resolution; }
 
@@ -73,6 +84,9 @@ public:
   int choose_rings(std::span<const SurfacePoint> points, int max_rings = 8, double max_changed = 1e-4);
 
 private:
+  // The spheres are split over bricks: each texel keeps the first of the bricks' candidates (this
+  // brick's texel depths in depth_of, infinity where it has none).
+  void keep_nearest_over_bricks(std::span<const float> depth_of);
   // `self`: the receiver's sphere, kNoSphere for points on anything else.
   float light_at(const Vec3& p, std::uint32_t self) const;
 
@@ -84,6 +98,7 @@ private:
   std::vector<std::uint32_t> map_;
   std::vector<Sphere> map_spheres_;  // per texel: the centre and radius of map_'s sphere
   int soft_rings_ = 0;
+  BrickReduction* reduction_ = nullptr;  // the spheres are split over bricks: combine through this
 };
 
 }  // namespace penumbra

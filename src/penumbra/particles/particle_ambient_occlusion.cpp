@@ -78,7 +78,11 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
   static const ParticleSet kNoSpheres;
   particles_ = occluders.spheres().set ? occluders.spheres().set : &kNoSpheres;
   const ParticleSet& ps = *particles_;
+  // a particle scene split over bricks: the grid covers every brick's spheres, and their densities add
+  const ShadowBrick* brick = occluders.brick();
+  BrickReduction* reduction = brick && brick->own_spheres ? brick->reduction : nullptr;
   Box3 b = occluders.bounds();  // the spheres' and the volumes' box
+  if (reduction) b = combined_bounds(b, *reduction);
   if (b.empty()) b = Box3{{-1, -1, -1}, {1, 1, 1}};
   const Vec3 e = b.extent();
   const float longest = std::max(e.x, std::max(e.y, e.z));
@@ -94,9 +98,10 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
   const std::size_t n = static_cast<std::size_t>(base.nx) * static_cast<std::size_t>(base.ny) * static_cast<std::size_t>(base.nz);
   base.value.assign(n, 0.0f);
 
-  double radius_sum = 0;
-  for (const Sphere& sp : ps.spheres) radius_sum += sp.radius;
-  const float mean_radius = ps.size() > 0 ? static_cast<float>(radius_sum / static_cast<double>(ps.size())) : cell;
+  double radii[] = {0, static_cast<double>(ps.size())};  // their sum, and how many
+  for (const Sphere& sp : ps.spheres) radii[0] += sp.radius;
+  if (reduction) reduction->sum(radii);
+  const float mean_radius = radii[1] > 0 ? static_cast<float>(radii[0] / radii[1]) : cell;
   const float cell_exponent = 0.75f * cell / mean_radius;
 
   // The spheres' filled fraction per cell (cell centres at (i + 0.5)·cell), accumulated in a few
@@ -144,10 +149,19 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
       }
     }
   });
+  std::vector<double> bricks_density;  // split over bricks: the sum of every brick's
+  if (reduction) {
+    bricks_density.assign(n, 0.0);
+    for (const auto& acc : partial)
+      for (std::size_t i = 0; i < n; ++i) bricks_density[i] += acc[i];
+    reduction->sum(bricks_density);
+  }
   parallel_for(n, [&](std::size_t b0, std::size_t b1) {
     for (std::size_t i = b0; i < b1; ++i) {
       float v = 0;
-      for (const auto& acc : partial) v += acc[i];
+      if (reduction) v = static_cast<float>(bricks_density[i]);
+      else
+        for (const auto& acc : partial) v += acc[i];
       // opacity across one cell: spheres of mean radius r̄ filling the fraction ρ block a ray over a
       // length ℓ with probability 1 − (1 − ρ)^(3ℓ/(4r̄)) (Beer–Lambert for small ρ, opaque at ρ = 1)
       base.value[i] = 1.0f - std::pow(1.0f - std::min(v, 1.0f), cell_exponent);

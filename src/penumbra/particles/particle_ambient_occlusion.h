@@ -11,7 +11,9 @@
 // sphere share its cones, kept across frames — each step half the cone's diameter, sampling the
 // level whose cell matches the diameter (trilinear, blended between levels) and compositing its
 // opacity front to back, up to `max_distance`. The ambient factor is 1 minus the cosine-weighted mean
-// of the cones' occlusion. Our choices are explained and measured in docs/techniques/issm.md.
+// of the cones' occlusion. Our choices are explained and measured in docs/techniques/issm.md. A
+// particle scene split by space over MPI ranks (shadows/shadow_brick.h) splats each rank's spheres
+// into a grid over all of them and sums the ranks' densities (one allreduce of a double a cell).
 //
 // | parameter            | default | meaning                                               |
 // | ambient.directions   | 16      | cones per hemisphere                                  |

@@ -349,7 +349,7 @@ void Renderer::prepare(Quality quality, FrameResult& frame) {
   // the structures that hang off each other: SAT → casters → ambient and every light's shadows
   const bool wants_sat = needs_extinction_sat(scene_);
   // a distributed frame's SAT is summed over the bricks (built again for another slab)
-  const std::optional<SampleSlab> sat_slab = sat_brick_ ? std::optional<SampleSlab>(sat_brick_->slab) : std::nullopt;
+  const std::optional<SampleSlab> sat_slab = frame_brick_ ? std::optional<SampleSlab>(frame_brick_->slab) : std::nullopt;
   const bool other_slab = sat_slab.has_value() != sat_slab_.has_value() ||
                           (sat_slab && (sat_slab->z_lo != sat_slab_->z_lo || sat_slab->z_hi != sat_slab_->z_hi));
   if (stale("sat") || (wants_sat && !sat_) || (!wants_sat && sat_) || (wants_sat && other_slab)) {
@@ -362,7 +362,7 @@ void Renderer::prepare(Quality quality, FrameResult& frame) {
       // the casting spheres enter the table too (approximate ambient occlusion and cone shadows by spheres)
       sat_ = std::make_unique<ExtinctionSat>(*v->volume, v->shadow_tf(), v->compositing, v->reference_step(),
                                              settings_.light_cache.resolution, needs_extinction_colour(scene_),
-                                             casting_particles_.get(), sat_brick_);
+                                             casting_particles_.get(), frame_brick_);
       sat_slab_ = sat_slab;
       frame.sat_ms = t.elapsed_ms();
       rebuilt("sat", quality, frame);
@@ -381,6 +381,8 @@ void Renderer::prepare(Quality quality, FrameResult& frame) {
       Timer t;
       // the ambient technique's occluders: every object of its kinds, casting or not
       occluders_ = std::make_unique<ShadowCasters>(casters_->restricted_to(ambient_occluders(scene_)));
+      // a particle scene split over bricks: the ambient technique combines the bricks' spheres
+      if (frame_brick_ && frame_brick_->own_spheres) *occluders_ = occluders_->restricted_to_brick(*frame_brick_);
       ambient->build(*occluders_);
       ambient_ = std::move(ambient);
       repack_ambient_ = true;
@@ -460,10 +462,11 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   frame.sample = request.sample;
   Timer total;
   std::optional<ShadowBrick> brick;
-  if (request.slab && request.reduction != nullptr) brick = ShadowBrick{*request.slab, request.reduction};
-  sat_brick_ = brick ? &*brick : nullptr;
+  if (request.reduction != nullptr && (request.slab || request.own_spheres))
+    brick = ShadowBrick{request.slab.value_or(SampleSlab{}), request.reduction, request.own_spheres};
+  frame_brick_ = brick ? &*brick : nullptr;
   prepare(request.quality, frame);
-  sat_brick_ = nullptr;
+  frame_brick_ = nullptr;
   Timer build;
   update_shadows(lights, request.quality, request.sample, brick ? &*brick : nullptr, frame);
   update_light_cache();

@@ -60,6 +60,10 @@ struct FrameRequest {
   // build from the slab's own segments and combine with the other ranks' through this
   // (shadows/shadow_brick.h); unset: every structure is built from the whole scene.
   BrickReduction* reduction = nullptr;
+  // With a reduction, on one rank of a particle scene split by space (no slab): the scene holds this
+  // rank's share of the spheres, and the implicit sphere shadow map and the particle ambient occlusion
+  // combine over the ranks (shadows/shadow_brick.h).
+  bool own_spheres = false;
 };
 
 struct FrameResult {
@@ -153,7 +157,7 @@ private:
   std::unique_ptr<ShadowCasters> casters_;
   std::unique_ptr<ShadowCasters> occluders_;              // the ambient technique's kinds
   std::unique_ptr<ExtinctionSat> sat_;
-  const ShadowBrick* sat_brick_ = nullptr;    // during prepare(): the frame's brick, whose SAT is summed over bricks
+  const ShadowBrick* frame_brick_ = nullptr;  // during prepare(): the frame's brick (its SAT summed over bricks)
   std::optional<SampleSlab> sat_slab_;         // the slab the SAT was summed for (none: the whole volume's)
   std::unique_ptr<AmbientTechnique> ambient_;
   std::vector<std::unique_ptr<LightShadows>> shadows_;
