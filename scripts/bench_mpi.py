@@ -163,16 +163,21 @@ def main():
     # The model at scale: 4096^3 floats (256 GiB) in z-slabs, 1920x1080, a 1024^2 CSSM; a 100 Gb/s link
     # (12.5 GB/s) and 1.5 us a message.
     width, height, resolution, bandwidth, latency = 1920, 1080, 1024, 12.5e9, 1.5e-6
-    print("| ranks | voxel slices a rank | brick GiB | image MB sent a rank (bound) | messages | image ms | CSSM MB sent a rank | CSSM ms |")
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print("| ranks | voxel slices a rank | brick GiB | image MB sent a rank (bound) | messages | image ms | CSSM MB sent a rank | CSSM ms | "
+          "ISSM MB sent a rank | ISSM ms |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     model = []
     for n in (8, 64, 512, 1024):
         image = max(model_image_bytes(width, height, n, r) for r in (1, n - 1))
         shadow = model_shadow_bytes(resolution, n, "cssm")
         image_ms = 1e3 * (image / bandwidth + n * latency)
         shadow_ms = 1e3 * (shadow / bandwidth + math.ceil(math.log2(n)) * latency)
-        model.append({"ranks": n, "image_bytes": image, "shadow_bytes": shadow, "image_ms": image_ms, "shadow_ms": shadow_ms})
-        print(f"| {n} | {4096 // n} | {4096 ** 3 * 4 / n / 2 ** 30:.2f} | {image / 1e6:.1f} | {n} | {image_ms:.1f} | {shadow / 1e6:.1f} | {shadow_ms:.1f} |")
+        issm = model_issm_bytes(resolution, n)  # spheres split by space, a 1024^2 ISSM
+        issm_ms = 1e3 * (issm / bandwidth + math.ceil(math.log2(n)) * latency)
+        model.append({"ranks": n, "image_bytes": image, "shadow_bytes": shadow, "image_ms": image_ms, "shadow_ms": shadow_ms,
+                      "issm_bytes": issm, "issm_ms": issm_ms})
+        print(f"| {n} | {4096 // n} | {4096 ** 3 * 4 / n / 2 ** 30:.2f} | {image / 1e6:.1f} | {n} | {image_ms:.1f} | {shadow / 1e6:.1f} | "
+              f"{shadow_ms:.1f} | {issm / 1e6:.1f} | {issm_ms:.1f} |")
     if a.json:
         json.dump({"measured": rows, "spheres": sphere_rows, "model": model}, open(a.json, "w"), indent=1)
 

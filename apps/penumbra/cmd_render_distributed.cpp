@@ -143,8 +143,7 @@ void run_render_distributed(const RenderOptions& o) {
       const RankFrameStats& s = frame.ranks[r];
       const RankReadStats read = read_of(r);
       if (s.spheres)
-        std::fprintf(stderr, "rank %zu: %zu spheres, centres at z %g to %g\n", r, *s.spheres, static_cast<double>(s.slab.z_lo),
-                     static_cast<double>(s.slab.z_hi));
+        std::fprintf(stderr, "rank %zu: %zu spheres\n", r, *s.spheres);
       else
         std::fprintf(stderr, "rank %zu: slices %d to %d of %d (%.1f MB read, %.1f MB held)\n", r, read.first_slice,
                      read.first_slice + read.slices - 1, reading.whole_slices, static_cast<double>(read.bytes_read) / 1e6,
