@@ -168,7 +168,9 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
     }
   }, 1 << 14);
   // The volumes' opacity across one cell, from their shadow transfer functions at the cell centre
-  // (opacity per shadow step Δ, so 1 − (1 − α)^(cell/Δ)), composed with the spheres'.
+  // (opacity per shadow step Δ, so 1 − (1 − α)^(cell/Δ)), composed with the spheres'. Split over
+  // bricks, each brick composes the cells whose centres its slab owns (its voxels reach them) and
+  // leaves 0 in the others; the sum over the bricks is then every cell's value, exactly.
   if (occluders.has_volume()) {
     const float steps_per_cell = cell / occluders.step();
     parallel_for(static_cast<std::size_t>(base.nz), [&](std::size_t z0, std::size_t z1) {
@@ -176,15 +178,25 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
         for (int y = 0; y < base.ny; ++y)
           for (int x = 0; x < base.nx; ++x) {
             const Vec3 p = origin_ + Vec3{static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f, static_cast<float>(z) + 0.5f} * cell;
-            float clear = 1.0f - base.value[index(x, y, static_cast<int>(z))];
+            float& value = base.value[index(x, y, static_cast<int>(z))];
+            if (brick && !brick->slab.owns(p)) {
+              value = 0;
+              continue;
+            }
+            float clear = 1.0f - value;
             for (const auto& cv : occluders.volumes()) {
               if (!cv->box.contains(p)) continue;
               const float a = cv->lut.lookup(cv->volume->sample_voxel(cv->volume->to_voxel(p))).a;
               if (a > 0) clear *= std::pow(1.0f - std::min(a, 0.9999f), steps_per_cell);
             }
-            base.value[index(x, y, static_cast<int>(z))] = 1.0f - clear;
+            value = 1.0f - clear;
           }
     });
+    if (brick) {
+      std::vector<double> cells(base.value.begin(), base.value.end());
+      brick->reduction->sum(cells);
+      for (std::size_t i = 0; i < n; ++i) base.value[i] = static_cast<float>(cells[i]);
+    }
   }
 
   pyramid_.clear();

@@ -13,7 +13,9 @@
 // opacity front to back, up to `max_distance`. The ambient factor is 1 minus the cosine-weighted mean
 // of the cones' occlusion. Our choices are explained and measured in docs/techniques/issm.md. A
 // particle scene split by space over MPI ranks (shadows/shadow_brick.h) splats each rank's spheres
-// into a grid over all of them and sums the ranks' densities (one allreduce of a double a cell).
+// into a grid over all of them and sums the ranks' densities (one allreduce of a double a cell); beside
+// a volume split into slabs, each rank composes the volume's opacity into the cells whose centres its
+// slab owns (it holds only its brick's voxels) and the ranks add the cells (one allreduce likewise).
 //
 // | parameter            | default | meaning                                               |
 // | ambient.directions   | 16      | cones per hemisphere                                  |
@@ -47,7 +49,10 @@ public:
   void ambient(std::span<const SurfacePoint> points, std::span<Rgb> out) const override;
   std::size_t memory_bytes() const override;
   std::string_view name() const override { return "particle_ao"; }
-  bool reads_whole_volume() const override { return false; }  // the spheres only
+  // Split over bricks: the volumes' opacity composed per cell by the brick owning the cell's centre,
+  // the split spheres' densities added (shadows/shadow_brick.h).
+  bool combines_over_bricks() const override { return true; }
+  bool reads_whole_volume() const override { return false; }
 
   // Density (filled fraction) of level `level` at world point p, trilinear; 0 outside the grid.
   float density(int level, const Vec3& p) const;

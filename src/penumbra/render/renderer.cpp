@@ -381,8 +381,8 @@ void Renderer::prepare(Quality quality, FrameResult& frame) {
       Timer t;
       // the ambient technique's occluders: every object of its kinds, casting or not
       occluders_ = std::make_unique<ShadowCasters>(casters_->restricted_to(ambient_occluders(scene_)));
-      // a particle scene split over bricks: the ambient technique combines the bricks' spheres
-      if (frame_brick_ && frame_brick_->own_spheres) *occluders_ = occluders_->restricted_to_brick(*frame_brick_);
+      // a distributed frame: a technique that combines over bricks builds from this brick's share
+      if (frame_brick_ && ambient->combines_over_bricks()) *occluders_ = occluders_->restricted_to_brick(*frame_brick_);
       ambient->build(*occluders_);
       ambient_ = std::move(ambient);
       repack_ambient_ = true;

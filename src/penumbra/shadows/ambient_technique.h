@@ -30,6 +30,9 @@ public:
   }
   virtual std::size_t memory_bytes() const = 0;
   virtual std::string_view name() const = 0;
+  // True when build() from occluders restricted to a brick (ShadowCasters::brick) combines what the
+  // brick holds with the other bricks' (shadows/shadow_brick.h), giving the whole scene's structure.
+  virtual bool combines_over_bricks() const { return false; }
   // False when one brick's voxels suffice in a distributed frame (ShadowTechnique::reads_whole_volume).
   virtual bool reads_whole_volume() const { return true; }
 
