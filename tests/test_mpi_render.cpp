@@ -8,6 +8,7 @@
 // with the same message, and none hangs (each run is under `timeout`).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -90,10 +91,13 @@ TEST(MpiRender, OneToFourRanksSplitTheSpheresAndGiveTheSingleProcessFrame) {
   nlohmann::json soft = spheres_scene();
   soft["shadows"] = {{"technique", "issm"}, {"resolution", 256}, {"rings", -1}, {"soft_radius", 0.05}};  // automatic rings
   std::ofstream(dir.file("soft.json")) << soft.dump();
+  nlohmann::json cssm = spheres_scene();
+  cssm["shadows"] = {{"technique", "cssm"}, {"resolution", 256}};  // the first stop's minimum over the ranks
+  std::ofstream(dir.file("cssm.json")) << cssm.dump();
   nlohmann::json ao = spheres_scene();
   ao["ambient"] = {{"technique", "particle_ao"}, {"grid", 32}};
   std::ofstream(dir.file("ao.json")) << ao.dump();
-  for (const std::string scene : {"issm", "soft", "ao"}) {
+  for (const std::string scene : {"issm", "soft", "cssm", "ao"}) {
     SCOPED_TRACE(scene);
     const std::string json = quote(dir.file(scene + ".json"));
     const CliRun whole = penumbra_cli("render " + json + " -o " + quote(dir.file(scene + "_whole.pfm")));
@@ -197,10 +201,16 @@ TEST(MpiRender, OneToFourRanksGiveTheBrickLoopsFrameBitForBit) {
       // across ranks
       const nlohmann::json stats = nlohmann::json::parse(slurp(dir.file("stats" + n + ".json")));
       ASSERT_EQ(stats["ranks"].size(), static_cast<std::size_t>(np));
+      std::size_t held = 0, fewest = 10;
       for (const auto& r : stats["ranks"]) {
         EXPECT_EQ(r["shadow_bytes_sent"].get<double>() > 0, np > 1) << r.dump();
         EXPECT_EQ(r["image_bytes_sent"].get<double>() > 0, np > 1) << r.dump();
         EXPECT_GE(r["render_ms"].get<double>(), 0.0);
+        if (r.contains("spheres")) held += r["spheres"].get<std::size_t>(), fewest = std::min(fewest, r["spheres"].get<std::size_t>());
+      }
+      if (scene == "surfaces") {  // each rank holds the spheres reaching into its slab: all ten, some twice
+        EXPECT_GE(held, 10u);
+        EXPECT_EQ(fewest < 10, np > 1);
       }
     }
   }
@@ -323,7 +333,7 @@ TEST(MpiRender, BadLaunchesStopEveryRankWithTheSameMessage) {
   const std::vector<Case> cases{
       {4, "render " + quote(dir.file("thin.json")) + out, "4 slabs for a volume of 3 voxel slices"},
       {4, "render " + quote(dir.file("spheres.json")) + out, "4 ranks for 3 spheres"},
-      {2, "render " + quote(dir.file("traced.json")) + out, "spheres split over MPI ranks cast shadows by issm"},
+      {2, "render " + quote(dir.file("traced.json")) + out, "spheres split over MPI ranks cast shadows by issm or cssm"},
       {2, "render " + quote(dir.file("plane.json")) + out, "must hold a volume"},
       {2, "render " + quote(dir.file("shell.json")) + out + " --orbit 3", "one frame"},
       {2, "render " + quote(dir.file("shell.json")) + out + " --slabs 2", "the ranks are the slabs"},

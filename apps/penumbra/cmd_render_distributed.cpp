@@ -17,6 +17,7 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/distributed/brick_reading.h"
 #include "penumbra/distributed/distributed_frame.h"
+#include "penumbra/distributed/sphere_split.h"
 #include "render_options.h"
 #include "stats.h"
 
@@ -126,6 +127,7 @@ void run_render_distributed(const RenderOptions& o) {
                                 {"threads_per_rank", ThreadLimit::current_max()},
                                 {"compositing", scene.volumes.empty() ? "direct-send, by depth" : "direct-send, in visibility order"},
                                 {"split", scene.volumes.empty() ? "spheres by z order" : "volume slabs"},
+                                {"spheres_whole_because", scene.volumes.empty() || !scene.has_particles() ? "" : why_spheres_whole(scene)},
                                 {"bricks_read", reading.bricked},
                                 {"whole_slices", reading.whole_slices},
                                 {"cut_from_whole_file", reading.cut_from_whole}};
@@ -139,17 +141,21 @@ void run_render_distributed(const RenderOptions& o) {
     }
     if (!reading.bricked && !scene.volumes.empty())
       std::fprintf(stderr, "penumbra: note: every rank read the whole volume: %s\n", reading.why.c_str());
+    if (!scene.volumes.empty() && scene.has_particles())
+      if (const std::string why = why_spheres_whole(scene); !why.empty())
+        std::fprintf(stderr, "penumbra: note: every rank holds every sphere: %s\n", why.c_str());
     for (std::size_t r = 0; r < frame.ranks.size(); ++r) {
       const RankFrameStats& s = frame.ranks[r];
       const RankReadStats read = read_of(r);
-      if (s.spheres)
-        std::fprintf(stderr, "rank %zu: %zu spheres\n", r, *s.spheres);
+      const std::string spheres = s.spheres ? std::to_string(*s.spheres) + " spheres" : "";
+      if (scene.volumes.empty())
+        std::fprintf(stderr, "rank %zu: %s\n", r, spheres.c_str());
       else
-        std::fprintf(stderr, "rank %zu: slices %d to %d of %d (%.1f MB read, %.1f MB held)\n", r, read.first_slice,
+        std::fprintf(stderr, "rank %zu: slices %d to %d of %d (%.1f MB read, %.1f MB held)%s%s\n", r, read.first_slice,
                      read.first_slice + read.slices - 1, reading.whole_slices, static_cast<double>(read.bytes_read) / 1e6,
-                     static_cast<double>(read.volume_bytes) / 1e6);
+                     static_cast<double>(read.volume_bytes) / 1e6, spheres.empty() ? "" : ", ", spheres.c_str());
       std::fprintf(stderr, "rank %zu: %s z %g to %g, shadows %.1f ms, render %.1f ms, composite %.1f ms, communication %.1f ms, sent %.0f kB (shadows %.0f, image %.0f)\n",
-                   r, s.spheres ? "spheres" : "slab", static_cast<double>(s.slab.z_lo), static_cast<double>(s.slab.z_hi), s.build_ms, s.render_ms, s.composite_ms,
+                   r, scene.volumes.empty() ? "spheres" : "slab", static_cast<double>(s.slab.z_lo), static_cast<double>(s.slab.z_hi), s.build_ms, s.render_ms, s.composite_ms,
                    s.communication_ms, s.bytes_sent / 1024.0, s.shadow_bytes_sent / 1024.0, s.image_bytes_sent / 1024.0);
     }
     if (error.empty())

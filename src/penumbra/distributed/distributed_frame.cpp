@@ -76,6 +76,8 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
       return;
     }
     slab = volume_slabs(*scene.volumes.front().volume, n)[static_cast<std::size_t>(me)];
+    // the spheres that reach into the slab, when their structures combine over the ranks
+    if (scene.has_particles() && why_spheres_whole(scene).empty()) share = spheres_in_slab(scene, slab);
   });
 
   // 1. this rank's samples, over black
@@ -84,12 +86,12 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   std::size_t shadow_bytes = 0;
   const FrameResult frame = [&] {
     try {
-      Scene over_black = by_depth ? std::move(share->scene) : scene;
+      Scene over_black = share ? std::move(share->scene) : scene;
       over_black.background = Rgb(0.0f);
       Renderer renderer(std::move(over_black));
       FrameRequest request;
       if (!by_depth) request.slab = slab;
-      request.own_spheres = by_depth;
+      request.own_spheres = share.has_value();
       request.reduction = &world;
       const std::size_t before = world.bytes_sent();
       FrameResult f = renderer.render(request);
@@ -184,7 +186,7 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   const double mine[] = {static_cast<double>(slab.z_lo), static_cast<double>(slab.z_hi), frame.prepare_ms, frame.build_ms,
                          frame.render_ms, composite_ms, world.communication_ms(), static_cast<double>(world.bytes_sent()),
                          static_cast<double>(shadow_bytes), static_cast<double>(world.bytes_sent() - bytes_before_image),
-                         by_depth ? static_cast<double>(share->spheres) : -1.0};
+                         share ? static_cast<double>(share->spheres) : -1.0};
   const std::vector<double> all = world.gather_doubles(mine);
   constexpr std::size_t kFields = std::size(mine);
   for (std::size_t r = 0; r < all.size() / kFields; ++r) {

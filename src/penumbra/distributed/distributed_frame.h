@@ -13,7 +13,8 @@
 //
 // A scene of spheres without a volume is split by space instead (distributed/sphere_split.h): each
 // rank renders its share of the spheres and the planes into colour and depth, sends RGB and depth, and
-// the bands are composited by depth (the nearest surface shows).
+// the bands are composited by depth (the nearest surface shows). Beside a volume, a rank holds the
+// spheres that reach into its slab (all of them when their techniques do not combine over ranks).
 //
 // Shadows across ranks: the light structures that combine over bricks (shadows/shadow_brick.h: the
 // CSSM by the per-channel minimum, the classic shadow map from the transparency in front and the
@@ -48,7 +49,7 @@ namespace penumbra {
 // What one rank did in a frame (every rank's, gathered on rank 0).
 struct RankFrameStats {
   SampleSlab slab;              // a volume's: the samples the rank owns; split spheres: its centres' z
-  std::optional<std::size_t> spheres;  // split spheres: how many the rank holds
+  std::optional<std::size_t> spheres;  // split spheres: how many the rank holds (unset: every sphere)
   double prepare_ms = 0, build_ms = 0, render_ms = 0;  // the rank's FrameResult times
   double composite_ms = 0;      // compositing its band (after the exchange)
   double communication_ms = 0;  // in MPI calls (reductions, exchange, gather, agreement), waiting included

@@ -14,10 +14,8 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
   light_ = light;
   const ShadowBrick* brick = casters.brick();
   reduction_ = brick && brick->own_spheres ? brick->reduction : nullptr;
-  Box3 fitted = casters.spheres().set ? casters.spheres().bounds : casters.bounds();
-  // every brick's map covers all the spheres (a brick may hold no casting sphere: it adds nothing)
-  if (reduction_) fitted = combined_bounds(casters.spheres().set ? casters.spheres().bounds : Box3{}, *reduction_);
-  projection_ = LightProjection::fit(light, fitted);
+  // (split over bricks, the spheres' bounds are every brick's: the renderer combines them)
+  projection_ = LightProjection::fit(light, casters.spheres().set ? casters.spheres().bounds : casters.bounds());
   const int n = params_.resolution;
   const float fn = static_cast<float>(n);
   // the smallest texel of the map: at the near side for a perspective light

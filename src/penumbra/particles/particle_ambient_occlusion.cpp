@@ -78,11 +78,10 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
   static const ParticleSet kNoSpheres;
   particles_ = occluders.spheres().set ? occluders.spheres().set : &kNoSpheres;
   const ParticleSet& ps = *particles_;
-  // a particle scene split over bricks: the grid covers every brick's spheres, and their densities add
+  // spheres split over bricks: their densities add (the spheres' bounds are already every brick's)
   const ShadowBrick* brick = occluders.brick();
   BrickReduction* reduction = brick && brick->own_spheres ? brick->reduction : nullptr;
   Box3 b = occluders.bounds();  // the spheres' and the volumes' box
-  if (reduction) b = combined_bounds(b, *reduction);
   if (b.empty()) b = Box3{{-1, -1, -1}, {1, 1, 1}};
   const Vec3 e = b.extent();
   const float longest = std::max(e.x, std::max(e.y, e.z));
@@ -98,8 +97,11 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
   const std::size_t n = static_cast<std::size_t>(base.nx) * static_cast<std::size_t>(base.ny) * static_cast<std::size_t>(base.nz);
   base.value.assign(n, 0.0f);
 
-  double radii[] = {0, static_cast<double>(ps.size())};  // their sum, and how many
-  for (const Sphere& sp : ps.spheres) radii[0] += sp.radius;
+  // split spheres: a sphere two bricks hold (across a slab face) counts on the one owning its centre
+  const auto counted = [&](const Sphere& sp) { return !reduction || brick->slab.owns(sp.center); };
+  double radii[] = {0, 0};  // their sum, and how many
+  for (const Sphere& sp : ps.spheres)
+    if (counted(sp)) radii[0] += sp.radius, radii[1] += 1;
   if (reduction) reduction->sum(radii);
   const float mean_radius = radii[1] > 0 ? static_cast<float>(radii[0] / radii[1]) : cell;
   const float cell_exponent = 0.75f * cell / mean_radius;
@@ -120,6 +122,7 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
       const std::size_t begin = ps.size() * c / chunks, end = ps.size() * (c + 1) / chunks;
       for (std::size_t i = begin; i < end; ++i) {
         const Sphere& s = ps.spheres[i];
+        if (!counted(s)) continue;
         const Vec3 g = (s.center - origin_) * inv_cell - Vec3{0.5f, 0.5f, 0.5f};
         if (s.radius < cell) {  // small sphere: its volume spread trilinearly over the 8 cells around it
           const int x = floor_int(g.x), y = floor_int(g.y), z = floor_int(g.z);

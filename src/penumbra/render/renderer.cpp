@@ -309,9 +309,15 @@ void Renderer::prepare_casters() {
   std::vector<const MacrocellGrid*> grids(scene_.volumes.size(), nullptr);
   for (std::size_t k = 0; k < volumes_.size(); ++k) grids[static_cast<std::size_t>(volume_index_[k])] = &volumes_[k]->grid;
   casters_ = std::make_unique<ShadowCasters>(settings_, grids);
-  if (casting_particles_) {
+  // spheres split over the ranks (FrameRequest::own_spheres): every rank fits its light structures to
+  // the box of all of them, though it may hold no casting sphere
+  const bool split = frame_brick_ && frame_brick_->own_spheres && (casting_kinds(scene_) & kind_bit(ObjectKind::Spheres));
+  if (casting_particles_ || split) {
+    static const ParticleSet kNoSpheres;
     const SphereBvh* bvh = casting_particles_ == particles_ ? bvh_.get() : casting_bvh_.get();
-    casters_->set_spheres(CastingSpheres{casting_particles_.get(), bvh, casting_particles_->bounds()});
+    Box3 bounds = casting_particles_ ? casting_particles_->bounds() : Box3{};
+    if (split) bounds = combined_bounds(bounds, *frame_brick_->reduction);
+    casters_->set_spheres(CastingSpheres{casting_particles_ ? casting_particles_.get() : &kNoSpheres, bvh, bounds});
   }
   for (std::size_t i = 0; i < isosurfaces_.size(); ++i)
     if (scene_.isosurfaces[i].casts_shadows)

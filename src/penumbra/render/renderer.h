@@ -60,9 +60,10 @@ struct FrameRequest {
   // build from the slab's own segments and combine with the other ranks' through this
   // (shadows/shadow_brick.h); unset: every structure is built from the whole scene.
   BrickReduction* reduction = nullptr;
-  // With a reduction, on one rank of a particle scene split by space (no slab): the scene holds this
-  // rank's share of the spheres, and the implicit sphere shadow map and the particle ambient occlusion
-  // combine over the ranks (shadows/shadow_brick.h).
+  // With a reduction, on one rank of a data-parallel frame whose spheres are split by space (a particle
+  // scene: no slab; beside a volume: those reaching into the slab): the scene holds this rank's share of
+  // the spheres, and the implicit sphere shadow map and the particle ambient occlusion combine over the
+  // ranks (shadows/shadow_brick.h).
   bool own_spheres = false;
 };
 

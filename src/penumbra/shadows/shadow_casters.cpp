@@ -73,7 +73,7 @@ ShadowCasters ShadowCasters::restricted_to_brick(const ShadowBrick& brick) const
 float ShadowCasters::surface_hit(const Ray& r, float t0, float t1) const {
   float best = t1;
   for (const auto& p : planes_) best = std::min(best, p.intersect(r, t0, best));
-  if (spheres_.set) {
+  if (spheres_.set && !spheres_.set->spheres.empty()) {
     if (!spheres_.bvh) throw Error("internal: spheres cast shadows by rays but no BVH was built");
     // Embree takes tnear >= 0: a ray that starts behind its origin (a directional map's texel line)
     // restarts where it enters the spheres' box
