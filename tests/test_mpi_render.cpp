@@ -335,6 +335,7 @@ TEST(MpiRender, BadLaunchesStopEveryRankWithTheSameMessage) {
       {4, "render " + quote(dir.file("spheres.json")) + out, "4 ranks for 3 spheres"},
       {2, "render " + quote(dir.file("traced.json")) + out, "spheres split over MPI ranks cast shadows by issm or cssm"},
       {2, "render " + quote(dir.file("plane.json")) + out, "must hold a volume"},
+      {3, "render " + quote(dir.file("missing.json")) + out, "not-there.nrrd"},
       {2, "render " + quote(dir.file("shell.json")) + out + " --orbit 3", "one frame"},
       {2, "render " + quote(dir.file("shell.json")) + out + " --slabs 2", "the ranks are the slabs"},
       {2, "info " + quote(dir.file("shell.json")), "only `penumbra render` runs"},
@@ -348,14 +349,32 @@ TEST(MpiRender, BadLaunchesStopEveryRankWithTheSameMessage) {
     EXPECT_EQ(count(r.err, "penumbra: error: rank "), static_cast<std::size_t>(c.np)) << r.err;
     EXPECT_EQ(count(r.err, c.needle), static_cast<std::size_t>(c.np)) << r.err;
   }
-  // MPMD: rank 0 renders the shell, rank 1 a scene whose volume file it cannot open
+  // MPMD: the same scene on two "nodes" (working folders), the volume file only on the first: rank 1
+  // cannot read it
+  for (const char* node : {"node_a", "node_b"}) {
+    std::filesystem::create_directory(dir.file(node));
+    nlohmann::json j = shell_scene();
+    j["volumes"][0].erase("procedural");
+    j["volumes"][0]["file"] = "local.nrrd";  // beside the scene, on each node
+    std::ofstream(dir.file(std::string(node) + "/scene.json")) << j.dump();
+  }
+  write_file(dir.file("node_a/local.nrrd"), nrrd_file("type: uchar\ndimension: 3\nsizes: 8 8 8\nencoding: raw\n", Bytes(512, 100)));
   const CliRun mpmd = penumbra_cli_with_launcher(
-      "timeout 300 mpirun --oversubscribe --bind-to none -x ASAN_OPTIONS=detect_leaks=0 -np 1 " + quote(PENUMBRA_CLI) + " render " +
-          quote(dir.file("shell.json")) + out + " : -np 1 ",
-      "render " + quote(dir.file("missing.json")) + out);
+      "timeout 300 mpirun --oversubscribe --bind-to none -x ASAN_OPTIONS=detect_leaks=0 -np 1 -wdir " + quote(dir.file("node_a")) + " " +
+          quote(PENUMBRA_CLI) + " render scene.json" + out + " : -np 1 -wdir " + quote(dir.file("node_b")) + " ",
+      "render scene.json" + out);
   EXPECT_NE(mpmd.status, 0);
   EXPECT_NE(mpmd.status, 124) << "timed out: a rank hung";
   EXPECT_EQ(count(mpmd.err, "penumbra: error: rank 1 of 2: "), 2u) << mpmd.err;
-  EXPECT_EQ(count(mpmd.err, "not-there.nrrd"), 2u) << mpmd.err;
+  EXPECT_EQ(count(mpmd.err, "local.nrrd"), 2u) << mpmd.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("out.png")));
+  // MPMD: two valid but different scenes (their ranks would call different collectives)
+  const CliRun different = penumbra_cli_with_launcher(
+      "timeout 300 mpirun --oversubscribe --bind-to none -x ASAN_OPTIONS=detect_leaks=0 -np 1 " + quote(PENUMBRA_CLI) + " render " +
+          quote(dir.file("shell.json")) + out + " : -np 1 ",
+      "render " + quote(dir.file("thin.json")) + out);
+  EXPECT_NE(different.status, 0);
+  EXPECT_NE(different.status, 124) << "timed out: a rank hung";
+  EXPECT_EQ(count(different.err, "penumbra: error: rank 1 of 2 opened another scene than rank 0"), 2u) << different.err;
   EXPECT_FALSE(std::filesystem::exists(dir.file("out.png")));
 }

@@ -42,6 +42,22 @@ int threads_per_rank(const RenderOptions& o, const MpiWorld& world) {
   return std::max(1, cores / world.local_size());
 }
 
+// Every rank must render the same scene: ranks given different ones (an MPMD launch) would call
+// different collectives and wait on each other. Each rank hashes what it opened (the scene document
+// with its overrides, or the data files and their options, and the output) and all compare with rank 0.
+void check_same_scene(const RenderOptions& o, const std::optional<SceneDocument>& document, MpiWorld& world) {
+  const std::string what = (document ? document->document.dump() + document->base_dir : nlohmann::json(o.in.inputs).dump()) +
+                           "\n" + nlohmann::json(size_overrides(o)).dump() + "\n" + o.output;
+  std::uint64_t hash = 1469598103934665603ull;  // FNV-1a
+  for (const unsigned char c : what) hash = (hash ^ c) * 1099511628211ull;
+  const int mine[] = {static_cast<int>(hash & 0x7fffffff), static_cast<int>((hash >> 31) & 0x7fffffff)};
+  const std::vector<int> all = world.all_gather(mine);
+  for (int r = 1; r < world.size(); ++r)
+    if (all[static_cast<std::size_t>(r) * 2] != all[0] || all[static_cast<std::size_t>(r) * 2 + 1] != all[1])
+      throw Error("rank " + std::to_string(r) + " of " + std::to_string(world.size()) +
+                  " opened another scene than rank 0 (every rank must render the same scene, options and output)");
+}
+
 // What a rank read (distributed/brick_reading.h), gathered on rank 0.
 struct RankReadStats {
   int first_slice = 0, slices = 0;
@@ -91,6 +107,7 @@ void run_render_distributed(const RenderOptions& o) {
   }
   error = world.agree(error);
   if (!error.empty()) throw Error(error);
+  check_same_scene(o, document, world);
   // a scene file's volume is read as bricks; data files opened directly are read whole by every rank
   BrickReading reading;
   const Scene scene = document ? build_distributed_scene(document->document, document->base_dir, o.in.strict, world, reading)
