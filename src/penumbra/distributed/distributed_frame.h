@@ -65,8 +65,8 @@ struct DistributedFrame {
 
 // Renders the scene's frame across the world's ranks; every rank calls it with the same scene. Throws
 // Error on every rank alike (the lowest failing rank's message, MpiWorld::agree) when the scene cannot
-// be split (neither a volume nor spheres, more ranks than voxel slices or spheres, sphere shadows other
-// than issm). A rank whose render fails (its light structures
+// be split (neither a volume nor spheres, more ranks than voxel slices or spheres, a particle scene whose
+// sphere shadows are not issm or cssm). A rank whose render fails (its light structures
 // reduce across the ranks inside it, where the others may be waiting) stops every rank with its
 // message (MpiWorld::abort); on one rank the Error is thrown.
 DistributedFrame render_distributed(const Scene& scene, MpiWorld& world);
