@@ -538,6 +538,58 @@ TEST(DicomSeries, DamagedJpeg2000IsAnErrorNamingTheFile) {
   }
 }
 
+// A damaged JPEG Lossless or JPEG-LS frame is a penumbra::Error naming the file, never a crash or a
+// leak (the sanitizer build checks both): a precision GDCM has no decoder for (above 16 bits it
+// dereferenced a null decoder) and a codestream cut short (GDCM suspended IJG's decoder and never
+// released it) are refused before GDCM sees them; damage elsewhere is GDCM's error or other values.
+TEST(DicomSeries, DamagedJpegIsAnErrorNamingTheFile) {
+  SKIP_WITHOUT_SHARED_DATA("dicom_pancreas_ct/1-045.dcm");
+  for (const auto syntax : {gdcm::TransferSyntax::JPEGLosslessProcess14_1, gdcm::TransferSyntax::JPEGLSLossless}) {
+    SCOPED_TRACE(gdcm::TransferSyntax::GetTSString(syntax));
+    TempDir dir;
+    change_syntax(slice_file(70), dir.file("jpeg.dcm"), syntax);
+    const Bytes cs = pixel_fragments(dir.file("jpeg.dcm")).at(0);
+    ASSERT_GT(cs.size(), 1000u);
+    ASSERT_EQ(cs[0], 0xFF);
+    ASSERT_EQ(cs[1], 0xD8);
+    std::size_t sof = 2;  // the frame header: SOF3 (JPEG Lossless) or SOF55 (JPEG-LS)
+    while (sof + 4 < cs.size() && !(cs[sof + 1] == 0xC3 || cs[sof + 1] == 0xF7)) sof += 2 + (cs[sof + 2] << 8 | cs[sof + 3]);
+    ASSERT_LT(sof + 10, cs.size());
+    auto damaged = [&](const std::string& name, const std::function<void(Bytes&)>& edit) {
+      Bytes copy = cs;
+      edit(copy);
+      set_pixel_fragments(dir.file("jpeg.dcm"), dir.file(name), {copy});
+      return load_error({dir.file(name)});
+    };
+    for (const int bits : {17, 112}) {
+      const std::string name = "precision" + std::to_string(bits) + ".dcm", samples = "JPEG samples of " + std::to_string(bits) + " bits";
+      EXPECT_MESSAGE_HAS(damaged(name, [&](Bytes& d) { d[sof + 4] = std::uint8_t(bits); }), name.c_str(), samples.c_str(),
+                         "at most BitsAllocated 16");
+    }
+    for (const std::size_t keep : {cs.size() / 2, std::size_t(300), cs.size() - 2}) {
+      const std::string name = "truncated" + std::to_string(keep) + ".dcm";
+      EXPECT_MESSAGE_HAS(damaged(name, [&](Bytes& d) { d.resize(keep); }), name.c_str(), "does not end with an EOI marker", "truncated");
+    }
+    const std::string width = damaged("width.dcm", [&](Bytes& d) { d[sof + 7] = 0x03; });  // 512 -> 768 samples per line
+    EXPECT_MESSAGE_HAS(width, "width.dcm", "JPEG codestream of 768x512 pixels", "expected 512x512");
+    // Bytes changed after the frame header (in the tables or the coded data): an Error naming the file,
+    // or a volume.
+    std::mt19937 random(11);
+    for (int k = 0; k < 40; ++k) {
+      const std::string name = "random" + std::to_string(k) + ".dcm";
+      Bytes copy = cs;
+      for (int j = 0; j < 1 + k % 4; ++j)
+        copy[std::uniform_int_distribution<std::size_t>(sof + 10, k % 2 ? copy.size() - 3 : sof + 100)(random)] ^= std::uint8_t(1 + random() % 255);
+      set_pixel_fragments(dir.file("jpeg.dcm"), dir.file(name), {copy});
+      try {
+        load({dir.file(name)});
+      } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+      }
+    }
+  }
+}
+
 // Other orientations of the same pixels: an axis-aligned series is turned so that the volume's world
 // position of each pixel is its patient position; an oblique one keeps its grid.
 TEST(DicomSeries, AxisAlignedOrientationsMapPixelsToPatientPositions) {

@@ -457,6 +457,13 @@ void check_codestream(const Slice& s, const std::vector<unsigned char>& d) {
                   std::to_string(components) + " components (expected " + std::to_string(s.cols) + "x" + std::to_string(s.rows) +
                   " with 1, as Columns and Rows say)");
   };
+  // GDCM picks its 8-, 12- or 16-bit IJG decoder by BitsStored and, when the codestream's precision
+  // differs, starts another by that precision: above 16 bits it dereferences a null decoder (SEGV).
+  auto check_precision = [&](unsigned bits) {
+    if (bits < 2 || bits > 16 || bits > static_cast<unsigned>(s.bits_allocated))
+      throw Error(what + " samples of " + std::to_string(bits) + " bits (expected 2 to 16, and at most BitsAllocated " +
+                  std::to_string(s.bits_allocated) + ")");
+  };
   if (d.size() < 4 || u16(0) != 0xFFD8u) throw Error(what + " pixel data does not start with an SOI marker");
   bool size_seen = false;
   for (std::size_t i = 2;;) {
@@ -468,6 +475,7 @@ void check_codestream(const Slice& s, const std::vector<unsigned char>& d) {
     if (((marker >= 0xFFC0 && marker <= 0xFFCF && marker != 0xFFC4 && marker != 0xFFC8 && marker != 0xFFCC) || marker == 0xFFF7)) {
       if (len < 8) throw Error("JPEG frame header too short");
       check_size(u16(i + 7), u16(i + 5), d[i + 9]);  // SOFn or JPEG-LS SOF55: precision, lines, samples per line, components
+      check_precision(d[i + 4]);
       size_seen = true;
     } else if (marker == 0xFFDAu) {
       if (!size_seen) throw Error(what + " data starts before the frame header");
@@ -475,6 +483,18 @@ void check_codestream(const Slice& s, const std::vector<unsigned char>& d) {
     }
     i += 2 + len;
   }
+}
+
+// A JPEG or JPEG-LS frame ends with an EOI marker (FF D9), then at most the fragment's zero padding.
+// Without it the codestream is cut short: IJG asks GDCM's stream for more bytes, GDCM suspends the
+// decoder and fails without releasing it (about 750 KB a file).
+void check_codestream_end(const std::string& path, std::pair<std::uint64_t, std::uint32_t> last_fragment) {
+  const std::uint32_t tail = std::min<std::uint32_t>(last_fragment.second, 16);
+  const std::vector<unsigned char> d = read_bytes(path, {last_fragment.first + last_fragment.second - tail, tail});
+  std::size_t end = d.size();
+  while (end > 0 && d[end - 1] == 0x00) --end;
+  if (end < 2 || d[end - 2] != 0xFF || d[end - 1] != 0xD9)
+    throw Error("JPEG pixel data does not end with an EOI marker (FF D9): the codestream is truncated");
 }
 
 // Reads a file's attributes; nullopt when the file is not a DICOM image and `skip_non_images` (a folder).
@@ -541,7 +561,10 @@ std::optional<Slice> read_slice(const std::string& path, const std::string& name
     if (h.encapsulated != (s.syntax->codec != Codec::None))
       throw Error(std::string("the pixel data is ") + (h.encapsulated ? "" : "not ") + "compressed (encapsulated) but the transfer syntax is " + s.syntax->name);
     if (h.encapsulated && h.fragments.empty()) throw Error("compressed pixel data without a fragment (expected the image after the offset table)");
-    if (s.syntax->codec == Codec::Jpeg) check_codestream(s, read_bytes(path, s.fragments[0]));
+    if (s.syntax->codec == Codec::Jpeg) {
+      check_codestream(s, read_bytes(path, s.fragments[0]));
+      check_codestream_end(path, s.fragments.back());
+    }
     if (s.syntax->codec == Codec::Jpeg2000) io_detail::check_jpeg2000_header(read_bytes(path, s.fragments[0]), jpeg2000_frame(s));
     if (h.encapsulated && needed / kMaxCompressionRatio > h.pixel_bytes)
       throw Error("compressed pixel data of " + bytes_str(h.pixel_bytes) + " cannot hold " + std::to_string(s.cols) + "x" + std::to_string(s.rows) +
