@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -301,6 +302,95 @@ TEST(MpiRender, RanksReadOnlyTheirBrickAndGiveTheSameFrame) {
       EXPECT_EQ(next, 32);
     }
   }
+}
+
+// `--frames` under mpirun: every frame of a volume series, each rank reading only its brick of the
+// step (bytes read per frame), is the brick loop's frame of that step bit for bit; every frame of a
+// trajectory, the ranks splitting the spheres of the frame, is the single-process sequence's frame.
+// A range past the last frame stops every rank with the message naming it.
+TEST(MpiRender, RanksPlayVolumeSeriesAndTrajectoriesFrameByFrame) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun not installed (scripts/install-deps.sh installs Open MPI)";
+  ScratchDir dir;
+  // three steps of the shell, moved along x by a voxel a step
+  const Volume shell = make_procedural_volume({{"name", "hollow-sphere"}, {"size", 32}});
+  const Vec3 s = shell.spacing(), o = shell.origin();
+  const std::string header = "type: float\ndimension: 3\nsizes: 32 32 32\nendian: little\nencoding: raw\nspacings: " +
+                             std::to_string(s.x) + " " + std::to_string(s.y) + " " + std::to_string(s.z) + "\n";
+  for (int k = 0; k < 3; ++k) {
+    std::vector<float> voxels(shell.voxel_count());
+    for (std::size_t i = 0; i < voxels.size(); ++i) voxels[i] = i % 32 >= static_cast<std::size_t>(k) ? shell.value(i - static_cast<std::size_t>(k)) : 0.0f;
+    write_file(dir.file("step_" + std::to_string(k) + ".nrrd"), nrrd_file(header, to_bytes(voxels)));
+  }
+  nlohmann::json series = shell_scene();
+  series["volumes"][0].erase("procedural");
+  series["volumes"][0]["files"] = dir.file("step_%d.nrrd");
+  series["volumes"][0]["origin"] = {o.x, o.y, o.z};
+  std::ofstream(dir.file("series.json")) << series.dump();
+  // a trajectory: a ring of atoms and one flying over it, over a floor, under the ISSM
+  {
+    std::ofstream topology(dir.file("top.xyz")), trajectory(dir.file("traj.xyz"));
+    for (int k = 0; k < 3; ++k)
+      for (std::ofstream* out : {&trajectory, &topology}) {
+        if (out == &topology && k > 0) continue;
+        *out << "13\nframe " << k << "\n";
+        for (int i = 0; i < 12; ++i) *out << "C " << 4 * std::cos(0.5236 * i) << " " << 4 * std::sin(0.5236 * i) << " 0\n";
+        *out << "O " << -5 + 2.5 * k << " 0.5 4\n";
+      }
+  }
+  nlohmann::json trajectory;
+  trajectory["particles"] = nlohmann::json::array({{{"file", dir.file("top.xyz")}, {"trajectory", dir.file("traj.xyz")}}});
+  trajectory["planes"] = nlohmann::json::array({{{"point", {0, 0, -2}}, {"normal", {0, 0, 1}}, {"size", 30}}});
+  trajectory["lights"] = nlohmann::json::array({{{"type", "directional"}, {"direction", {0.2, 0.3, -1.0}}}});
+  trajectory["shadows"] = {{"technique", "issm"}, {"resolution", 256}};
+  trajectory["camera"] = {{"eye", {0, -14, 16}}, {"target", {0, 0, 0}}, {"up", {0, 0, 1}}, {"width", 64}, {"height", 48}};
+  std::ofstream(dir.file("trajectory.json")) << trajectory.dump();
+
+  for (const std::string scene : {"series", "trajectory"}) {
+    SCOPED_TRACE(scene);
+    const std::string json = quote(dir.file(scene + ".json"));
+    const CliRun whole = penumbra_cli("render " + json + " --frames 0:2 -o " + quote(dir.file(scene + "_whole.pfm")));
+    ASSERT_EQ(whole.status, 0) << whole.err;
+    for (int np = 2; np <= 3; ++np) {
+      SCOPED_TRACE(np);
+      const std::string n = std::to_string(np), out = dir.file(scene + "_np" + n + ".pfm"), stats = dir.file(scene + "_stats" + n + ".json");
+      const CliRun ranks = mpirun_cli(np, "render " + json + " --frames 0:2 -o " + quote(out) + " --stats " + quote(stats));
+      ASSERT_EQ(ranks.status, 0) << ranks.out << ranks.err;
+      const nlohmann::json frames = nlohmann::json::parse(slurp(stats))["frames"];
+      ASSERT_EQ(frames.size(), 3u);
+      Image previous;
+      for (int k = 0; k < 3; ++k) {
+        SCOPED_TRACE(k);
+        const std::string suffix = "_00" + std::to_string(k) + ".pfm";
+        const Image distributed = read_image(dir.file(scene + "_np" + n + suffix));
+        EXPECT_EQ(frames[k]["time"], k);
+        ASSERT_EQ(frames[k]["ranks"].size(), static_cast<std::size_t>(np));
+        Image reference = read_image(dir.file(scene + "_whole" + suffix));
+        if (scene == "series") {  // the brick loop of step k; each rank read its slices of step k's file only
+          const std::string loop = dir.file("loop" + n + "_" + std::to_string(k) + ".pfm");
+          const CliRun brick_loop = penumbra_cli("render " + json + " --set time=" + std::to_string(k) + " --slabs " + n + " -o " + quote(loop));
+          ASSERT_EQ(brick_loop.status, 0) << brick_loop.err;
+          EXPECT_GT(compare_images(distributed, reference).psnr, 50.0);
+          reference = read_image(loop);
+          for (const auto& r : frames[k]["ranks"]) {
+            const auto slices = r["slices"].get<std::vector<int>>();
+            EXPECT_EQ(r["bytes_read"].get<std::uint64_t>(), static_cast<std::uint64_t>(slices[1] - slices[0]) * 32 * 32 * 4) << r.dump();
+            EXPECT_LT(slices[1] - slices[0], 32);
+          }
+        }
+        FailureImages keep;
+        keep.add(scene + "_np" + n + "_frame" + std::to_string(k), distributed, reference);
+        EXPECT_TRUE(distributed.pixels() == reference.pixels()) << "psnr " << compare_images(distributed, reference).psnr;
+        if (k > 0) {
+          EXPECT_GT(compare_images(distributed, previous).max_abs, 0.05);  // the data moved
+        }
+        previous = distributed;
+      }
+    }
+  }
+  const CliRun past = mpirun_cli(2, "render " + quote(dir.file("series.json")) + " --frames 1:3 -o " + quote(dir.file("past.png")));
+  EXPECT_NE(past.status, 0);
+  EXPECT_EQ(count(past.err, "--frames 1:3: frame 3 is past the last frame (3 frames, 0 to 2)"), 2u) << past.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("past_000.png")));
 }
 
 // More ranks than voxel slices, a scene with what is not split yet, a file that one rank cannot read

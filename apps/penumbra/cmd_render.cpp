@@ -20,6 +20,7 @@
 #include "inputs.h"
 #include "mpi_launch.h"
 #include "render_options.h"
+#include "render_sequence.h"
 #include "penumbra/core/cancel.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/exr_io.h"
@@ -87,13 +88,6 @@ void write_output(const std::string& path, const EngineFrame& ef, const Scene& s
   FrameBuffers buffers{exr.rgba, {}, exr.depth, true};
   write_frame_buffers(ef.image, ef.frame, scene.background, buffers);
   write_exr(path, exr);
-}
-
-std::string frame_path(const std::string& output, int frame) {
-  const std::filesystem::path p(output);
-  char suffix[16];
-  std::snprintf(suffix, sizeof suffix, "_%03d", frame);
-  return (p.parent_path() / (p.stem().string() + suffix + p.extension().string())).string();
 }
 
 // paper 002 Fig. 2 (the eye pass's final visibility mask) and Fig. 6 (the view from the light).
@@ -247,48 +241,6 @@ nlohmann::json replay_edits(Engine& engine, const std::vector<EditStep>& steps, 
 }
 
 
-// --frames A:B[:STEP]: the frames A, A + STEP, … up to B (inclusive; B left out: the last frame).
-std::vector<std::size_t> time_frames(const std::string& spec, std::size_t count) {
-  auto fail = [&](const std::string& why) -> std::vector<std::size_t> {
-    throw Error("--frames " + spec + ": " + why);
-  };
-  if (count == 0) return fail("the scene has no trajectory or volume series (nothing has frames)");
-  std::vector<std::string> parts{""};
-  for (char c : spec) {
-    if (c == ':') parts.emplace_back();
-    else parts.back() += c;
-  }
-  if (parts.size() < 2 || parts.size() > 3) return fail("expected A:B or A:B:STEP (frame indices, B inclusive)");
-  auto number = [&](const std::string& text, std::size_t fallback) -> std::size_t {
-    if (text.empty()) return fallback;
-    if (!std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; }) || text.size() > 9)
-      throw Error("--frames " + spec + ": '" + text + "' is not a frame index (a whole number)");
-    return static_cast<std::size_t>(std::stoul(text));
-  };
-  const std::size_t first = number(parts[0], 0), last = number(parts[1], count - 1);
-  const std::size_t step = parts.size() == 3 ? number(parts[2], 1) : 1;
-  if (step == 0) return fail("STEP must be at least 1");
-  if (last >= count) return fail("frame " + std::to_string(last) + " is past the last frame (" + std::to_string(count) + " frames, 0 to " +
-                                 std::to_string(count - 1) + ")");
-  if (first > last) return fail("A is after B");
-  std::vector<std::size_t> frames;
-  for (std::size_t k = first; k <= last; k += step) frames.push_back(k);
-  return frames;
-}
-
-// The frames NAME_000.png … as a video through Debian's ffmpeg (H.264, yuv420p: what every player plays).
-void write_video(const std::string& output, const std::string& video, int count, int fps) {
-  const std::filesystem::path p(output);
-  const std::string pattern = (p.parent_path() / (p.stem().string() + "_%03d" + p.extension().string())).string();
-  for (const std::string* s : {&pattern, &video})
-    if (s->find('\'') != std::string::npos) throw Error("--video: file names with a quote are not supported");
-  const std::string command = "ffmpeg -y -loglevel error -framerate " + std::to_string(fps) + " -i '" + pattern +
-                              "' -frames:v " + std::to_string(count) +
-                              " -vf 'pad=ceil(iw/2)*2:ceil(ih/2)*2' -c:v libx264 -pix_fmt yuv420p '" + video + "'";
-  if (std::system(command.c_str()) != 0) throw Error("--video " + video + ": ffmpeg failed (command: " + command + ")");
-  std::fprintf(stderr, "%s: %d frames at %d fps\n", video.c_str(), count, fps);
-}
-
 // --slabs N: sort-last rendering as a brick loop in one process (distributed/volume_slabs.h).
 void render_slabs(const RenderOptions& o, const Engine& engine) {
   Timer total;
@@ -309,13 +261,7 @@ void run_render(const RenderOptions& o) {
   if (o.slabs > 0 && lower_extension(o.output) == ".exr") throw Error("--slabs: the output must be .png or .pfm");
   if (int(o.orbit > 0) + int(o.light_orbit > 0) + int(!o.frames.empty()) > 1)
     throw Error("--orbit, --light-orbit and --frames cannot be combined");
-  if (!o.video.empty() && o.frames.empty() && o.orbit == 0 && o.light_orbit == 0)
-    throw Error("--video needs a sequence: --frames, --orbit or --light-orbit");
-  if (!o.video.empty()) {
-    if (std::system("ffmpeg -version > /dev/null 2>&1") != 0)
-      throw Error("--video " + o.video + ": ffmpeg not found (install Debian's ffmpeg); the frames can still be written without --video");
-    if (std::filesystem::path(o.output).extension() != ".png") throw Error("--video: the frames (-o) must be .png");
-  }
+  check_video_options(o);
   if (!o.edits.empty() && sequence_requested(o)) throw Error("--edits cannot be combined with --orbit, --light-orbit or --frames");
   if (o.preview && (o.accumulate > 1 || !o.edits.empty())) throw Error("--preview renders one preview frame (not with --accumulate or --edits)");
   if (o.accumulate > 1 && (sequence_requested(o) || !o.edits.empty()))

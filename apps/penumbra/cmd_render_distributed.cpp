@@ -1,6 +1,8 @@
-// `mpirun -np N penumbra render SCENE -o OUT.png [--stats S.json] [--threads T] [--width W --height H]
-//  [--set key=value ...]`: one frame rendered data-parallel (distributed/distributed_frame.h). Every
-// rank opens the scene; rank 0 writes the image and the statistics, with one entry per rank.
+// `mpirun -np N penumbra render SCENE -o OUT.png [--frames A:B[:STEP] [--video V.mp4]] [--stats S.json]
+//  [--threads T] [--width W --height H] [--set key=value ...]`: one frame, or the frames of the scene's
+// trajectories and volume series, rendered data-parallel (distributed/distributed_frame.h). Every rank
+// opens the scene (for each frame: a rank reads its brick of the step); rank 0 writes the images
+// (OUT_000.png … for --frames) and the statistics, with one entry per rank (and per frame).
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
@@ -19,6 +21,7 @@
 #include "penumbra/distributed/distributed_frame.h"
 #include "penumbra/distributed/sphere_split.h"
 #include "render_options.h"
+#include "render_sequence.h"
 #include "stats.h"
 
 namespace penumbra::cli {
@@ -26,10 +29,11 @@ namespace {
 
 void check_distributed_options(const RenderOptions& o) {
   if (o.slabs > 0) throw Error("--slabs is the brick loop of one process; under mpirun the ranks are the slabs");
-  if (sequence_requested(o) || !o.edits.empty() || o.accumulate > 1 || o.preview || o.depth || !o.buffers.empty() ||
+  if (o.orbit > 0 || o.light_orbit > 0 || !o.edits.empty() || o.accumulate > 1 || o.preview || o.depth || !o.buffers.empty() ||
       !o.write_scene.empty())
-    throw Error("under mpirun, render draws one frame to a .png or .pfm (not with --orbit, --light-orbit, --frames, --edits, "
-                "--accumulate, --preview, --depth, --buffers or --write-scene)");
+    throw Error("under mpirun, render draws one frame, or the frames of trajectories and volume series (--frames), to .png or .pfm "
+                "(not with --orbit, --light-orbit, --edits, --accumulate, --preview, --depth, --buffers or --write-scene)");
+  check_video_options(o);
   check_output_path(o.output);
   if (lower_extension(o.output) == ".exr") throw Error("-o " + o.output + ": under mpirun the output must be .png or .pfm");
   if (!o.stats.empty()) check_stats_path(o.stats);
@@ -89,6 +93,30 @@ nlohmann::json rank_stats(const RankFrameStats& s, const RankReadStats& read, in
   return out;
 }
 
+// What every rank read and did for the first frame, printed by rank 0 (with the notes on what was not split).
+template <typename ReadOf>
+void print_first_frame(const Scene& scene, const BrickReading& reading, const DistributedFrame& frame, const ReadOf& read_of) {
+  if (!reading.bricked && !scene.volumes.empty())
+    std::fprintf(stderr, "penumbra: note: every rank read the whole volume: %s\n", reading.why.c_str());
+  if (!scene.volumes.empty() && scene.has_particles())
+    if (const std::string why = why_spheres_whole(scene); !why.empty())
+      std::fprintf(stderr, "penumbra: note: every rank holds every sphere: %s\n", why.c_str());
+  for (std::size_t r = 0; r < frame.ranks.size(); ++r) {
+    const RankFrameStats& s = frame.ranks[r];
+    const RankReadStats read = read_of(r);
+    const std::string spheres = s.spheres ? std::to_string(*s.spheres) + " spheres" : "";
+    if (scene.volumes.empty())
+      std::fprintf(stderr, "rank %zu: %s\n", r, spheres.c_str());
+    else
+      std::fprintf(stderr, "rank %zu: slices %d to %d of %d (%.1f MB read, %.1f MB held)%s%s\n", r, read.first_slice,
+                   read.first_slice + read.slices - 1, reading.whole_slices, static_cast<double>(read.bytes_read) / 1e6,
+                   static_cast<double>(read.volume_bytes) / 1e6, spheres.empty() ? "" : ", ", spheres.c_str());
+    std::fprintf(stderr, "rank %zu: %s z %g to %g, shadows %.1f ms, render %.1f ms, composite %.1f ms, communication %.1f ms, sent %.0f kB (shadows %.0f, image %.0f)\n",
+                 r, scene.volumes.empty() ? "spheres" : "slab", static_cast<double>(s.slab.z_lo), static_cast<double>(s.slab.z_hi), s.build_ms, s.render_ms, s.composite_ms,
+                 s.communication_ms, s.bytes_sent / 1024.0, s.shadow_bytes_sent / 1024.0, s.image_bytes_sent / 1024.0);
+  }
+}
+
 }  // namespace
 
 void run_render_distributed(const RenderOptions& o) {
@@ -108,77 +136,104 @@ void run_render_distributed(const RenderOptions& o) {
   error = world.agree(error);
   if (!error.empty()) throw Error(error);
   check_same_scene(o, document, world);
-  // a scene file's volume is read as bricks; data files opened directly are read whole by every rank
+
+  // The scene at frame `time` of its trajectories and volume series (nullopt: the document's own), built
+  // anew for every frame of a sequence: a scene file's volume is read as bricks, each rank reading only
+  // its brick of the step; data files opened directly are read whole by every rank.
   BrickReading reading;
-  const Scene scene = document ? build_distributed_scene(document->document, document->base_dir, o.in.strict, world, reading)
-                               : engine->scene();
-  if (!document) {
+  std::optional<Scene> scene;
+  const auto open_frame = [&](std::optional<std::size_t> time) {
+    scene.reset();
+    if (document) {
+      nlohmann::json j = document->document;
+      if (time) j["time"] = *time;
+      scene.emplace(build_distributed_scene(j, document->base_dir, o.in.strict, world, reading));
+      return;
+    }
+    if (time) world.run_agreed([&] { engine->set("time", *time); });
+    scene.emplace(engine->scene());
+    reading = BrickReading{};
     reading.why = "data files opened directly are read whole by every rank (a scene file's volume is read as bricks)";
     for (const std::string& f : o.in.inputs) reading.bytes_read += file_bytes(f);
-    if (!scene.volumes.empty()) {
-      reading.whole_slices = scene.volumes.front().volume->dims()[2];
+    if (!scene->volumes.empty()) {
+      reading.whole_slices = scene->volumes.front().volume->dims()[2];
       reading.slices = {0, reading.whole_slices};
-      reading.volume_bytes = scene.volumes.front().volume->memory_bytes();
+      reading.volume_bytes = scene->volumes.front().volume->memory_bytes();
     }
-  }
-  if (world.rank() == 0)
-    for (const auto& note : scene.unread_keys) std::fprintf(stderr, "penumbra: note: %s\n", note.c_str());
-
-  const DistributedFrame frame = render_distributed(scene, world);
-  // every rank's reading to rank 0
-  const double read_fields[] = {static_cast<double>(reading.slices.first), static_cast<double>(reading.slices.count),
-                                static_cast<double>(reading.bytes_read), static_cast<double>(reading.volume_bytes)};
-  const std::vector<double> reads = world.gather_doubles(read_fields);
-  const auto read_of = [&](std::size_t r) {
-    const double* f = &reads[r * std::size(read_fields)];
-    return RankReadStats{static_cast<int>(f[0]), static_cast<int>(f[1]), static_cast<std::uint64_t>(f[2]), static_cast<std::uint64_t>(f[3])};
   };
+  open_frame(std::nullopt);
+  std::vector<std::size_t> times;
+  world.run_agreed([&] {
+    if (!o.frames.empty()) times = time_frames(o.frames, scene->frame_count());
+  });
+  const bool sequence = !times.empty();
+  if (world.rank() == 0)
+    for (const auto& note : scene->unread_keys) std::fprintf(stderr, "penumbra: note: %s\n", note.c_str());
+
+  nlohmann::json stats;
+  nlohmann::json frame_list = nlohmann::json::array();
+  const int frames = sequence ? static_cast<int>(times.size()) : 1;
+  for (int f = 0; f < frames; ++f) {
+    Timer frame_time;
+    if (sequence && (f > 0 || times[0] != scene->time)) open_frame(times[static_cast<std::size_t>(f)]);
+    const double read_ms = frame_time.elapsed_ms();
+    const DistributedFrame frame = render_distributed(*scene, world);
+    // every rank's reading to rank 0
+    const double read_fields[] = {static_cast<double>(reading.slices.first), static_cast<double>(reading.slices.count),
+                                  static_cast<double>(reading.bytes_read), static_cast<double>(reading.volume_bytes)};
+    const std::vector<double> reads = world.gather_doubles(read_fields);
+    const auto read_of = [&](std::size_t r) {
+      const double* v = &reads[r * std::size(read_fields)];
+      return RankReadStats{static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<std::uint64_t>(v[2]), static_cast<std::uint64_t>(v[3])};
+    };
+    const std::string path = sequence ? frame_path(o.output, f) : o.output;
+    if (world.rank() == 0) {
+      try {
+        write_image(path, frame.image);
+      } catch (const std::exception& e) {
+        error = e.what();
+      }
+      nlohmann::json ranks = nlohmann::json::array();
+      for (std::size_t r = 0; r < frame.ranks.size(); ++r) ranks.push_back(rank_stats(frame.ranks[r], read_of(r), static_cast<int>(r)));
+      if (f == 0) {
+        stats = {{"ranks", ranks},
+                 {"width", scene->camera.width},
+                 {"height", scene->camera.height},
+                 {"threads_per_rank", ThreadLimit::current_max()},
+                 {"compositing", scene->volumes.empty() ? "direct-send, by depth" : "direct-send, in visibility order"},
+                 {"split", scene->volumes.empty() ? "spheres by z order" : "volume slabs"},
+                 {"spheres_whole_because", scene->volumes.empty() || !scene->has_particles() ? "" : why_spheres_whole(*scene)},
+                 {"bricks_read", reading.bricked},
+                 {"whole_slices", reading.whole_slices},
+                 {"cut_from_whole_file", reading.cut_from_whole}};
+        if (!reading.bricked) stats["read_whole_because"] = reading.why;
+        print_first_frame(*scene, reading, frame, read_of);
+      }
+      if (sequence) {
+        frame_list.push_back({{"file", path}, {"time", scene->time}, {"read_ms", read_ms}, {"ms", frame_time.elapsed_ms()}, {"ranks", ranks}});
+        std::fprintf(stderr, "%s: time %zu, %d ranks, read %.1f ms, %.1f ms in all\n", path.c_str(), scene->time, world.size(), read_ms,
+                     frame_time.elapsed_ms());
+      }
+    }
+    error = world.agree(error);  // a failed write stops every rank with its message
+    if (!error.empty()) throw Error(error);
+  }
 
   if (world.rank() == 0) {
     try {
-      write_image(o.output, frame.image);
       if (!o.stats.empty()) {
-        nlohmann::json stats = {{"ranks", nlohmann::json::array()},
-                                {"width", scene.camera.width},
-                                {"height", scene.camera.height},
-                                {"threads_per_rank", ThreadLimit::current_max()},
-                                {"compositing", scene.volumes.empty() ? "direct-send, by depth" : "direct-send, in visibility order"},
-                                {"split", scene.volumes.empty() ? "spheres by z order" : "volume slabs"},
-                                {"spheres_whole_because", scene.volumes.empty() || !scene.has_particles() ? "" : why_spheres_whole(scene)},
-                                {"bricks_read", reading.bricked},
-                                {"whole_slices", reading.whole_slices},
-                                {"cut_from_whole_file", reading.cut_from_whole}};
-        if (!reading.bricked) stats["read_whole_because"] = reading.why;
-        for (std::size_t r = 0; r < frame.ranks.size(); ++r)
-          stats["ranks"].push_back(rank_stats(frame.ranks[r], read_of(r), static_cast<int>(r)));
+        if (sequence) stats["frames"] = frame_list;
         write_json_file(o.stats, stats);
       }
+      if (!o.video.empty()) write_video(o.output, o.video, frames, o.fps);
     } catch (const std::exception& e) {
       error = e.what();
     }
-    if (!reading.bricked && !scene.volumes.empty())
-      std::fprintf(stderr, "penumbra: note: every rank read the whole volume: %s\n", reading.why.c_str());
-    if (!scene.volumes.empty() && scene.has_particles())
-      if (const std::string why = why_spheres_whole(scene); !why.empty())
-        std::fprintf(stderr, "penumbra: note: every rank holds every sphere: %s\n", why.c_str());
-    for (std::size_t r = 0; r < frame.ranks.size(); ++r) {
-      const RankFrameStats& s = frame.ranks[r];
-      const RankReadStats read = read_of(r);
-      const std::string spheres = s.spheres ? std::to_string(*s.spheres) + " spheres" : "";
-      if (scene.volumes.empty())
-        std::fprintf(stderr, "rank %zu: %s\n", r, spheres.c_str());
-      else
-        std::fprintf(stderr, "rank %zu: slices %d to %d of %d (%.1f MB read, %.1f MB held)%s%s\n", r, read.first_slice,
-                     read.first_slice + read.slices - 1, reading.whole_slices, static_cast<double>(read.bytes_read) / 1e6,
-                     static_cast<double>(read.volume_bytes) / 1e6, spheres.empty() ? "" : ", ", spheres.c_str());
-      std::fprintf(stderr, "rank %zu: %s z %g to %g, shadows %.1f ms, render %.1f ms, composite %.1f ms, communication %.1f ms, sent %.0f kB (shadows %.0f, image %.0f)\n",
-                   r, scene.volumes.empty() ? "spheres" : "slab", static_cast<double>(s.slab.z_lo), static_cast<double>(s.slab.z_hi), s.build_ms, s.render_ms, s.composite_ms,
-                   s.communication_ms, s.bytes_sent / 1024.0, s.shadow_bytes_sent / 1024.0, s.image_bytes_sent / 1024.0);
-    }
     if (error.empty())
-      std::fprintf(stderr, "%s: %d ranks, %.1f ms in all\n", o.output.c_str(), world.size(), total.elapsed_ms());
+      std::fprintf(stderr, "%s: %d ranks, %d frame%s, %.1f ms in all\n", o.output.c_str(), world.size(), frames, frames == 1 ? "" : "s",
+                   total.elapsed_ms());
   }
-  error = world.agree(error);  // a failed write stops every rank with its message
+  error = world.agree(error);
   if (!error.empty()) throw Error(error);
 }
 
