@@ -304,11 +304,13 @@ TEST(MpiRender, RanksReadOnlyTheirBrickAndGiveTheSameFrame) {
   }
 }
 
-// `--frames` under mpirun: every frame of a volume series, each rank reading only its brick of the
-// step (bytes read per frame), is the brick loop's frame of that step bit for bit; every frame of a
+// Sequences under mpirun. --frames: every frame of a volume series, each rank reading only its brick of
+// the step (bytes read per frame), is the brick loop's frame of that step bit for bit; every frame of a
 // trajectory, the ranks splitting the spheres of the frame, is the single-process sequence's frame.
-// A range past the last frame stops every rank with the message naming it.
-TEST(MpiRender, RanksPlayVolumeSeriesAndTrajectoriesFrameByFrame) {
+// --orbit and --light-orbit: one rank gives the single-process sequence bit for bit, three ranks within
+// the slabs' early-termination bound. A range past the last frame stops every rank with the message
+// naming it.
+TEST(MpiRender, RanksRenderSequencesFrameByFrame) {
   if (!have_mpirun()) GTEST_SKIP() << "mpirun not installed (scripts/install-deps.sh installs Open MPI)";
   ScratchDir dir;
   // three steps of the shell, moved along x by a voxel a step
@@ -387,6 +389,37 @@ TEST(MpiRender, RanksPlayVolumeSeriesAndTrajectoriesFrameByFrame) {
       }
     }
   }
+  std::ofstream(dir.file("shell.json")) << shell_scene().dump();
+  for (const std::string orbit : {"orbit", "light-orbit"}) {
+    SCOPED_TRACE(orbit);
+    const std::string args = "render " + quote(dir.file("shell.json")) + " --" + orbit + " 3 -o ";
+    const CliRun whole = penumbra_cli(args + quote(dir.file(orbit + "_whole.pfm")));
+    ASSERT_EQ(whole.status, 0) << whole.err;
+    for (const int np : {1, 3}) {
+      SCOPED_TRACE(np);
+      const std::string out = dir.file(orbit + "_np" + std::to_string(np) + ".pfm");
+      const CliRun ranks = mpirun_cli(np, args + quote(out));
+      ASSERT_EQ(ranks.status, 0) << ranks.out << ranks.err;
+      Image previous;
+      for (int k = 0; k < 3; ++k) {
+        SCOPED_TRACE(k);
+        const std::string suffix = "_00" + std::to_string(k) + ".pfm";
+        const Image distributed = read_image(dir.file(orbit + "_np" + std::to_string(np) + suffix));
+        const Image reference = read_image(dir.file(orbit + "_whole" + suffix));
+        FailureImages keep;
+        keep.add(orbit + "_np" + std::to_string(np) + "_frame" + std::to_string(k), distributed, reference);
+        if (np == 1) {
+          EXPECT_TRUE(distributed.pixels() == reference.pixels()) << "psnr " << compare_images(distributed, reference).psnr;
+        } else {
+          EXPECT_GT(compare_images(distributed, reference).psnr, 50.0);
+        }
+        if (k > 0) {
+          EXPECT_GT(compare_images(distributed, previous).max_abs, 0.05);  // the camera or the light turned
+        }
+        previous = distributed;
+      }
+    }
+  }
   const CliRun past = mpirun_cli(2, "render " + quote(dir.file("series.json")) + " --frames 1:3 -o " + quote(dir.file("past.png")));
   EXPECT_NE(past.status, 0);
   EXPECT_EQ(count(past.err, "--frames 1:3: frame 3 is past the last frame (3 frames, 0 to 2)"), 2u) << past.err;
@@ -426,7 +459,7 @@ TEST(MpiRender, BadLaunchesStopEveryRankWithTheSameMessage) {
       {2, "render " + quote(dir.file("traced.json")) + out, "spheres split over MPI ranks cast shadows by issm or cssm"},
       {2, "render " + quote(dir.file("plane.json")) + out, "must hold a volume"},
       {3, "render " + quote(dir.file("missing.json")) + out, "not-there.nrrd"},
-      {2, "render " + quote(dir.file("shell.json")) + out + " --orbit 3", "one frame"},
+      {2, "render " + quote(dir.file("shell.json")) + out + " --accumulate 4", "one frame or a sequence"},
       {2, "render " + quote(dir.file("shell.json")) + out + " --slabs 2", "the ranks are the slabs"},
       {2, "info " + quote(dir.file("shell.json")), "only `penumbra render` runs"},
       {3, "render " + quote(dir.file("shell.json")) + " --bogus" + out, "--bogus"},

@@ -108,18 +108,6 @@ void write_isosurface_buffers(const std::string& dir, const Renderer& renderer, 
     }
 }
 
-// The first light turned by `angle` about the camera's up axis through the scene's centre (the axis the
-// camera orbits about, so a light orbit of a z-up CT turns around the patient's long axis too).
-Light orbit_light(const Light& l, const Vec3& centre, const Vec3& up, float angle) {
-  const Vec3 axis = normalize(up);
-  const float c = std::cos(angle), s = std::sin(angle);
-  auto rot = [&](const Vec3& v) { return v * c + cross(axis, v) * s + axis * (dot(axis, v) * (1 - c)); };
-  Light out = l;
-  out.direction = normalize(rot(l.direction));
-  if (l.type != LightType::Directional) out.position = centre + rot(l.position - centre);
-  return out;
-}
-
 // "issm (spheres) + cssm (volumes)": which technique covers which kind of caster.
 std::string technique_line(const Scene& scene) {
   std::string techniques;
@@ -131,8 +119,6 @@ std::string technique_line(const Scene& scene) {
   }
   return techniques.empty() ? "none" : techniques;
 }
-
-nlohmann::json vec3_json(const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
 nlohmann::json rebuilt_json(const std::vector<RebuiltStructure>& rebuilt) {
   nlohmann::json a = nlohmann::json::array();
@@ -259,9 +245,7 @@ void run_render(const RenderOptions& o) {
     throw Error("--slabs renders one frame to a .png or .pfm (not with --orbit, --light-orbit, --frames, --edits, --accumulate, "
                 "--preview, --depth, --buffers, --stats or --write-scene)");
   if (o.slabs > 0 && lower_extension(o.output) == ".exr") throw Error("--slabs: the output must be .png or .pfm");
-  if (int(o.orbit > 0) + int(o.light_orbit > 0) + int(!o.frames.empty()) > 1)
-    throw Error("--orbit, --light-orbit and --frames cannot be combined");
-  check_video_options(o);
+  check_sequence_options(o);
   if (!o.edits.empty() && sequence_requested(o)) throw Error("--edits cannot be combined with --orbit, --light-orbit or --frames");
   if (o.preview && (o.accumulate > 1 || !o.edits.empty())) throw Error("--preview renders one preview frame (not with --accumulate or --edits)");
   if (o.accumulate > 1 && (sequence_requested(o) || !o.edits.empty()))
@@ -282,27 +266,17 @@ void run_render(const RenderOptions& o) {
   const std::vector<std::size_t> times = o.frames.empty() ? std::vector<std::size_t>{} : time_frames(o.frames, scene.frame_count());
   const int frames = std::max({1, o.orbit, o.light_orbit, static_cast<int>(times.size())});
   const bool sequence = sequence_requested(o);
-  const Camera camera0 = scene.camera;
-  const std::vector<Light> lights0 = scene.lights;
-  const Vec3 centre = scene.caster_bounds().center();
+  const SequenceOrbits orbits(o, scene);
   nlohmann::json stats;
   nlohmann::json frame_list = nlohmann::json::array();
   for (int f = 0; f < frames; ++f) {
-    const float angle = 2.0f * kPi * static_cast<float>(f) / static_cast<float>(frames);
-    if (f > 0 && o.orbit > 0) engine.set("camera.eye", vec3_json(camera0.orbited(angle).eye));
     double read_ms = 0;
     if (!times.empty() && (f > 0 || times[0] != engine.scene().time)) {
       Timer read;  // reading the frame's data (and the scene around it)
       engine.set("time", times[static_cast<std::size_t>(f)]);
       read_ms = read.elapsed_ms();
     }
-    if (f > 0 && o.light_orbit > 0 && !lights0.empty()) {
-      const Light l = orbit_light(lights0[0], centre, camera0.up, angle);
-      std::vector<std::pair<std::string, nlohmann::json>> edit;  // a point light has no direction
-      if (l.type != LightType::Point) edit.emplace_back("lights.0.direction", vec3_json(l.direction));
-      if (l.type != LightType::Directional) edit.emplace_back("lights.0.position", vec3_json(l.position));
-      engine.edit(edit);
-    }
+    if (const auto edits = orbits.edits(f, frames); !edits.empty()) engine.edit(edits);
     EngineFrame ef = engine.render({o.preview ? Quality::Preview : Quality::Full, o.accumulate > 1});
     const FrameResult frame = ef.frame;  // the first sample's stats
     for (int k = 1; k < o.accumulate; ++k) ef = engine.render({Quality::Full, true});

@@ -1,8 +1,9 @@
-// `mpirun -np N penumbra render SCENE -o OUT.png [--frames A:B[:STEP] [--video V.mp4]] [--stats S.json]
-//  [--threads T] [--width W --height H] [--set key=value ...]`: one frame, or the frames of the scene's
-// trajectories and volume series, rendered data-parallel (distributed/distributed_frame.h). Every rank
-// opens the scene (for each frame: a rank reads its brick of the step); rank 0 writes the images
-// (OUT_000.png … for --frames) and the statistics, with one entry per rank (and per frame).
+// `mpirun -np N penumbra render SCENE -o OUT.png [--frames A:B[:STEP] | --orbit N | --light-orbit N]
+//  [--video V.mp4] [--stats S.json] [--threads T] [--width W --height H] [--set key=value ...]`: one
+// frame, or a sequence (the frames of the scene's trajectories and volume series, or an orbit of the
+// camera or the first light), rendered data-parallel (distributed/distributed_frame.h). Every rank
+// opens the scene, anew for each frame (a rank reads its brick of the frame's step); rank 0 writes the
+// images (OUT_000.png …) and the statistics, with one entry per rank (and per frame).
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
@@ -20,6 +21,7 @@
 #include "penumbra/distributed/brick_reading.h"
 #include "penumbra/distributed/distributed_frame.h"
 #include "penumbra/distributed/sphere_split.h"
+#include "penumbra/scene/scene_file.h"
 #include "render_options.h"
 #include "render_sequence.h"
 #include "stats.h"
@@ -29,11 +31,10 @@ namespace {
 
 void check_distributed_options(const RenderOptions& o) {
   if (o.slabs > 0) throw Error("--slabs is the brick loop of one process; under mpirun the ranks are the slabs");
-  if (o.orbit > 0 || o.light_orbit > 0 || !o.edits.empty() || o.accumulate > 1 || o.preview || o.depth || !o.buffers.empty() ||
-      !o.write_scene.empty())
-    throw Error("under mpirun, render draws one frame, or the frames of trajectories and volume series (--frames), to .png or .pfm "
-                "(not with --orbit, --light-orbit, --edits, --accumulate, --preview, --depth, --buffers or --write-scene)");
-  check_video_options(o);
+  if (!o.edits.empty() || o.accumulate > 1 || o.preview || o.depth || !o.buffers.empty() || !o.write_scene.empty())
+    throw Error("under mpirun, render draws one frame or a sequence (--frames, --orbit, --light-orbit) to .png or .pfm "
+                "(not with --edits, --accumulate, --preview, --depth, --buffers or --write-scene)");
+  check_sequence_options(o);
   check_output_path(o.output);
   if (lower_extension(o.output) == ".exr") throw Error("-o " + o.output + ": under mpirun the output must be .png or .pfm");
   if (!o.stats.empty()) check_stats_path(o.stats);
@@ -137,20 +138,22 @@ void run_render_distributed(const RenderOptions& o) {
   if (!error.empty()) throw Error(error);
   check_same_scene(o, document, world);
 
-  // The scene at frame `time` of its trajectories and volume series (nullopt: the document's own), built
-  // anew for every frame of a sequence: a scene file's volume is read as bricks, each rank reading only
-  // its brick of the step; data files opened directly are read whole by every rank.
+  // The scene after `edits` (a frame's time, camera eye or light), built anew for every frame of a
+  // sequence, as the single-process engine reads an edited scene: a scene file's volume is read as
+  // bricks, each rank reading only its brick (of the frame's step); data files opened directly are read
+  // whole by every rank.
   BrickReading reading;
   std::optional<Scene> scene;
-  const auto open_frame = [&](std::optional<std::size_t> time) {
+  const auto open_frame = [&](const std::vector<std::pair<std::string, nlohmann::json>>& edits) {
     scene.reset();
     if (document) {
-      nlohmann::json j = document->document;
-      if (time) j["time"] = *time;
-      scene.emplace(build_distributed_scene(j, document->base_dir, o.in.strict, world, reading));
+      world.run_agreed([&] {
+        for (const auto& [path, value] : edits) set_path(document->document, path, value);
+      });
+      scene.emplace(build_distributed_scene(document->document, document->base_dir, o.in.strict, world, reading));
       return;
     }
-    if (time) world.run_agreed([&] { engine->set("time", *time); });
+    if (!edits.empty()) world.run_agreed([&] { engine->edit(edits); });
     scene.emplace(engine->scene());
     reading = BrickReading{};
     reading.why = "data files opened directly are read whole by every rank (a scene file's volume is read as bricks)";
@@ -161,21 +164,24 @@ void run_render_distributed(const RenderOptions& o) {
       reading.volume_bytes = scene->volumes.front().volume->memory_bytes();
     }
   };
-  open_frame(std::nullopt);
+  open_frame({});
   std::vector<std::size_t> times;
   world.run_agreed([&] {
     if (!o.frames.empty()) times = time_frames(o.frames, scene->frame_count());
   });
-  const bool sequence = !times.empty();
+  const bool sequence = sequence_requested(o);
+  const SequenceOrbits orbits(o, *scene);
   if (world.rank() == 0)
     for (const auto& note : scene->unread_keys) std::fprintf(stderr, "penumbra: note: %s\n", note.c_str());
 
   nlohmann::json stats;
   nlohmann::json frame_list = nlohmann::json::array();
-  const int frames = sequence ? static_cast<int>(times.size()) : 1;
+  const int frames = std::max({1, o.orbit, o.light_orbit, static_cast<int>(times.size())});
   for (int f = 0; f < frames; ++f) {
     Timer frame_time;
-    if (sequence && (f > 0 || times[0] != scene->time)) open_frame(times[static_cast<std::size_t>(f)]);
+    std::vector<std::pair<std::string, nlohmann::json>> edits = orbits.edits(f, frames);
+    if (!times.empty() && (f > 0 || times[0] != scene->time)) edits.emplace_back("time", times[static_cast<std::size_t>(f)]);
+    if (!edits.empty()) open_frame(edits);
     const double read_ms = frame_time.elapsed_ms();
     const DistributedFrame frame = render_distributed(*scene, world);
     // every rank's reading to rank 0
@@ -210,9 +216,9 @@ void run_render_distributed(const RenderOptions& o) {
         print_first_frame(*scene, reading, frame, read_of);
       }
       if (sequence) {
-        frame_list.push_back({{"file", path}, {"time", scene->time}, {"read_ms", read_ms}, {"ms", frame_time.elapsed_ms()}, {"ranks", ranks}});
-        std::fprintf(stderr, "%s: time %zu, %d ranks, read %.1f ms, %.1f ms in all\n", path.c_str(), scene->time, world.size(), read_ms,
-                     frame_time.elapsed_ms());
+        frame_list.push_back({{"file", path}, {"time", scene->time}, {"open_ms", read_ms}, {"ms", frame_time.elapsed_ms()}, {"ranks", ranks}});
+        std::fprintf(stderr, "%s: time %zu, %d ranks, scene opened in %.1f ms, %.1f ms in all\n", path.c_str(), scene->time, world.size(),
+                     read_ms, frame_time.elapsed_ms());
       }
     }
     error = world.agree(error);  // a failed write stops every rank with its message

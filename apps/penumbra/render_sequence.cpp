@@ -1,6 +1,7 @@
 #include "render_sequence.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -44,12 +45,47 @@ std::vector<std::size_t> time_frames(const std::string& spec, std::size_t count)
   return frames;
 }
 
-void check_video_options(const RenderOptions& o) {
+void check_sequence_options(const RenderOptions& o) {
+  if (int(o.orbit > 0) + int(o.light_orbit > 0) + int(!o.frames.empty()) > 1)
+    throw Error("--orbit, --light-orbit and --frames cannot be combined");
   if (o.video.empty()) return;
   if (!sequence_requested(o)) throw Error("--video needs a sequence: --frames, --orbit or --light-orbit");
   if (std::system("ffmpeg -version > /dev/null 2>&1") != 0)
     throw Error("--video " + o.video + ": ffmpeg not found (install Debian's ffmpeg); the frames can still be written without --video");
   if (std::filesystem::path(o.output).extension() != ".png") throw Error("--video: the frames (-o) must be .png");
+}
+
+namespace {
+
+nlohmann::json vec3_json(const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
+
+Light orbit_light(const Light& l, const Vec3& centre, const Vec3& up, float angle) {
+  const Vec3 axis = normalize(up);
+  const float c = std::cos(angle), s = std::sin(angle);
+  auto rot = [&](const Vec3& v) { return v * c + cross(axis, v) * s + axis * (dot(axis, v) * (1 - c)); };
+  Light out = l;
+  out.direction = normalize(rot(l.direction));
+  if (l.type != LightType::Directional) out.position = centre + rot(l.position - centre);
+  return out;
+}
+
+}  // namespace
+
+SequenceOrbits::SequenceOrbits(const RenderOptions& o, const Scene& first_frame)
+    : camera_(o.orbit > 0), light_(o.light_orbit > 0 && !first_frame.lights.empty()), camera0_(first_frame.camera),
+      lights0_(first_frame.lights), centre_(first_frame.caster_bounds().center()) {}
+
+std::vector<std::pair<std::string, nlohmann::json>> SequenceOrbits::edits(int f, int frames) const {
+  std::vector<std::pair<std::string, nlohmann::json>> out;
+  if (f == 0) return out;
+  const float angle = 2.0f * kPi * static_cast<float>(f) / static_cast<float>(frames);
+  if (camera_) out.emplace_back("camera.eye", vec3_json(camera0_.orbited(angle).eye));
+  if (light_) {
+    const Light l = orbit_light(lights0_[0], centre_, camera0_.up, angle);
+    if (l.type != LightType::Point) out.emplace_back("lights.0.direction", vec3_json(l.direction));  // a point light has no direction
+    if (l.type != LightType::Directional) out.emplace_back("lights.0.position", vec3_json(l.position));
+  }
+  return out;
 }
 
 void write_video(const std::string& output, const std::string& video, int count, int fps) {

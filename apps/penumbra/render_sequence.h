@@ -5,8 +5,12 @@
 
 #include <cstddef>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
+#include "penumbra/scene/scene.h"
 #include "render_options.h"
 
 namespace penumbra::cli {
@@ -18,9 +22,25 @@ std::string frame_path(const std::string& output, int frame);
 // the last frame). An Error naming the range when it does not fit the scene.
 std::vector<std::size_t> time_frames(const std::string& spec, std::size_t count);
 
-// Error unless --video (when given) can be made: a sequence is rendered, its frames are .png, and
-// ffmpeg is installed.
-void check_video_options(const RenderOptions& o);
+// Error unless the sequence options fit together: one of --orbit, --light-orbit and --frames, and
+// --video only with a sequence of .png frames and ffmpeg installed.
+void check_sequence_options(const RenderOptions& o);
+
+// --orbit N and --light-orbit N: frame f turns the camera's eye (or the first light) by 2π f / N about
+// the camera's up axis, through its target (the light: through the scene's centre, so that a light
+// orbit of a z-up CT turns around the patient's long axis too).
+class SequenceOrbits {
+public:
+  SequenceOrbits(const RenderOptions& o, const Scene& first_frame);
+  // The scene edits that make frame f of `frames` (none for frame 0, or without an orbit).
+  std::vector<std::pair<std::string, nlohmann::json>> edits(int f, int frames) const;
+
+private:
+  bool camera_, light_;
+  Camera camera0_;
+  std::vector<Light> lights0_;
+  Vec3 centre_;
+};
 
 // The frames NAME_000.png … NAME_{count-1}.png as a video through ffmpeg (H.264, yuv420p: what every
 // player plays).
