@@ -216,9 +216,12 @@ void run_render_distributed(const RenderOptions& o) {
         print_first_frame(*scene, reading, frame, read_of);
       }
       if (sequence) {
-        frame_list.push_back({{"file", path}, {"time", scene->time}, {"open_ms", read_ms}, {"ms", frame_time.elapsed_ms()}, {"ranks", ranks}});
-        std::fprintf(stderr, "%s: time %zu, %d ranks, scene opened in %.1f ms, %.1f ms in all\n", path.c_str(), scene->time, world.size(),
-                     read_ms, frame_time.elapsed_ms());
+        nlohmann::json fs = {{"file", path}, {"open_ms", read_ms}, {"ms", frame_time.elapsed_ms()}, {"ranks", ranks}};
+        if (!times.empty()) fs["time"] = scene->time;
+        frame_list.push_back(fs);
+        const std::string time = times.empty() ? "" : "time " + std::to_string(scene->time) + ", ";
+        std::fprintf(stderr, "%s: %s%d ranks, scene opened in %.1f ms, %.1f ms in all\n", path.c_str(), time.c_str(), world.size(), read_ms,
+                     frame_time.elapsed_ms());
       }
     }
     error = world.agree(error);  // a failed write stops every rank with its message
