@@ -420,6 +420,16 @@ TEST(MpiRender, RanksRenderSequencesFrameByFrame) {
       }
     }
   }
+  // an orbit turns the scene every rank holds: its brick is read for the first frame only
+  const CliRun turn = mpirun_cli(2, "render " + quote(dir.file("series.json")) + " --orbit 2 -o " + quote(dir.file("turn.png")) +
+                                        " --stats " + quote(dir.file("turn.json")));
+  ASSERT_EQ(turn.status, 0) << turn.err;
+  const nlohmann::json turned = nlohmann::json::parse(slurp(dir.file("turn.json")))["frames"];
+  ASSERT_EQ(turned.size(), 2u);
+  for (int r = 0; r < 2; ++r) {
+    EXPECT_GT(turned[0]["ranks"][r]["bytes_read"].get<std::uint64_t>(), 0u);
+    EXPECT_EQ(turned[1]["ranks"][r]["bytes_read"].get<std::uint64_t>(), 0u);
+  }
   const CliRun past = mpirun_cli(2, "render " + quote(dir.file("series.json")) + " --frames 1:3 -o " + quote(dir.file("past.png")));
   EXPECT_NE(past.status, 0);
   EXPECT_EQ(count(past.err, "--frames 1:3: frame 3 is past the last frame (3 frames, 0 to 2)"), 2u) << past.err;

@@ -21,7 +21,6 @@
 #include "penumbra/distributed/brick_reading.h"
 #include "penumbra/distributed/distributed_frame.h"
 #include "penumbra/distributed/sphere_split.h"
-#include "penumbra/scene/scene_file.h"
 #include "render_options.h"
 #include "render_sequence.h"
 #include "stats.h"
@@ -138,22 +137,19 @@ void run_render_distributed(const RenderOptions& o) {
   if (!error.empty()) throw Error(error);
   check_same_scene(o, document, world);
 
-  // The scene after `edits` (a frame's time, camera eye or light), built anew for every frame of a
-  // sequence, as the single-process engine reads an edited scene: a scene file's volume is read as
-  // bricks, each rank reading only its brick (of the frame's step); data files opened directly are read
-  // whole by every rank.
+  // The scene at frame `time` of its trajectories and volume series (nullopt: the document's own), opened
+  // anew for every frame of --frames: a scene file's volume is read as bricks, each rank reading only its
+  // brick of the step; data files opened directly are read whole by every rank.
   BrickReading reading;
   std::optional<Scene> scene;
-  const auto open_frame = [&](const std::vector<std::pair<std::string, nlohmann::json>>& edits) {
+  const auto open_frame = [&](std::optional<std::size_t> time) {
     scene.reset();
     if (document) {
-      world.run_agreed([&] {
-        for (const auto& [path, value] : edits) set_path(document->document, path, value);
-      });
+      if (time) document->document["time"] = *time;
       scene.emplace(build_distributed_scene(document->document, document->base_dir, o.in.strict, world, reading));
       return;
     }
-    if (!edits.empty()) world.run_agreed([&] { engine->edit(edits); });
+    if (time) world.run_agreed([&] { engine->set("time", *time); });
     scene.emplace(engine->scene());
     reading = BrickReading{};
     reading.why = "data files opened directly are read whole by every rank (a scene file's volume is read as bricks)";
@@ -164,7 +160,7 @@ void run_render_distributed(const RenderOptions& o) {
       reading.volume_bytes = scene->volumes.front().volume->memory_bytes();
     }
   };
-  open_frame({});
+  open_frame(std::nullopt);
   std::vector<std::size_t> times;
   world.run_agreed([&] {
     if (!o.frames.empty()) times = time_frames(o.frames, scene->frame_count());
@@ -179,14 +175,17 @@ void run_render_distributed(const RenderOptions& o) {
   const int frames = std::max({1, o.orbit, o.light_orbit, static_cast<int>(times.size())});
   for (int f = 0; f < frames; ++f) {
     Timer frame_time;
-    std::vector<std::pair<std::string, nlohmann::json>> edits = orbits.edits(f, frames);
-    if (!times.empty() && (f > 0 || times[0] != scene->time)) edits.emplace_back("time", times[static_cast<std::size_t>(f)]);
-    if (!edits.empty()) open_frame(edits);
+    // an orbit turns the camera or the light of the scene held (nothing read again); a time step opens
+    // the scene at that time
+    orbits.apply(*scene, f, frames);
+    const bool step = !times.empty() && (f > 0 || times[0] != scene->time);
+    if (step) open_frame(times[static_cast<std::size_t>(f)]);
+    const bool opened = f == 0 || step;  // this frame's bytes read: none when the scene was kept
     const double read_ms = frame_time.elapsed_ms();
     const DistributedFrame frame = render_distributed(*scene, world);
     // every rank's reading to rank 0
     const double read_fields[] = {static_cast<double>(reading.slices.first), static_cast<double>(reading.slices.count),
-                                  static_cast<double>(reading.bytes_read), static_cast<double>(reading.volume_bytes)};
+                                  static_cast<double>(opened ? reading.bytes_read : 0), static_cast<double>(reading.volume_bytes)};
     const std::vector<double> reads = world.gather_doubles(read_fields);
     const auto read_of = [&](std::size_t r) {
       const double* v = &reads[r * std::size(read_fields)];

@@ -75,17 +75,30 @@ SequenceOrbits::SequenceOrbits(const RenderOptions& o, const Scene& first_frame)
     : camera_(o.orbit > 0), light_(o.light_orbit > 0 && !first_frame.lights.empty()), camera0_(first_frame.camera),
       lights0_(first_frame.lights), centre_(first_frame.caster_bounds().center()) {}
 
+float SequenceOrbits::angle(int f, int frames) const { return 2.0f * kPi * static_cast<float>(f) / static_cast<float>(frames); }
+
+Light SequenceOrbits::light(int f, int frames) const { return orbit_light(lights0_[0], centre_, camera0_.up, angle(f, frames)); }
+
 std::vector<std::pair<std::string, nlohmann::json>> SequenceOrbits::edits(int f, int frames) const {
   std::vector<std::pair<std::string, nlohmann::json>> out;
   if (f == 0) return out;
-  const float angle = 2.0f * kPi * static_cast<float>(f) / static_cast<float>(frames);
-  if (camera_) out.emplace_back("camera.eye", vec3_json(camera0_.orbited(angle).eye));
+  if (camera_) out.emplace_back("camera.eye", vec3_json(camera0_.orbited(angle(f, frames)).eye));
   if (light_) {
-    const Light l = orbit_light(lights0_[0], centre_, camera0_.up, angle);
+    const Light l = light(f, frames);
     if (l.type != LightType::Point) out.emplace_back("lights.0.direction", vec3_json(l.direction));  // a point light has no direction
     if (l.type != LightType::Directional) out.emplace_back("lights.0.position", vec3_json(l.position));
   }
   return out;
+}
+
+void SequenceOrbits::apply(Scene& scene, int f, int frames) const {
+  if (f == 0) return;
+  if (camera_) scene.camera.eye = camera0_.orbited(angle(f, frames)).eye;
+  if (light_) {
+    const Light l = light(f, frames);
+    if (l.type != LightType::Point) scene.lights[0].direction = normalize(l.direction);
+    if (l.type != LightType::Directional) scene.lights[0].position = l.position;
+  }
 }
 
 void write_video(const std::string& output, const std::string& video, int count, int fps) {

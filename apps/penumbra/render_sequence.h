@@ -34,8 +34,15 @@ public:
   SequenceOrbits(const RenderOptions& o, const Scene& first_frame);
   // The scene edits that make frame f of `frames` (none for frame 0, or without an orbit).
   std::vector<std::pair<std::string, nlohmann::json>> edits(int f, int frames) const;
+  // The same frame made in place: `scene` becomes what the scene file reads after edits(f, frames)
+  // (the camera's eye, the first light's direction, normalised as the file's reading does, and position),
+  // without reading the scene's data again.
+  void apply(Scene& scene, int f, int frames) const;
 
 private:
+  float angle(int f, int frames) const;
+  Light light(int f, int frames) const;
+
   bool camera_, light_;
   Camera camera0_;
   std::vector<Light> lights0_;
