@@ -7,6 +7,12 @@ bit against the brick loop (`render --slabs N`); then the communication model fo
 first.
 
   scripts/bench_mpi.py [--penumbra build/release/penumbra] [--ranks 1,2,3,4] [--json out.json]
+  scripts/bench_mpi.py --sequences [--ranks 1,2,3,4]    # sequences under mpirun: an orbit, a trajectory
+
+`--sequences` times `render --orbit 8` of mri-head and `render --frames 0:150:15` of the staged GROMACS
+run (1tii, ISSM + particle AO, 1920x1200) on each rank count: the median frame, the time to open the
+scene at a frame, the MB a rank read for the first and for the later frames, and the worst frame's PSNR
+against the single-process sequence.
 
 On one machine the ranks are oversubscribed (they share its cores), so the times are not scaling figures.
 """
@@ -110,14 +116,63 @@ def measure_spheres(a, env, ranks, tmp):
     return rows
 
 
+def psnr_of(penumbra, a, b):
+    if filecmp.cmp(a, b, shallow=False):
+        return math.inf
+    return float(dict(l.split()[:2] for l in run([penumbra, "compare", a, b]).stdout.splitlines())["psnr"])
+
+
+def measure_sequences(a, env, ranks, tmp):
+    data = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "data")
+    trajectory = os.path.join(tmp, "1tii_md.json")
+    json.dump({"particles": [{"file": os.path.join(data, "md_1tii_chainD.gro"), "trajectory": os.path.join(data, "md_1tii_chainD.xtc")}],
+               "lights": [{"type": "directional", "direction": [-0.45, -0.8, -0.4]}],
+               "shadows": {"technique": "issm", "resolution": 512}, "ambient": {"technique": "particle_ao"},
+               "camera": {"direction": [0.2, 0.3, 1.0], "fov_deg": 30, "width": 1920, "height": 1200}}, open(trajectory, "w"))
+    sequences = [("mri-head", "scenes/mri-head.json", ["--orbit", "8"], 8)]
+    if os.path.exists(os.path.join(data, "md_1tii_chainD.xtc")):
+        sequences.append(("1tii MD, issm + AO", trajectory, ["--frames", "0:150:15"], 11))
+    rows = []
+    for name, scene, args, count in sequences:
+        key = name.split()[0]
+        whole = os.path.join(tmp, f"{key}_whole.pfm")
+        run([a.penumbra, "render", scene, *args, "-o", whole])
+        for n in ranks:
+            out, stats = os.path.join(tmp, f"{key}{n}.pfm"), os.path.join(tmp, f"{key}{n}.json")
+            run(["mpirun", "--oversubscribe", "--bind-to", "none", "-np", str(n), a.penumbra, "render", scene, *args, "-o", out,
+                 "--stats", stats], env)
+            frames = json.load(open(stats))["frames"]
+            later = frames[1:]
+            psnr = min(psnr_of(a.penumbra, f"{out[:-4]}_{k:03d}.pfm", f"{whole[:-4]}_{k:03d}.pfm") for k in range(count))
+            median = lambda v: sorted(v)[len(v) // 2]
+            rows.append({"sequence": name, "args": " ".join(args), "ranks": n, "frames": len(frames),
+                         "frame_ms": median([f["ms"] for f in later]), "open_ms": median([f["open_ms"] for f in later]),
+                         "first_MB": max(r["bytes_read"] for r in frames[0]["ranks"]) / 1e6,
+                         "later_MB": max(r["bytes_read"] for f in later for r in f["ranks"]) / 1e6, "worst_psnr": psnr})
+    print("| sequence | ranks | frames | frame ms (median) | opening the scene ms | MB read a rank: first frame | later frames (most) | worst frame against one process |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    for r in rows:
+        psnr = "bit for bit" if math.isinf(r["worst_psnr"]) else f"{r['worst_psnr']:.1f} dB"
+        print(f"| {r['sequence']} `{r['args']}` | {r['ranks']} | {r['frames']} | {r['frame_ms']:.0f} | {r['open_ms']:.1f} | "
+              f"{r['first_MB']:.1f} | {r['later_MB']:.1f} | {psnr} |")
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--penumbra", default="build/release/penumbra")
     ap.add_argument("--ranks", default="1,2,3,4")
     ap.add_argument("--json")
+    ap.add_argument("--sequences", action="store_true", help="time sequences under mpirun (an orbit, a trajectory) only")
     a = ap.parse_args()
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     ranks = [int(x) for x in a.ranks.split(",")]
+    if a.sequences:
+        with tempfile.TemporaryDirectory() as tmp:
+            rows = measure_sequences(a, env, ranks, tmp)
+        if a.json:
+            json.dump({"sequences": rows}, open(a.json, "w"), indent=1)
+        return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for scene, sets, shadows, nodes in SCENES:
