@@ -81,6 +81,12 @@ def model_issm_bytes(resolution, n):
     return 20 * resolution * resolution * math.ceil(math.log2(n)) if n > 1 else 0
 
 
+def psnr_of(penumbra, a, b):
+    if filecmp.cmp(a, b, shallow=False):
+        return math.inf
+    return float(dict(l.split()[:2] for l in run([penumbra, "compare", a, b]).stdout.splitlines())["psnr"])
+
+
 def measure_spheres(a, env, ranks, tmp):
     rows = []
     for scene, resolution in SPHERE_SCENES:
@@ -91,8 +97,8 @@ def measure_spheres(a, env, ranks, tmp):
             out, stats = os.path.join(tmp, f"{scene}{n}.pfm"), os.path.join(tmp, f"{scene}{n}.json")
             run(["mpirun", "--oversubscribe", "--bind-to", "none", "-np", str(n), a.penumbra, "render", *args, "-o", out,
                  "--stats", stats], env)
-            same = filecmp.cmp(out, whole, shallow=False)
-            psnr = "inf" if same else dict(l.split()[:2] for l in run([a.penumbra, "compare", out, whole]).stdout.splitlines())["psnr"]
+            p = psnr_of(a.penumbra, out, whole)
+            same, psnr = math.isinf(p), f"{p:g}"
             s = json.load(open(stats))
             issm = model_issm_bytes(resolution, n)
             for rank in s["ranks"]:
@@ -115,11 +121,6 @@ def measure_spheres(a, env, ranks, tmp):
               f"{r['shadow_kB']:.0f} | {r['image_kB']:.0f} |")
     return rows
 
-
-def psnr_of(penumbra, a, b):
-    if filecmp.cmp(a, b, shallow=False):
-        return math.inf
-    return float(dict(l.split()[:2] for l in run([penumbra, "compare", a, b]).stdout.splitlines())["psnr"])
 
 
 def measure_sequences(a, env, ranks, tmp):
@@ -182,8 +183,8 @@ def main():
                 r = run(["mpirun", "--oversubscribe", "--bind-to", "none", "-np", str(n), a.penumbra, "render", *args, "-o", out,
                          "--stats", stats], env)
                 run([a.penumbra, "render", *args, "--slabs", str(n), "-o", loop])
-                same = filecmp.cmp(out, loop, shallow=False)
-                psnr = "inf" if same else dict(l.split()[:2] for l in run([a.penumbra, "compare", out, loop]).stdout.splitlines())["psnr"]
+                p = psnr_of(a.penumbra, out, loop)
+                same, psnr = math.isinf(p), f"{p:g}"
                 s = json.load(open(stats))
                 resolution = 1024
                 for rank in s["ranks"]:
