@@ -397,12 +397,21 @@ TEST(MpiRender, RanksRenderSequencesFrameByFrame) {
     ASSERT_EQ(whole.status, 0) << whole.err;
     for (const int np : {1, 3}) {
       SCOPED_TRACE(np);
-      const std::string out = dir.file(orbit + "_np" + std::to_string(np) + ".pfm");
-      const CliRun ranks = mpirun_cli(np, args + quote(out));
+      const std::string out = dir.file(orbit + "_np" + std::to_string(np) + ".pfm"), stats = dir.file(orbit + "_stats.json");
+      const CliRun ranks = mpirun_cli(np, args + quote(out) + " --stats " + quote(stats));
       ASSERT_EQ(ranks.status, 0) << ranks.out << ranks.err;
+      const nlohmann::json frames = nlohmann::json::parse(slurp(stats))["frames"];
+      ASSERT_EQ(frames.size(), 3u);
       Image previous;
       for (int k = 0; k < 3; ++k) {
         SCOPED_TRACE(k);
+        // each rank keeps its renderer: after the first frame an orbit rebuilds nothing, a light orbit
+        // that light's shadows only (reduced across the ranks again)
+        const std::vector<std::string> kept_all = {}, light_only = {"lights.0.shadows"};
+        const auto rebuilt = frames[k]["rebuilt"].get<std::vector<std::string>>();
+        if (k > 0) EXPECT_EQ(rebuilt, orbit == "orbit" ? kept_all : light_only);
+        for (const auto& r : frames[k]["ranks"])
+          EXPECT_EQ(r["structures_rebuilt"].get<std::size_t>(), rebuilt.size()) << r.dump();
         const std::string suffix = "_00" + std::to_string(k) + ".pfm";
         const Image distributed = read_image(dir.file(orbit + "_np" + std::to_string(np) + suffix));
         const Image reference = read_image(dir.file(orbit + "_whole" + suffix));

@@ -2,8 +2,9 @@
 //  [--video V.mp4] [--stats S.json] [--threads T] [--width W --height H] [--set key=value ...]`: one
 // frame, or a sequence (the frames of the scene's trajectories and volume series, or an orbit of the
 // camera or the first light), rendered data-parallel (distributed/distributed_frame.h). Every rank
-// opens the scene, anew for each frame (a rank reads its brick of the frame's step); rank 0 writes the
-// images (OUT_000.png …) and the statistics, with one entry per rank (and per frame).
+// opens the scene, anew for each time step (a rank reads its brick of the frame's step), and keeps its
+// renderer while the data stay (an orbit rebuilds nothing, a light orbit that light's shadows); rank 0
+// writes the images (OUT_000.png …) and the statistics, with one entry per rank (and per frame).
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
@@ -88,7 +89,8 @@ nlohmann::json rank_stats(const RankFrameStats& s, const RankReadStats& read, in
           {"communication_ms", s.communication_ms},
           {"bytes_sent", s.bytes_sent},
           {"shadow_bytes_sent", s.shadow_bytes_sent},
-          {"image_bytes_sent", s.image_bytes_sent}};
+          {"image_bytes_sent", s.image_bytes_sent},
+          {"structures_rebuilt", s.structures_rebuilt}};
   if (s.spheres) out["spheres"] = *s.spheres;
   return out;
 }
@@ -142,7 +144,9 @@ void run_render_distributed(const RenderOptions& o) {
   // brick of the step; data files opened directly are read whole by every rank.
   BrickReading reading;
   std::optional<Scene> scene;
+  std::optional<DistributedRenderer> renderer;  // kept while the data stay: an orbit keeps its structures
   const auto open_frame = [&](std::optional<std::size_t> time) {
+    renderer.reset();
     scene.reset();
     if (document) {
       if (time) document->document["time"] = *time;
@@ -182,7 +186,8 @@ void run_render_distributed(const RenderOptions& o) {
     if (step) open_frame(times[static_cast<std::size_t>(f)]);
     const bool opened = f == 0 || step;  // this frame's bytes read: none when the scene was kept
     const double read_ms = frame_time.elapsed_ms();
-    const DistributedFrame frame = render_distributed(*scene, world);
+    if (!renderer) renderer.emplace(*scene, world);
+    const DistributedFrame frame = renderer->render(scene->camera, scene->lights);
     // every rank's reading to rank 0
     const double read_fields[] = {static_cast<double>(reading.slices.first), static_cast<double>(reading.slices.count),
                                   static_cast<double>(opened ? reading.bytes_read : 0), static_cast<double>(reading.volume_bytes)};
@@ -215,7 +220,7 @@ void run_render_distributed(const RenderOptions& o) {
         print_first_frame(*scene, reading, frame, read_of);
       }
       if (sequence) {
-        nlohmann::json fs = {{"file", path}, {"open_ms", read_ms}, {"ms", frame_time.elapsed_ms()}, {"ranks", ranks}};
+        nlohmann::json fs = {{"file", path}, {"open_ms", read_ms}, {"ms", frame_time.elapsed_ms()}, {"rebuilt", frame.rebuilt}, {"ranks", ranks}};
         if (!times.empty()) fs["time"] = scene->time;
         frame_list.push_back(fs);
         const std::string time = times.empty() ? "" : "time " + std::to_string(scene->time) + ", ";

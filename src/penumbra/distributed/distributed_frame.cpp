@@ -61,24 +61,36 @@ Rect active_rect(const FrameResult& frame) {
 
 }  // namespace
 
-DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
+DistributedRenderer::DistributedRenderer(const Scene& scene, MpiWorld& world) : world_(world), background_(scene.background) {
   const int n = world.size(), me = world.rank();
   // a volume's slabs, or (no volume) the spheres split by space and the frames composited by depth
-  const bool by_depth = splits_spheres(scene);
-  SampleSlab slab;
+  by_depth_ = splits_spheres(scene);
   std::optional<SphereShare> share;
   world.run_agreed([&] {
     check_splittable(scene);
-    if (by_depth) {
+    if (by_depth_) {
       check_spheres_split(scene, n);
       share = sphere_share(scene, n, me);
-      slab = share->slab;
-      return;
+      slab_ = share->slab;
+    } else {
+      slab_ = volume_slabs(*scene.volumes.front().volume, n)[static_cast<std::size_t>(me)];
+      // the spheres that reach into the slab, when their structures combine over the ranks
+      if (scene.has_particles() && why_spheres_whole(scene).empty()) share = spheres_in_slab(scene, slab_);
     }
-    slab = volume_slabs(*scene.volumes.front().volume, n)[static_cast<std::size_t>(me)];
-    // the spheres that reach into the slab, when their structures combine over the ranks
-    if (scene.has_particles() && why_spheres_whole(scene).empty()) share = spheres_in_slab(scene, slab);
+    Scene over_black = share ? std::move(share->scene) : scene;
+    over_black.background = Rgb(0.0f);
+    renderer_ = std::make_unique<Renderer>(std::move(over_black));
   });
+  if (share) spheres_ = share->spheres;
+}
+
+DistributedRenderer::~DistributedRenderer() = default;
+
+DistributedFrame DistributedRenderer::render(const Camera& camera, const std::vector<Light>& lights) {
+  MpiWorld& world = world_;
+  const int n = world.size(), me = world.rank();
+  const bool by_depth = by_depth_;
+  const SampleSlab slab = slab_;
 
   // 1. this rank's samples, over black
   // (the light structures that combine over bricks are reduced across the ranks inside render(); a
@@ -86,15 +98,12 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   std::size_t shadow_bytes = 0;
   const FrameResult frame = [&] {
     try {
-      Scene over_black = share ? std::move(share->scene) : scene;
-      over_black.background = Rgb(0.0f);
-      Renderer renderer(std::move(over_black));
       FrameRequest request;
       if (!by_depth) request.slab = slab;
-      request.own_spheres = share.has_value();
+      request.own_spheres = spheres_.has_value();
       request.reduction = &world;
       const std::size_t before = world.bytes_sent();
-      FrameResult f = renderer.render(request);
+      FrameResult f = renderer_->render(camera, lights, request);
       shadow_bytes = world.bytes_sent() - before;
       return f;
     } catch (const std::exception& e) {
@@ -106,7 +115,7 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
 
   // 2. direct send: the part of band r inside this rank's active rectangle, as RGBA (by depth: RGB and
   // the depth), to rank r
-  const int width = scene.camera.width, height = scene.camera.height;
+  const int width = camera.width, height = camera.height;
   const Bands bands{height, n};
   const Rect active = active_rect(frame);
   const int active_ints[] = {active.x0, active.y0, active.x1, active.y1};
@@ -141,7 +150,7 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   // transparent black, which leaves the sum as it is), or by depth: the nearest rank's surface, the
   // lowest rank on a tie, else the background (outside a rank's rectangle it shows nothing)
   Timer composite;
-  const PrimaryRays rays(scene.camera);
+  const PrimaryRays rays(camera);
   const int y_first = bands.first(me), rows = bands.rows(me);
   std::vector<float> band(static_cast<std::size_t>(rows) * static_cast<std::size_t>(width) * 3);
   parallel_for(static_cast<std::size_t>(rows), [&](std::size_t r0, std::size_t r1) {
@@ -154,13 +163,13 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
           return &layers[layer_start[b] + (static_cast<std::size_t>(y - part.y0) * static_cast<std::size_t>(part.x1 - part.x0) +
                                            static_cast<std::size_t>(x - part.x0)) * 4];
         };
-        Rgb c = scene.background;
+        Rgb c = background_;
         if (by_depth) {
           float nearest = kInfinity;
           for (std::size_t b = 0; b < static_cast<std::size_t>(n); ++b)
             if (const float* l = layer(b); l && l[3] < nearest) nearest = l[3], c = Rgb(l[0], l[1], l[2]);
         } else {
-          c = composite_pixel(static_cast<std::size_t>(n), rays.direction(x, y).z < 0, scene.background, [&](std::size_t b) {
+          c = composite_pixel(static_cast<std::size_t>(n), rays.direction(x, y).z < 0, background_, [&](std::size_t b) {
             const float* l = layer(b);
             return l ? std::pair<Rgb, float>(Rgb(l[0], l[1], l[2]), l[3]) : std::pair<Rgb, float>(Rgb(0.0f), 0.0f);
           });
@@ -186,7 +195,7 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
   const double mine[] = {static_cast<double>(slab.z_lo), static_cast<double>(slab.z_hi), frame.prepare_ms, frame.build_ms,
                          frame.render_ms, composite_ms, world.communication_ms(), static_cast<double>(world.bytes_sent()),
                          static_cast<double>(shadow_bytes), static_cast<double>(world.bytes_sent() - bytes_before_image),
-                         share ? static_cast<double>(share->spheres) : -1.0};
+                         spheres_ ? static_cast<double>(*spheres_) : -1.0, static_cast<double>(frame.rebuilt.size())};
   const std::vector<double> all = world.gather_doubles(mine);
   constexpr std::size_t kFields = std::size(mine);
   for (std::size_t r = 0; r < all.size() / kFields; ++r) {
@@ -196,9 +205,15 @@ DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
     s.prepare_ms = f[2], s.build_ms = f[3], s.render_ms = f[4], s.composite_ms = f[5], s.communication_ms = f[6], s.bytes_sent = f[7];
     s.shadow_bytes_sent = f[8], s.image_bytes_sent = f[9];
     if (f[10] >= 0) s.spheres = static_cast<std::size_t>(f[10]);
+    s.structures_rebuilt = static_cast<std::size_t>(f[11]);
     out.ranks.push_back(s);
   }
+  if (me == 0) out.rebuilt = frame.rebuilt;
   return out;
+}
+
+DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
+  return DistributedRenderer(scene, world).render(scene.camera, scene.lights);
 }
 
 }  // namespace penumbra

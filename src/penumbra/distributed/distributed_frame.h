@@ -35,6 +35,7 @@
 // | ranks     | MPI ranks: slabs, one per rank (1 … the volume's slices along z) |
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -46,6 +47,8 @@
 
 namespace penumbra {
 
+class Renderer;
+
 // What one rank did in a frame (every rank's, gathered on rank 0).
 struct RankFrameStats {
   SampleSlab slab;              // a volume's: the samples the rank owns; split spheres: its centres' z
@@ -56,19 +59,48 @@ struct RankFrameStats {
   double bytes_sent = 0;        // in all
   double shadow_bytes_sent = 0; // combining the light structures built per brick
   double image_bytes_sent = 0;  // direct send and the gather of the bands
+  std::size_t structures_rebuilt = 0;  // the rank renderer's structures rebuilt for this frame (none: all kept)
 };
 
 struct DistributedFrame {
   Image image;                         // rank 0: the frame over the scene's background; others: empty
   std::vector<RankFrameStats> ranks;   // rank 0: every rank's, in rank order; others: empty
+  std::vector<std::string> rebuilt;    // rank 0: the structures its renderer rebuilt (Structures names)
 };
 
-// Renders the scene's frame across the world's ranks; every rank calls it with the same scene. Throws
-// Error on every rank alike (the lowest failing rank's message, MpiWorld::agree) when the scene cannot
-// be split (neither a volume nor spheres, more ranks than voxel slices or spheres, a particle scene whose
-// sphere shadows are not issm or cssm). A rank whose render fails (its light structures
-// reduce across the ranks inside it, where the others may be waiting) stops every rank with its
-// message (MpiWorld::abort); on one rank the Error is thrown.
+// This rank's part of a data-parallel renderer, kept across the frames of a sequence: the scene's split
+// (its slab, or its share of the spheres) and a Renderer holding the rank's share, whose structures stay
+// while what they depend on stays, as in one process (render/renderer.h). A new camera keeps every light
+// structure (an orbit renders each later frame without rebuilding), a new light rebuilds that light's
+// shadows only, reduced across the ranks again; new data (a time step) takes a new DistributedRenderer.
+//
+// The constructor splits the scene; every rank calls it with the same scene. Throws Error on every rank
+// alike (the lowest failing rank's message, MpiWorld::agree) when the scene cannot be split (neither a
+// volume nor spheres, more ranks than voxel slices or spheres, a particle scene whose sphere shadows are
+// not issm or cssm).
+class DistributedRenderer {
+public:
+  DistributedRenderer(const Scene& scene, MpiWorld& world);
+  ~DistributedRenderer();
+  DistributedRenderer(const DistributedRenderer&) = delete;
+  DistributedRenderer& operator=(const DistributedRenderer&) = delete;
+
+  // Renders a frame with this camera and these lights (the same on every rank) across the ranks. A rank
+  // whose render fails (its light structures reduce across the ranks inside it, where the others may be
+  // waiting) stops every rank with its message (MpiWorld::abort); on one rank the Error is thrown.
+  DistributedFrame render(const Camera& camera, const std::vector<Light>& lights);
+
+private:
+  MpiWorld& world_;
+  Rgb background_;
+  bool by_depth_ = false;                 // spheres split by space, composited by depth
+  SampleSlab slab_;                       // a volume's: the samples this rank owns; split spheres: its centres' z
+  std::optional<std::size_t> spheres_;    // the spheres this rank holds, when split (unset: every sphere)
+  std::unique_ptr<Renderer> renderer_;
+};
+
+// One frame of the scene (its camera and lights) across the world's ranks: a DistributedRenderer made
+// and used once.
 DistributedFrame render_distributed(const Scene& scene, MpiWorld& world);
 
 }  // namespace penumbra
