@@ -61,7 +61,8 @@ Rect active_rect(const FrameResult& frame) {
 
 }  // namespace
 
-DistributedRenderer::DistributedRenderer(const Scene& scene, MpiWorld& world) : world_(world), background_(scene.background) {
+DistributedRenderer::DistributedRenderer(const Scene& scene, MpiWorld& world)
+    : world_(world), background_(scene.background), communication_mark_(world.communication_ms()), bytes_mark_(world.bytes_sent()) {
   const int n = world.size(), me = world.rank();
   // a volume's slabs, or (no volume) the spheres split by space and the frames composited by depth
   by_depth_ = splits_spheres(scene);
@@ -193,10 +194,12 @@ DistributedFrame DistributedRenderer::render(const Camera& camera, const std::ve
 
   // every rank's figures to rank 0 (this gather's own bytes and time are not in them)
   const double mine[] = {static_cast<double>(slab.z_lo), static_cast<double>(slab.z_hi), frame.prepare_ms, frame.build_ms,
-                         frame.render_ms, composite_ms, world.communication_ms(), static_cast<double>(world.bytes_sent()),
+                         frame.render_ms, composite_ms, world.communication_ms() - communication_mark_,
+                         static_cast<double>(world.bytes_sent() - bytes_mark_),
                          static_cast<double>(shadow_bytes), static_cast<double>(world.bytes_sent() - bytes_before_image),
                          spheres_ ? static_cast<double>(*spheres_) : -1.0, static_cast<double>(frame.rebuilt.size())};
   const std::vector<double> all = world.gather_doubles(mine);
+  communication_mark_ = world.communication_ms(), bytes_mark_ = world.bytes_sent();
   constexpr std::size_t kFields = std::size(mine);
   for (std::size_t r = 0; r < all.size() / kFields; ++r) {
     const double* f = &all[r * kFields];

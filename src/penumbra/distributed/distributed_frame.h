@@ -55,8 +55,10 @@ struct RankFrameStats {
   std::optional<std::size_t> spheres;  // split spheres: how many the rank holds (unset: every sphere)
   double prepare_ms = 0, build_ms = 0, render_ms = 0;  // the rank's FrameResult times
   double composite_ms = 0;      // compositing its band (after the exchange)
-  double communication_ms = 0;  // in MPI calls (reductions, exchange, gather, agreement), waiting included
-  double bytes_sent = 0;        // in all
+  // in MPI calls (reductions, exchange, gather, agreement), waiting included, and bytes sent in all: since
+  // the renderer's previous frame (the first frame: since the renderer was made, its split included)
+  double communication_ms = 0;
+  double bytes_sent = 0;
   double shadow_bytes_sent = 0; // combining the light structures built per brick
   double image_bytes_sent = 0;  // direct send and the gather of the bands
   std::size_t structures_rebuilt = 0;  // the rank renderer's structures rebuilt for this frame (none: all kept)
@@ -97,6 +99,8 @@ private:
   SampleSlab slab_;                       // a volume's: the samples this rank owns; split spheres: its centres' z
   std::optional<std::size_t> spheres_;    // the spheres this rank holds, when split (unset: every sphere)
   std::unique_ptr<Renderer> renderer_;
+  double communication_mark_;             // the world's counters when the last frame's figures were taken
+  std::size_t bytes_mark_;
 };
 
 // One frame of the scene (its camera and lights) across the world's ranks: a DistributedRenderer made
