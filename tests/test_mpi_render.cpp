@@ -165,6 +165,7 @@ TEST(MpiRender, OneToFourRanksGiveTheBrickLoopsFrameBitForBit) {
   isosurface.erase("particles");
   isosurface["volumes"][0]["visible"] = false;
   isosurface["isosurfaces"] = nlohmann::json::array({{{"volume", 0}, {"value", 0.5}}});
+  isosurface["shadows"]["isosurfaces"] = "light_pass";
   std::ofstream(dir.file("isosurface.json")) << isosurface.dump();
   for (const std::string scene : {"shell", "deep", "deep_shared", "classic", "surfaces", "sat", "isosurface"}) {
     SCOPED_TRACE(scene);
@@ -262,7 +263,27 @@ TEST(MpiRender, RanksReadOnlyTheirBrickAndGiveTheSameFrame) {
       {{{"procedural", {{"name", "random-spheres"}, {"count", 30}, {"radius", 0.06}, {"seed", 7}}}}});
   implants["ambient"] = {{"technique", "particle_ao"}, {"grid", 24}};
   std::ofstream(dir.file("implants.json")) << implants.dump();
-  for (const std::string scene : {"raw", "gzip", "plain", "chosen", "sat", "implants"}) {
+  // an isosurface of the hidden volume before a wall, and one inside the visible volume: each rank
+  // extracts it from its brick's cells; the light pass's fit, holes and depths combine over the ranks
+  nlohmann::json isosurface = scene_of({{"file", dir.file("raw.nrrd")}}, true);
+  isosurface["volumes"][0]["visible"] = false;
+  isosurface["planes"] = nlohmann::json::array({{{"point", {-0.7, 0, 0}}, {"normal", {1, 0, 0}}, {"size", 3}}});
+  isosurface["isosurfaces"] = nlohmann::json::array({{{"volume", 0}, {"value", 0.5}}});
+  // lit from +x and +z: the shell's shadow falls on the wall lower in z than the shell's points that
+  // cast it, so wall points in the lower slabs are shadowed by cells of the upper ones
+  isosurface["lights"] = nlohmann::json::array({{{"type", "directional"}, {"direction", {-1.0, 0.0, -1.0}}}});
+  isosurface["shadows"]["isosurfaces"] = "light_pass";
+  std::ofstream(dir.file("isosurface.json")) << isosurface.dump();
+  // without the wall, under a point light: the light's frustum is fitted to the shell's visible points
+  // only, so each rank passes those of its slab that no other rank's surface hides
+  nlohmann::json lamp = isosurface;
+  lamp.erase("planes");
+  lamp["lights"] = nlohmann::json::array({{{"type", "point"}, {"position", {0.9, -0.3, 1.1}}}});
+  std::ofstream(dir.file("isosurface_lamp.json")) << lamp.dump();
+  isosurface["volumes"][0]["visible"] = true;
+  isosurface["isosurfaces"][0]["value"] = 0.95;
+  std::ofstream(dir.file("isosurface_in_volume.json")) << isosurface.dump();
+  for (const std::string scene : {"raw", "gzip", "plain", "chosen", "sat", "implants", "isosurface", "isosurface_lamp", "isosurface_in_volume"}) {
     SCOPED_TRACE(scene);
     const std::string json = quote(dir.file(scene + ".json"));
     for (int np : {2, 3}) {
@@ -278,6 +299,13 @@ TEST(MpiRender, RanksReadOnlyTheirBrickAndGiveTheSameFrame) {
       keep.add(scene + "_np" + n, read_image(out), read_image(loop));
       if (scene == "sat") {
         EXPECT_GT(compare_images(read_image(out), read_image(loop)).psnr, 100.0);  // sums in another order
+      } else if (scene.starts_with("isosurface")) {
+        // a brick's cells lie at its own origin's multiples of the spacing, the whole grid's at the
+        // grid's: the points move by rounding, and the extraction's order by pixel may pick another
+        // cell's point where two are equally near
+        const ImageDifference d = compare_images(read_image(out), read_image(loop));
+        EXPECT_GT(d.psnr, 50.0) << d.max_abs;
+        std::printf("%s on %d ranks against the brick loop: %.1f dB, max %.4f\n", scene.c_str(), np, d.psnr, d.max_abs);
       } else {
         EXPECT_TRUE(read_image(out).pixels() == read_image(loop).pixels()) << compare_images(read_image(out), read_image(loop)).psnr << " dB";
       }

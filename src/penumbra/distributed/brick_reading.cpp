@@ -41,14 +41,13 @@ std::string why_read_whole(const Scene& scene) {
   if (splits_spheres(scene)) return "the scene has no volume: every rank reads the particle files and keeps its share of the spheres";
   if (scene.volumes.size() != 1)
     return "the scene has " + std::to_string(scene.volumes.size()) + " volumes (bricks are read for one)";
-  if (!scene.isosurfaces.empty()) return "isosurfaces are extracted from the whole volume on every rank";
   if (const auto ambient = make_ambient_technique(scene.ambient); ambient && ambient->reads_whole_volume())
     return "ambient occlusion (" + scene.ambient.technique + ") is built from the whole volume on every rank";
   for (const ShadowAssignment& a : shadow_assignments(scene))
-    if ((a.casters & kind_bit(ObjectKind::Volume)) && a.technique != "none" &&
+    if ((a.casters & (kind_bit(ObjectKind::Volume) | kind_bit(ObjectKind::Isosurface))) && a.technique != "none" &&
         make_shadow_technique(a.technique, scene.shadows)->reads_whole_volume())
-      return "the " + a.technique + " shadows are built from the whole volume on every rank (cssm, shadow_map, deep_shadow_map "
-             "and sat_cone are built per brick)";
+      return "the " + a.technique + " shadows are built from the whole volume on every rank (cssm, shadow_map, deep_shadow_map, "
+             "sat_cone and light_pass are built per brick)";
   return "";
 }
 

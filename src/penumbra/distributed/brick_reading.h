@@ -13,11 +13,12 @@
 // keeps the whole grid's box (Volume::bounds), so camera, light frustums and ray lattices are the whole
 // volume's. The frame is then the one where every rank holds the whole volume, bit for bit.
 //
-// A scene is read as bricks when its one volume comes from a file, it has no isosurfaces, and no light
-// structure reads the whole volume (ShadowTechnique/AmbientTechnique::reads_whole_volume: the CSSM,
-// classic and deep shadow maps combine over bricks, the SAT's cone shadows and ambient occlusion read
-// the SAT, which is summed over the bricks); otherwise (ray-traced shadows or ambient occlusion, an
-// isosurface) every rank reads the whole volume, and the statistics say why.
+// A scene is read as bricks when its one volume comes from a file and no light structure reads the
+// whole volume (ShadowTechnique/AmbientTechnique::reads_whole_volume: the CSSM, classic and deep shadow
+// maps and the isosurface light pass combine over bricks, the SAT's cone shadows and ambient occlusion
+// read the SAT, which is summed over the bricks); an isosurface of it is then extracted by each rank
+// from its brick's cells. Otherwise (ray-traced shadows or ambient occlusion) every rank reads the
+// whole volume, and the statistics say why.
 //
 // | parameter     | meaning                                                                  |
 // | kGhostSlices  | voxel slices read beyond a slab's own on each side (2)                   |

@@ -19,11 +19,12 @@
 // Shadows across ranks: the light structures that combine over bricks (shadows/shadow_brick.h: the
 // CSSM by the per-channel minimum, the classic shadow map from the transparency in front and the
 // nearest crossing, the deep shadow map by products and a compression over the ranks, the extinction
-// SAT by sums; for split spheres the implicit sphere shadow map by the nearest candidate and the
-// particle AO by sums) are built by each rank from what it owns and reduced across the ranks, so an
-// occluder on one rank shadows a receiver on another, as in one process. The others (ray-traced shadows
-// and AO, the isosurface light pass) are built by every rank from the whole volume, which every rank
-// then reads (distributed/brick_reading.h).
+// SAT by sums; the isosurface light pass, each rank extracting from its brick's cells, by its frustum
+// fitted to every rank's receivers, holes punched by any rank and the nearest depth per light pixel;
+// for split spheres the implicit sphere shadow map by the nearest candidate and the particle AO by
+// sums) are built by each rank from what it owns and reduced across the ranks, so an occluder on one
+// rank shadows a receiver on another, as in one process. The others (ray-traced shadows and AO) are
+// built by every rank from the whole volume, which every rank then reads (distributed/brick_reading.h).
 //
 // Bytes sent per frame and rank: the CSSM reduction, resolution² × 3 floats per round of the
 // allreduce (⌈log2 N⌉ rounds in recursive doubling; the classic map resolution² floats a round for its

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <optional>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/timer.h"
@@ -46,20 +48,41 @@ bool image_plane(const ViewProjection& v, const Vec3& p, float& sx, float& sy) {
   return true;
 }
 
+// The receivers' mean position. Each coordinate is put on a grid of 2^-20 of the box's longest side
+// (clamped to ±2^30 steps) and summed as integers: the sum is the same in any order and over any split
+// of the receivers across bricks (whole numbers below 2^53 add exactly in doubles). Unset when no
+// receiver (on any brick).
+std::optional<Vec3> mean_position(std::span<const IsoPoint> receivers, const Box3& box, BrickReduction* reduction) {
+  const Vec3 e = box.extent();
+  const float step = std::max({e.x, e.y, e.z, 1e-6f}) / static_cast<float>(1 << 20);
+  const auto steps = [&](float v, float lo) {
+    return std::clamp<std::int64_t>(std::llround(static_cast<double>(v - lo) / step), -(std::int64_t{1} << 30), std::int64_t{1} << 30);
+  };
+  std::int64_t sum[3] = {0, 0, 0};
+  for (const IsoPoint& p : receivers) {
+    sum[0] += steps(p.position.x, box.lo.x);
+    sum[1] += steps(p.position.y, box.lo.y);
+    sum[2] += steps(p.position.z, box.lo.z);
+  }
+  double totals[] = {static_cast<double>(sum[0]), static_cast<double>(sum[1]), static_cast<double>(sum[2]),
+                     static_cast<double>(receivers.size())};
+  if (reduction) reduction->sum(totals);
+  if (totals[3] == 0) return std::nullopt;
+  const auto coordinate = [&](int a, float lo) { return lo + static_cast<float>(totals[a] / totals[3] * step); };
+  return Vec3{coordinate(0, box.lo.x), coordinate(1, box.lo.y), coordinate(2, box.lo.z)};
+}
+
 }  // namespace
 
 ViewProjection fit_light_view(const Light& light, std::span<const IsoPoint> receivers, const Box3& volume_box,
-                              const LightPassSettings& settings) {
+                              const LightPassSettings& settings, BrickReduction* reduction) {
   ViewProjection v;
   v.width = v.height = settings.resolution;
   v.orthographic = light.type == LightType::Directional;
   // The line of sight: from the light to the centre of what the frustum must hold (§4.3).
   Vec3 centre = volume_box.center();
-  if (settings.frustum == LightFrustum::Tight && !receivers.empty()) {
-    Vec3 sum;
-    for (const IsoPoint& p : receivers) sum += p.position;
-    centre = sum / static_cast<float>(receivers.size());
-  }
+  if (settings.frustum == LightFrustum::Tight)
+    if (const std::optional<Vec3> mean = mean_position(receivers, volume_box, reduction)) centre = *mean;
   const float reach = length(volume_box.extent()) + 1e-3f;
   if (v.orthographic) {
     const Vec3 forward = normalize(light.direction);
@@ -84,6 +107,11 @@ ViewProjection fit_light_view(const Light& light, std::span<const IsoPoint> rece
         throw Error("shadows.light_frustum = volume: the light is inside or beside the volume box; use 'tight'");
       w.extend(sx, sy);
     }
+  }
+  if (reduction) {  // the window holding every brick's receivers
+    float bounds[] = {w.left, w.bottom, -w.right, -w.top};
+    reduction->minimum(bounds);
+    w = Window{bounds[0], -bounds[2], bounds[1], -bounds[3]};
   }
   if (w.empty()) w.extend(0, 0);
   // A margin of half a pixel, so that the outermost points fall inside the buffer, and a minimum size.
@@ -116,13 +144,17 @@ void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool v
   }
   LightPassSettings settings = settings_;
   if (volume_samples) settings.frustum = LightFrustum::Volume;
+  // On a brick of a data-parallel frame: the fit, the holes and the depths combine over the bricks
+  BrickReduction* const reduction = casters_->brick() ? casters_->brick()->reduction : nullptr;
   passes_.assign(casters_->isosurfaces().size(), IsosurfaceLightPass{});
   for (std::size_t s = 0; s < passes_.size(); ++s) {
     const CastingIsosurface& iso = casters_->isosurfaces()[s];
     IsosurfaceLightPass& pass = passes_[s];
-    pass.view = fit_light_view(light_, facing, iso.bounds, settings);
+    pass.view = fit_light_view(light_, facing, iso.bounds, settings, reduction);
     // §4.2: all non-visible, then one hole per receiver's light pixel (every pixel for volume samples).
     pass.holes = VisibilityBuffer(pass.view.width, pass.view.height, volume_samples);
+    const std::size_t pixels = static_cast<std::size_t>(pass.view.width) * static_cast<std::size_t>(pass.view.height);
+    std::vector<float> closed(reduction && !volume_samples ? pixels : 0, 1.0f);  // 0: a hole (any brick's)
     if (!volume_samples)
       for (const IsoPoint& p : facing) {
         float px, py;
@@ -130,7 +162,14 @@ void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool v
         const int x = static_cast<int>(std::floor(px)), y = static_cast<int>(std::floor(py));
         if (x < 0 || y < 0 || x >= pass.view.width || y >= pass.view.height) continue;
         pass.holes.set_visible(x, y);
+        if (reduction) closed[static_cast<std::size_t>(y) * static_cast<std::size_t>(pass.view.width) + static_cast<std::size_t>(x)] = 0;
       }
+    if (!closed.empty()) {
+      reduction->minimum(closed);
+      for (std::size_t k = 0; k < pixels; ++k)
+        if (closed[k] == 0) pass.holes.set_visible(static_cast<int>(k % static_cast<std::size_t>(pass.view.width)),
+                                                   static_cast<int>(k / static_cast<std::size_t>(pass.view.width)));
+    }
     pass.hole_count = pass.holes.visible_count();
     ExtractionOptions options;
     options.collapse = false;  // §4.3: a far-subvolume point would shadow the receivers around it
@@ -142,6 +181,16 @@ void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool v
     for (const IsoPoint& p : pass.light_points.points) {  // one point per pixel
       pass.depth[p.pixel] = p.distance;
       pass.depth_error[p.pixel] = p.error;
+    }
+    if (reduction) {  // per light pixel the nearest of the bricks' points, with that point's error
+      std::vector<float> nearest = pass.depth;
+      reduction->minimum(nearest);
+      for (std::size_t k = 0; k < pixels; ++k)
+        if (pass.depth[k] != nearest[k]) pass.depth_error[k] = kInfinity;
+      reduction->minimum(pass.depth_error);
+      for (std::size_t k = 0; k < pixels; ++k)
+        if (nearest[k] == kInfinity) pass.depth_error[k] = 0;
+      pass.depth = std::move(nearest);
     }
   }
   build_ms_ = timer.elapsed_ms();

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "penumbra/isosurface/point_extraction.h"
+#include "penumbra/shadows/shadow_brick.h"
 #include "penumbra/shadows/shadow_technique.h"
 #include "penumbra/isosurface/view_projection.h"
 #include "penumbra/isosurface/visibility_buffer.h"
@@ -36,9 +37,10 @@ struct LightPassSettings {
 };
 
 // The light's view for a set of receivers (§4.3). Points behind a point light's plane are left out
-// (they are lit: no perspective frustum from the light holds them).
+// (they are lit: no perspective frustum from the light holds them). With a reduction, each brick passes
+// its share of the receivers and every brick gets the view of all of them.
 ViewProjection fit_light_view(const Light& light, std::span<const IsoPoint> receivers, const Box3& volume_box,
-                              const LightPassSettings& settings);
+                              const LightPassSettings& settings, BrickReduction* reduction = nullptr);
 
 // One isosurface seen from one light for one frame's receivers: the light pass proper.
 struct IsosurfaceLightPass {
@@ -61,6 +63,9 @@ public:
   void build(const ShadowCasters& casters, const Light& light) override;
   void fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples) override;
   bool view_dependent() const override { return true; }
+  // On a brick (shadows/shadow_brick.h): its share of the receivers and its isosurface cells; the fit,
+  // the holes (a hole of any brick) and each light pixel's nearest depth combine over the bricks.
+  bool combines_over_bricks() const override { return true; }
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
   void transmittance(std::span<const SurfacePoint> points, std::span<Rgb> out) const override;
   Vec3 surface_receiver(const Vec3& p, const Vec3&) const override { return p; }  // the bias is applied per query

@@ -516,8 +516,11 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   bool volume_samples = false;
   for (const auto& v : volumes_) volume_samples = volume_samples || v->object->receives_shadows;
   ShadowStats stats;
+  const bool shown_only = brick && request.slab && !isosurfaces_.empty();  // bricks of an isosurface: see receivers_shown
+  const std::vector<SurfacePoint> shown = shown_only ? receivers_shown(*brick, camera, surfaces) : std::vector<SurfacePoint>{};
+  const std::span<const SurfacePoint> receivers = shown_only ? std::span<const SurfacePoint>(shown) : surfaces.points;
   for (auto& s : shadows_) {
-    s->fit_to_receivers(surfaces.points, volume_samples);
+    s->fit_to_receivers(receivers, volume_samples);
     s->add_stats(stats);
     for (const auto& t : s->techniques()) frame.refit = frame.refit || t->view_dependent();
   }
@@ -564,6 +567,21 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   frame.render_ms = render.elapsed_ms();
   frame.total_ms = total.elapsed_ms();
   return frame;
+}
+
+std::vector<SurfacePoint> Renderer::receivers_shown(const ShadowBrick& brick, const Camera& camera, const VisibleSurfaces& surfaces) const {
+  std::vector<float> nearest = surfaces.distance;
+  brick.reduction->minimum(nearest);
+  const PrimaryRays rays(camera);
+  std::vector<SurfacePoint> shown;
+  for (std::size_t i = 0; i < surfaces.points.size(); ++i) {
+    // the brick whose slab holds the nearest point passes its own nearest point, which is that one (two
+    // bricks holding the same cell may place its point a rounding apart)
+    const std::uint32_t p = surfaces.pixel[i];
+    const int x = static_cast<int>(p % static_cast<std::uint32_t>(camera.width)), y = static_cast<int>(p / static_cast<std::uint32_t>(camera.width));
+    if (brick.slab.owns(rays.ray(x, y).at(nearest[p]))) shown.push_back(surfaces.points[i]);
+  }
+  return shown;
 }
 
 void Renderer::drop_surfaces_outside(const SampleSlab& slab, const Camera& camera, std::span<const float> distance, Image& opaque,
