@@ -437,7 +437,9 @@ TEST(MpiRender, RanksRenderSequencesFrameByFrame) {
         // that light's shadows only (reduced across the ranks again)
         const std::vector<std::string> kept_all = {}, light_only = {"lights.0.shadows"};
         const auto rebuilt = frames[k]["rebuilt"].get<std::vector<std::string>>();
-        if (k > 0) EXPECT_EQ(rebuilt, orbit == "orbit" ? kept_all : light_only);
+        if (k > 0) {
+          EXPECT_EQ(rebuilt, orbit == "orbit" ? kept_all : light_only);
+        }
         for (std::size_t r = 0; r < static_cast<std::size_t>(np); ++r) {
           const nlohmann::json& rank = frames[k]["ranks"][r];
           EXPECT_EQ(rank["structures_rebuilt"].get<std::size_t>(), rebuilt.size()) << rank.dump();
@@ -445,7 +447,9 @@ TEST(MpiRender, RanksRenderSequencesFrameByFrame) {
           // bytes of agreement; a kept shadow map is not reduced again, a rebuilt one as in frame 0
           const double shadow = rank["shadow_bytes_sent"], image = rank["image_bytes_sent"], first_shadow = frames[0]["ranks"][r]["shadow_bytes_sent"];
           EXPECT_LT(rank["bytes_sent"].get<double>() - shadow - image, 256.0) << rank.dump();
-          if (k > 0 && np > 1) EXPECT_EQ(shadow, orbit == "orbit" ? 0.0 : first_shadow) << rank.dump();
+          if (k > 0 && np > 1) {
+            EXPECT_EQ(shadow, orbit == "orbit" ? 0.0 : first_shadow) << rank.dump();
+          }
         }
         const std::string suffix = "_00" + std::to_string(k) + ".pfm";
         const Image distributed = read_image(dir.file(orbit + "_np" + std::to_string(np) + suffix));
