@@ -131,7 +131,13 @@ void run_render_distributed(const RenderOptions& o) {
   try {
     check_distributed_options(o);
     document = scene_file_document(o.in, size_overrides(o));
-    if (!document) engine.emplace(open_inputs(o.in, size_overrides(o)));
+    // Data files opened directly, and a scene file without a volume (nothing to read as bricks), open as
+    // an engine on every rank, whose trajectory readers stay open from one time step to the next.
+    const auto holds_volume = [](const nlohmann::json& d) {
+      const auto volumes = d.find("volumes");
+      return volumes != d.end() && !(volumes->is_array() && volumes->empty());
+    };
+    if (!document || !holds_volume(document->document)) engine.emplace(open_inputs(o.in, size_overrides(o)));
   } catch (const std::exception& e) {
     error = e.what();
   }
@@ -139,16 +145,16 @@ void run_render_distributed(const RenderOptions& o) {
   if (!error.empty()) throw Error(error);
   check_same_scene(o, document, world);
 
-  // The scene at frame `time` of its trajectories and volume series (nullopt: the document's own), opened
-  // anew for every frame of --frames: a scene file's volume is read as bricks, each rank reading only its
-  // brick of the step; data files opened directly are read whole by every rank.
+  // The scene at frame `time` of its trajectories and volume series (nullopt: the document's own): a
+  // scene file's volume is read as bricks anew for every step, each rank reading only its brick of the
+  // step; otherwise the engine moves to the step (data files opened directly are read whole by every rank).
   BrickReading reading;
   std::optional<Scene> scene;
   std::optional<DistributedRenderer> renderer;  // kept while the data stay: an orbit keeps its structures
   const auto open_frame = [&](std::optional<std::size_t> time) {
     renderer.reset();
     scene.reset();
-    if (document) {
+    if (!engine) {
       if (time) document->document["time"] = *time;
       scene.emplace(build_distributed_scene(document->document, document->base_dir, o.in.strict, world, reading));
       return;
@@ -156,8 +162,12 @@ void run_render_distributed(const RenderOptions& o) {
     if (time) world.run_agreed([&] { engine->set("time", *time); });
     scene.emplace(engine->scene());
     reading = BrickReading{};
-    reading.why = "data files opened directly are read whole by every rank (a scene file's volume is read as bricks)";
-    for (const std::string& f : o.in.inputs) reading.bytes_read += file_bytes(f);
+    if (document) {
+      reading.why = why_read_whole(*scene);  // no volume: the particle files are read whole, not counted
+    } else {
+      reading.why = "data files opened directly are read whole by every rank (a scene file's volume is read as bricks)";
+      for (const std::string& f : o.in.inputs) reading.bytes_read += file_bytes(f);
+    }
     if (!scene->volumes.empty()) {
       reading.whole_slices = scene->volumes.front().volume->dims()[2];
       reading.slices = {0, reading.whole_slices};
