@@ -161,8 +161,8 @@ void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool v
         if (!pass.view.project(p.position, px, py)) continue;
         const int x = static_cast<int>(std::floor(px)), y = static_cast<int>(std::floor(py));
         if (x < 0 || y < 0 || x >= pass.view.width || y >= pass.view.height) continue;
-        pass.holes.set_visible(x, y);
         if (reduction) closed[static_cast<std::size_t>(y) * static_cast<std::size_t>(pass.view.width) + static_cast<std::size_t>(x)] = 0;
+        else pass.holes.set_visible(x, y);
       }
     if (!closed.empty()) {
       reduction->minimum(closed);

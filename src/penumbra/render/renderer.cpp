@@ -516,13 +516,15 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   bool volume_samples = false;
   for (const auto& v : volumes_) volume_samples = volume_samples || v->object->receives_shadows;
   ShadowStats stats;
-  const bool shown_only = brick && request.slab && !isosurfaces_.empty();  // bricks of an isosurface: see receivers_shown
+  for (const auto& s : shadows_)
+    for (const auto& t : s->techniques()) frame.refit = frame.refit || t->view_dependent();
+  // bricks of an isosurface, when a fit reads the receivers: see receivers_shown
+  const bool shown_only = frame.refit && brick && request.slab && !isosurfaces_.empty();
   const std::vector<SurfacePoint> shown = shown_only ? receivers_shown(*brick, camera, surfaces) : std::vector<SurfacePoint>{};
   const std::span<const SurfacePoint> receivers = shown_only ? std::span<const SurfacePoint>(shown) : surfaces.points;
   for (auto& s : shadows_) {
     s->fit_to_receivers(receivers, volume_samples);
     s->add_stats(stats);
-    for (const auto& t : s->techniques()) frame.refit = frame.refit || t->view_dependent();
   }
   frame.isosurface.shadow_ms = fit.elapsed_ms();
   frame.isosurface.light_points = stats.light_points;
