@@ -8,11 +8,17 @@ first.
 
   scripts/bench_mpi.py [--penumbra build/release/penumbra] [--ranks 1,2,3,4] [--json out.json]
   scripts/bench_mpi.py --sequences [--ranks 1,2,3,4]    # sequences under mpirun: an orbit, a trajectory
+  scripts/bench_mpi.py --compositors [--ranks 2,3,4]    # direct send against IceT (radix-k, binary swap)
 
 `--sequences` times `render --orbit 8` of mri-head and `render --frames 0:150:15` of the staged GROMACS
 run (1tii, ISSM + particle AO, 1920x1200) on each rank count: the median frame, the time to open the
 scene at a frame, the MB a rank read for the first and for the later frames, and the worst frame's PSNR
 against the single-process sequence.
+
+`--compositors` renders the shipped CT scenes and 1af6 with each compositor (`--compositor direct-send,
+icet, icet-bswap`; IceT when built with it, scripts/fetch-icet.sh): each frame's PSNR against direct
+send's, the compositing step's time (the fastest rank's: the others also wait there for the slowest
+render) and the image bytes a rank sent (the most).
 
 On one machine the ranks are oversubscribed (they share its cores), so the times are not scaling figures.
 """
@@ -159,15 +165,49 @@ def measure_sequences(a, env, ranks, tmp):
     return rows
 
 
+def measure_compositors(a, env, ranks, tmp):
+    scenes = [(f"scenes/{scene}.json", [x for s in sets for x in ("--set", s)]) for scene, sets, _, _ in SCENES]
+    scenes.append(("scenes/1af6.json", []))
+    rows = []
+    print("| scene | ranks | compositor | PSNR against direct send | compositing ms (fastest rank) | image kB sent (most) |")
+    print("|---|---:|---|---|---:|---:|")
+    for path, sets in scenes:
+        for n in ranks:
+            direct = None
+            for compositor in ("direct-send", "icet", "icet-bswap"):
+                out, stats = os.path.join(tmp, f"{compositor}{n}.pfm"), os.path.join(tmp, f"{compositor}{n}.json")
+                run(["mpirun", "--oversubscribe", "--bind-to", "none", "-np", str(n), a.penumbra, "render", path, *sets, "-o", out,
+                     "--compositor", compositor, "--stats", stats], env)
+                s = json.load(open(stats))
+                if direct is None:
+                    direct, psnr = out, "-"
+                else:
+                    p = psnr_of(a.penumbra, out, direct)
+                    psnr = "bit for bit" if math.isinf(p) else f"{p:.1f} dB"
+                row = {"scene": os.path.basename(path)[:-5], "ranks": n, "compositor": compositor, "psnr": psnr,
+                       "compositing_ms": min(x["compositing_ms"] for x in s["ranks"]),
+                       "image_kB": max(x["image_bytes_sent"] for x in s["ranks"]) / 1024}
+                rows.append(row)
+                print(f"| {row['scene']} | {n} | {compositor} | {psnr} | {row['compositing_ms']:.1f} | {row['image_kB']:.0f} |", flush=True)
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--penumbra", default="build/release/penumbra")
     ap.add_argument("--ranks", default="1,2,3,4")
     ap.add_argument("--json")
     ap.add_argument("--sequences", action="store_true", help="time sequences under mpirun (an orbit, a trajectory) only")
+    ap.add_argument("--compositors", action="store_true", help="direct send against IceT's radix-k and binary swap only")
     a = ap.parse_args()
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     ranks = [int(x) for x in a.ranks.split(",")]
+    if a.compositors:
+        with tempfile.TemporaryDirectory() as tmp:
+            rows = measure_compositors(a, env, ranks, tmp)
+        if a.json:
+            json.dump({"compositors": rows}, open(a.json, "w"), indent=1)
+        return
     if a.sequences:
         with tempfile.TemporaryDirectory() as tmp:
             rows = measure_sequences(a, env, ranks, tmp)

@@ -25,3 +25,5 @@ if [ ${#missing[@]} -gt 0 ]; then
   $sudo_cmd apt-get update -q
   DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
+# IceT, the optional compositing backend under mpirun: unpacked from Debian's ParaView packages
+"$(dirname "$0")/fetch-icet.sh"

@@ -22,6 +22,7 @@
 #include "penumbra/core/cutoffs.h"
 #include "penumbra/core/image_io.h"
 #include "penumbra/distributed/brick_reading.h"
+#include "penumbra/distributed/icet_compositor.h"
 #include "penumbra/data/procedural.h"
 #include "test_scenes.h"
 #include "test_volume_io_util.h"
@@ -484,6 +485,67 @@ TEST(MpiRender, RanksRenderSequencesFrameByFrame) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("past_000.png")));
 }
 
+// IceT as the compositor (distributed/icet_compositor.h): radix-k and binary swap give direct send's
+// frame on 3 and 4 ranks. Blended slabs: IceT's over operator in its own tree order, so up to float
+// rounding (above 100 dB, max 1e-5), with the eye between the slabs too (rays going up and down from
+// it, one order for the frame). Split spheres by depth: the nearest surface, bit for bit (the depths
+// scaled by a power of two). Broken on purpose: the slabs composited in rank order rather than from the
+// eye's slab outwards gives 36.7–38.6 dB on the middle-eye view (the others pass: their eye is below
+// every slab); the depth scale 4 times too large (depths beyond IceT's far plane) 9.3 dB on the spheres.
+TEST(MpiRender, IceTCompositesTheFrameOfDirectSend) {
+  if (!have_mpirun()) GTEST_SKIP() << "mpirun not installed (scripts/install-deps.sh installs Open MPI)";
+  if (!icet_built()) GTEST_SKIP() << "built without IceT (scripts/fetch-icet.sh)";
+  ScratchDir dir;
+  std::ofstream(dir.file("shell.json")) << shell_scene().dump();
+  nlohmann::json inside = shell_scene();  // the eye at the shell's mid height, looking across and down
+  inside["camera"] = {{"width", 64}, {"height", 56}, {"eye", {1.5, 0.6, 0.1}}, {"target", {0.0, 0.0, -0.3}}, {"fov_deg", 70}};
+  std::ofstream(dir.file("inside.json")) << inside.dump();
+  nlohmann::json surfaces = shell_scene();
+  surfaces["planes"] = nlohmann::json::array({{{"point", {-0.7, 0, 0}}, {"normal", {1, 0, 0}}, {"size", 3}}});
+  surfaces["particles"] = nlohmann::json::array(
+      {{{"procedural", {{"name", "random-spheres"}, {"count", 10}, {"radius", 0.08}, {"seed", 5}}}, {"origin", {0.0, 0.1, 0.2}}}});
+  std::ofstream(dir.file("surfaces.json")) << surfaces.dump();
+  std::ofstream(dir.file("spheres.json")) << spheres_scene().dump();
+  for (const std::string scene : {"shell", "inside", "surfaces", "spheres"}) {
+    SCOPED_TRACE(scene);
+    const std::string json = quote(dir.file(scene + ".json"));
+    // 3 ranks (binary swap folds the third in) and 4 for the eye between slabs and the spheres
+    for (const int np : scene == "inside" || scene == "spheres" ? std::vector<int>{3, 4} : std::vector<int>{3}) {
+      SCOPED_TRACE(np);
+      const std::string n = std::to_string(np);
+      const std::string direct = dir.file(scene + "_direct" + n + ".pfm");
+      const CliRun by_direct_send = mpirun_cli(np, "render " + json + " -o " + quote(direct));
+      ASSERT_EQ(by_direct_send.status, 0) << by_direct_send.err;
+      const Image reference = read_image(direct);
+      ASSERT_TRUE(non_trivial(reference));
+      for (const std::string compositor : {"icet", "icet-bswap"}) {
+        SCOPED_TRACE(compositor);
+        const std::string out = dir.file(scene + "_" + compositor + n + ".pfm"), stats = dir.file("stats.json");
+        const CliRun ranks = mpirun_cli(np, "render " + json + " --compositor " + compositor + " -o " + quote(out) + " --stats " + quote(stats));
+        ASSERT_EQ(ranks.status, 0) << ranks.out << ranks.err;
+        const Image composited = read_image(out);
+        FailureImages keep;
+        keep.add(scene + "_" + compositor + n, composited, reference);
+        const ImageDifference d = compare_images(composited, reference);
+        if (scene == "spheres") {
+          EXPECT_EQ(composited.pixels(), reference.pixels()) << "psnr " << d.psnr << ", max " << d.max_abs;
+        } else {
+          EXPECT_GT(d.psnr, 100.0);
+          EXPECT_LT(d.max_abs, 1e-5);
+        }
+        const nlohmann::json s = nlohmann::json::parse(slurp(stats));
+        EXPECT_TRUE(s["compositing"].get<std::string>().starts_with(compositor + ",")) << s["compositing"];
+        for (const auto& r : s["ranks"]) EXPECT_GE(r["composite_ms"].get<double>(), 0.0);
+        EXPECT_GT(s["ranks"][1]["image_bytes_sent"].get<double>(), 0.0) << s["ranks"].dump();  // IceT's ICET_BYTES_SENT
+      }
+    }
+  }
+  // one process composites nothing
+  const CliRun alone = penumbra_cli("render " + quote(dir.file("shell.json")) + " --compositor icet -o " + quote(dir.file("alone.png")));
+  EXPECT_NE(alone.status, 0);
+  EXPECT_NE(alone.err.find("--compositor icet: it composites the ranks of mpirun"), std::string::npos) << alone.err;
+}
+
 // More ranks than voxel slices, a scene with what is not split yet, a file that one rank cannot read
 // (an MPMD launch: rank 1 is given another scene), a command that does not run distributed: every rank
 // exits non-zero with the same message, and nothing is written.
@@ -519,6 +581,7 @@ TEST(MpiRender, BadLaunchesStopEveryRankWithTheSameMessage) {
       {3, "render " + quote(dir.file("missing.json")) + out, "not-there.nrrd"},
       {2, "render " + quote(dir.file("shell.json")) + out + " --accumulate 4", "one frame or a sequence"},
       {2, "render " + quote(dir.file("shell.json")) + out + " --slabs 2", "the ranks are the slabs"},
+      {2, "render " + quote(dir.file("shell.json")) + out + " --compositor over", "--compositor over: expected direct-send, icet"},
       {2, "info " + quote(dir.file("shell.json")), "only `penumbra render` runs"},
       {3, "render " + quote(dir.file("shell.json")) + " --bogus" + out, "--bogus"},
   };

@@ -1,6 +1,6 @@
 // `penumbra render (SCENE.json | DATA_FILE...) -o OUT.png|.pfm|.exr [--depth] [--width W --height H] [--set key=value ...]
 //  [--stats S.json] [--threads N] [--orbit N | --light-orbit N | --frames A:B[:STEP] [--video V.mp4] | --edits FILE]
-//  [--strict] [--slabs N]
+//  [--strict] [--slabs N] [--compositor direct-send|icet|icet-bswap]
 //  [--write-scene S.json] [--raw-dims X Y Z --raw-type T ...]`
 // Data files (volumes, molecules) make a scene of their own (scene/data_scene.h). Every frame goes
 // through the interactive engine (engine/engine.h): an orbit edits camera.eye or the first light each
@@ -240,6 +240,7 @@ void render_slabs(const RenderOptions& o, const Engine& engine) {
 }
 
 void run_render(const RenderOptions& o) {
+  if (!o.compositor.empty()) throw Error("--compositor " + o.compositor + ": it composites the ranks of mpirun -np N (one process composites nothing)");
   if (o.slabs > 0 && (sequence_requested(o) || !o.edits.empty() || o.accumulate > 1 || o.preview || o.depth || !o.buffers.empty() ||
                       !o.stats.empty() || !o.write_scene.empty()))
     throw Error("--slabs renders one frame to a .png or .pfm (not with --orbit, --light-orbit, --frames, --edits, --accumulate, "
@@ -344,6 +345,9 @@ void add_render_command(CLI::App& app) {
                   "Sort-last brick loop: split the volume into N slabs along z, ray cast each alone and composite them "
                   "along every pixel's ray (what a data-parallel frame does; scenes with a volume)")
       ->check(CLI::Range(1, 65536));
+  cmd->add_option("--compositor", o->compositor,
+                  "Under mpirun: how the ranks' images are composited: direct-send (default), icet (IceT, radix-k) or "
+                  "icet-bswap (IceT, binary swap)");
   cmd->add_flag("--preview", o->preview, "Render what the viewer shows while the hand moves: the engine's preview quality");
   cmd->add_option("--edits", o->edits,
                   "Replay an interaction: a JSON list of steps {\"set\": {\"PATH\": VALUE, ...}, \"idle_ms\": N}; each step's "

@@ -1,5 +1,5 @@
 // `mpirun -np N penumbra render SCENE -o OUT.png [--frames A:B[:STEP] | --orbit N | --light-orbit N]
-//  [--video V.mp4] [--stats S.json] [--threads T] [--width W --height H] [--set key=value ...]`: one
+//  [--video V.mp4] [--stats S.json] [--threads T] [--width W --height H] [--compositor C] [--set key=value ...]`: one
 // frame, or a sequence (the frames of the scene's trajectories and volume series, or an orbit of the
 // camera or the first light), rendered data-parallel (distributed/distributed_frame.h). Every rank
 // opens the scene, anew for each time step (a rank reads its brick of the frame's step), and keeps its
@@ -86,6 +86,7 @@ nlohmann::json rank_stats(const RankFrameStats& s, const RankReadStats& read, in
           {"build_ms", s.build_ms},
           {"render_ms", s.render_ms},
           {"composite_ms", s.composite_ms},
+          {"compositing_ms", s.compositing_ms},
           {"communication_ms", s.communication_ms},
           {"bytes_sent", s.bytes_sent},
           {"shadow_bytes_sent", s.shadow_bytes_sent},
@@ -128,8 +129,10 @@ void run_render_distributed(const RenderOptions& o) {
   std::optional<SceneDocument> document;
   std::optional<Engine> engine;
   std::string error;
+  Compositor compositor = Compositor::direct_send;
   try {
     check_distributed_options(o);
+    if (!o.compositor.empty()) compositor = parse_compositor(o.compositor);
     document = scene_file_document(o.in, size_overrides(o));
     // Data files opened directly, and a scene file without a volume (nothing to read as bricks), open as
     // an engine on every rank, whose trajectory readers stay open from one time step to the next.
@@ -196,7 +199,7 @@ void run_render_distributed(const RenderOptions& o) {
     if (step) open_frame(times[static_cast<std::size_t>(f)]);
     const bool opened = f == 0 || step;  // this frame's bytes read: none when the scene was kept
     const double read_ms = frame_time.elapsed_ms();
-    if (!renderer) renderer.emplace(*scene, world);
+    if (!renderer) renderer.emplace(*scene, world, compositor);
     const DistributedFrame frame = renderer->render(scene->camera, scene->lights);
     // every rank's reading to rank 0
     const double read_fields[] = {static_cast<double>(reading.slices.first), static_cast<double>(reading.slices.count),
@@ -220,7 +223,7 @@ void run_render_distributed(const RenderOptions& o) {
                  {"width", scene->camera.width},
                  {"height", scene->camera.height},
                  {"threads_per_rank", ThreadLimit::current_max()},
-                 {"compositing", scene->volumes.empty() ? "direct-send, by depth" : "direct-send, in visibility order"},
+                 {"compositing", compositor_name(compositor) + (scene->volumes.empty() ? ", by depth" : ", in visibility order")},
                  {"split", scene->volumes.empty() ? "spheres by z order" : "volume slabs"},
                  {"spheres_whole_because", scene->volumes.empty() || !scene->has_particles() ? "" : why_spheres_whole(*scene)},
                  {"bricks_read", reading.bricked},

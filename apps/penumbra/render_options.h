@@ -10,7 +10,7 @@ namespace penumbra::cli {
 
 struct RenderOptions {
   InputOptions in;
-  std::string output, stats, buffers, edits, write_scene, frames, video;
+  std::string output, stats, buffers, edits, write_scene, frames, video, compositor;
   int width = 0, height = 0, threads = 0, orbit = 0, light_orbit = 0, accumulate = 1, fps = 10, slabs = 0;
   bool preview = false, depth = false;
 };

@@ -1,6 +1,7 @@
 #include "penumbra/distributed/distributed_frame.h"
 
 #include <algorithm>
+#include <cmath>
 #include <optional>
 #include <utility>
 
@@ -61,7 +62,7 @@ Rect active_rect(const FrameResult& frame) {
 
 }  // namespace
 
-DistributedRenderer::DistributedRenderer(const Scene& scene, MpiWorld& world)
+DistributedRenderer::DistributedRenderer(const Scene& scene, MpiWorld& world, Compositor compositor)
     : world_(world), background_(scene.background), communication_mark_(world.communication_ms()), bytes_mark_(world.bytes_sent()) {
   const int n = world.size(), me = world.rank();
   // a volume's slabs, or (no volume) the spheres split by space and the frames composited by depth
@@ -74,13 +75,15 @@ DistributedRenderer::DistributedRenderer(const Scene& scene, MpiWorld& world)
       share = sphere_share(scene, n, me);
       slab_ = share->slab;
     } else {
-      slab_ = volume_slabs(*scene.volumes.front().volume, n)[static_cast<std::size_t>(me)];
+      slabs_ = volume_slabs(*scene.volumes.front().volume, n);
+      slab_ = slabs_[static_cast<std::size_t>(me)];
       // the spheres that reach into the slab, when their structures combine over the ranks
       if (scene.has_particles() && why_spheres_whole(scene).empty()) share = spheres_in_slab(scene, slab_);
     }
     Scene over_black = share ? std::move(share->scene) : scene;
     over_black.background = Rgb(0.0f);
     renderer_ = std::make_unique<Renderer>(std::move(over_black));
+    if (compositor != Compositor::direct_send) icet_ = std::make_unique<IcetCompositor>(compositor);
   });
   if (share) spheres_ = share->spheres;
 }
@@ -114,13 +117,72 @@ DistributedFrame DistributedRenderer::render(const Camera& camera, const std::ve
   }();
   const std::size_t bytes_before_image = world.bytes_sent();
 
+  // 2.–4. the layers composited into rank 0's image, by direct send or by IceT
+  const Rect rect = active_rect(frame);
+  const int active[] = {rect.x0, rect.y0, rect.x1, rect.y1};
+  DistributedFrame out;
+  double composite_ms = 0, icet_bytes = 0;
+  Timer compositing;
+  if (icet_) {
+    try {
+      // by depth: a power of two that brings every rank's largest finite depth below 1 (IceT's far plane)
+      float depth_scale = 1;
+      if (by_depth) {
+        float farthest[] = {0};  // its negative, for the minimum
+        for (const float d : frame.depth)
+          if (std::isfinite(d)) farthest[0] = std::min(farthest[0], -d);
+        world.minimum(farthest);
+        depth_scale = std::ldexp(1.0f, -(std::ilogb(std::max(-farthest[0], 1.0f)) + 1));
+      }
+      IcetCompositor::Result composited = icet_->composite(frame, active, by_depth, visibility_order(camera), depth_scale, background_);
+      out.image = std::move(composited.image);
+      composite_ms = composited.composite_ms, icet_bytes = composited.bytes_sent;
+    } catch (const std::exception& e) {
+      if (n == 1) throw;
+      world.abort(e.what());
+    }
+  } else {
+    Composited composited = composite_by_direct_send(frame, camera, active);
+    out.image = std::move(composited.image);
+    composite_ms = composited.composite_ms;
+  }
+  const double compositing_ms = compositing.elapsed_ms();
+
+  // every rank's figures to rank 0 (this gather's own bytes and time are not in them)
+  const double mine[] = {static_cast<double>(slab.z_lo), static_cast<double>(slab.z_hi), frame.prepare_ms, frame.build_ms,
+                         frame.render_ms, composite_ms, world.communication_ms() - communication_mark_,
+                         static_cast<double>(world.bytes_sent() - bytes_mark_) + icet_bytes,
+                         static_cast<double>(shadow_bytes), static_cast<double>(world.bytes_sent() - bytes_before_image) + icet_bytes,
+                         spheres_ ? static_cast<double>(*spheres_) : -1.0, static_cast<double>(frame.rebuilt.size()), compositing_ms};
+  const std::vector<double> all = world.gather_doubles(mine);
+  communication_mark_ = world.communication_ms(), bytes_mark_ = world.bytes_sent();
+  constexpr std::size_t kFields = std::size(mine);
+  for (std::size_t r = 0; r < all.size() / kFields; ++r) {
+    const double* f = &all[r * kFields];
+    RankFrameStats s;
+    s.slab = {static_cast<float>(f[0]), static_cast<float>(f[1])};
+    s.prepare_ms = f[2], s.build_ms = f[3], s.render_ms = f[4], s.composite_ms = f[5], s.communication_ms = f[6], s.bytes_sent = f[7];
+    s.shadow_bytes_sent = f[8], s.image_bytes_sent = f[9];
+    if (f[10] >= 0) s.spheres = static_cast<std::size_t>(f[10]);
+    s.structures_rebuilt = static_cast<std::size_t>(f[11]);
+    s.compositing_ms = f[12];
+    out.ranks.push_back(s);
+  }
+  if (me == 0) out.rebuilt = frame.rebuilt;
+  return out;
+}
+
+DistributedRenderer::Composited DistributedRenderer::composite_by_direct_send(const FrameResult& frame, const Camera& camera,
+                                                                              const int (&active)[4]) {
+  MpiWorld& world = world_;
+  const int n = world.size(), me = world.rank();
+  const bool by_depth = by_depth_;
   // 2. direct send: the part of band r inside this rank's active rectangle, as RGBA (by depth: RGB and
   // the depth), to rank r
   const int width = camera.width, height = camera.height;
   const Bands bands{height, n};
-  const Rect active = active_rect(frame);
-  const int active_ints[] = {active.x0, active.y0, active.x1, active.y1};
-  const std::vector<int> all_rects = world.all_gather(active_ints);
+  const Rect mine{active[0], active[1], active[2], active[3]};
+  const std::vector<int> all_rects = world.all_gather(active);
   const auto rect_of = [&](int r) {
     const int* v = &all_rects[static_cast<std::size_t>(r) * 4];
     return Rect{v[0], v[1], v[2], v[3]};
@@ -128,7 +190,7 @@ DistributedFrame DistributedRenderer::render(const Camera& camera, const std::ve
   std::vector<int> send_counts(static_cast<std::size_t>(n)), recv_counts(static_cast<std::size_t>(n));
   std::vector<Rect> sent(static_cast<std::size_t>(n)), received(static_cast<std::size_t>(n));
   for (int r = 0; r < n; ++r) {
-    sent[static_cast<std::size_t>(r)] = active.within_rows(bands.first(r), bands.first(r + 1));
+    sent[static_cast<std::size_t>(r)] = mine.within_rows(bands.first(r), bands.first(r + 1));
     received[static_cast<std::size_t>(r)] = rect_of(r).within_rows(bands.first(me), bands.first(me + 1));
     send_counts[static_cast<std::size_t>(r)] = static_cast<int>(sent[static_cast<std::size_t>(r)].area() * 4);
     recv_counts[static_cast<std::size_t>(r)] = static_cast<int>(received[static_cast<std::size_t>(r)].area() * 4);
@@ -150,6 +212,7 @@ DistributedFrame DistributedRenderer::render(const Camera& camera, const std::ve
   // 3. this rank's band, composited along each pixel's ray (outside a rank's rectangle its layer is
   // transparent black, which leaves the sum as it is), or by depth: the nearest rank's surface, the
   // lowest rank on a tie, else the background (outside a rank's rectangle it shows nothing)
+  Composited out;
   Timer composite;
   const PrimaryRays rays(camera);
   const int y_first = bands.first(me), rows = bands.rows(me);
@@ -179,10 +242,9 @@ DistributedFrame DistributedRenderer::render(const Camera& camera, const std::ve
         band[local * 3] = c.r, band[local * 3 + 1] = c.g, band[local * 3 + 2] = c.b;
       }
   });
-  const double composite_ms = composite.elapsed_ms();
+  out.composite_ms = composite.elapsed_ms();
 
   // 4. the bands to rank 0
-  DistributedFrame out;
   std::vector<int> band_counts(static_cast<std::size_t>(n));
   for (int r = 0; r < n; ++r) band_counts[static_cast<std::size_t>(r)] = bands.rows(r) * width * 3;
   std::vector<float> image(me == 0 ? static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 3 : 0);
@@ -191,32 +253,28 @@ DistributedFrame DistributedRenderer::render(const Camera& camera, const std::ve
     out.image = Image(width, height);
     for (std::size_t p = 0; p < out.image.pixels().size(); ++p) out.image.pixels()[p] = Rgb(image[p * 3], image[p * 3 + 1], image[p * 3 + 2]);
   }
-
-  // every rank's figures to rank 0 (this gather's own bytes and time are not in them)
-  const double mine[] = {static_cast<double>(slab.z_lo), static_cast<double>(slab.z_hi), frame.prepare_ms, frame.build_ms,
-                         frame.render_ms, composite_ms, world.communication_ms() - communication_mark_,
-                         static_cast<double>(world.bytes_sent() - bytes_mark_),
-                         static_cast<double>(shadow_bytes), static_cast<double>(world.bytes_sent() - bytes_before_image),
-                         spheres_ ? static_cast<double>(*spheres_) : -1.0, static_cast<double>(frame.rebuilt.size())};
-  const std::vector<double> all = world.gather_doubles(mine);
-  communication_mark_ = world.communication_ms(), bytes_mark_ = world.bytes_sent();
-  constexpr std::size_t kFields = std::size(mine);
-  for (std::size_t r = 0; r < all.size() / kFields; ++r) {
-    const double* f = &all[r * kFields];
-    RankFrameStats s;
-    s.slab = {static_cast<float>(f[0]), static_cast<float>(f[1])};
-    s.prepare_ms = f[2], s.build_ms = f[3], s.render_ms = f[4], s.composite_ms = f[5], s.communication_ms = f[6], s.bytes_sent = f[7];
-    s.shadow_bytes_sent = f[8], s.image_bytes_sent = f[9];
-    if (f[10] >= 0) s.spheres = static_cast<std::size_t>(f[10]);
-    s.structures_rebuilt = static_cast<std::size_t>(f[11]);
-    out.ranks.push_back(s);
-  }
-  if (me == 0) out.rebuilt = frame.rebuilt;
   return out;
 }
 
-DistributedFrame render_distributed(const Scene& scene, MpiWorld& world) {
-  return DistributedRenderer(scene, world).render(scene.camera, scene.lights);
+std::vector<int> DistributedRenderer::visibility_order(const Camera& camera) const {
+  const int n = world_.size();
+  std::vector<int> order;
+  if (slabs_.empty()) {  // by depth: any order
+    for (int r = 0; r < n; ++r) order.push_back(r);
+    return order;
+  }
+  int eye = 0;  // the slab holding the eye's z (slabs cover every z)
+  while (eye + 1 < n && camera.eye.z >= slabs_[static_cast<std::size_t>(eye)].z_hi) ++eye;
+  order.push_back(eye);
+  for (int d = 1; d < n; ++d) {
+    if (eye + d < n) order.push_back(eye + d);
+    if (eye - d >= 0) order.push_back(eye - d);
+  }
+  return order;
+}
+
+DistributedFrame render_distributed(const Scene& scene, MpiWorld& world, Compositor compositor) {
+  return DistributedRenderer(scene, world, compositor).render(scene.camera, scene.lights);
 }
 
 }  // namespace penumbra

@@ -10,6 +10,8 @@
 // 3. Each rank composites its band's N layers along each pixel's ray (composite_pixel, the brick loop's
 //    arithmetic: the frame is bit for bit `render --slabs N`), over the scene's background.
 // 4. Rank 0 gathers the bands (RGB floats) into the image.
+// With `--compositor icet` (or icet-bswap) steps 2–4 are IceT's instead (distributed/icet_compositor.h):
+// radix-k or binary swap over the ranks' active rectangles, the same "over" in visibility order.
 //
 // A scene of spheres without a volume is split by space instead (distributed/sphere_split.h): each
 // rank renders its share of the spheres and the planes into colour and depth, sends RGB and depth, and
@@ -42,6 +44,7 @@
 #include <vector>
 
 #include "penumbra/core/image.h"
+#include "penumbra/distributed/icet_compositor.h"
 #include "penumbra/distributed/mpi_world.h"
 #include "penumbra/render/volume_raycaster.h"
 #include "penumbra/scene/scene.h"
@@ -55,7 +58,9 @@ struct RankFrameStats {
   SampleSlab slab;              // a volume's: the samples the rank owns; split spheres: its centres' z
   std::optional<std::size_t> spheres;  // split spheres: how many the rank holds (unset: every sphere)
   double prepare_ms = 0, build_ms = 0, render_ms = 0;  // the rank's FrameResult times
-  double composite_ms = 0;      // compositing its band (after the exchange)
+  double composite_ms = 0;      // direct send: compositing its band (after the exchange); IceT: its ICET_COMPOSITE_TIME
+  double compositing_ms = 0;    // the whole compositing step, exchange and gather included (from the end of its
+                                // render, so a rank that finished first also waits for the slowest there)
   // in MPI calls (reductions, exchange, gather, agreement), waiting included, and bytes sent in all: since
   // the renderer's previous frame (the first frame: since the renderer was made, its split included)
   double communication_ms = 0;
@@ -83,7 +88,7 @@ struct DistributedFrame {
 // not issm or cssm).
 class DistributedRenderer {
 public:
-  DistributedRenderer(const Scene& scene, MpiWorld& world);
+  DistributedRenderer(const Scene& scene, MpiWorld& world, Compositor compositor = Compositor::direct_send);
   ~DistributedRenderer();
   DistributedRenderer(const DistributedRenderer&) = delete;
   DistributedRenderer& operator=(const DistributedRenderer&) = delete;
@@ -94,10 +99,21 @@ public:
   DistributedFrame render(const Camera& camera, const std::vector<Light>& lights);
 
 private:
+  struct Composited {
+    Image image;  // rank 0's
+    double composite_ms = 0;
+  };
+  // Steps 2–4 by direct send: this rank's layer and active rectangle {x0, y0, x1, y1} to the band owners.
+  Composited composite_by_direct_send(const FrameResult& frame, const Camera& camera, const int (&active)[4]);
+  // The ranks in the order a primary ray from this camera's eye meets their slabs (IceT's composite order).
+  std::vector<int> visibility_order(const Camera& camera) const;
+
   MpiWorld& world_;
   Rgb background_;
   bool by_depth_ = false;                 // spheres split by space, composited by depth
   SampleSlab slab_;                       // a volume's: the samples this rank owns; split spheres: its centres' z
+  std::vector<SampleSlab> slabs_;         // a volume's: every rank's, in rank order
+  std::unique_ptr<IcetCompositor> icet_;  // --compositor icet…: IceT's context (unset: direct send)
   std::optional<std::size_t> spheres_;    // the spheres this rank holds, when split (unset: every sphere)
   std::unique_ptr<Renderer> renderer_;
   double communication_mark_;             // the world's counters when the last frame's figures were taken
@@ -106,6 +122,6 @@ private:
 
 // One frame of the scene (its camera and lights) across the world's ranks: a DistributedRenderer made
 // and used once.
-DistributedFrame render_distributed(const Scene& scene, MpiWorld& world);
+DistributedFrame render_distributed(const Scene& scene, MpiWorld& world, Compositor compositor = Compositor::direct_send);
 
 }  // namespace penumbra

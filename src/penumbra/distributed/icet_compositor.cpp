@@ -1,0 +1,157 @@
+#include "penumbra/distributed/icet_compositor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "penumbra/core/error.h"
+#include "penumbra/render/renderer.h"
+
+#ifdef PENUMBRA_HAVE_ICET
+#define OMPI_SKIP_MPICXX 1  // the C API only (IceTMPI.h includes mpi.h)
+#include <IceT.h>
+#include <IceTMPI.h>
+#endif
+
+namespace penumbra {
+
+Compositor parse_compositor(const std::string& name) {
+  Compositor c;
+  if (name == "direct-send")
+    c = Compositor::direct_send;
+  else if (name == "icet")
+    c = Compositor::icet_radixk;
+  else if (name == "icet-bswap")
+    c = Compositor::icet_bswap;
+  else
+    throw Error("--compositor " + name + ": expected direct-send, icet (radix-k) or icet-bswap (binary swap)");
+  if (c != Compositor::direct_send && !icet_built())
+    throw Error("--compositor " + name + ": this penumbra was built without IceT (run scripts/fetch-icet.sh, then cmake again)");
+  return c;
+}
+
+std::string compositor_name(Compositor compositor) {
+  switch (compositor) {
+    case Compositor::direct_send: return "direct-send";
+    case Compositor::icet_radixk: return "icet";
+    case Compositor::icet_bswap: return "icet-bswap";
+  }
+  return "";
+}
+
+#ifdef PENUMBRA_HAVE_ICET
+
+bool icet_built() { return true; }
+
+namespace {
+
+const char* icet_error_name(IceTEnum error) {
+  switch (error) {
+    case ICET_SANITY_CHECK_FAIL: return "ICET_SANITY_CHECK_FAIL";
+    case ICET_INVALID_ENUM: return "ICET_INVALID_ENUM";
+    case ICET_BAD_CAST: return "ICET_BAD_CAST";
+    case ICET_OUT_OF_MEMORY: return "ICET_OUT_OF_MEMORY";
+    case ICET_INVALID_OPERATION: return "ICET_INVALID_OPERATION";
+    case ICET_INVALID_VALUE: return "ICET_INVALID_VALUE";
+    default: return "an unknown error";
+  }
+}
+
+}  // namespace
+
+struct IcetCompositor::Context {
+  IceTCommunicator communicator;
+  IceTContext context;
+};
+
+IcetCompositor::IcetCompositor(Compositor strategy) {
+  if (strategy == Compositor::direct_send) throw Error("IcetCompositor: an IceT strategy is needed");
+  IceTCommunicator communicator = icetCreateMPICommunicator(MPI_COMM_WORLD);
+  context_.reset(new Context{communicator, icetCreateContext(communicator)});
+  icetDiagnostics(ICET_DIAG_ERRORS | ICET_DIAG_ALL_NODES);
+  icetStrategy(ICET_STRATEGY_REDUCE);
+  icetSingleImageStrategy(strategy == Compositor::icet_bswap ? ICET_SINGLE_IMAGE_STRATEGY_BSWAP : ICET_SINGLE_IMAGE_STRATEGY_RADIXK);
+}
+
+IcetCompositor::~IcetCompositor() {
+  icetDestroyContext(context_->context);
+  icetDestroyMPICommunicator(context_->communicator);
+}
+
+IcetCompositor::Result IcetCompositor::composite(const FrameResult& frame, const int (&active)[4], bool by_depth, std::span<const int> order,
+                                                 float depth_scale, const Rgb& background) {
+  icetSetContext(context_->context);
+  const int width = frame.image.width(), height = frame.image.height();
+  icetResetTiles();
+  icetAddTile(0, 0, width, height, 0);  // one tile, shown by rank 0
+  icetSetColorFormat(ICET_IMAGE_COLOR_RGBA_FLOAT);
+  icetSetDepthFormat(by_depth ? ICET_IMAGE_DEPTH_FLOAT : ICET_IMAGE_DEPTH_NONE);
+  icetCompositeMode(by_depth ? ICET_COMPOSITE_MODE_Z_BUFFER : ICET_COMPOSITE_MODE_BLEND);
+  icetDisable(ICET_CORRECT_COLORED_BACKGROUND);  // the background is added below, on rank 0
+  if (by_depth) {
+    icetDisable(ICET_ORDERED_COMPOSITE);
+  } else {
+    icetEnable(ICET_ORDERED_COMPOSITE);
+    const std::vector<IceTInt> ranks(order.begin(), order.end());
+    icetCompositeOrder(ranks.data());
+  }
+
+  // IceT's rows go up from the bottom of the image
+  const std::size_t pixels = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+  std::vector<IceTFloat> color(pixels * 4), depth(by_depth ? pixels : 0);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const std::size_t p = static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x);
+      const std::size_t q = static_cast<std::size_t>(height - 1 - y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x);
+      const Rgb& c = frame.image.pixels()[p];
+      const bool surface = by_depth && std::isfinite(frame.depth[p]);
+      color[q * 4] = c.r, color[q * 4 + 1] = c.g, color[q * 4 + 2] = c.b;
+      color[q * 4 + 3] = by_depth ? (surface ? 1.0f : 0.0f) : frame.alpha[p];
+      if (by_depth) depth[q] = surface ? frame.depth[p] * depth_scale : 1.0f;
+    }
+  // an empty rectangle: no valid pixel (a null viewport would mean every pixel valid)
+  const IceTInt valid[] = {active[0], height - active[3], std::max(0, active[2] - active[0]), std::max(0, active[3] - active[1])};
+  const IceTFloat black[] = {0, 0, 0, 0};
+  const IceTImage composited = icetCompositeImage(color.data(), by_depth ? depth.data() : nullptr, valid, nullptr, nullptr, black);
+  if (const IceTEnum error = icetGetError(); error != ICET_NO_ERROR)
+    throw Error(std::string("IceT failed to composite the frame: ") + icet_error_name(error));
+
+  Result out;
+  IceTDouble seconds = 0, bytes = 0;
+  icetGetDoublev(ICET_COMPOSITE_TIME, &seconds);
+  icetGetDoublev(ICET_BYTES_SENT, &bytes);
+  out.composite_ms = seconds * 1000.0, out.bytes_sent = bytes;
+  IceTInt rank = 0;
+  icetGetIntegerv(ICET_RANK, &rank);
+  if (rank != 0) return out;
+  const IceTFloat* result = icetImageGetColorcf(composited);
+  out.image = Image(width, height);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const std::size_t q = (static_cast<std::size_t>(height - 1 - y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)) * 4;
+      const Rgb c(result[q], result[q + 1], result[q + 2]);
+      out.image.pixels()[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)] =
+          by_depth ? (result[q + 3] > 0.5f ? c : background) : c + background * (1 - result[q + 3]);
+    }
+  return out;
+}
+
+#else
+
+bool icet_built() { return false; }
+
+struct IcetCompositor::Context {};
+
+IcetCompositor::IcetCompositor(Compositor) {
+  throw Error("this penumbra was built without IceT (run scripts/fetch-icet.sh, then cmake again)");
+}
+
+IcetCompositor::~IcetCompositor() = default;
+
+IcetCompositor::Result IcetCompositor::composite(const FrameResult&, const int (&)[4], bool, std::span<const int>, float, const Rgb&) {
+  return {};
+}
+
+#endif
+
+}  // namespace penumbra
