@@ -127,19 +127,24 @@ void run_render_distributed(const RenderOptions& o) {
   Timer total;
   ThreadLimit limit(threads_per_rank(o, world));
   std::optional<SceneDocument> document;
+  DocumentCompletion complete;  // data files: their document completed from the data read (scene/data_scene.h)
   std::optional<Engine> engine;
   std::string error;
   Compositor compositor = Compositor::direct_send;
   try {
     check_distributed_options(o);
     if (!o.compositor.empty()) compositor = parse_compositor(o.compositor);
-    document = scene_file_document(o.in, size_overrides(o));
-    // Data files opened directly, and a scene file without a volume (nothing to read as bricks), open as
-    // an engine on every rank, whose trajectory readers stay open from one time step to the next.
     const auto holds_volume = [](const nlohmann::json& d) {
       const auto volumes = d.find("volumes");
       return volumes != d.end() && !(volumes->is_array() && volumes->empty());
     };
+    document = scene_file_document(o.in, size_overrides(o));
+    // data files with a volume: read as bricks too, their transfer function chosen from the ranks' histogram
+    if (!document)
+      if (DataFilesDocument data = data_files_document(o.in, size_overrides(o)); holds_volume(data.document))
+        document = SceneDocument{std::move(data.document), ""}, complete = std::move(data.complete);
+    // A scene without a volume (nothing to read as bricks: molecules, a trajectory) opens as an engine
+    // on every rank, whose trajectory readers stay open from one time step to the next.
     if (!document || !holds_volume(document->document)) engine.emplace(open_inputs(o.in, size_overrides(o)));
   } catch (const std::exception& e) {
     error = e.what();
@@ -159,18 +164,15 @@ void run_render_distributed(const RenderOptions& o) {
     scene.reset();
     if (!engine) {
       if (time) document->document["time"] = *time;
-      scene.emplace(build_distributed_scene(document->document, document->base_dir, o.in.strict, world, reading));
+      scene.emplace(build_distributed_scene(document->document, document->base_dir, o.in.strict, world, reading, complete));
       return;
     }
     if (time) world.run_agreed([&] { engine->set("time", *time); });
     scene.emplace(engine->scene());
     reading = BrickReading{};
-    if (document) {
-      reading.why = why_read_whole(*scene);  // no volume: the particle files are read whole, not counted
-    } else {
-      reading.why = "data files opened directly are read whole by every rank (a scene file's volume is read as bricks)";
+    reading.why = why_read_whole(*scene);  // no volume: the particle files are read whole
+    if (!document)
       for (const std::string& f : o.in.inputs) reading.bytes_read += file_bytes(f);
-    }
     if (!scene->volumes.empty()) {
       reading.whole_slices = scene->volumes.front().volume->dims()[2];
       reading.slices = {0, reading.whole_slices};

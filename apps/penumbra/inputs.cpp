@@ -27,6 +27,28 @@ std::optional<RawVolumeOptions> raw_options(const InputOptions& o) {
   return r;
 }
 
+// The volume options of data files opened directly; Error when --raw-* names no .raw input.
+VolumeLoadOptions volume_load_options(const InputOptions& o) {
+  const std::optional<RawVolumeOptions> raw = raw_options(o);
+  bool has_raw = false;
+  for (const auto& f : o.inputs) has_raw = has_raw || std::filesystem::path(f).extension() == ".raw" || std::filesystem::path(f).extension() == ".RAW";
+  if (raw && !has_raw) throw Error("--raw-dims, --raw-type: no .raw file among the inputs");
+  VolumeLoadOptions volume_options;
+  volume_options.raw = raw;
+  volume_options.series = o.series;
+  volume_options.channel = o.channel;
+  volume_options.grid = o.grid;
+  return volume_options;
+}
+
+// `extra_sets`, then the user's --set, on a data files' document.
+void apply_sets(nlohmann::json& doc, const InputOptions& o, const std::vector<std::string>& extra_sets) {
+  with_context("--set", [&] {
+    for (const auto& s : extra_sets) apply_override(doc, s);
+    for (const auto& s : o.sets) apply_override(doc, s);
+  });
+}
+
 }  // namespace
 
 void add_input_options(CLI::App& cmd, InputOptions& o) {
@@ -66,21 +88,20 @@ std::optional<SceneDocument> scene_file_document(const InputOptions& o, const st
 Engine open_inputs(const InputOptions& o, const std::vector<std::string>& extra_sets) {
   if (auto d = scene_file_document(o, extra_sets))
     return with_context(o.inputs.front(), [&] { return Engine(std::move(d->document), d->base_dir, SceneReadOptions{o.strict}); });
-  std::vector<std::string> sets = extra_sets;
-  sets.insert(sets.end(), o.sets.begin(), o.sets.end());
-  const std::optional<RawVolumeOptions> raw = raw_options(o);
-  bool has_raw = false;
-  for (const auto& f : o.inputs) has_raw = has_raw || std::filesystem::path(f).extension() == ".raw" || std::filesystem::path(f).extension() == ".RAW";
-  if (raw && !has_raw) throw Error("--raw-dims, --raw-type: no .raw file among the inputs");
   SceneDataCache cache;
-  VolumeLoadOptions volume_options;
-  volume_options.raw = raw;
-  volume_options.series = o.series;
-  volume_options.channel = o.channel;
-  volume_options.grid = o.grid;
-  nlohmann::json doc = data_scene(o.inputs, volume_options, cache);
-  with_context("--set", [&] { for (const auto& s : sets) apply_override(doc, s); });
+  nlohmann::json doc = data_scene(o.inputs, volume_load_options(o), cache);
+  apply_sets(doc, o, extra_sets);
   return Engine(std::move(doc), "", SceneReadOptions{o.strict, &cache});
+}
+
+DataFilesDocument data_files_document(const InputOptions& o, const std::vector<std::string>& extra_sets) {
+  DataFilesDocument d;
+  d.document = data_scene_inputs(o.inputs, volume_load_options(o));
+  d.complete = [o, extra_sets](nlohmann::json& doc, const Scene& read, const std::function<nlohmann::json(std::size_t)>& choose) {
+    complete_data_scene(doc, read, choose);
+    apply_sets(doc, o, extra_sets);
+  };
+  return d;
 }
 
 void check_scene_file_path(const std::string& path) {

@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -41,6 +42,16 @@ struct SceneDocument {
   std::string base_dir;
 };
 std::optional<SceneDocument> scene_file_document(const InputOptions& o, const std::vector<std::string>& extra_sets = {});
+
+// When the inputs are data files (not a scene file): their scene document before anything is loaded
+// (scene/data_scene.h data_scene_inputs) and what completes it from the scene it loads
+// (complete_data_scene, then `extra_sets` and the user's --set) — how a distributed render reads them
+// as bricks (distributed/brick_reading.h). Errors name the file or option.
+struct DataFilesDocument {
+  nlohmann::json document;
+  std::function<void(nlohmann::json& document, const Scene& read, const std::function<nlohmann::json(std::size_t)>& choose)> complete;
+};
+DataFilesDocument data_files_document(const InputOptions& o, const std::vector<std::string>& extra_sets = {});
 
 // Error unless `path` can name a scene file to write: a .json in an existing folder.
 void check_scene_file_path(const std::string& path);

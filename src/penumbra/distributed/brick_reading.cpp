@@ -52,7 +52,7 @@ std::string why_read_whole(const Scene& scene) {
 }
 
 Scene build_distributed_scene(const nlohmann::json& document, const std::string& base_dir, bool strict, MpiWorld& world,
-                              BrickReading& reading) {
+                              BrickReading& reading, const DocumentCompletion& complete) {
   const int ranks = world.size(), me = world.rank();
   reading = BrickReading{};
   // A reader of the chosen slices of every file volume, which notes what it read.
@@ -70,6 +70,11 @@ Scene build_distributed_scene(const nlohmann::json& document, const std::string&
       reading.cut_from_whole = reading.cut_from_whole || read.whole;
       return v;
     };
+  };
+  // The document to build the final scene from: with `complete`, completed from the scene first read.
+  nlohmann::json completed = document;
+  const auto completion = [&](const Scene& read, const std::function<nlohmann::json(std::size_t)>& choose) {
+    if (complete) world.run_agreed([&] { complete(completed, read, choose); });
   };
 
   // 1. every rank reads its brick and builds its scene (nothing collective until all are through)
@@ -89,19 +94,26 @@ Scene build_distributed_scene(const nlohmann::json& document, const std::string&
   const int mine[] = {reading.why.empty() ? 1 : 0};
   const std::vector<int> all = world.all_gather(mine);
   const bool bricks = std::all_of(all.begin(), all.end(), [](int ok) { return ok == 1; });
-  if (!bricks) {
-    if (reading.why.empty()) reading.why = "another rank's scene cannot be read as bricks";
+  // (`then_complete`: the document is not completed yet)
+  const auto read_whole = [&](bool then_complete) {
     bool windowed = false;
     cache.for_each_volume([&](Volume& v) { windowed = windowed || v.is_window(); });
+    SceneDataCache whole_cache;
     if (windowed) {
       reading.bytes_read = 0;
       reading.cut_from_whole = false;
       const VolumeReader whole_reader = reader_of(false);
       world.run_agreed([&] {
-        SceneReadOptions options{strict};
+        SceneReadOptions options{strict, &whole_cache};
         options.volume_reader = &whole_reader;
-        scene = build_scene(document, base_dir, options);
+        scene = build_scene(then_complete ? document : completed, base_dir, options);
       });
+    }
+    SceneDataCache& read = windowed ? whole_cache : cache;
+    if (complete && then_complete) {
+      const Scene first = std::move(*scene);
+      completion(first, [&](std::size_t i) { return choose_transfer_function(*first.volumes[i].volume); });
+      world.run_agreed([&] { scene = build_scene(completed, base_dir, SceneReadOptions{strict, &read}); });
     }
     if (scene->volumes.empty()) return std::move(*scene);  // spheres, split by space once read (sphere_split.h)
     const Volume& volume = *scene->volumes.front().volume;
@@ -109,6 +121,10 @@ Scene build_distributed_scene(const nlohmann::json& document, const std::string&
     reading.slices = {0, reading.whole_slices};
     reading.volume_bytes = volume.memory_bytes();
     return std::move(*scene);
+  };
+  if (!bricks) {
+    if (reading.why.empty()) reading.why = "another rank's scene cannot be read as bricks";
+    return read_whole(true);
   }
 
   // 3. what no rank knows alone: the whole grid's value range, then its histogram (each rank counts the
@@ -127,9 +143,19 @@ Scene build_distributed_scene(const nlohmann::json& document, const std::string&
   });
   world.sum(histogram.counts);
   cache.set_transfer_function_chooser([histogram](const Volume& v) { return choose_transfer_function(histogram, v.type()); });
+  completion(*scene, [&](std::size_t) { return choose_transfer_function(histogram, volume->type()); });
 
-  // 4. the scene again, from the voxels already read, with what the ranks found
-  world.run_agreed([&] { scene = build_scene(document, base_dir, SceneReadOptions{strict, &cache}); });
+  // 4. the scene again, from the voxels already read, with what the ranks found (and completed); the
+  // completion may have asked for what reads the whole volume
+  world.run_agreed([&] {
+    scene = build_scene(completed, base_dir, SceneReadOptions{strict, &cache});
+    reading.why = why_read_whole(*scene);
+  });
+  const int completed_ok[] = {reading.why.empty() ? 1 : 0};
+  if (const std::vector<int> agreed = world.all_gather(completed_ok); !std::all_of(agreed.begin(), agreed.end(), [](int ok) { return ok == 1; })) {
+    if (reading.why.empty()) reading.why = "another rank's scene cannot be read as bricks";
+    return read_whole(false);
+  }
   reading.bricked = true;
   reading.volume_bytes = volume->memory_bytes();
   return std::move(*scene);

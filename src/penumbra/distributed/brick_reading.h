@@ -25,6 +25,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -55,10 +56,17 @@ struct BrickReading {
   std::size_t volume_bytes = 0;  // the voxels it holds
 };
 
+// Completes a document from the scene it loaded (data files opened directly: scene/data_scene.h
+// complete_data_scene, then the command's overrides); `choose(i)` gives volume i's transfer function
+// chosen from the whole grid's histogram.
+using DocumentCompletion =
+    std::function<void(nlohmann::json& document, const Scene& read, const std::function<nlohmann::json(std::size_t)>& choose)>;
+
 // The scene of `document` (relative paths against base_dir) on every rank, its volume read as bricks
-// when it can be, and completed across the ranks (above). Collective: every rank calls it; an error on
-// any rank throws the same Error on all of them.
+// when it can be, and completed across the ranks (above). With `complete`, the scene is built from the
+// document it completes (bricks are read when the completed scene allows them; a brick read is not
+// read again). Collective: every rank calls it; an error on any rank throws the same Error on all of them.
 Scene build_distributed_scene(const nlohmann::json& document, const std::string& base_dir, bool strict, MpiWorld& world,
-                              BrickReading& reading);
+                              BrickReading& reading, const DocumentCompletion& complete = {});
 
 }  // namespace penumbra

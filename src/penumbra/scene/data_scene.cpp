@@ -2,6 +2,7 @@
 
 #include <cctype>
 #include <filesystem>
+#include <functional>
 #include <string_view>
 
 #include "penumbra/core/error.h"
@@ -41,7 +42,7 @@ InputKind input_kind(const std::string& path) {
                      "each of those optionally .gz)");
 }
 
-nlohmann::json data_scene(const std::vector<std::string>& files, const VolumeLoadOptions& volume_options, SceneDataCache& cache) {
+nlohmann::json data_scene_inputs(const std::vector<std::string>& files, const VolumeLoadOptions& volume_options) {
   if (files.empty()) throw Error("no data files");
   nlohmann::json doc = nlohmann::json::object();
   doc["volumes"] = nlohmann::json::array();
@@ -99,12 +100,14 @@ nlohmann::json data_scene(const std::vector<std::string>& files, const VolumeLoa
   if (!volume_options.series.empty() && !has_dicom) throw Error("--series: no DICOM series (a folder or .dcm files) among the inputs");
   if (volume_options.channel >= 0 && !has_tiff) throw Error("--channel: no TIFF stack (.tif, .tiff) among the inputs");
   if (!volume_options.grid.empty() && !has_vdb) throw Error("--grid: no OpenVDB file (.vdb) among the inputs");
-  // read once as it stands (loading the data into the cache) to choose from what was loaded
-  const Scene loaded = build_scene(doc, "", SceneReadOptions{false, &cache});
+  return doc;
+}
+
+void complete_data_scene(nlohmann::json& doc, const Scene& loaded, const std::function<nlohmann::json(std::size_t)>& choose) {
   bool hounsfield = false;
   for (std::size_t i = 0; i < loaded.volumes.size(); ++i) {
     auto& v = doc["volumes"][i];
-    v["transfer_function"] = choose_transfer_function(*loaded.volumes[i].volume);
+    v["transfer_function"] = choose(i);
     if (loaded.volumes[i].volume->level_set()) {  // a level set is its surface: the isosurface at 0
       doc["isosurfaces"].push_back({{"volume", i}, {"value", 0.0}});
       continue;
@@ -145,6 +148,13 @@ nlohmann::json data_scene(const std::vector<std::string>& files, const VolumeLoa
     doc["ambient"] = {{"technique", "particle_ao"}, {"directions", 16}};
     doc["background"] = molecules_only ? nlohmann::json{1, 1, 1} : nlohmann::json{0.08, 0.08, 0.1};
   }
+}
+
+nlohmann::json data_scene(const std::vector<std::string>& files, const VolumeLoadOptions& volume_options, SceneDataCache& cache) {
+  nlohmann::json doc = data_scene_inputs(files, volume_options);
+  // read once as it stands (loading the data into the cache) to choose from what was loaded
+  const Scene loaded = build_scene(doc, "", SceneReadOptions{false, &cache});
+  complete_data_scene(doc, loaded, [&](std::size_t i) { return choose_transfer_function(*loaded.volumes[i].volume); });
   return doc;
 }
 

@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -39,5 +40,13 @@ InputKind input_kind(const std::string& path);
 // transfer functions and place the floor), so that an engine given the same cache does not load it
 // again. Errors name the file.
 nlohmann::json data_scene(const std::vector<std::string>& files, const VolumeLoadOptions& volume_options, SceneDataCache& cache);
+
+// data_scene in two steps, for a reader that loads the data its own way (a rank of a distributed frame
+// reads its brick, distributed/brick_reading.h): the document of the files as they are (each volume
+// invisible, without a transfer function; nothing is loaded; Errors name the file), then, from the
+// scene that document loaded, the rest of the table above, `choose(i)` giving volume i's transfer
+// function.
+nlohmann::json data_scene_inputs(const std::vector<std::string>& files, const VolumeLoadOptions& volume_options);
+void complete_data_scene(nlohmann::json& doc, const Scene& loaded, const std::function<nlohmann::json(std::size_t volume)>& choose);
 
 }  // namespace penumbra
