@@ -140,8 +140,9 @@ private:
   void update_light_cache();
   // On a brick of a frame split by slabs whose bricks hold their own isosurface cells, a rank's surface
   // points are its brick's nearest, hidden ones included: the receivers the view-dependent shadow fits
-  // take are this brick's points of the pixels whose nearest point over the bricks (an image-sized
-  // minimum) lies in its slab, so that the bricks' receivers together are one process's.
+  // take are this brick's points of the pixels whose nearest point over the bricks (a minimum over the
+  // rectangle holding every brick's surface pixels) lies in its slab, so that the bricks' receivers
+  // together are one process's.
   std::vector<SurfacePoint> receivers_shown(const ShadowBrick& brick, const Camera& camera, const VisibleSurfaces& surfaces) const;
   // A brick's frame holds the opaque surfaces whose visible point lies in its slab: elsewhere the
   // surface only ends the brick's samples (another brick shows it), its colour the background's and
