@@ -202,18 +202,13 @@ def main():
     a = ap.parse_args()
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     ranks = [int(x) for x in a.ranks.split(",")]
-    if a.compositors:
-        with tempfile.TemporaryDirectory() as tmp:
-            rows = measure_compositors(a, env, ranks, tmp)
-        if a.json:
-            json.dump({"compositors": rows}, open(a.json, "w"), indent=1)
-        return
-    if a.sequences:
-        with tempfile.TemporaryDirectory() as tmp:
-            rows = measure_sequences(a, env, ranks, tmp)
-        if a.json:
-            json.dump({"sequences": rows}, open(a.json, "w"), indent=1)
-        return
+    for chosen, name, measure in ((a.compositors, "compositors", measure_compositors), (a.sequences, "sequences", measure_sequences)):
+        if chosen:
+            with tempfile.TemporaryDirectory() as tmp:
+                rows = measure(a, env, ranks, tmp)
+            if a.json:
+                json.dump({name: rows}, open(a.json, "w"), indent=1)
+            return
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for scene, sets, shadows, nodes in SCENES:
