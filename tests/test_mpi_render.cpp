@@ -544,6 +544,7 @@ TEST(MpiRender, IceTCompositesTheFrameOfDirectSend) {
         const std::string out = dir.file(scene + "_" + compositor + n + ".pfm"), stats = dir.file("stats.json");
         const CliRun ranks = mpirun_cli(np, "render " + json + " --compositor " + compositor + " -o " + quote(out) + " --stats " + quote(stats));
         ASSERT_EQ(ranks.status, 0) << ranks.out << ranks.err;
+        EXPECT_NE(ranks.err.find("composited by " + compositor + ","), std::string::npos) << ranks.err;
         const Image composited = read_image(out);
         FailureImages keep;
         keep.add(scene + "_" + compositor + n, composited, reference);

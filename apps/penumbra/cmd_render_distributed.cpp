@@ -258,8 +258,8 @@ void run_render_distributed(const RenderOptions& o) {
       error = e.what();
     }
     if (error.empty())
-      std::fprintf(stderr, "%s: %d ranks, %d frame%s, %.1f ms in all\n", o.output.c_str(), world.size(), frames, frames == 1 ? "" : "s",
-                   total.elapsed_ms());
+      std::fprintf(stderr, "%s: %d ranks, %d frame%s, composited by %s, %.1f ms in all\n", o.output.c_str(), world.size(), frames,
+                   frames == 1 ? "" : "s", compositor_name(compositor).c_str(), total.elapsed_ms());
   }
   error = world.agree(error);
   if (!error.empty()) throw Error(error);
