@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
 #include "penumbra/render/renderer.h"
 
 #ifdef PENUMBRA_HAVE_ICET
@@ -67,7 +68,7 @@ struct IcetCompositor::Context {
 IcetCompositor::IcetCompositor(Compositor strategy) {
   if (strategy == Compositor::direct_send) throw Error("IcetCompositor: an IceT strategy is needed");
   IceTCommunicator communicator = icetCreateMPICommunicator(MPI_COMM_WORLD);
-  context_.reset(new Context{communicator, icetCreateContext(communicator)});
+  context_ = std::make_unique<Context>(Context{communicator, icetCreateContext(communicator)});
   icetDiagnostics(ICET_DIAG_ERRORS | ICET_DIAG_ALL_NODES);
   icetStrategy(ICET_STRATEGY_REDUCE);
   icetSingleImageStrategy(strategy == Compositor::icet_bswap ? ICET_SINGLE_IMAGE_STRATEGY_BSWAP : ICET_SINGLE_IMAGE_STRATEGY_RADIXK);
@@ -99,16 +100,18 @@ IcetCompositor::Result IcetCompositor::composite(const FrameResult& frame, const
   // IceT's rows go up from the bottom of the image
   const std::size_t pixels = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
   std::vector<IceTFloat> color(pixels * 4), depth(by_depth ? pixels : 0);
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) {
-      const std::size_t p = static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x);
-      const std::size_t q = static_cast<std::size_t>(height - 1 - y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x);
-      const Rgb& c = frame.image.pixels()[p];
-      const bool surface = by_depth && std::isfinite(frame.depth[p]);
-      color[q * 4] = c.r, color[q * 4 + 1] = c.g, color[q * 4 + 2] = c.b;
-      color[q * 4 + 3] = by_depth ? (surface ? 1.0f : 0.0f) : frame.alpha[p];
-      if (by_depth) depth[q] = surface ? frame.depth[p] * depth_scale : 1.0f;
-    }
+  parallel_for(static_cast<std::size_t>(height), [&](std::size_t y0, std::size_t y1) {
+    for (std::size_t y = y0; y < y1; ++y)
+      for (std::size_t x = 0; x < static_cast<std::size_t>(width); ++x) {
+        const std::size_t p = y * static_cast<std::size_t>(width) + x;
+        const std::size_t q = (static_cast<std::size_t>(height) - 1 - y) * static_cast<std::size_t>(width) + x;
+        const Rgb& c = frame.image.pixels()[p];
+        const bool surface = by_depth && std::isfinite(frame.depth[p]);
+        color[q * 4] = c.r, color[q * 4 + 1] = c.g, color[q * 4 + 2] = c.b;
+        color[q * 4 + 3] = by_depth ? (surface ? 1.0f : 0.0f) : frame.alpha[p];
+        if (by_depth) depth[q] = surface ? frame.depth[p] * depth_scale : 1.0f;
+      }
+  });
   // an empty rectangle: no valid pixel (a null viewport would mean every pixel valid)
   const IceTInt valid[] = {active[0], height - active[3], std::max(0, active[2] - active[0]), std::max(0, active[3] - active[1])};
   const IceTFloat black[] = {0, 0, 0, 0};
@@ -126,13 +129,15 @@ IcetCompositor::Result IcetCompositor::composite(const FrameResult& frame, const
   if (rank != 0) return out;
   const IceTFloat* result = icetImageGetColorcf(composited);
   out.image = Image(width, height);
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) {
-      const std::size_t q = (static_cast<std::size_t>(height - 1 - y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)) * 4;
-      const Rgb c(result[q], result[q + 1], result[q + 2]);
-      out.image.pixels()[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)] =
-          by_depth ? (result[q + 3] > 0.5f ? c : background) : c + background * (1 - result[q + 3]);
-    }
+  parallel_for(static_cast<std::size_t>(height), [&](std::size_t y0, std::size_t y1) {
+    for (std::size_t y = y0; y < y1; ++y)
+      for (std::size_t x = 0; x < static_cast<std::size_t>(width); ++x) {
+        const std::size_t q = ((static_cast<std::size_t>(height) - 1 - y) * static_cast<std::size_t>(width) + x) * 4;
+        const Rgb c(result[q], result[q + 1], result[q + 2]);
+        out.image.pixels()[y * static_cast<std::size_t>(width) + x] =
+            by_depth ? (result[q + 3] > 0.5f ? c : background) : c + background * (1 - result[q + 3]);
+      }
+  });
   return out;
 }
 
