@@ -5,11 +5,11 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdint>
-#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "penumbra/distributed/brick_reading.h"
 #include "penumbra/engine/engine.h"
 
 namespace penumbra::cli {
@@ -49,7 +49,7 @@ std::optional<SceneDocument> scene_file_document(const InputOptions& o, const st
 // as bricks (distributed/brick_reading.h). Errors name the file or option.
 struct DataFilesDocument {
   nlohmann::json document;
-  std::function<void(nlohmann::json& document, const Scene& read, const std::function<nlohmann::json(std::size_t)>& choose)> complete;
+  DocumentCompletion complete;
 };
 DataFilesDocument data_files_document(const InputOptions& o, const std::vector<std::string>& extra_sets = {});
 

@@ -1,7 +1,6 @@
 #include "penumbra/distributed/distributed_frame.h"
 
 #include <algorithm>
-#include <cmath>
 #include <optional>
 #include <utility>
 
@@ -125,16 +124,7 @@ DistributedFrame DistributedRenderer::render(const Camera& camera, const std::ve
   Timer compositing;
   if (icet_) {
     try {
-      // by depth: a power of two that brings every rank's largest finite depth below 1 (IceT's far plane)
-      float depth_scale = 1;
-      if (by_depth) {
-        float farthest[] = {0};  // its negative, for the minimum
-        for (const float d : frame.depth)
-          if (std::isfinite(d)) farthest[0] = std::min(farthest[0], -d);
-        world.minimum(farthest);
-        depth_scale = std::ldexp(1.0f, -(std::ilogb(std::max(-farthest[0], 1.0f)) + 1));
-      }
-      IcetCompositor::Result composited = icet_->composite(frame, active, by_depth, visibility_order(camera), depth_scale, background_);
+      IcetCompositor::Result composited = icet_->composite(frame, active, by_depth, visibility_order(camera), background_, world);
       out.image = std::move(composited.image);
       composite_ms = composited.composite_ms, icet_bytes = composited.bytes_sent;
     } catch (const std::exception& e) {

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <utility>
 #include <vector>
 
 #include "penumbra/core/error.h"
@@ -16,28 +18,24 @@
 
 namespace penumbra {
 
+namespace {
+
+constexpr std::pair<Compositor, const char*> kCompositorNames[] = {
+    {Compositor::direct_send, "direct-send"}, {Compositor::icet_radixk, "icet"}, {Compositor::icet_bswap, "icet-bswap"}};
+
+}  // namespace
+
 Compositor parse_compositor(const std::string& name) {
-  Compositor c;
-  if (name == "direct-send")
-    c = Compositor::direct_send;
-  else if (name == "icet")
-    c = Compositor::icet_radixk;
-  else if (name == "icet-bswap")
-    c = Compositor::icet_bswap;
-  else
+  const auto* found = std::find_if(std::begin(kCompositorNames), std::end(kCompositorNames), [&](const auto& c) { return name == c.second; });
+  if (found == std::end(kCompositorNames))
     throw Error("--compositor " + name + ": expected direct-send, icet (radix-k) or icet-bswap (binary swap)");
-  if (c != Compositor::direct_send && !icet_built())
+  if (found->first != Compositor::direct_send && !icet_built())
     throw Error("--compositor " + name + ": this penumbra was built without IceT (run scripts/fetch-icet.sh, then cmake again)");
-  return c;
+  return found->first;
 }
 
 std::string compositor_name(Compositor compositor) {
-  switch (compositor) {
-    case Compositor::direct_send: return "direct-send";
-    case Compositor::icet_radixk: return "icet";
-    case Compositor::icet_bswap: return "icet-bswap";
-  }
-  return "";
+  return std::find_if(std::begin(kCompositorNames), std::end(kCompositorNames), [&](const auto& c) { return c.first == compositor; })->second;
 }
 
 #ifdef PENUMBRA_HAVE_ICET
@@ -80,7 +78,16 @@ IcetCompositor::~IcetCompositor() {
 }
 
 IcetCompositor::Result IcetCompositor::composite(const FrameResult& frame, const int (&active)[4], bool by_depth, std::span<const int> order,
-                                                 float depth_scale, const Rgb& background) {
+                                                 const Rgb& background, MpiWorld& world) {
+  // by depth: a power of two that brings every rank's largest finite depth below 1 (IceT's far plane)
+  float depth_scale = 1;
+  if (by_depth) {
+    float farthest[] = {0};  // its negative, for the minimum over the ranks
+    for (const float d : frame.depth)
+      if (std::isfinite(d)) farthest[0] = std::min(farthest[0], -d);
+    world.minimum(farthest);
+    depth_scale = std::ldexp(1.0f, -(std::ilogb(std::max(-farthest[0], 1.0f)) + 1));
+  }
   icetSetContext(context_->context);
   const int width = frame.image.width(), height = frame.image.height();
   icetResetTiles();
@@ -153,7 +160,7 @@ IcetCompositor::IcetCompositor(Compositor) {
 
 IcetCompositor::~IcetCompositor() = default;
 
-IcetCompositor::Result IcetCompositor::composite(const FrameResult&, const int (&)[4], bool, std::span<const int>, float, const Rgb&) {
+IcetCompositor::Result IcetCompositor::composite(const FrameResult&, const int (&)[4], bool, std::span<const int>, const Rgb&, MpiWorld&) {
   return {};
 }
 

@@ -26,6 +26,7 @@
 #include <string>
 
 #include "penumbra/core/image.h"
+#include "penumbra/distributed/mpi_world.h"
 
 namespace penumbra {
 
@@ -54,11 +55,11 @@ public:
     double bytes_sent = 0;   // IceT's ICET_BYTES_SENT, this rank's
   };
   // Every rank calls it with its layer (frame.image premultiplied over black, frame.alpha; by depth:
-  // frame.depth), its active rectangle {x0, y0, x1, y1} (top-down rows, half open; empty: nothing), and
-  // `order`: the ranks front to back (blend), or `depth_scale` (by depth: a power of two that brings
-  // every rank's largest finite depth below 1).
-  Result composite(const FrameResult& frame, const int (&active)[4], bool by_depth, std::span<const int> order, float depth_scale,
-                   const Rgb& background);
+  // frame.depth), its active rectangle {x0, y0, x1, y1} (top-down rows, half open; empty: nothing) and,
+  // blending, `order`: the ranks front to back. By depth the ranks first agree on the depth scale (a
+  // minimum over `world`).
+  Result composite(const FrameResult& frame, const int (&active)[4], bool by_depth, std::span<const int> order, const Rgb& background,
+                   MpiWorld& world);
 
 private:
   struct Context;
