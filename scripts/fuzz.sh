@@ -23,7 +23,7 @@ command -v ccache > /dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache 
 # -O1 with line tables: quick to build, fast enough to fuzz, symbolised reports.
 CC=clang-14 CXX=clang++-14 cmake -S . -B "$build" -G Ninja -DPENUMBRA_FUZZ=ON -DCMAKE_BUILD_TYPE=None \
   -DCMAKE_CXX_FLAGS="-O1 -gline-tables-only" -DCMAKE_C_FLAGS="-O1 -gline-tables-only" \
-  -DPENUMBRA_BUILD_TESTS=OFF -DPENUMBRA_BUILD_BENCH=OFF "${launcher[@]}" > /dev/null
+  -DPENUMBRA_BUILD_TESTS=OFF -DPENUMBRA_BUILD_BENCH=OFF -DCMAKE_UNITY_BUILD=ON "${launcher[@]}" > /dev/null
 cmake --build "$build" -j "${PENUMBRA_FUZZ_JOBS:-2}" --target "${targets[@]/#/fuzz_}"
 
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:symbolize=1}"

@@ -13,6 +13,7 @@
 #include <sstream>
 #include <string>
 
+#include "cli_run.h"
 #include "test_scenes.h"
 
 using namespace penumbra;
@@ -20,13 +21,6 @@ using namespace penumbra::test;
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 int count(const std::string& haystack, const std::string& needle) {
   int n = 0;

@@ -69,10 +69,6 @@ std::string load_error(const std::vector<std::string>& paths, const std::string&
   for (const char* part_ : {__VA_ARGS__})                                                       \
   EXPECT_NE((msg).find(part_), std::string::npos) << "message lacks '" << part_ << "': " << (msg)
 
-bool has_note(const VolumeFileInfo& info, const std::string& part) {
-  return std::any_of(info.notes.begin(), info.notes.end(), [&](const std::string& n) { return n.find(part) != std::string::npos; });
-}
-
 void expect_same_volume(const Volume& a, const Volume& b) {
   ASSERT_EQ(a.type(), b.type());
   ASSERT_EQ(a.dims(), b.dims());

@@ -57,12 +57,12 @@ Volume blobs_volume(int n, ScalarType type) {
   }, type);
 }
 
-Camera test_camera(int size, Vec3 eye = {1.3f, 0.9f, 1.8f}) { return test::camera_at(size, eye); }
+Camera reference_camera(int size, Vec3 eye = {1.3f, 0.9f, 1.8f}) { return test::camera_at(size, eye); }
 
 int image_size(int size) { return test::sanitize_scale() ? size / 2 : size; }
 
 // The trilinear interpolant of a single cell at local coordinates (x, y, z), in double.
-double trilinear(const CellCorners& c, double x, double y, double z) {
+double trilinear(const CornerValues& c, double x, double y, double z) {
   double f = 0;
   for (int n = 0; n < 8; ++n)
     f += c[static_cast<std::size_t>(n)] * ((n & 1) ? x : 1 - x) * ((n & 2) ? y : 1 - y) * ((n & 4) ? z : 1 - z);
@@ -91,7 +91,7 @@ float every_cell_first_hit(const Volume& v, float iso, const Ray& ray) {
     const Vec3 mid = v.to_voxel(ray.at(0.5f * (ts[s] + ts[s + 1])));
     std::array<int, 3> c;
     for (int a = 0; a < 3; ++a) c[static_cast<std::size_t>(a)] = std::clamp(static_cast<int>(std::floor(mid[a])), 0, d[static_cast<std::size_t>(a)] - 2);
-    CellCorners corners;
+    CornerValues corners;
     float lo = kInfinity, hi = -kInfinity;
     for (int n = 0; n < 8; ++n) {
       corners[static_cast<std::size_t>(n)] = v.value(c[0] + (n & 1), c[1] + ((n >> 1) & 1), c[2] + (n >> 2));
@@ -153,7 +153,7 @@ TEST(TrilinearRoot, FirstCrossingMatchesDenseSampling) {
   for (int c = 0; c < cases; ++c) {
     Volume v(ScalarType::Float32, {2, 2, 2}, {0.3f + 2 * u(rng), 0.3f + 2 * u(rng), 0.3f + 2 * u(rng)},
              {10 * u(rng) - 5, 10 * u(rng) - 5, 10 * u(rng) - 5});
-    CellCorners corners;
+    CornerValues corners;
     for (int n = 0; n < 8; ++n) {
       corners[static_cast<std::size_t>(n)] = 2 * u(rng) - 1;
       v.set_value(static_cast<std::size_t>(n), corners[static_cast<std::size_t>(n)]);
@@ -206,7 +206,7 @@ TEST(TrilinearRoot, StateGivenByTheCallerReportsACrossingAtTheStart) {
   for (std::size_t n = 0; n < 8; ++n) v.set_value(n, (n & 1) ? 1.0f : 0.0f);  // f = x
   const Ray ray{{-1, 0.5f, 0.5f}, {1, 0, 0}};
   const GridRay grid(v, ray);
-  CellCorners c{0, 1, 0, 1, 0, 1, 0, 1};
+  CornerValues c{0, 1, 0, 1, 0, 1, 0, 1};
   EXPECT_NEAR(first_crossing_in_cell(v, {0, 0, 0}, 0.25f, ray, 1, 2), 1.25f, 1e-6f);
   EXPECT_EQ(first_state_change(c, {0, 0, 0}, 0.25f, grid, 1.5f, 2, false), 1.5f);  // already inside at 1.5
   EXPECT_EQ(first_state_change(c, {0, 0, 0}, 0.25f, grid, 1.5f, 2, true), kInfinity);
@@ -220,7 +220,7 @@ TEST(IsosurfaceRaycaster, SphereMatchesTheAnalyticIntersection) {
   const Volume v = sphere_volume(48);
   const GridTree tree(v);
   const float h = v.spacing().x;
-  const Camera cam = test_camera(image_size(96));
+  const Camera cam = reference_camera(image_size(96));
   const IsoPoints points = IsosurfaceRaycaster(tree, 0.0f).render(cam);
   std::vector<const IsoPoint*> at(static_cast<std::size_t>(cam.width * cam.height), nullptr);
   for (const IsoPoint& p : points) at[p.pixel] = &p;
@@ -270,7 +270,7 @@ TEST(IsosurfaceRaycaster, BrickSkippingDropsNothing) {
     const Volume v = blobs_volume(61, type);
     const GridTree tree(v);
     ASSERT_GE(tree.levels(), 3);
-    const Camera cam = test_camera(size);
+    const Camera cam = reference_camera(size);
     const IsoPoints points = IsosurfaceRaycaster(tree, iso).render(cam);
     const PrimaryRays rays(cam);
     std::size_t next = 0, hits = 0;
@@ -341,7 +341,7 @@ TEST(RasterizeMesh, CoversTheRaycastPixelsAtTheSameDepth) {
   const Volume v = sphere_volume(48);
   const GridTree tree(v);
   const float h = v.spacing().x;
-  const Camera cam = test_camera(image_size(128));
+  const Camera cam = reference_camera(image_size(128));
   const IsoPoints ref = IsosurfaceRaycaster(tree, 0.0f).render(cam);
   const IsoPoints mesh = rasterize_mesh(marching_cubes(tree, 0.0f), cam);
   std::vector<const IsoPoint*> at(static_cast<std::size_t>(cam.width * cam.height), nullptr);
@@ -406,7 +406,7 @@ TEST(RasterizeMesh, SharedEdgesLeaveNoCracks) {
 TEST(IsosurfaceReference, SameForOneAndTwoThreads) {
   const Volume v = blobs_volume(45, ScalarType::Float32);
   const GridTree tree(v);
-  const Camera cam = test_camera(image_size(80));
+  const Camera cam = reference_camera(image_size(80));
   IsoPoints ray_cast[2], raster[2];
   TriangleMesh mesh[2];
   for (int threads : {1, 2}) {

@@ -29,14 +29,14 @@ namespace {
 
 const std::string kData = shared_data_dir();
 
-ParticleSet load(const std::string& path, const ParticleLoadOptions& o = {}, ParticleFileInfo* info = nullptr) {
+ParticleSet load_particle_file(const std::string& path, const ParticleLoadOptions& o = {}, ParticleFileInfo* info = nullptr) {
   return load_particles(path, o, info);
 }
 
 // Runs load_particles, expects a penumbra::Error and returns its message ("" if none was thrown).
 std::string load_error(const std::string& path, const ParticleLoadOptions& o = {}) {
   try {
-    load_particles(path, o);
+    load_particle_file(path, o);
   } catch (const Error& e) {
     return e.what();
   }
@@ -152,7 +152,7 @@ TEST(ParticleIoData, AtomCountsOfTheRealFiles) {
     const std::string path = kData + "/" + c.file;
     if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " not found (set PENUMBRA_DATA_DIR)";
     ParticleFileInfo info;
-    const ParticleSet set = load(path, {}, &info);
+    const ParticleSet set = load_particle_file(path, {}, &info);
     EXPECT_EQ(set.size(), c.atoms) << c.file;
     EXPECT_EQ(set.colors.size(), c.atoms) << c.file;
     EXPECT_EQ(info.atoms_in_file, c.atoms) << c.file;
@@ -169,7 +169,7 @@ TEST(ParticleIoData, AtomCountsOfTheRealFiles) {
 
 TEST(ParticleIoData, GraphenIsCarbon) {
   SKIP_WITHOUT_SHARED_DATA("graphene.xyz");
-  const ParticleSet set = load(kData + "/graphene.xyz");
+  const ParticleSet set = load_particle_file(kData + "/graphene.xyz");
   for (std::size_t i = 0; i < set.size(); ++i) {
     ASSERT_EQ(set.spheres[i].radius, 1.70f);
     ASSERT_EQ(set.colors[i], pack_rgba8(element_color(6)));
@@ -178,7 +178,7 @@ TEST(ParticleIoData, GraphenIsCarbon) {
 
 TEST(ParticleIoData, GroIsInAngstromAndDropsHydrogens) {
   SKIP_WITHOUT_SHARED_DATA("bace1_dppc.gro.gz");
-  const ParticleSet all = load(kData + "/bace1_dppc.gro.gz");
+  const ParticleSet all = load_particle_file(kData + "/bace1_dppc.gro.gz");
   // First atom: "    1MET      N    1   5.124   5.165   6.528" (nm).
   expect_sphere(all.spheres[0], {51.24f, 51.65f, 65.28f}, 1.55f, 1e-3f);
   // The box is 9.12 x 9.12 x 8.94 nm; atoms may stick out a little (periodic images are not wrapped).
@@ -194,7 +194,7 @@ TEST(ParticleIoData, GroIsInAngstromAndDropsHydrogens) {
   ParticleLoadOptions o;
   o.hydrogens = false;
   ParticleFileInfo info;
-  const ParticleSet heavy = load(kData + "/bace1_dppc.gro.gz", o, &info);
+  const ParticleSet heavy = load_particle_file(kData + "/bace1_dppc.gro.gz", o, &info);
   EXPECT_EQ(heavy.size(), all.size() - hydrogens);
   EXPECT_EQ(info.atoms_in_file, all.size());
   EXPECT_EQ(std::count(heavy.colors.begin(), heavy.colors.end(), white), 0);
@@ -204,10 +204,10 @@ TEST(ParticleIoData, PdbAssembly3j6r) {
   SKIP_WITHOUT_SHARED_DATA("3j6r.pdb.gz");
   if (sanitize_scale()) GTEST_SKIP() << "1 M spheres: too slow under the sanitizers";
   ParticleFileInfo base_info;
-  const ParticleSet base = load(kData + "/3j6r.pdb.gz", {}, &base_info);
+  const ParticleSet base = load_particle_file(kData + "/3j6r.pdb.gz", {}, &base_info);
   EXPECT_EQ(base.size(), 17214u);
   ParticleFileInfo info;
-  const ParticleSet cap = load(kData + "/3j6r.pdb.gz", with_assembly(1), &info);
+  const ParticleSet cap = load_particle_file(kData + "/3j6r.pdb.gz", with_assembly(1), &info);
   // REMARK 350 BIOMOLECULE 1: 60 BIOMT operators applied to chains B, A, E, D, C, F, i.e. to every atom.
   EXPECT_EQ(info.operators, 60);
   EXPECT_EQ(info.atoms_in_file, 17214u);
@@ -230,11 +230,11 @@ TEST(ParticleIoData, PdbAssembly3j6r) {
 TEST(ParticleIoData, MmcifAssembly4yvs) {
   SKIP_WITHOUT_SHARED_DATA("4yvs.cif.gz");
   ParticleFileInfo info;
-  const ParticleSet set = load(kData + "/4yvs.cif.gz", with_assembly(1), &info);
+  const ParticleSet set = load_particle_file(kData + "/4yvs.cif.gz", with_assembly(1), &info);
   // pdbx_struct_assembly_gen: operators 1-12 on asym ids A-O, which hold all 26,430 atoms.
   EXPECT_EQ(info.operators, 12);
   EXPECT_EQ(set.size(), 12u * 26430u);
-  const ParticleSet base = load(kData + "/4yvs.cif.gz");
+  const ParticleSet base = load_particle_file(kData + "/4yvs.cif.gz");
   for (std::size_t i = 0; i < base.size(); i += 101) expect_sphere(set.spheres[i], base.spheres[i].center, base.spheres[i].radius);
   // Operator 2 (2_555) is diag(-1, -1, 1).
   for (std::size_t i = 0; i < base.size(); i += 101) {
@@ -248,7 +248,7 @@ TEST(ParticleIoData, ChainColoring) {
   SKIP_WITHOUT_SHARED_DATA("1tii.pdb");
   ParticleLoadOptions o;
   o.coloring = ParticleColoring::Chain;
-  const ParticleSet set = load(kData + "/1tii.pdb", o);
+  const ParticleSet set = load_particle_file(kData + "/1tii.pdb", o);
   std::vector<std::uint32_t> distinct(set.colors);
   std::sort(distinct.begin(), distinct.end());
   distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
@@ -334,7 +334,7 @@ TEST(ParticleIoFiles, XyzElementsRadiiColoursAndHydrogens) {
   const std::string path = dir.file("small.xyz");
   write_file(path, small_xyz());
   ParticleFileInfo info;
-  const ParticleSet set = load(path, {}, &info);
+  const ParticleSet set = load_particle_file(path, {}, &info);
   ASSERT_EQ(set.size(), 6u);
   EXPECT_EQ(info.format, "xyz");
   EXPECT_EQ(info.unknown_elements, 1u);
@@ -351,14 +351,14 @@ TEST(ParticleIoFiles, XyzElementsRadiiColoursAndHydrogens) {
   o.radius_scale = 0.5f;
   o.coloring = ParticleColoring::Uniform;
   o.uniform_color = Rgb(0.25f, 0.5f, 1.0f);
-  const ParticleSet heavy = load(path, o);
+  const ParticleSet heavy = load_particle_file(path, o);
   ASSERT_EQ(heavy.size(), 4u);  // H and D dropped
   EXPECT_FLOAT_EQ(heavy.spheres[0].radius, 0.85f);
   EXPECT_EQ(heavy.colors[3], pack_rgba8(o.uniform_color));
 
   // An atomic number may stand for the symbol; a second frame is ignored.
   write_file(path, "2\n\n8 0 0 0\n6 1 0 0\n1\nnext frame\nC 0 0 0\n");
-  const ParticleSet numbers = load(path);
+  const ParticleSet numbers = load_particle_file(path);
   ASSERT_EQ(numbers.size(), 2u);
   EXPECT_FLOAT_EQ(numbers.spheres[0].radius, 1.52f);
 }
@@ -368,7 +368,7 @@ TEST(ParticleIoFiles, GroNanometresToAngstromAndElementHeuristic) {
   const std::string path = dir.file("small.gro");
   write_file(path, small_gro());
   ParticleFileInfo info;
-  const ParticleSet set = load(path, {}, &info);
+  const ParticleSet set = load_particle_file(path, {}, &info);
   ASSERT_EQ(set.size(), 7u);
   EXPECT_EQ(info.format, "gro");
   expect_sphere(set.spheres[0], {1.0f, 2.0f, 3.0f}, 1.55f);   // N, nm → Å
@@ -382,13 +382,13 @@ TEST(ParticleIoFiles, GroNanometresToAngstromAndElementHeuristic) {
 
   ParticleLoadOptions o;
   o.coloring = ParticleColoring::Residue;
-  const ParticleSet by_residue = load(path, o);
+  const ParticleSet by_residue = load_particle_file(path, o);
   EXPECT_EQ(by_residue.colors[0], pack_rgba8(residue_color(residue_color_key("ALA"))));
   EXPECT_EQ(by_residue.colors[3], pack_rgba8(residue_color(kOtherResidue)));
 
   // Higher precision (%10.5f): the field width follows the decimal points.
   write_file(path, "hi-res\n1\n    1ALA      N    1   0.10000   0.20000   0.30000\n   1.0 1.0 1.0\n");
-  expect_sphere(load(path).spheres[0], {1.0f, 2.0f, 3.0f}, 1.55f);
+  expect_sphere(load_particle_file(path).spheres[0], {1.0f, 2.0f, 3.0f}, 1.55f);
 }
 
 TEST(ParticleIoFiles, PdbAssembliesSelectTheirChains) {
@@ -396,13 +396,13 @@ TEST(ParticleIoFiles, PdbAssembliesSelectTheirChains) {
   const std::string path = dir.file("small.pdb");
   write_file(path, small_pdb());
   ParticleFileInfo info;
-  const ParticleSet base = load(path, {}, &info);
+  const ParticleSet base = load_particle_file(path, {}, &info);
   ASSERT_EQ(base.size(), 5u);
   EXPECT_EQ(info.format, "pdb");
   expect_sphere(base.spheres[2], {3, 2, 3}, 1.52f);
   EXPECT_FLOAT_EQ(base.spheres[4].radius, 1.80f);
 
-  const ParticleSet a1 = load(path, with_assembly(1), &info);
+  const ParticleSet a1 = load_particle_file(path, with_assembly(1), &info);
   EXPECT_EQ(info.operators, 2);
   ASSERT_EQ(a1.size(), 8u);  // chain A (4 atoms) twice
   expect_sphere(a1.spheres[0], {1, 2, 3}, 1.55f);
@@ -410,9 +410,9 @@ TEST(ParticleIoFiles, PdbAssembliesSelectTheirChains) {
 
   ParticleLoadOptions o = with_assembly(1);
   o.hydrogens = false;
-  EXPECT_EQ(load(path, o).size(), 6u);
+  EXPECT_EQ(load_particle_file(path, o).size(), 6u);
 
-  const ParticleSet a2 = load(path, with_assembly(2), &info);
+  const ParticleSet a2 = load_particle_file(path, with_assembly(2), &info);
   EXPECT_EQ(info.operators, 1);
   ASSERT_EQ(a2.size(), 1u);  // chain B rotated 90° about z
   expect_sphere(a2.spheres[0], {0, 5, 0}, 1.80f);
@@ -422,18 +422,18 @@ TEST(ParticleIoFiles, PdbAssembliesSelectTheirChains) {
 
   o = {};
   o.coloring = ParticleColoring::Chain;
-  const ParticleSet chains = load(path, o);
+  const ParticleSet chains = load_particle_file(path, o);
   EXPECT_EQ(chains.colors[0], pack_rgba8(chain_color(0)));
   EXPECT_EQ(chains.colors[4], pack_rgba8(chain_color(1)));
   o.coloring = ParticleColoring::Residue;
-  const ParticleSet residues = load(path, o);
+  const ParticleSet residues = load_particle_file(path, o);
   EXPECT_EQ(residues.colors[0], pack_rgba8(residue_color(residue_color_key("ALA"))));
   EXPECT_EQ(residues.colors[4], pack_rgba8(residue_color(residue_color_key("CYS"))));
 
   // The same file gzip-compressed.
   const std::string gz = dir.file("small.pdb.gz");
   write_file(gz, gzip(read_file(path)));
-  EXPECT_EQ(load(gz, with_assembly(1)).size(), 8u);
+  EXPECT_EQ(load_particle_file(gz, with_assembly(1)).size(), 8u);
 }
 
 // Files with more than 999 BIOMT operators (1M4X) shift the BIOMT columns by two; the fields are read
@@ -452,7 +452,7 @@ TEST(ParticleIoFiles, PdbBiomtBeyond999Operators) {
              "REMARK 350   BIOMT3  1000  0.000000  0.000000  1.000000       32.90200\n" +
                  atom_line(1, "CA", "GLY", 'A', 1, 1.0, 2.0, 3.0, "C"));
   ParticleFileInfo info;
-  const ParticleSet set = load(path, with_assembly(1), &info);
+  const ParticleSet set = load_particle_file(path, with_assembly(1), &info);
   EXPECT_EQ(info.operators, 2);
   ASSERT_EQ(set.size(), 2u);
   expect_sphere(set.spheres[0], {1, 2, 3}, 1.70f);
@@ -469,7 +469,7 @@ TEST(ParticleIoFiles, SmallMmcif) {
   const std::string path = dir.file("small.cif");
   write_file(path, small_cif());
   ParticleFileInfo info;
-  const ParticleSet set = load(path, {}, &info);
+  const ParticleSet set = load_particle_file(path, {}, &info);
   ASSERT_EQ(set.size(), 3u);
   EXPECT_EQ(info.format, "mmcif");
   expect_sphere(set.spheres[0], {1, 2, 3}, 1.55f);
@@ -606,7 +606,7 @@ TEST(ParticleIoErrors, FuzzMutatedFiles) {
       write_file(path, t);
       for (int assembly : {0, 1}) {
         try {
-          const ParticleSet set = load(path, with_assembly(assembly));
+          const ParticleSet set = load_particle_file(path, with_assembly(assembly));
           for (const Sphere& s : set.spheres) ASSERT_TRUE(is_finite(s.center)) << path;
           ++loaded;
         } catch (const Error& e) {
@@ -638,7 +638,7 @@ TEST(ParticleIoFiles, ScalarColoringMapsTheValueRangeThroughTheColourMap) {
     return TransferFunction({{lo, Rgb(0.0f), 1}, {hi, Rgb(1.0f), 1}});
   };
   ParticleFileInfo info;
-  const ParticleSet set = load(pdb, o, &info);
+  const ParticleSet set = load_particle_file(pdb, o, &info);
   ASSERT_EQ(set.size(), 5u);
   EXPECT_EQ(seen_lo, 0.0f);
   EXPECT_EQ(seen_hi, 4.0f);
@@ -647,14 +647,14 @@ TEST(ParticleIoFiles, ScalarColoringMapsTheValueRangeThroughTheColourMap) {
     EXPECT_EQ(set.colors[i], pack_rgba8(Rgb(static_cast<float>(i) / 4.0f))) << i;
   // the B-factor of a PDB file; its range is that of the atoms kept
   o.scalar = ParticleScalar::BFactor;
-  load(pdb, o, &info);
+  load_particle_file(pdb, o, &info);
   EXPECT_LE(info.scalar_min, info.scalar_max);
   // formats without B-factors say so; the index works everywhere
   const std::string xyz = dir.file("small.xyz");
   write_file(xyz, small_xyz());
   EXPECT_PARTICLE_ERROR(xyz, o, "B-factors", "index");
   o.scalar = ParticleScalar::Index;
-  EXPECT_EQ(load(xyz, o).size(), 6u);
+  EXPECT_EQ(load_particle_file(xyz, o).size(), 6u);
 }
 
 TEST(ParticleIoData, BFactorColoringOf1tii) {
@@ -662,7 +662,7 @@ TEST(ParticleIoData, BFactorColoringOf1tii) {
   ParticleLoadOptions o;
   o.coloring = ParticleColoring::Scalar;
   ParticleFileInfo info;
-  const ParticleSet set = load(kData + "/1tii.pdb", o, &info);
+  const ParticleSet set = load_particle_file(kData + "/1tii.pdb", o, &info);
   EXPECT_GT(info.scalar_max, info.scalar_min + 10.0f);  // B-factors spread over tens of Å²
   // the default map runs from blue (low) to red (high): both ends occur
   bool blue = false, red = false;

@@ -16,7 +16,7 @@ using namespace penumbra;
 
 namespace {
 
-nlohmann::json base_scene() {
+nlohmann::json fuzzed_base_scene() {
   return nlohmann::json::parse(R"({
     "volumes": [ { "procedural": { "name": "test-spheres", "size": 12 },
                    "transfer_function": { "points": [[0, 0, 0, 0, 0], [1, 1, 0.5, 0.2, 0.3]], "opacity_scale": 1 },
@@ -63,7 +63,7 @@ void expect_error_or_scene(const nlohmann::json& j, const std::string& what) {
 }  // namespace
 
 TEST(SceneFileFuzz, EverySingleReplacementIsBuiltOrRefused) {
-  const nlohmann::json base = base_scene();
+  const nlohmann::json base = fuzzed_base_scene();
   ASSERT_NO_THROW(build_scene(base, ""));
   std::vector<nlohmann::json::json_pointer> pointers;
   collect_pointers(base, nlohmann::json::json_pointer(), pointers);
@@ -88,7 +88,7 @@ TEST(SceneFileFuzz, EverySingleReplacementIsBuiltOrRefused) {
 }
 
 TEST(SceneFileFuzz, RandomMultipleReplacementsAreBuiltOrRefused) {
-  const nlohmann::json base = base_scene();
+  const nlohmann::json base = fuzzed_base_scene();
   std::vector<nlohmann::json::json_pointer> pointers;
   collect_pointers(base, nlohmann::json::json_pointer(), pointers);
   const auto& values = replacements();

@@ -47,12 +47,6 @@ double mean(const Volume& v) {
   return sum / static_cast<double>(v.voxel_count());
 }
 
-bool has_note(const VolumeFileInfo& info, const std::string& part) {
-  for (const auto& n : info.notes)
-    if (n.find(part) != std::string::npos) return true;
-  return false;
-}
-
 // One page to write: its samples (x fastest, then samples of a pixel) and how to store them.
 struct Page {
   std::uint32_t width = 4, height = 3;

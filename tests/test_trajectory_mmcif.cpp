@@ -22,6 +22,7 @@
 #include "penumbra/data/io/trajectory_io.h"
 #include "shared_data.h"
 #include "test_volume_io_util.h"
+#include "trajectory_test_util.h"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -97,33 +98,6 @@ std::vector<TrajectoryFrame> all_frames(TrajectoryReader& r) {
   for (std::size_t k = 0; k < frames.size(); ++k) r.read_frame(k, frames[k]);
   return frames;
 }
-
-float max_diff(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
-  EXPECT_EQ(a.size(), b.size());
-  float m = 0;
-  for (std::size_t i = 0; i < std::min(a.size(), b.size()); ++i)
-    for (int d = 0; d < 3; ++d) m = std::max(m, std::abs(a[i][d] - b[i][d]));
-  return m;
-}
-
-// The Error message of opening `path` and reading every frame ("" when none is thrown).
-std::string error_of(const std::string& path, std::size_t expected_atoms = 0) {
-  try {
-    auto r = open_trajectory(path, expected_atoms);
-    all_frames(*r);
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
-
-#define EXPECT_ERROR_NAMES(msg, path, ...)                                                    \
-  do {                                                                                        \
-    const std::string m_ = (msg);                                                             \
-    EXPECT_NE(m_, "") << "no Error for " << (path);                                         \
-    EXPECT_NE(m_.find(path), std::string::npos) << m_;                                        \
-    for (const char* part : std::initializer_list<const char*>{__VA_ARGS__}) EXPECT_NE(m_.find(part), std::string::npos) << m_; \
-  } while (0)
 
 std::string gunzip_file(const std::string& path) {
   gzFile f = gzopen(path.c_str(), "rb");

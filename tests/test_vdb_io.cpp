@@ -50,7 +50,7 @@ openvdb::FloatGrid::Ptr blobs() {
   return g;
 }
 
-Volume load(const std::string& path, const std::string& grid = "", VolumeFileInfo* info = nullptr) {
+Volume load_vdb(const std::string& path, const std::string& grid = "", VolumeFileInfo* info = nullptr) {
   VolumeLoadOptions o;
   o.grid = grid;
   return load_volume(path, o, info);
@@ -105,15 +105,9 @@ template <class Grid> void expect_every_voxel(const Volume& v, const Grid& grid)
   EXPECT_EQ(misplaced, 0);
 }
 
-bool has_note(const VolumeFileInfo& info, const std::string& part) {
-  for (const auto& n : info.notes)
-    if (n.find(part) != std::string::npos) return true;
-  return false;
-}
-
 void expect_error(const std::string& path, const std::string& grid, std::initializer_list<const char*> parts) {
   try {
-    load(path, grid);
+    load_vdb(path, grid);
     ADD_FAILURE() << "no penumbra::Error loading " << path;
   } catch (const Error& e) {
     const std::string msg = e.what();
@@ -264,7 +258,7 @@ TEST(VdbFile, FogGridLoadsSparseWithEveryVoxelOfTheGrid) {
   const auto grid = blobs();
   write_grids(path, {grid});
   VolumeFileInfo info;
-  const Volume v = load(path, "", &info);
+  const Volume v = load_vdb(path, "", &info);
   EXPECT_EQ(info.format, "vdb");
   ASSERT_TRUE(v.is_bricked());
   expect_every_voxel(v, *grid);
@@ -283,7 +277,7 @@ TEST(VdbFile, LevelSetInsideIsOneSharedBrickValue) {
   ls->setName("surface");
   write_grids(path, {ls});
   VolumeFileInfo info;
-  const Volume v = load(path, "", &info);
+  const Volume v = load_vdb(path, "", &info);
   expect_every_voxel(v, *ls);
   EXPECT_FLOAT_EQ(v.min_value(), -ls->background());
   EXPECT_FLOAT_EQ(v.max_value(), ls->background());
@@ -307,7 +301,7 @@ TEST(VdbFile, DoubleGridWithTilesAndPlacement) {
   g->setTransform(openvdb::math::Transform::createLinearTransform(openvdb::Mat4d(
       0.5, 0.0, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 10.0, 20.0, 30.0, 1.0)));  // scale (0.5, 0.25, 2), translation (10, 20, 30)
   write_grids(path, {g});
-  const Volume v = load(path);
+  const Volume v = load_vdb(path);
   expect_every_voxel(v, *g);
   EXPECT_FLOAT_EQ(v.spacing().x, 0.5f);
   EXPECT_FLOAT_EQ(v.spacing().y, 0.25f);
@@ -327,7 +321,7 @@ TEST(VdbFile, RotatedTransformIsNotedNotApplied) {
   g->setTransform(t);
   write_grids(path, {g});
   VolumeFileInfo info;
-  const Volume v = load(path, "", &info);
+  const Volume v = load_vdb(path, "", &info);
   EXPECT_NEAR(v.spacing().x, 0.2f, 1e-6f);
   EXPECT_TRUE(has_note(info, "not an axis-aligned scale")) << "the unapplied rotation is said";
 }
@@ -342,9 +336,9 @@ TEST(VdbFile, GridIsChosenByNameOrIndex) {
   velocity->setName("v");
   velocity->tree().setValueOn(openvdb::Coord(0, 0, 0), openvdb::Vec3s(1, 0, 0));
   write_grids(path, {velocity, temperature, blobs()});
-  EXPECT_EQ(load(path).max_value(), 1.0f) << "'density' is the default";
-  EXPECT_EQ(load(path, "temperature").max_value(), 300.0f);
-  EXPECT_EQ(load(path, "1").max_value(), 300.0f);
+  EXPECT_EQ(load_vdb(path).max_value(), 1.0f) << "'density' is the default";
+  EXPECT_EQ(load_vdb(path, "temperature").max_value(), 300.0f);
+  EXPECT_EQ(load_vdb(path, "1").max_value(), 300.0f);
   expect_error(path, "pressure", {"no grid 'pressure'", "temperature", "density"});
   expect_error(path, "v", {"vec3s", "expected float or double"});
   expect_error(path, "7", {"no grid '7'"});
@@ -372,7 +366,7 @@ TEST(VdbFile, BadFilesAreNamed) {
     expect_error(cut, "", {});
   }
   expect_error(dir.file("missing.vdb"), "", {"cannot open"});
-  EXPECT_NO_THROW(load(good, "density")) << "the uncut file loads";
+  EXPECT_NO_THROW(load_vdb(good, "density")) << "the uncut file loads";
 }
 
 // Opened directly, a level set shows its surface (the isosurface at 0) and a fog volume shows itself.

@@ -18,7 +18,14 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/data/io/volume_io.h"
+
 namespace penumbra::test {
+
+// True when one of the loader's notes contains `part`.
+inline bool has_note(const VolumeFileInfo& info, const std::string& part) {
+  return std::any_of(info.notes.begin(), info.notes.end(), [&](const std::string& n) { return n.find(part) != std::string::npos; });
+}
 
 using Bytes = std::vector<std::uint8_t>;
 

@@ -23,23 +23,17 @@ using namespace penumbra::test;
 
 namespace {
 
-Volume load(const std::string& path, VolumeFileInfo* info = nullptr) { return load_volume(path, VolumeLoadOptions{}, info); }
+Volume load_vtk(const std::string& path, VolumeFileInfo* info = nullptr) { return load_volume(path, VolumeLoadOptions{}, info); }
 
 void expect_error(const std::string& path, std::initializer_list<const char*> parts) {
   try {
-    load(path);
+    load_vtk(path);
     ADD_FAILURE() << "no penumbra::Error loading " << path;
   } catch (const Error& e) {
     const std::string msg = e.what();
     EXPECT_NE(msg.find(path), std::string::npos) << "message lacks the file name: " << msg;
     for (const char* part : parts) EXPECT_NE(msg.find(part), std::string::npos) << "message lacks '" << part << "': " << msg;
   }
-}
-
-bool has_note(const VolumeFileInfo& info, const std::string& part) {
-  for (const auto& n : info.notes)
-    if (n.find(part) != std::string::npos) return true;
-  return false;
 }
 
 std::string base64(const Bytes& in) {
@@ -116,7 +110,7 @@ void check_headsq(const std::string& file) {
   const std::string dir = shared_data_dir();
   const Volume ref = load_volume(dir + "/headsq.nhdr");
   VolumeFileInfo info;
-  const Volume v = load(dir + "/" + file, &info);
+  const Volume v = load_vtk(dir + "/" + file, &info);
   ASSERT_EQ(v.dims(), (std::array<int, 3>{64, 64, 93}));
   EXPECT_EQ(v.type(), ScalarType::Int16);
   EXPECT_EQ(v.spacing(), (Vec3{3.2f, 3.2f, 1.5f}));
@@ -185,7 +179,7 @@ TEST(VtkVti, AsciiArray) {
                                     "      <PointData Scalars=\"s\">\n        <DataArray type=\"Int16\" Name=\"s\" format=\"ascii\">\n          " +
                                         ascii_values() + "\n        </DataArray>\n      </PointData>\n"));
   VolumeFileInfo info;
-  const Volume v = load(dir.file("a.vti"), &info);
+  const Volume v = load_vtk(dir.file("a.vti"), &info);
   expect_values(v);
   EXPECT_EQ(v.type(), ScalarType::Int16);
   EXPECT_EQ(v.spacing(), (Vec3{0.5f, 0.25f, 2}));
@@ -198,7 +192,7 @@ TEST(VtkVti, AsciiArray) {
                                     "          <InformationKey name=\"L2_NORM_RANGE\" location=\"vtkDataArray\" length=\"2\">\n"
                                     "            <Value index=\"0\">0</Value>\n          </InformationKey>\n"
                                     "          0.5 -1.25 2 3 4 5 6 7 8 9 10 1e10\n        </DataArray>\n      </PointData>\n"));
-  const Volume d = load(dir.file("d.vti"), &info);
+  const Volume d = load_vtk(dir.file("d.vti"), &info);
   EXPECT_EQ(d.type(), ScalarType::Float32);
   EXPECT_EQ(d.value(0), 0.5f);
   EXPECT_EQ(d.value(1), -1.25f);
@@ -218,18 +212,18 @@ TEST(VtkVti, Base64UncompressedAndZlibHeaders) {
       write_file(dir.file("b.vti"), vti(root, kImage,
                                         "      <PointData Scalars=\"s\">\n        <DataArray type=\"Int16\" Name=\"s\" format=\"binary\">\n          " +
                                             base64(counted(data, header64, big)) + "\n        </DataArray>\n      </PointData>\n"));
-      expect_values(load(dir.file("b.vti")));
+      expect_values(load_vtk(dir.file("b.vti")));
       // zlib in 10-byte blocks (the last one 4 bytes): header and blocks encoded apart, as VTK does.
       const auto [head, body] = zlib_blocks(data, 10, header64, big);
       write_file(dir.file("z.vti"), vti(root + " compressor=\"vtkZLibDataCompressor\"", kImage,
                                         "      <PointData Scalars=\"s\">\n        <DataArray type=\"Int16\" Name=\"s\" format=\"binary\">\n          " +
                                             base64(head) + base64(body) + "\n        </DataArray>\n      </PointData>\n"));
-      expect_values(load(dir.file("z.vti")));
+      expect_values(load_vtk(dir.file("z.vti")));
       // The same appended as base64.
       write_file(dir.file("ab.vti"), vti(root + " compressor=\"vtkZLibDataCompressor\"", kImage,
                                          "      <PointData Scalars=\"s\">\n        <DataArray type=\"Int16\" Name=\"s\" format=\"appended\" offset=\"0\"/>\n"
                                          "      </PointData>\n", base64(head) + base64(body), "base64"));
-      expect_values(load(dir.file("ab.vti")));
+      expect_values(load_vtk(dir.file("ab.vti")));
     }
 }
 
@@ -244,15 +238,15 @@ TEST(VtkVti, AppendedRawArrayChoice) {
   const Bytes raw = concat(first, second);
   write_file(dir.file("scalars.vti"), vti("", kImage, "      <PointData Scalars=\"s\">\n" + arrays + "      </PointData>\n",
                                           std::string(raw.begin(), raw.end())));
-  expect_values(load(dir.file("scalars.vti")));
+  expect_values(load_vtk(dir.file("scalars.vti")));
   // Without Scalars: the first one-component array.
   VolumeFileInfo info;
   write_file(dir.file("first.vti"), vti("", kImage, "      <PointData>\n" + arrays + "      </PointData>\n", std::string(raw.begin(), raw.end())));
-  expect_values(load(dir.file("first.vti"), &info));
+  expect_values(load_vtk(dir.file("first.vti"), &info));
   EXPECT_TRUE(has_note(info, "first one-component array, 's'"));
   // Scalars naming the vector array: component 0.
   write_file(dir.file("vec.vti"), vti("", kImage, "      <PointData Scalars=\"v\">\n" + arrays + "      </PointData>\n", std::string(raw.begin(), raw.end())));
-  const Volume v = load(dir.file("vec.vti"), &info);
+  const Volume v = load_vtk(dir.file("vec.vti"), &info);
   EXPECT_EQ(v.value(5), 1.5f);
   EXPECT_TRUE(has_note(info, "component 0 of 3"));
 }
@@ -263,7 +257,7 @@ TEST(VtkVti, DirectionFlipsAndOblique) {
                            "</DataArray>\n      </PointData>\n";
   write_file(dir.file("flip.vti"), vti("", kImage + " Direction=\"-1 0 0 0 1 0 0 0 1\"", data));
   VolumeFileInfo info;
-  const Volume v = load(dir.file("flip.vti"), &info);
+  const Volume v = load_vtk(dir.file("flip.vti"), &info);
   // x reversed: world x of voxel i is 1 - 0.5 * (2 - i), so the origin is 0.
   EXPECT_EQ(v.origin(), (Vec3{0, 2, 3}));
   EXPECT_EQ(v.spacing(), (Vec3{0.5f, 0.25f, 2}));
@@ -273,7 +267,7 @@ TEST(VtkVti, DirectionFlipsAndOblique) {
   EXPECT_NE(info.orientation.find("x reversed"), std::string::npos);
 
   write_file(dir.file("oblique.vti"), vti("", kImage + " Direction=\"0 1 0 1 0 0 0 0 1\"", data));
-  expect_values(load(dir.file("oblique.vti"), &info));
+  expect_values(load_vtk(dir.file("oblique.vti"), &info));
   EXPECT_TRUE(has_note(info, "not an axis-aligned diagonal: ignored"));
 }
 
@@ -352,7 +346,7 @@ TEST(VtkLegacy, AsciiAndBinary) {
                                 "ASPECT_RATIO 0.5 0.25 2\nORIGIN 1 2 3\nPOINT_DATA 12\nSCALARS s short 1\nLOOKUP_TABLE default\n" +
                                     ascii_values() + "\nVECTORS v float\n1 2 3\n");
   VolumeFileInfo info;
-  const Volume a = load(dir.file("a.vtk"), &info);
+  const Volume a = load_vtk(dir.file("a.vtk"), &info);
   expect_values(a);
   EXPECT_EQ(a.type(), ScalarType::Int16);
   EXPECT_EQ(a.spacing(), (Vec3{0.5f, 0.25f, 2}));
@@ -365,7 +359,7 @@ TEST(VtkLegacy, AsciiAndBinary) {
                            "SPACING 1 1 -2\r\nORIGIN 0 0 10\r\nPOINT_DATA 12\r\nSCALARS u unsigned_short\r\nLOOKUP_TABLE default\r\n";
   const std::string trailer = "\nMETADATA\nINFORMATION 0\n\n";
   write_file(dir.file("b.vtk"), concat(concat(Bytes(head.begin(), head.end()), to_bytes(u, true)), Bytes(trailer.begin(), trailer.end())));
-  const Volume b = load(dir.file("b.vtk"), &info);
+  const Volume b = load_vtk(dir.file("b.vtk"), &info);
   EXPECT_EQ(b.type(), ScalarType::UInt16);
   EXPECT_EQ(b.spacing(), (Vec3{1, 1, 2}));
   EXPECT_EQ(b.origin(), (Vec3{0, 0, 8}));  // z runs 10, 8: reversed, it starts at 8
@@ -377,12 +371,12 @@ TEST(VtkLegacy, AsciiAndBinary) {
   // Other types: char widens to int16, int and double become float32.
   write_file(dir.file("c.vtk"), "# vtk DataFile Version 2.0\nc\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 1 1\nPOINT_DATA 2\n"
                                 "SCALARS c char\nLOOKUP_TABLE default\n-128 127\n");
-  const Volume c = load(dir.file("c.vtk"));
+  const Volume c = load_vtk(dir.file("c.vtk"));
   EXPECT_EQ(c.type(), ScalarType::Int16);
   EXPECT_EQ(c.value(0), -128);
   write_file(dir.file("i.vtk"), "# vtk DataFile Version 2.0\ni\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 1 1\nPOINT_DATA 2\n"
                                 "SCALARS i int\nLOOKUP_TABLE default\n-100000 16777217\n");
-  const Volume i = load(dir.file("i.vtk"), &info);
+  const Volume i = load_vtk(dir.file("i.vtk"), &info);
   EXPECT_EQ(i.type(), ScalarType::Float32);
   EXPECT_EQ(i.value(0), -100000);
   EXPECT_TRUE(has_note(info, "values beyond 2^24 rounded"));

@@ -39,7 +39,7 @@ struct Isovalue {
   float value;
 };
 
-struct Dataset {
+struct IsosurfaceDataset {
   std::string name;
   nlohmann::json volume;  // the scene file's volumes[0]
   std::vector<Isovalue> isovalues;
@@ -47,7 +47,7 @@ struct Dataset {
   Vec3 up{0, 0, 1};
 };
 
-std::vector<Dataset> datasets(const IsosurfaceBenchOptions& o) {
+std::vector<IsosurfaceDataset> datasets(const IsosurfaceBenchOptions& o) {
   const nlohmann::json dims = {o.body_dims[0], o.body_dims[1], o.body_dims[2]};
   return {
       {"ct-body",
@@ -182,7 +182,7 @@ Agreement compare(const Run& points, const Run& reference, const Light& light, f
   return a;
 }
 
-void bench_dataset(const IsosurfaceBenchOptions& o, const Dataset& d, std::ostringstream& md, nlohmann::json& out) {
+void bench_dataset(const IsosurfaceBenchOptions& o, const IsosurfaceDataset& d, std::ostringstream& md, nlohmann::json& out) {
   std::fprintf(stderr, "bench isosurface %s: loading...\n", d.name.c_str());
   nlohmann::json j;
   j["volumes"] = nlohmann::json::array({d.volume});
@@ -294,7 +294,7 @@ void bench_isosurface(const IsosurfaceBenchOptions& o, std::ostringstream& md, n
   md << "\n## Point-based isosurfaces with light-pass shadows (paper 002, Table 1) on this machine\n";
   const auto all = datasets(o);
   for (const std::string& name : o.datasets) {
-    const auto it = std::find_if(all.begin(), all.end(), [&](const Dataset& d) { return d.name == name; });
+    const auto it = std::find_if(all.begin(), all.end(), [&](const IsosurfaceDataset& d) { return d.name == name; });
     if (it == all.end()) throw Error("--isosurface-datasets: unknown data set '" + name + "' (expected ct-body, cranium or chest)");
     if (it->volume.contains("file") && !std::filesystem::exists(it->volume["file"].get<std::string>()))
       throw Error("--isosurface-datasets " + name + ": " + it->volume["file"].get<std::string>() + " not found (see --data-dir)");

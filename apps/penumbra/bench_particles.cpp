@@ -33,17 +33,17 @@
 namespace penumbra::cli {
 namespace {
 
-struct Dataset {
+struct ParticleDataset {
   const char* name;
   const char* file;
   int assembly;  // 0: the deposited coordinates
 };
 
-constexpr Dataset kDatasets[] = {
+constexpr ParticleDataset kDatasets[] = {
     {"1tii", "1tii.pdb", 0},   {"1af6", "1af6.pdb", 0}, {"1aon", "1aon.pdb.gz", 0}, {"bace1", "bace1_dppc.gro.gz", 0},
     {"3j6r", "3j6r.pdb.gz", 1}, {"1m4x", "1m4x.pdb.gz", 1}};
 
-const Dataset& find_dataset(const std::string& name) {
+const ParticleDataset& find_dataset(const std::string& name) {
   for (const auto& d : kDatasets)
     if (name == d.name) return d;
   std::string names;
@@ -299,7 +299,7 @@ struct Tables {
   std::ostringstream fps, frames, error, rasterizers;
 };
 
-void bench_dataset(const ParticleBenchOptions& o, const Dataset& ds, Tables& tab, nlohmann::json& out) {
+void bench_dataset(const ParticleBenchOptions& o, const ParticleDataset& ds, Tables& tab, nlohmann::json& out) {
   const std::string name = ds.name;
   const std::string file = o.data_dir + "/" + ds.file;
   malloc_trim(0);  // what the previous data set freed, so that the peak below is this one's
@@ -466,9 +466,9 @@ void bench_dataset(const ParticleBenchOptions& o, const Dataset& ds, Tables& tab
 }  // namespace
 
 void bench_particles(const ParticleBenchOptions& o, std::ostringstream& md, nlohmann::json& out) {
-  std::vector<const Dataset*> sets;
+  std::vector<const ParticleDataset*> sets;
   for (const auto& d : o.datasets) {
-    const Dataset& ds = find_dataset(d);
+    const ParticleDataset& ds = find_dataset(d);
     const std::string file = o.data_dir + "/" + ds.file;
     if (!std::filesystem::exists(file)) throw Error("--particle-datasets " + d + ": " + file + " not found (see --data-dir)");
     sets.push_back(&ds);
@@ -476,7 +476,7 @@ void bench_particles(const ParticleBenchOptions& o, std::ostringstream& md, nloh
   Timer total;
   const std::string load_before = load_average();
   Tables tab;
-  for (const Dataset* ds : sets) bench_dataset(o, *ds, tab, out);
+  for (const ParticleDataset* ds : sets) bench_dataset(o, *ds, tab, out);
   out["width"] = o.width;
   out["height"] = o.height;
   out["repeats"] = o.repeats;
@@ -522,7 +522,7 @@ void bench_particles(const ParticleBenchOptions& o, std::ostringstream& md, nloh
         "| max difference |\n|---|---|---:|---:|---:|---:|---:|---:|---:|\n"
      << tab.rasterizers.str();
   bool any_huge = false;
-  for (const Dataset* ds : sets) any_huge |= out["datasets"][ds->name]["spheres"].get<std::size_t>() > o.huge_spheres;
+  for (const ParticleDataset* ds : sets) any_huge |= out["datasets"][ds->name]["spheres"].get<std::size_t>() > o.huge_spheres;
   if (any_huge)
     md << "\n¹ Above " << o.huge_spheres << " spheres: LL, ISSM and ISSM + AO only, one frame each, no references.\n";
   if (!reset_peak_rss())

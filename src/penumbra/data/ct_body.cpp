@@ -25,7 +25,7 @@ constexpr float kTexture = 0.03f;  // the largest relative change of a tissue va
 
 // The slice grid and its working buffers: painted values, the low-frequency field in [-1, 1] and the
 // standard normal noise of each voxel.
-struct Slice {
+struct SliceGrid {
   int nx = 0, ny = 0;
   double x0 = 0, y0 = 0, sx = 1, sy = 1;
   double edge = 1;  // width of the anti-aliasing ramp: one voxel
@@ -33,7 +33,7 @@ struct Slice {
 };
 
 // The first column at or after x (`up`), or the last at or before it, clamped to the grid.
-int column(const Slice& s, double x, bool up) {
+int column(const SliceGrid& s, double x, bool up) {
   const double i = std::clamp((x - s.x0) / s.sx, -1.0, static_cast<double>(s.nx));
   return up ? std::max(0, static_cast<int>(std::ceil(i))) : std::min(s.nx - 1, static_cast<int>(std::floor(i)));
 }
@@ -58,7 +58,7 @@ double coverage(double dx, double dy, double a, double b, float field, double ed
 
 // Paints one cross-section over the slice: value = value + c * (item value - value), c its coverage
 // times the cover in z, less the coverage of `inner` (a shell's hollow, same centre) where given.
-void paint(Slice& s, const Item& it, const Knot& out, const Knot* inner, double cover) {
+void paint(SliceGrid& s, const Item& it, const Knot& out, const Knot* inner, double cover) {
   const double m = s.edge + kDisplace;  // no coverage beyond, full coverage within, this margin
   const double ylo = std::max(out.cy - out.b - m, it.ymin), yhi = std::min(out.cy + out.b + m, it.ymax);
   const int j0 = std::max(0, static_cast<int>(std::ceil(std::max((ylo - s.y0) / s.sy, -1.0))));
@@ -101,7 +101,7 @@ struct NoiseOctave {
 
 // Adds the octaves of the low-frequency field at height z to s.field: per slice the lattice plane is
 // interpolated in z, per row in y, so a voxel costs one interpolation in x per octave.
-void low_frequency_field(Slice& s, const std::vector<NoiseOctave>& octaves, double z) {
+void low_frequency_field(SliceGrid& s, const std::vector<NoiseOctave>& octaves, double z) {
   std::fill(s.field.begin(), s.field.end(), 0.0f);
   const auto smooth = [](double t) { return static_cast<float>(t * t * (3 - 2 * t)); };
   const double base = -1000;  // below every coordinate, so lattice indices are positive
@@ -169,7 +169,7 @@ const std::vector<float>& normal_quantiles() {
 
 // Texture, noise and quantisation of a painted slice into its uint16 voxels. The noise of voxel g (its
 // index in the volume) is lane g % 4 of one 64-bit hash of g / 4.
-void write_slice(Slice& s, std::uint64_t noise_key, float sigma, std::size_t first, std::uint16_t* out) {
+void write_slice(SliceGrid& s, std::uint64_t noise_key, float sigma, std::size_t first, std::uint16_t* out) {
   const std::vector<float>& normal = normal_quantiles();
   const std::size_t n = s.value.size();
   for (std::size_t g = first & ~std::size_t{3}; g < first + n; g += 4) {
@@ -187,7 +187,7 @@ void write_slice(Slice& s, std::uint64_t noise_key, float sigma, std::size_t fir
 }
 
 // Paints the slice at height z: air, then every structure that reaches it, in order.
-void paint_slice(Slice& s, const std::vector<Item>& items, const std::vector<std::uint32_t>& active, double z,
+void paint_slice(SliceGrid& s, const std::vector<Item>& items, const std::vector<std::uint32_t>& active, double z,
                  double slice_step) {
   std::fill(s.value.begin(), s.value.end(), ct_tissue::kAir);
   const double h = z + ct_anatomy::kLength / 2;
@@ -238,7 +238,7 @@ Volume make_ct_body_volume(const CtBodyParams& params) {
   // Structured bindings are copied for the lambda: C++20 lets a lambda capture them, clang 14 does not.
   const int width = nx, height = ny;
   parallel_for(static_cast<std::size_t>(nz), [&](std::size_t k0, std::size_t k1) {
-    Slice s{width, height, x0, y0, sx, sy, std::max(sx, sy), std::vector<float>(slice_voxels), std::vector<float>(slice_voxels),
+    SliceGrid s{width, height, x0, y0, sx, sy, std::max(sx, sy), std::vector<float>(slice_voxels), std::vector<float>(slice_voxels),
             std::vector<float>(slice_voxels)};
     for (std::size_t k = k0; k < k1; ++k) {
       const double z = z0 + static_cast<double>(k) * sz;

@@ -99,7 +99,7 @@ private:
 
   bool visit_cell(const Index3& c, float t0, float t1) {
     const T* base = data_ + volume_.index(c[0], c[1], c[2]);
-    CellCorners v;
+    CornerValues v;
     float lo = kInfinity, hi = -kInfinity;
     for (std::size_t n = 0; n < 8; ++n) {
       v[n] = static_cast<float>(base[corner_offset_[n]]);

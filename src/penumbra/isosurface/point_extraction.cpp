@@ -16,7 +16,8 @@ namespace {
 
 using Cells = std::array<int, 3>;
 
-struct PixelRect {
+// An inclusive rectangle of pixels inside the image (a tile, or a box's footprint clipped to one).
+struct TileRect {
   int x0, y0, x1, y1;  // inclusive
   bool empty() const { return x0 > x1 || y0 > y1; }
   bool single() const { return x0 == x1 && y0 == y1; }
@@ -56,7 +57,7 @@ private:
 
   // The pixels a world box may cover, clipped to the tile (all of it when the box reaches behind a
   // perspective eye); `extent` is the larger side of its projection in pixels.
-  PixelRect project(const Box3& b, float& extent) const {
+  TileRect project(const Box3& b, float& extent) const {
     float xmin = kInfinity, ymin = kInfinity, xmax = -kInfinity, ymax = -kInfinity;
     for (int c = 0; c < 8; ++c) {
       const Vec3 p{(c & 1) ? b.hi.x : b.lo.x, (c & 2) ? b.hi.y : b.lo.y, (c & 4) ? b.hi.z : b.lo.z};
@@ -73,11 +74,11 @@ private:
     extent = std::max(xmax - xmin, ymax - ymin);
     // pixel x covers [x, x + 1); stay inside int range for boxes far outside the view
     const auto pix = [](float v) { return static_cast<int>(std::floor(std::clamp(v, -1e6f, 1e6f))); };
-    return PixelRect{std::max(pix(xmin), tile_.x0), std::max(pix(ymin), tile_.y0), std::min(pix(xmax), tile_.x1),
+    return TileRect{std::max(pix(xmin), tile_.x0), std::max(pix(ymin), tile_.y0), std::min(pix(xmax), tile_.x1),
                      std::min(pix(ymax), tile_.y1)};
   }
 
-  bool any_visible(const PixelRect& r) const {
+  bool any_visible(const TileRect& r) const {
     if (r.empty()) return false;
     if (!options_.visibility_pruning) return true;
     return vis_.any_visible(r.x0 - tile_.x0, r.y0 - tile_.y0, r.x1 - tile_.x0, r.y1 - tile_.y0);
@@ -105,7 +106,7 @@ private:
       return false;
     }
     const Box3 box{world(lo), world(hi)};
-    const PixelRect r = project(box, extent);
+    const TileRect r = project(box, extent);
     if (!any_visible(r)) {
       ++stats.visibility_pruned;
       return false;
@@ -197,7 +198,7 @@ private:
     const Cells hi{c[0] + 1, c[1] + 1, c[2] + 1};
     const Box3 box{world(c), world(hi)};
     float extent = 0;
-    PixelRect r{0, 0, -1, -1};
+    TileRect r{0, 0, -1, -1};
     if (!sub_pixel) {  // (a cell inside a sub-pixel block needs only its point's pixel, tested below)
       r = project(box, extent);
       if (!any_visible(r)) return;
@@ -281,7 +282,7 @@ private:
   float iso_;
   const ViewProjection& view_;
   const ExtractionOptions& options_;
-  PixelRect tile_;
+  TileRect tile_;
   VisibilityBuffer vis_;
   std::array<std::size_t, 3> stride_;
   float cell_diagonal_;

@@ -27,7 +27,7 @@ Poly lerp(const Poly& a, const Poly& b, double w, double dw) {
   return r;
 }
 
-Cubic cell_cubic(const CellCorners& v, const std::array<int, 3>& cell, float isovalue, const GridRay& ray, float t0) {
+Cubic cell_cubic(const CornerValues& v, const std::array<int, 3>& cell, float isovalue, const GridRay& ray, float t0) {
   std::array<double, 3> w;  // the segment's start in the cell's local coordinates, [0, 1]^3 inside it
   for (std::size_t a = 0; a < 3; ++a) w[a] = ray.origin[a] + ray.direction[a] * t0 - cell[a];
   const auto& d = ray.direction;
@@ -111,8 +111,8 @@ float first_change(const Cubic& g, float t0, float t1, bool inside_before) {
   return kInfinity;
 }
 
-CellCorners fetch_corners(const Volume& volume, const std::array<int, 3>& cell) {
-  CellCorners v;
+CornerValues fetch_corners(const Volume& volume, const std::array<int, 3>& cell) {
+  CornerValues v;
   for (int n = 0; n < 8; ++n)
     v[static_cast<std::size_t>(n)] = volume.value(cell[0] + (n & 1), cell[1] + ((n >> 1) & 1), cell[2] + (n >> 2));
   return v;
@@ -129,11 +129,11 @@ GridRay::GridRay(const Volume& volume, const Ray& ray) {
   }
 }
 
-bool inside_at(const CellCorners& corners, const std::array<int, 3>& cell, float isovalue, const GridRay& ray, float t) {
+bool inside_at(const CornerValues& corners, const std::array<int, 3>& cell, float isovalue, const GridRay& ray, float t) {
   return cell_cubic(corners, cell, isovalue, ray, t)(0) >= 0;
 }
 
-float first_state_change(const CellCorners& corners, const std::array<int, 3>& cell, float isovalue,
+float first_state_change(const CornerValues& corners, const std::array<int, 3>& cell, float isovalue,
                          const GridRay& ray, float t0, float t1, bool inside_before) {
   return first_change(cell_cubic(corners, cell, isovalue, ray, t0), t0, t1, inside_before);
 }

@@ -20,7 +20,7 @@
 namespace penumbra {
 
 // The values of a cell's eight voxels: corners[n] is voxel (i + (n & 1), j + ((n >> 1) & 1), k + (n >> 2)).
-using CellCorners = std::array<float, 8>;
+using CornerValues = std::array<float, 8>;
 
 // A ray in the volume's continuous voxel coordinates (voxel (i, j, k) at (i, j, k)), in double
 // precision, so that a cell far from the origin keeps the ray's position to well below a voxel.
@@ -39,10 +39,10 @@ float first_crossing_in_cell(const Volume& volume, const std::array<int, 3>& cel
 // The same on corners already fetched, with the state before t0 given by the caller (the state where
 // the ray left the previous cell): returns t0 when the state at t0 already differs from `inside_before`,
 // so that a crossing lying exactly on the face between two cells is not lost to rounding.
-float first_state_change(const CellCorners& corners, const std::array<int, 3>& cell, float isovalue,
+float first_state_change(const CornerValues& corners, const std::array<int, 3>& cell, float isovalue,
                          const GridRay& ray, float t0, float t1, bool inside_before);
 
 // Whether the cell's trilinear interpolant is inside at t (the state first_crossing_in_cell starts from).
-bool inside_at(const CellCorners& corners, const std::array<int, 3>& cell, float isovalue, const GridRay& ray, float t);
+bool inside_at(const CornerValues& corners, const std::array<int, 3>& cell, float isovalue, const GridRay& ray, float t);
 
 }  // namespace penumbra

@@ -10,7 +10,7 @@
 namespace penumbra {
 namespace {
 
-constexpr std::size_t kBatch = 64;  // points whose shadow and ambient queries are issued together
+constexpr std::size_t kPointBatch = 64;  // points whose shadow and ambient queries are issued together
 constexpr std::uint32_t kNoPoint = 0xffffffffu;
 
 }  // namespace
@@ -142,10 +142,10 @@ Image shade_surfaces(const Scene& scene, const Camera& cam, const VisibleSurface
   Image image(cam.width, cam.height, scene.background);
   const SurfaceShading shading(k);
   parallel_for(vs.points.size(), [&](std::size_t begin, std::size_t end) {
-    std::array<Rgb, kBatch> T, ao, lit;
-    for (std::size_t b0 = begin; b0 < end; b0 += kBatch) {
+    std::array<Rgb, kPointBatch> T, ao, lit;
+    for (std::size_t b0 = begin; b0 < end; b0 += kPointBatch) {
       if (cancel_requested()) return;  // shadow rays can make a chunk long: stop between batches
-      const std::size_t n = std::min(kBatch, end - b0);
+      const std::size_t n = std::min(kPointBatch, end - b0);
       const auto pts = std::span<const SurfacePoint>(vs.points.data() + b0, n);
       if (ambient) ambient->ambient(pts, std::span<Rgb>(ao.data(), n));
       else std::fill(ao.begin(), ao.begin() + static_cast<std::ptrdiff_t>(n), Rgb(1.0f));

@@ -12,17 +12,17 @@ namespace penumbra {
 namespace {
 
 constexpr int kTileSize = 16;
-constexpr std::size_t kBatch = 32;  // samples whose shadow queries are issued together
+constexpr std::size_t kSampleBatch = 32;  // samples whose shadow queries are issued together
 
 // Samples of one ray waiting for their lights' transmittance; their compositing weights are already
 // known (opacity does not depend on light), so shading them later gives the same sum.
 struct SampleBatch {
-  std::array<Vec3, kBatch> position;
-  std::array<Vec3, kBatch> normal;    // unit, facing the viewer
-  std::array<float, kBatch> shaded;   // 0..1: how much of Blinn–Phong applies (gradient strength)
-  std::array<Rgb, kBatch> color;      // transfer-function colour
-  std::array<float, kBatch> weight;   // (1 − A)·α
-  std::array<bool, kBatch> receives;  // the sample's volume receives shadows
+  std::array<Vec3, kSampleBatch> position;
+  std::array<Vec3, kSampleBatch> normal;    // unit, facing the viewer
+  std::array<float, kSampleBatch> shaded;   // 0..1: how much of Blinn–Phong applies (gradient strength)
+  std::array<Rgb, kSampleBatch> color;      // transfer-function colour
+  std::array<float, kSampleBatch> weight;   // (1 − A)·α
+  std::array<bool, kSampleBatch> receives;  // the sample's volume receives shadows
   std::size_t size = 0;
 };
 
@@ -36,13 +36,13 @@ struct Shader {
   void flush(SampleBatch& b, Rgb& accum) const {
     if (b.size == 0) return;
     const std::span<const Vec3> points(b.position.data(), b.size);
-    std::array<Rgb, kBatch> lit;
-    std::array<Rgb, kBatch> T;
+    std::array<Rgb, kSampleBatch> lit;
+    std::array<Rgb, kSampleBatch> T;
     // one fetch per sample for every term the light cache holds; a sample next to a cell it left
     // unfilled asks the techniques themselves
     const LightCache* cache = in.light_cache;
-    std::array<std::array<float, LightCache::kMaxChannels>, kBatch> cached;
-    std::array<bool, kBatch> fetched{};
+    std::array<std::array<float, LightCache::kMaxChannels>, kSampleBatch> cached;
+    std::array<bool, kSampleBatch> fetched{};
     if (cache)
       for (std::size_t i = 0; i < b.size; ++i) fetched[i] = cache->try_fetch(b.position[i], cached[i].data());
     if (in.ambient) {
@@ -112,7 +112,7 @@ struct Shader {
     batch.color[i] = rgb;
     batch.weight[i] = w;
     batch.receives[i] = pv.object->receives_shadows;
-    if (batch.size == kBatch) flush(batch, color);
+    if (batch.size == kSampleBatch) flush(batch, color);
   }
 };
 

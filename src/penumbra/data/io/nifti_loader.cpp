@@ -89,7 +89,7 @@ int voxel_bytes(int datatype) {
 
 // The penumbra type a datatype is stored as without scaling; Float32 for the converted ones
 // (int32/uint32 above 2^24 lose precision as float32, which a renderer does not show).
-ScalarType storage_type(int datatype) {
+ScalarType nifti_storage_type(int datatype) {
   switch (datatype) {
     case DT_UINT8: return ScalarType::UInt8;
     case DT_INT8:  // int8 fits int16 exactly, at half the memory of float32
@@ -191,7 +191,7 @@ Volume load_nifti_volume(const std::string& path) {
   if (scale && !(std::isfinite(slope) && std::isfinite(inter))) throw Error("NIfTI scaling is not finite");
   const Vec3 spacing{std::abs(raw.h.pixdim[1]), std::abs(raw.h.pixdim[2]), std::abs(raw.h.pixdim[3])};
   const Vec3 origin{nim->qoffset_x, nim->qoffset_y, nim->qoffset_z};
-  const ScalarType stored = storage_type(nim->datatype);
+  const ScalarType stored = nifti_storage_type(nim->datatype);
   const ScalarType type = scale ? ScalarType::Float32 : stored;
   Volume volume(type, {static_cast<int>(raw.dims[0]), static_cast<int>(raw.dims[1]), static_cast<int>(raw.dims[2])},
                 spacing, origin);

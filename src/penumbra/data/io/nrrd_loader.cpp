@@ -24,6 +24,7 @@
 
 #include <teem/nrrd.h>
 
+#include "penumbra/data/io/byte_order.h"
 #include "penumbra/data/io/file_checks.h"
 #include "penumbra/data/io/gzip_stream.h"
 #include "penumbra/data/io/text_fields.h"
@@ -411,27 +412,13 @@ bool stored_as_is(int nrrd_type) {
   return nrrd_type == nrrdTypeUChar || nrrd_type == nrrdTypeShort || nrrd_type == nrrdTypeUShort || nrrd_type == nrrdTypeFloat;
 }
 
-ScalarType storage_type(int nrrd_type) {
+ScalarType nrrd_storage_type(int nrrd_type) {
   switch (nrrd_type) {
     case nrrdTypeUChar: return ScalarType::UInt8;
     case nrrdTypeChar:
     case nrrdTypeShort: return ScalarType::Int16;  // int8 fits int16 exactly
     case nrrdTypeUShort: return ScalarType::UInt16;
     default: return ScalarType::Float32;
-  }
-}
-
-template <std::size_t N>
-void swap_each(std::byte* data, std::size_t count) {
-  for (std::size_t i = 0; i < count; ++i) std::reverse(data + i * N, data + (i + 1) * N);
-}
-
-void swap_bytes(std::byte* data, std::size_t count, std::size_t size) {
-  switch (size) {
-    case 2: swap_each<2>(data, count); break;
-    case 4: swap_each<4>(data, count); break;
-    case 8: swap_each<8>(data, count); break;
-    default: break;
   }
 }
 
@@ -473,7 +460,7 @@ void read_voxels(Next&& next, int nrrd_type, bool swap, Volume& volume) {
   const std::size_t size = nrrdTypeSize[nrrd_type], n = volume.voxel_count();
   if (stored_as_is(nrrd_type)) {
     next(volume.data(), n * size);
-    if (swap) swap_bytes(volume.data(), n, size);
+    if (swap) io_detail::swap_bytes(volume.data(), n, size);
     return;
   }
   constexpr std::size_t kChunk = 1u << 20;
@@ -481,7 +468,7 @@ void read_voxels(Next&& next, int nrrd_type, bool swap, Volume& volume) {
   for (std::size_t first = 0; first < n; first += kChunk) {
     const std::size_t count = std::min(kChunk, n - first);
     next(buffer.data(), count * size);
-    if (swap) swap_bytes(buffer.data(), count, size);
+    if (swap) io_detail::swap_bytes(buffer.data(), count, size);
     convert(nrrd_type, buffer.data(), first, count, volume);
   }
 }
@@ -580,7 +567,7 @@ Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, Win
   const SliceRange slices = choose ? checked_slices(*choose, dims) : SliceRange{0, dims[2]};
   if (read) *read = WindowRead{0, !direct};
   if (direct && slices.count < dims[2]) {  // only the window's slices are read
-    Volume window(storage_type(n.type), {dims[0], dims[1], slices.count}, axis_spacing(n), space_origin(n), VoxelFill::Uninitialized);
+    Volume window(nrrd_storage_type(n.type), {dims[0], dims[1], slices.count}, axis_spacing(n), space_origin(n), VoxelFill::Uninitialized);
     const std::uint64_t bytes = read_data_file(teem, header, checked, slices.first, window);
     if (read) read->bytes_read = bytes;
     teem = TeemRead{};
@@ -588,7 +575,7 @@ Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, Win
     window.set_window(slices.first, dims[2]);
     return window;
   }
-  Volume volume(storage_type(n.type), dims, axis_spacing(n), space_origin(n), VoxelFill::Uninitialized);  // both paths below fill every voxel
+  Volume volume(nrrd_storage_type(n.type), dims, axis_spacing(n), space_origin(n), VoxelFill::Uninitialized);  // both paths below fill every voxel
   if (read) read->bytes_read = file_bytes;
   if (direct) {
     const std::uint64_t bytes = read_data_file(teem, header, checked, 0, volume);

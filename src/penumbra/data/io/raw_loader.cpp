@@ -6,17 +6,13 @@
 #include <climits>
 #include <fstream>
 
+#include "penumbra/data/io/byte_order.h"
 #include "penumbra/data/io/file_checks.h"
 #include "penumbra/data/io/volume_io.h"
 
 namespace penumbra {
 
 namespace {
-
-void swap_bytes(std::byte* data, std::size_t count, std::size_t voxel_size) {
-  if (voxel_size < 2) return;
-  for (std::size_t i = 0; i < count; ++i) std::reverse(data + i * voxel_size, data + (i + 1) * voxel_size);
-}
 
 std::string dims_str(const std::array<std::int64_t, 3>& d) {
   return std::to_string(d[0]) + "x" + std::to_string(d[1]) + "x" + std::to_string(d[2]);
@@ -56,7 +52,7 @@ Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options,
   in.read(reinterpret_cast<char*>(volume.data()), static_cast<std::streamsize>(bytes));
   if (!in || static_cast<std::uint64_t>(in.gcount()) != bytes)
     throw Error("read only " + bytes_str(static_cast<std::uint64_t>(in.gcount())) + " of " + bytes_str(bytes) + " of voxel data");
-  if (options.big_endian != (std::endian::native == std::endian::big)) swap_bytes(volume.data(), volume.voxel_count(), voxel_size);
+  if (options.big_endian != (std::endian::native == std::endian::big)) io_detail::swap_bytes(volume.data(), volume.voxel_count(), voxel_size);
   volume.recompute_range();  // rejects NaN/inf in float data and gives the volume its range
   if (slices.count < dims[2]) volume.set_window(slices.first, dims[2]);
   if (read) *read = WindowRead{bytes, false};
