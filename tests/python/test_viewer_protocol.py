@@ -153,6 +153,13 @@ def test_refused_edits_and_files_outside_the_data_root_get_errors(viewer):
         ({"volumes.0.files": ["../a.nrrd", "../b.nrrd"]}, "outside the data root"),  # a volume series
         ({"volumes.0.files": "../../run_%d.nrrd"}, "outside the data root"),
         ({"particles": [{"file": "../x.gro", "trajectory": "/etc/passwd"}]}, "outside the data root"),
+        # one element of a list of files: a volume series' step, a DICOM slice, a trajectory's part
+        ({"volumes.0.files.0": "/etc/passwd"}, "outside the data root"),
+        ({"volumes.0.file.1": "../../etc/passwd"}, "outside the data root"),
+        ({"particles.0.trajectory.0": "/etc/passwd"}, "outside the data root"),
+        # a series made first, then its step pointed outside, in one message
+        ({"volumes": [{"files": ["inside.nrrd"], "transfer_function": {"preset": "grayscale"}}],
+          "volumes.0.files.0": "/etc/passwd"}, "outside the data root"),
         ({"shadows.bogus": 1}, "shadows.bogus"),
         ({"lights.0.direction": "up"}, "lights.0.direction"),
         ({"nonsense": 1}, "nonsense"),
@@ -270,3 +277,29 @@ def test_penumbra_view_from_python_serves_the_scene_and_stops():
     with pytest.raises(OSError):
         urllib.request.urlopen(viewer.url, timeout=5)
     viewer.stop()  # twice is fine
+
+
+def test_penumbra_view_of_a_renderer_keeps_its_scene_folder(tmp_path, monkeypatch):
+    """A scene loaded from another folder names its files relative to that folder: the Renderer's scene,
+    and the viewer started on it, keep the folder (the data root and where the files are read)."""
+    import penumbra
+
+    folder = tmp_path / "study"
+    folder.mkdir()
+    volume = bytes(range(64)) * 8  # an 8³ uint8 volume, beside its scene
+    (folder / "head.nrrd").write_bytes(b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 8 8 8\nencoding: raw\n\n" + volume)
+    (folder / "scene.json").write_text(json.dumps({"volumes": [{"file": "head.nrrd", "transfer_function": {"preset": "grayscale"}}],
+                                                   "camera": {"width": 24, "height": 20}}))
+    monkeypatch.chdir(tmp_path)  # not the scene's folder
+    renderer = penumbra.Renderer(penumbra.Scene.load(folder / "scene.json"))
+    assert os.path.samefile(renderer.scene.base_dir, folder)
+    viewer = penumbra.view(renderer)
+    base, _, query = viewer.url.partition("/?")
+    ws = websocket.create_connection(base.replace("http://", "ws://") + "/ws?" + query, timeout=30)
+    assert receive(ws, "state")["document"]["volumes"][0]["file"] == "head.nrrd"
+    frame, jpeg = receive(ws, "frame")
+    assert jpeg[:2] == b"\xff\xd8"
+    ws.send(json.dumps({"type": "edit", "set": {"volumes.0.file": "../outside.nrrd"}}))  # the root is the scene's folder
+    assert "outside the data root" in receive(ws, "error")["message"]
+    ws.close()
+    viewer.stop()

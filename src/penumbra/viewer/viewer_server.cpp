@@ -1,11 +1,15 @@
 #include "penumbra/viewer/viewer_server.h"
 
+#include <algorithm>
+#include <cctype>
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 
+#include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <condition_variable>
 #include <csignal>
 #include <cstdio>
@@ -85,6 +89,19 @@ double resident_mb() {
   double pages_total = 0, pages_resident = 0;
   statm >> pages_total >> pages_resident;
   return pages_resident * static_cast<double>(::sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
+}
+
+// The key a value at `path` belongs to: the path's last part that is not a list index
+// ("volumes.0.files.2" is an element of "files").
+std::string owning_key(std::string path) {
+  while (true) {
+    const std::size_t dot = path.rfind('.');
+    const std::string part = dot == std::string::npos ? path : path.substr(dot + 1);
+    const bool index = !part.empty() && std::all_of(part.begin(), part.end(), [](unsigned char c) { return std::isdigit(c) != 0; });
+    if (!index) return part;
+    if (dot == std::string::npos) return "";
+    path.resize(dot);
+  }
 }
 
 }  // namespace
@@ -344,7 +361,7 @@ std::vector<std::shared_ptr<WsSession>> ViewerServer::Impl::live_sessions() {
 }
 
 void ViewerServer::Impl::check_files(const std::string& path, const nlohmann::json& value) const {
-  const std::string key = path.substr(path.rfind('.') + 1);
+  const std::string key = owning_key(path);
   // the keys that name files: one name (or pattern), or a list of them (DICOM slices, series steps, trajectories)
   if (key == "file" || key == "files" || key == "trajectory" || key == "paraview") {
     const std::filesystem::path base = engine.base_dir().empty() ? std::filesystem::current_path() : std::filesystem::absolute(engine.base_dir());
