@@ -163,7 +163,8 @@ class Renderer:
             raise Error(f"Renderer: expected a penumbra.Scene or a dict, got {type(scene).__name__}")
         self._volumes = dict(scene._volumes)
         self._particles = dict(scene._particles)
-        self._engine = _penumbra.Engine(_dumps(scene.document, "scene"), scene.base_dir, self._volumes, self._particles)
+        self._base_dir = scene.base_dir  # where the scene's relative file names lie
+        self._engine = _penumbra.Engine(_dumps(scene.document, "scene"), self._base_dir, self._volumes, self._particles)
         self.stats = {}
 
     def set(self, path, value):
@@ -223,7 +224,7 @@ class Renderer:
     @property
     def scene(self):
         """The scene as edited so far (with the arrays it views)."""
-        scene = Scene(json.loads(self._engine.document()))
+        scene = Scene(json.loads(self._engine.document()), self._base_dir)
         scene._volumes, scene._particles = dict(self._volumes), dict(self._particles)
         return scene
 
