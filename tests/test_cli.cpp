@@ -2,6 +2,7 @@
 // `penumbra` binary (PENUMBRA_CLI) on small procedural scenes written to a scratch directory, and checks
 // images, --stats JSON, sequences, error messages and that failures leave no output behind.
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <cmath>
@@ -187,6 +188,42 @@ TEST(Cli, UnwritableStatsPathFailsBeforeWritingAnything) {
   EXPECT_NE(r.status, 0);
   EXPECT_TRUE(contains(r.err, "no_such_dir")) << r.err;
   EXPECT_EQ(listing(dir.path()), before) << "a failed render left its image behind";
+}
+
+// Image headers that promise more pixels than their file holds are refused before the pixels are
+// allocated (65536² RGB floats would be 51 GB), with a message naming the file; and an output with the
+// wrong extension leaves the file already there untouched (the extension is checked before anything is
+// written, the bytes go through a temporary file).
+TEST(Cli, LyingImageHeadersAndBadOutputNamesFailCleanly) {
+  ScratchDir dir;
+  const std::string scene = write_scene(dir, "scene.json", cli_scene());
+  ASSERT_EQ(penumbra_cli("render " + quote(scene) + " -o " + quote(dir.file("a.png"))).status, 0);
+  std::ofstream(dir.file("huge.pfm"), std::ios::binary) << "PF\n65536 65536\n-1\n";
+  // a PNG signature, an IHDR of 65536 x 65536 RGB at 8 bits and the start of its image data (two bytes)
+  const auto be32 = [](unsigned v) { return std::string{char(v >> 24), char((v >> 16) & 0xff), char((v >> 8) & 0xff), char(v & 0xff)}; };
+  const auto chunk = [&](const std::string& type_and_data) {
+    const auto crc = static_cast<unsigned>(::crc32(0, reinterpret_cast<const Bytef*>(type_and_data.data()), static_cast<uInt>(type_and_data.size())));
+    return be32(static_cast<unsigned>(type_and_data.size() - 4)) + type_and_data + be32(crc);
+  };
+  std::ofstream(dir.file("huge.png"), std::ios::binary) << std::string("\x89PNG\r\n\x1a\n", 8)
+                                                        << chunk("IHDR" + be32(65536) + be32(65536) + std::string{8, 2, 0, 0, 0})
+                                                        << chunk("IDAT\x78\x9c");
+  for (const char* huge : {"huge.pfm", "huge.png"}) {
+    SCOPED_TRACE(huge);
+    const CliRun r = penumbra_cli("compare " + quote(dir.file(huge)) + " " + quote(dir.file("a.png")));
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_TRUE(contains(r.err, huge) && contains(r.err, "65536x65536")) << r.err;
+  }
+  // a trajectory's positions to a file that is neither .npy nor .txt: refused, the file left as it was
+  std::ofstream(dir.file("run.xyz")) << "2\nframe 0\nC 0 0 0\nO 1 1 1\n2\nframe 1\nC 0 0 1\nO 1 1 2\n";
+  std::ofstream(dir.file("notes.csv")) << "my notes\n";
+  const CliRun positions = penumbra_cli("info " + quote(dir.file("run.xyz")) + " --trajectory --positions " + quote(dir.file("notes.csv")));
+  EXPECT_EQ(positions.status, 1) << positions.err;
+  EXPECT_TRUE(contains(positions.err, "must end in .npy or .txt")) << positions.err;
+  EXPECT_EQ(slurp(dir.file("notes.csv")), "my notes\n");
+  ASSERT_EQ(penumbra_cli("info " + quote(dir.file("run.xyz")) + " --trajectory --frame 1 --positions " + quote(dir.file("p.txt"))).status, 0);
+  EXPECT_EQ(slurp(dir.file("p.txt")), "0 0 1\n1 1 2\n");
+  EXPECT_EQ(listing(dir.path()), (std::set<std::string>{"scene.json", "a.png", "huge.pfm", "huge.png", "run.xyz", "notes.csv", "p.txt"}));
 }
 
 TEST(Cli, CompareReportsPsnrAndWritesDiff) {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/replace_file.h"
 #include "penumbra/data/io/trajectory_io.h"
 
 namespace penumbra::cli {
@@ -28,28 +29,27 @@ bool has_suffix(const std::string& s, const std::string& suffix) {
 
 // NumPy's .npy (format 1.0): little-endian float32, shape (atoms, 3); or text, one "x y z" per line.
 void write_positions(const std::string& path, const std::vector<Vec3>& p) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw Error(path + ": cannot write the positions");
+  std::string bytes;
   if (has_suffix(path, ".npy")) {
     std::string header = "{'descr': '<f4', 'fortran_order': False, 'shape': (" + std::to_string(p.size()) + ", 3), }";
     header.append(64 - (10 + header.size() + 1) % 64, ' ');  // magic, version and length take 10 bytes
     header += '\n';
-    out.write("\x93NUMPY\x01\x00", 8);
-    const char len[2] = {static_cast<char>(header.size() & 0xff), static_cast<char>(header.size() >> 8)};
-    out.write(len, 2);
-    out.write(header.data(), static_cast<std::streamsize>(header.size()));
+    bytes.append("\x93NUMPY\x01\x00", 8);
+    bytes += static_cast<char>(header.size() & 0xff);
+    bytes += static_cast<char>(header.size() >> 8);
+    bytes += header;
     static_assert(sizeof(Vec3) == 12, "Vec3 is three packed floats");
-    out.write(reinterpret_cast<const char*>(p.data()), static_cast<std::streamsize>(p.size() * sizeof(Vec3)));
+    bytes.append(reinterpret_cast<const char*>(p.data()), p.size() * sizeof(Vec3));
   } else if (has_suffix(path, ".txt")) {
     char line[96];
     for (const Vec3& v : p) {
       std::snprintf(line, sizeof line, "%.9g %.9g %.9g\n", v.x, v.y, v.z);
-      out << line;
+      bytes += line;
     }
   } else {
     throw Error("--positions: " + path + " must end in .npy or .txt");
   }
-  if (!out) throw Error(path + ": cannot write the positions");
+  replace_file_contents(path, bytes);
 }
 
 }  // namespace

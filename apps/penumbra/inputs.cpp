@@ -5,6 +5,7 @@
 #include <optional>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/replace_file.h"
 #include "penumbra/scene/data_scene.h"
 
 namespace penumbra::cli {
@@ -115,12 +116,7 @@ void write_scene_file(const Engine& engine, const std::string& path) {
   check_scene_file_path(path);
   const auto folder = std::filesystem::path(path).parent_path();
   const std::string text = engine.saved_document(folder.string()).dump(2) + "\n";
-  const std::string partial = path + ".part";  // nothing half-written under the name asked for
-  {
-    std::ofstream out(partial, std::ios::binary);
-    if (!out || !(out << text) || !out.flush()) throw Error("--write-scene " + path + ": cannot write");
-  }
-  std::filesystem::rename(partial, path);
+  with_context("--write-scene", [&] { replace_file_contents(path, text); });
 }
 
 }  // namespace penumbra::cli

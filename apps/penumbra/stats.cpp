@@ -5,6 +5,7 @@
 #include <set>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/replace_file.h"
 #include "penumbra/particles/sphere_hits.h"
 #include "penumbra/scene/technique_catalog.h"
 
@@ -80,15 +81,7 @@ nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const 
 }
 
 void write_json_file(const std::string& path, const nlohmann::json& j) {
-  const std::filesystem::path target(path);
-  const std::filesystem::path tmp = target.parent_path() / ("." + target.filename().string() + ".partial");
-  {
-    std::ofstream out(tmp);
-    if (!out) throw Error(path + ": cannot open for writing");
-    out << j.dump(2) << "\n";
-    if (!out) throw Error(path + ": write failed");
-  }
-  std::filesystem::rename(tmp, target);
+  replace_file_contents(path, j.dump(2) + "\n");
 }
 
 }  // namespace penumbra::cli

@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "penumbra/core/error.h"
+#include "penumbra/core/replace_file.h"
 
 namespace penumbra {
 namespace {
@@ -49,20 +50,13 @@ void write_exr(const std::string& path, const ExrImage& image) {
     if (image.rgba.size() != 4 * pixels) throw Error("RGBA holds " + std::to_string(image.rgba.size()) + " floats; expected " + std::to_string(4 * pixels));
     if (!image.depth.empty() && image.depth.size() != pixels)
       throw Error("depth holds " + std::to_string(image.depth.size()) + " floats; expected " + std::to_string(pixels));
-    const std::filesystem::path target(path);
-    const std::filesystem::path tmp = target.parent_path() / ("." + target.filename().string() + ".partial");
-    try {
+    replace_file(path, [&](const std::string& temporary) {
       try {
-        write_exr_file(tmp.string(), image);
+        write_exr_file(temporary, image);
       } catch (const std::exception& e) {
         throw Error(std::string("OpenEXR could not write: ") + e.what());
       }
-      std::filesystem::rename(tmp, target);
-    } catch (...) {
-      std::error_code ec;
-      std::filesystem::remove(tmp, ec);
-      throw;
-    }
+    });
   });
 }
 

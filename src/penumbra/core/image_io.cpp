@@ -12,6 +12,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/exr_io.h"
+#include "penumbra/core/replace_file.h"
 
 namespace penumbra {
 namespace {
@@ -26,9 +27,15 @@ struct FileCloser {
   void operator()(FILE* f) const { if (f) std::fclose(f); }
 };
 
-void write_png_file(const std::string& path, const Image& image) {
-  std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "wb"));
-  if (!file) throw Error("cannot open for writing: " + std::string(std::strerror(errno)));
+void append_to_string(png_structp png, png_bytep data, png_size_t length) {
+  static_cast<std::string*>(png_get_io_ptr(png))->append(reinterpret_cast<const char*>(data), length);
+}
+
+}  // namespace
+
+std::string encode_png(const Image& image) {
+  if (image.width() <= 0 || image.height() <= 0) throw Error("image is empty");
+  std::string bytes;
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   if (!png || !info) {
@@ -38,9 +45,9 @@ void write_png_file(const std::string& path, const Image& image) {
   std::vector<unsigned char> row(static_cast<std::size_t>(image.width()) * 3);
   if (setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, &info);
-    throw Error("libpng failed while writing");
+    throw Error("libpng failed while encoding");
   }
-  png_init_io(png, file.get());
+  png_set_write_fn(png, &bytes, append_to_string, nullptr);
   png_set_IHDR(png, info, static_cast<png_uint_32>(image.width()), static_cast<png_uint_32>(image.height()), 8,
                PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
@@ -59,8 +66,10 @@ void write_png_file(const std::string& path, const Image& image) {
   }
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
-  if (std::fflush(file.get()) != 0) throw Error("write failed: " + std::string(std::strerror(errno)));
+  return bytes;
 }
+
+namespace {
 
 Image read_png_file(const std::string& path) {
   std::unique_ptr<FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
@@ -79,6 +88,17 @@ Image read_png_file(const std::string& path) {
   png_set_user_limits(png, 1u << 16, 1u << 16);
   png_init_io(png, file.get());
   png_read_info(png, info);
+  // Deflate expands data at most about 1032:1, so a file too small to hold the rows its header promises
+  // is refused before they are allocated (a 30-byte file claiming 65536 x 65536 pixels).
+  std::error_code size_error;
+  const std::uintmax_t file_bytes = std::filesystem::file_size(path, size_error);
+  const png_uint_32 stored_w = png_get_image_width(png, info), stored_h = png_get_image_height(png, info);
+  const std::uintmax_t stored_rows = static_cast<std::uintmax_t>(png_get_rowbytes(png, info) + 1) * stored_h;  // + a filter byte a row
+  if (!size_error && stored_rows / 1032 > file_bytes + 64) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    throw Error("PNG file is truncated: its header says " + std::to_string(stored_w) + "x" + std::to_string(stored_h) +
+                " pixels, more than its " + std::to_string(file_bytes) + " bytes can hold");
+  }
   png_set_strip_16(png);
   png_set_palette_to_rgb(png);
   png_set_expand_gray_1_2_4_to_8(png);
@@ -127,6 +147,15 @@ Image read_pfm_file(const std::string& path) {
   if (w <= 0 || h <= 0 || w > 65536 || h > 65536) throw Error("PFM size out of range: " + std::to_string(w) + "x" + std::to_string(h));
   if (scale >= 0) throw Error("big-endian PFM is not supported (scale must be negative)");
   in.get();
+  // the pixels the header promises must be in the file before they are allocated
+  const std::streamoff pixels_at = in.tellg();
+  in.seekg(0, std::ios::end);
+  const std::streamoff file_bytes = in.tellg();
+  in.seekg(pixels_at);
+  const unsigned long long need = static_cast<unsigned long long>(w) * static_cast<unsigned long long>(h) * sizeof(Rgb);
+  if (!in || pixels_at < 0 || static_cast<unsigned long long>(file_bytes - pixels_at) < need)
+    throw Error("PFM file is truncated: its header says " + std::to_string(w) + "x" + std::to_string(h) + " pixels (" +
+                std::to_string(need) + " bytes), the file holds " + std::to_string(file_bytes - pixels_at) + " after the header");
   Image img(static_cast<int>(w), static_cast<int>(h));
   for (int y = img.height() - 1; y >= 0; --y)
     in.read(reinterpret_cast<char*>(&img.at(0, y)), static_cast<std::streamsize>(sizeof(Rgb)) * img.width());
@@ -142,17 +171,8 @@ void write_image(const std::string& path, const Image& image) {
     if (ext != ".png" && ext != ".pfm")
       throw Error("unknown image extension '" + ext + "' (expected .png or .pfm)");
     if (image.width() <= 0 || image.height() <= 0) throw Error("image is empty");
-    const std::filesystem::path target(path);
-    const std::filesystem::path tmp = target.parent_path() / ("." + target.filename().string() + ".partial");
-    try {
-      if (ext == ".png") write_png_file(tmp.string(), image);
-      else write_pfm_file(tmp.string(), image);
-      std::filesystem::rename(tmp, target);
-    } catch (...) {
-      std::error_code ec;
-      std::filesystem::remove(tmp, ec);
-      throw;
-    }
+    if (ext == ".png") replace_file_contents(path, encode_png(image));
+    else replace_file(path, [&](const std::string& temporary) { write_pfm_file(temporary, image); });
   });
 }
 

@@ -10,6 +10,7 @@
 namespace penumbra {
 
 void write_image(const std::string& path, const Image& image);  // .png or .pfm
+std::string encode_png(const Image& image);                     // the bytes of the .png write_image writes
 Image read_image(const std::string& path);                      // .png (8/16-bit, gray/RGB/A), .pfm or .exr
 
 }  // namespace penumbra

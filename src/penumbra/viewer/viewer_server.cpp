@@ -290,12 +290,7 @@ private:
         try {
           if (screenshot) {
             const EngineFrame f = server.engine.render({Quality::Full, false});  // sample 0: what `penumbra render` gives
-            const auto file = std::filesystem::temp_directory_path() / ("penumbra_screenshot_" + std::to_string(::getpid()) + ".png");
-            write_image(file.string(), f.image);
-            std::ifstream in(file, std::ios::binary);
-            std::string png((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-            std::filesystem::remove(file);
-            self->answer(http::status::ok, std::move(png), "image/png", "penumbra.png");
+            self->answer(http::status::ok, encode_png(f.image), "image/png", "penumbra.png");
           } else {
             self->answer(http::status::ok, server.engine.saved_document(server.data_root.string()).dump(2) + "\n", "application/json", "scene.json");
           }
