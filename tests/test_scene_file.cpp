@@ -139,6 +139,8 @@ TEST(SceneFile, WrongTypesAndRangesNameTheKey) {
                                          {"shadows.nodes", "1"},
                                          {"shadows.seed", "-3"},
                                          {"shadows.step", "0.01"},
+                                         {"shadows.step", "-0.5"},  // -1 is the default's sentinel, nothing else below 0
+                                         {"shadows.bias", "-0.2"},
                                          {"camera.fov_deg", "0"},
                                          {"camera.fov_deg", "\"wide\""},
                                          {"camera.width", "0"},

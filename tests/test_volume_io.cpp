@@ -668,6 +668,32 @@ TEST(VolumeIoDispatch, ExtensionsAreCaseInsensitive) {
   EXPECT_EQ(load_volume(dir.file("UP.NRRD")).max_value(), 4);
 }
 
+// A key of another format (a TIFF channel, a VDB grid, a raw layout) on a file it does not apply to is
+// an error naming the file and the key, not silently ignored; a DICOM folder included.
+TEST(VolumeIoDispatch, OptionsOfAnotherFormatAreErrors) {
+  TempDir dir;
+  write_file(dir.file("v.nrrd"), nrrd_file("type: uchar\ndimension: 3\nsizes: 2 2 1\nencoding: raw\n", Bytes{1, 2, 3, 4}));
+  std::filesystem::create_directory(dir.file("slices"));  // a folder: read as a DICOM series
+  for (const std::string& path : {dir.file("v.nrrd"), dir.file("slices")}) {
+    SCOPED_TRACE(path);
+    VolumeLoadOptions channel, grid, raw;
+    channel.channel = 1;
+    grid.grid = "density";
+    raw.raw = raw_options({2, 2, 1}, ScalarType::UInt8);
+    for (const auto& [options, key] : {std::pair{channel, "'channel'"}, std::pair{grid, "'grid'"}, std::pair{raw, "'raw'"}}) {
+      std::string message;
+      try {
+        load_volume(std::vector<std::string>{path}, options);
+      } catch (const Error& e) {
+        message = e.what();
+      }
+      EXPECT_NE(message.find(path), std::string::npos) << message;
+      EXPECT_NE(message.find(key), std::string::npos) << message;
+    }
+  }
+  EXPECT_EQ(load_volume(dir.file("v.nrrd")).max_value(), 4);  // without them it reads
+}
+
 // ---------------------------------------------------------------- histogram
 
 TEST(VolumeIoStats, HistogramCountsAndMean) {

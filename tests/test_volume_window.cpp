@@ -102,9 +102,10 @@ TEST(VolumeWindow, FilesAreReadOnlyForTheChosenSlices) {
   raw.raw = RawVolumeOptions{{5, 4, 12}, ScalarType::Int16, false, {1, 1, 2}, 0};
   for (const std::string file : {"raw.nrrd", "gzip.nrrd", "plain.raw", "ascii.nrrd"}) {
     SCOPED_TRACE(file);
-    const Volume whole = load_volume(dir.file(file), raw);
+    const VolumeLoadOptions options = file == "plain.raw" ? raw : VolumeLoadOptions{};  // the NRRD headers give their layout
+    const Volume whole = load_volume(dir.file(file), options);
     WindowRead read;
-    const Volume window = load_volume_window({dir.file(file)}, raw, slices_3_to_8, read);
+    const Volume window = load_volume_window({dir.file(file)}, options, slices_3_to_8, read);
     ASSERT_TRUE(window.is_window());
     EXPECT_EQ(window.dims(), (std::array<int, 3>{5, 4, 6}));
     EXPECT_EQ(window.bounds().hi, whole.bounds().hi);
@@ -119,7 +120,7 @@ TEST(VolumeWindow, FilesAreReadOnlyForTheChosenSlices) {
   const SliceChooser too_many = [](const std::array<int, 3>&) { return SliceRange{10, 3}; };
   WindowRead read;
   try {
-    (void)load_volume_window({dir.file("raw.nrrd")}, raw, too_many, read);
+    (void)load_volume_window({dir.file("raw.nrrd")}, VolumeLoadOptions{}, too_many, read);
     FAIL() << "no error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("slices 10 to 12 of a volume of 12"), std::string::npos) << e.what();

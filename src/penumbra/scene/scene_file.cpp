@@ -576,8 +576,9 @@ ShadowSettings read_shadows(const nlohmann::json& j) {
     r.fail("dsm_layout", "unknown value '" + s.dsm_layout + "' (expected per_channel or shared_depth)");
   s.pcf = static_cast<int>(r.integer("pcf", s.pcf, 0, 16));
   s.bias = r.number("bias", s.bias, -1, 1e6f);
+  if (s.bias < 0 && s.bias != -1) r.fail("bias", "must be at least 0 (or -1 for the automatic bias)");
   s.step = r.number("step", s.step, -1, 8);
-  if (s.step >= 0 && s.step < 0.05f) r.fail("step", "must be at least 0.05 voxels (or -1 for the default, one voxel)");
+  if (s.step < 0.05f && s.step != -1) r.fail("step", "must be at least 0.05 voxels (or -1 for the default, one voxel)");
   s.cone_angle = r.number("cone_angle", s.cone_angle, 0, 90);
   if (s.cone_angle >= 90) r.fail("cone_angle", "must be below 90 degrees (the cone's half-angle)");
   s.cone_samples = r.number("cone_samples", s.cone_samples, 1, 4096);

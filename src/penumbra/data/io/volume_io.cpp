@@ -31,6 +31,19 @@ std::string joined(const std::vector<std::string>& paths) {
   return paths.front() + " (and " + std::to_string(paths.size() - 1) + " more files)";
 }
 
+// An option of another format than the files' is an error, not ignored.
+void check_options_fit(const std::vector<std::string>& paths, const VolumeLoadOptions& options) {
+  bool dicom = true;
+  for (const std::string& p : paths) dicom = dicom && is_dicom_path(p);
+  const std::string& path = paths[0];
+  if (options.channel >= 0 && (dicom || !(ends_with_ci(path, ".tif") || ends_with_ci(path, ".tiff"))))
+    throw Error("'channel' is for multi-channel TIFF stacks (.tif, .tiff)");
+  if (!options.grid.empty() && (dicom || !ends_with_ci(path, ".vdb"))) throw Error("'grid' is for OpenVDB files (.vdb)");
+  if (options.raw && (dicom || !ends_with_ci(path, ".raw")))
+    throw Error("'raw' (dims, type, endian) is for .raw files; this file's header gives its layout");
+  if (!options.series.empty() && !dicom) throw Error("'series' is for DICOM series (a folder or .dcm files)");
+}
+
 }  // namespace
 
 bool is_volume_file(const std::string& path) { return has_single_file_extension(path) || is_dicom_path(path); }
@@ -45,13 +58,9 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
     for (const std::string& p : paths) dicom = dicom && is_dicom_path(p);
     if (paths.size() > 1 && !dicom)
       throw Error("several files make one volume only as DICOM slices (.dcm); give other volumes one at a time");
+    check_options_fit(paths, options);
     if (dicom) return load_dicom_volume(paths, options.series, &out);
-    if (!options.series.empty()) throw Error("'series' is for DICOM series (a folder or .dcm files)");
     const std::string& path = paths[0];
-    const bool tiff = ends_with_ci(path, ".tif") || ends_with_ci(path, ".tiff");
-    if (options.channel >= 0 && !tiff) throw Error("'channel' is for multi-channel TIFF stacks (.tif, .tiff)");
-    const bool vdb = ends_with_ci(path, ".vdb");
-    if (!options.grid.empty() && !vdb) throw Error("'grid' is for OpenVDB files (.vdb)");
     // Each loader already ran recompute_range(), which rejects NaN/inf voxels and sets the range,
     // so the volume is returned as is rather than scanned twice.
     if (ends_with_ci(path, ".raw")) {
@@ -67,10 +76,10 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
       out.format = "nifti";
       return load_nifti_volume(path);
     }
-    if (tiff) return load_tiff_volume(path, options.channel, &out);
+    if (ends_with_ci(path, ".tif") || ends_with_ci(path, ".tiff")) return load_tiff_volume(path, options.channel, &out);
     if (ends_with_ci(path, ".vti")) return load_vti_volume(path, &out);
     if (ends_with_ci(path, ".vtk")) return load_legacy_vtk_volume(path, &out);
-    if (vdb) return load_vdb_volume(path, options.grid, &out);
+    if (ends_with_ci(path, ".vdb")) return load_vdb_volume(path, options.grid, &out);
     throw Error("unknown volume file extension (supported: .raw, .nrrd, .nhdr, .nii, .nii.gz, .tif, .tiff, .vti, .vtk, .vdb, "
                 ".dcm or a folder of DICOM slices)");
   });
@@ -87,6 +96,8 @@ SliceRange checked_slices(const SliceChooser& choose, const std::array<int, 3>& 
 Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoadOptions& options, const SliceChooser& choose,
                           WindowRead& read) {
   read = WindowRead{};
+  if (paths.empty()) throw Error("no volume file given");
+  with_context(joined(paths), [&] { check_options_fit(paths, options); });
   if (paths.size() == 1 && ends_with_ci(paths[0], ".raw") && options.raw)
     return with_context(paths[0], [&] { return load_raw_volume(paths[0], *options.raw, &choose, &read); });
   if (paths.size() == 1 && (ends_with_ci(paths[0], ".nrrd") || ends_with_ci(paths[0], ".nhdr")))
