@@ -49,7 +49,7 @@ void write_positions(const std::string& path, const std::vector<Vec3>& p) {
   } else {
     throw Error("--positions: " + path + " must end in .npy or .txt");
   }
-  replace_file_contents(path, bytes);
+  with_context("--positions " + path, [&] { replace_file_contents(path, bytes); });
 }
 
 }  // namespace

@@ -116,7 +116,7 @@ void write_scene_file(const Engine& engine, const std::string& path) {
   check_scene_file_path(path);
   const auto folder = std::filesystem::path(path).parent_path();
   const std::string text = engine.saved_document(folder.string()).dump(2) + "\n";
-  with_context("--write-scene", [&] { replace_file_contents(path, text); });
+  with_context("--write-scene " + path, [&] { replace_file_contents(path, text); });
 }
 
 }  // namespace penumbra::cli

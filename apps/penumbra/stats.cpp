@@ -81,7 +81,7 @@ nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const 
 }
 
 void write_json_file(const std::string& path, const nlohmann::json& j) {
-  replace_file_contents(path, j.dump(2) + "\n");
+  with_context(path, [&] { replace_file_contents(path, j.dump(2) + "\n"); });
 }
 
 }  // namespace penumbra::cli

@@ -18,7 +18,7 @@ void replace_file(const std::string& path, const std::function<void(const std::s
     write(temporary.string());
     std::error_code ec;
     std::filesystem::rename(temporary, target, ec);
-    if (ec) throw Error(path + ": cannot replace the file (" + ec.message() + ")");
+    if (ec) throw Error("cannot replace the file (" + ec.message() + ")");
   } catch (...) {
     std::error_code ec;
     std::filesystem::remove(temporary, ec);
@@ -32,12 +32,9 @@ void replace_file_contents(const std::string& path, std::string_view bytes) {
       void operator()(std::FILE* f) const { std::fclose(f); }
     };
     std::unique_ptr<std::FILE, Closer> file(std::fopen(temporary.c_str(), "wb"));
-    if (!file) throw Error(path + ": cannot write (" + std::strerror(errno) + ")");
-    const bool written = std::fwrite(bytes.data(), 1, bytes.size(), file.get()) == bytes.size();
-    const int errno_write = errno;
-    if (!written || std::fflush(file.get()) != 0)
-      throw Error(path + ": cannot write (" + std::strerror(written ? errno : errno_write) + ")");
-    if (std::fclose(file.release()) != 0) throw Error(path + ": cannot write (" + std::strerror(errno) + ")");
+    if (!file || std::fwrite(bytes.data(), 1, bytes.size(), file.get()) != bytes.size() || std::fflush(file.get()) != 0 ||
+        std::fclose(file.release()) != 0)
+      throw Error(std::string("cannot write (") + std::strerror(errno) + ")");
   });
 }
 

@@ -1,7 +1,5 @@
 #include "penumbra/viewer/viewer_server.h"
 
-#include <algorithm>
-#include <cctype>
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>

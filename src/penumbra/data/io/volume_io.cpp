@@ -2,6 +2,7 @@
 // any error it raises.
 #include "penumbra/data/io/volume_io.h"
 
+#include <algorithm>
 #include <filesystem>
 
 #include "penumbra/core/error.h"
@@ -31,10 +32,12 @@ std::string joined(const std::vector<std::string>& paths) {
   return paths.front() + " (and " + std::to_string(paths.size() - 1) + " more files)";
 }
 
+bool all_dicom(const std::vector<std::string>& paths) {
+  return std::all_of(paths.begin(), paths.end(), [](const std::string& p) { return is_dicom_path(p); });
+}
+
 // An option of another format than the files' is an error, not ignored.
-void check_options_fit(const std::vector<std::string>& paths, const VolumeLoadOptions& options) {
-  bool dicom = true;
-  for (const std::string& p : paths) dicom = dicom && is_dicom_path(p);
+void check_options_fit(const std::vector<std::string>& paths, bool dicom, const VolumeLoadOptions& options) {
   const std::string& path = paths[0];
   if (options.channel >= 0 && (dicom || !(ends_with_ci(path, ".tif") || ends_with_ci(path, ".tiff"))))
     throw Error("'channel' is for multi-channel TIFF stacks (.tif, .tiff)");
@@ -54,11 +57,10 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
   VolumeFileInfo& out = info ? *info : local;
   out = VolumeFileInfo{};
   return with_context(joined(paths), [&] {
-    bool dicom = true;
-    for (const std::string& p : paths) dicom = dicom && is_dicom_path(p);
+    const bool dicom = all_dicom(paths);
     if (paths.size() > 1 && !dicom)
       throw Error("several files make one volume only as DICOM slices (.dcm); give other volumes one at a time");
-    check_options_fit(paths, options);
+    check_options_fit(paths, dicom, options);
     if (dicom) return load_dicom_volume(paths, options.series, &out);
     const std::string& path = paths[0];
     // Each loader already ran recompute_range(), which rejects NaN/inf voxels and sets the range,
@@ -97,7 +99,7 @@ Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoa
                           WindowRead& read) {
   read = WindowRead{};
   if (paths.empty()) throw Error("no volume file given");
-  with_context(joined(paths), [&] { check_options_fit(paths, options); });
+  with_context(joined(paths), [&] { check_options_fit(paths, all_dicom(paths), options); });
   if (paths.size() == 1 && ends_with_ci(paths[0], ".raw") && options.raw)
     return with_context(paths[0], [&] { return load_raw_volume(paths[0], *options.raw, &choose, &read); });
   if (paths.size() == 1 && (ends_with_ci(paths[0], ".nrrd") || ends_with_ci(paths[0], ".nhdr")))
