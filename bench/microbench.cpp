@@ -7,9 +7,9 @@
 
 #include "penumbra/core/rng.h"
 #include "penumbra/render/renderer.h"
-#include "penumbra/scene/demo_scenes.h"
-#include "penumbra/scene/scene_file.h"
-#include "penumbra/shadows/registry.h"
+#include "penumbra/scene_io/demo_scenes.h"
+#include "penumbra/scene_io/scene_file.h"
+#include "penumbra/registry/registry.h"
 
 namespace {
 using namespace penumbra;

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "fuzz_common.h"
-#include "penumbra/scene/scene_file.h"
+#include "penumbra/scene_io/scene_file.h"
 
 namespace {
 

@@ -24,8 +24,8 @@
 #include "penumbra/data/elements.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/engine/engine.h"
-#include "penumbra/scene/json_reader.h"
-#include "penumbra/scene/scene_file.h"
+#include "penumbra/scene_io/json_reader.h"
+#include "penumbra/scene_io/scene_file.h"
 #include "penumbra/viewer/viewer_server.h"
 
 namespace py = pybind11;

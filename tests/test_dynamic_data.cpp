@@ -12,7 +12,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/engine/engine.h"
 #include "penumbra/render/renderer.h"
-#include "penumbra/scene/scene_file.h"
+#include "penumbra/scene_io/scene_file.h"
 #include "image_check.h"
 #include "test_scenes.h"
 

@@ -15,7 +15,7 @@
 #include "penumbra/data/io/molecule_gemmi.h"
 #include "penumbra/data/io/particle_io.h"
 #include "penumbra/data/io/volume_io.h"
-#include "penumbra/scene/scene_file.h"
+#include "penumbra/scene_io/scene_file.h"
 #include "test_volume_io_util.h"
 
 using namespace penumbra;

@@ -16,10 +16,10 @@
 #include <vector>
 
 #include "penumbra/core/parallel.h"
-#include "penumbra/isosurface/grid_tree.h"
-#include "penumbra/isosurface/isosurface_raycaster.h"
+#include "penumbra/geometry/grid_tree.h"
+#include "penumbra/geometry/isosurface_raycaster.h"
 #include "penumbra/isosurface/marching_cubes.h"
-#include "penumbra/isosurface/trilinear_root.h"
+#include "penumbra/geometry/trilinear_root.h"
 #include "isosurface_test_util.h"
 #include "test_scenes.h"
 

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "penumbra/render/renderer.h"
-#include "penumbra/scene/scene_file.h"
+#include "penumbra/scene_io/scene_file.h"
 #include "test_scenes.h"
 
 using namespace penumbra;

@@ -13,10 +13,10 @@
 #include "penumbra/accel/extinction_sat.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/particles/particle_ambient_occlusion.h"
-#include "penumbra/particles/sphere_bvh.h"
+#include "penumbra/geometry/sphere_bvh.h"
 #include "penumbra/scene/camera.h"
 #include "penumbra/render/renderer.h"
-#include "penumbra/scene/scene_file.h"
+#include "penumbra/scene_io/scene_file.h"
 #include "image_check.h"
 #include "test_scenes.h"
 
@@ -426,6 +426,39 @@ TEST(MixedScene, TwoOverlappingVolumesRenderAsOneHoldingBoth) {
   EXPECT_LT(max_diff, 1e-5);
   // and each volume alone differs (the test sees both)
   EXPECT_NE(Renderer(scene_of({make(true, false)})).render().image.pixels(), merged.pixels());
+}
+
+// Twelve overlapping copies of one volume, each of opacity a = 1 − (1 − A)^(1/12), render as that volume
+// of opacity A, exactly: every copy's sample counts at every lattice position (the eye ray caster once
+// kept eight and dropped the rest, while the light march kept all). The shadows are exact (ray_traced)
+// through a black shadow transfer function, whose pass probabilities 1 − a multiply to 1 − A. The
+// transfer functions give every value the same opacity (a cube of translucent matter).
+TEST(MixedScene, TwelveOverlappingVolumesRenderAsOneOfTheirCombinedOpacity) {
+  constexpr int kCopies = 12;
+  const double opacity = 0.6;
+  auto scene_of = [&](int copies) {
+    const double a = 1 - std::pow(1 - opacity, 1.0 / copies);
+    // one opacity for every value: a ramp (a step between two table entries) would not compose exactly
+    auto flat_tf = [&](double r, double g, double b) { return json{{"points", {{0.0, r, g, b, a}, {1.0, r, g, b, a}}}}; };
+    json j = volume_scene({{"name", "sphere"}, {"size", 16}}, flat_tf(0.9, 0.5, 0.3));
+    j["volumes"][0]["shadow_transfer_function"] = flat_tf(0, 0, 0);
+    j["planes"] = json::array({{{"point", {0, -0.6, 0}}, {"normal", {0, 1, 0}}, {"size", 3}}});
+    j["camera"] = {{"width", kSize}, {"height", kSize}, {"eye", {0.4, 1.2, 2.0}}, {"target", {0, -0.2, 0}}};
+    j["lights"][0]["direction"] = {0.3, -1.0, 0.2};
+    j["shadows"] = {{"technique", "ray_traced"}};
+    const json one = j["volumes"][0];
+    j["volumes"] = json::array();
+    for (int i = 0; i < copies; ++i) j["volumes"].push_back(one);
+    return build_scene(j, "");
+  };
+  const Image reference = Renderer(scene_of(1)).render().image;
+  const Image twelve = Renderer(scene_of(kCopies)).render().image;
+  FailureImages keep;
+  keep.add("twelve_volumes", twelve, reference);
+  const ImageDifference d = compare_images(twelve, reference);
+  EXPECT_LT(d.max_abs, 1e-5) << "PSNR " << d.psnr << " dB";
+  // the volume shows (a dropped copy would be seen)
+  EXPECT_GT(compare_images(reference, Image(kSize, kSize, Rgb(0.1f, 0.1f, 0.12f))).max_abs, 0.2);
 }
 
 // 1 and 2 threads give byte-identical frames of a mixed scene with a stochastic technique.

@@ -24,7 +24,7 @@
 #include "penumbra/data/elements.h"
 #include "penumbra/data/io/particle_io.h"
 #include "penumbra/data/procedural.h"
-#include "penumbra/scene/scene_file.h"
+#include "penumbra/scene_io/scene_file.h"
 #include "test_volume_io_util.h"
 
 using namespace penumbra;

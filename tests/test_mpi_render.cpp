@@ -299,7 +299,7 @@ TEST(MpiRender, RanksReadOnlyTheirBrickAndGiveTheSameFrame) {
   isosurface["volumes"][0]["visible"] = true;
   isosurface["isosurfaces"][0]["value"] = 0.95;
   std::ofstream(dir.file("isosurface_in_volume.json")) << isosurface.dump();
-  // the files opened directly (a scene of their own, scene/data_scene.h: its transfer function chosen
+  // the files opened directly (a scene of their own, scene_io/data_scene.h: its transfer function chosen
   // from the ranks' summed histogram, its floor and camera from the whole grid's box)
   const std::string raw_layout = " --raw-dims 32 32 32 --raw-type float32 --raw-spacing " + std::to_string(s.x) + " " +
                                  std::to_string(s.y) + " " + std::to_string(s.z);

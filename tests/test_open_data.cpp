@@ -1,4 +1,4 @@
-// Data files opened directly (scene/data_scene.h, data/transfer_function_choice.h): `penumbra render
+// Data files opened directly (scene_io/data_scene.h, data/transfer_function_choice.h): `penumbra render
 // FILE...` makes a scene from volumes and molecules, `--write-scene` saves it so that rendering the saved
 // file gives the same image, and a volume without a transfer function gets one chosen from its data.
 #include <gtest/gtest.h>
@@ -13,7 +13,7 @@
 #include "penumbra/core/image_io.h"
 #include "penumbra/data/transfer_function_choice.h"
 #include "penumbra/engine/engine.h"
-#include "penumbra/scene/data_scene.h"
+#include "penumbra/scene_io/data_scene.h"
 #include "image_check.h"
 #include "shared_data.h"
 #include "test_scenes.h"

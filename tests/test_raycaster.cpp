@@ -11,7 +11,7 @@
 #include "penumbra/core/image.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/render/renderer.h"
-#include "penumbra/scene/demo_scenes.h"
+#include "penumbra/scene_io/demo_scenes.h"
 #include "image_check.h"
 #include "test_scenes.h"
 

@@ -6,8 +6,8 @@
 #include <string>
 
 #include "penumbra/core/error.h"
-#include "penumbra/scene/scene_file.h"
-#include "penumbra/scene/technique_catalog.h"
+#include "penumbra/scene_io/scene_file.h"
+#include "penumbra/registry/technique_catalog.h"
 #include "test_scenes.h"
 
 using namespace penumbra;

@@ -10,7 +10,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/rng.h"
-#include "penumbra/scene/scene_file.h"
+#include "penumbra/scene_io/scene_file.h"
 
 using namespace penumbra;
 

@@ -16,8 +16,8 @@
 
 #include "penumbra/accel/macrocell_grid.h"
 #include "penumbra/scene/scene.h"
-#include "penumbra/scene/scene_file.h"
-#include "penumbra/shadows/shadow_casters.h"
+#include "penumbra/scene_io/scene_file.h"
+#include "penumbra/lighting/shadow_casters.h"
 
 namespace penumbra::test {
 

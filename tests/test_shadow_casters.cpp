@@ -19,7 +19,7 @@
 
 #include "penumbra/render/renderer.h"
 #include "penumbra/shadows/ray_traced.h"
-#include "penumbra/shadows/registry.h"
+#include "penumbra/registry/registry.h"
 #include "image_check.h"
 #include "test_scenes.h"
 

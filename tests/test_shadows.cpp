@@ -19,7 +19,7 @@
 #include "penumbra/shadows/deep_shadow_map.h"
 #include "penumbra/scene/light_projection.h"
 #include "penumbra/shadows/ray_traced.h"
-#include "penumbra/shadows/registry.h"
+#include "penumbra/registry/registry.h"
 #include "penumbra/shadows/shadow_map.h"
 #include "test_scenes.h"
 

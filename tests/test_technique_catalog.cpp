@@ -1,4 +1,4 @@
-// The technique catalogue (scene/technique_catalog.h) is the table the scene reader uses to tell a user
+// The technique catalogue (registry/technique_catalog.h) is the table the scene reader uses to tell a user
 // that a key is not read by the chosen technique. These tests hold it to the truth, through the whole
 // renderer: for every technique of every kind of scene and every key of its family, a frame with the
 // key changed to a clearly different value differs from the frame without the change exactly when the
@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "penumbra/render/renderer.h"
-#include "penumbra/scene/scene_file.h"
-#include "penumbra/scene/technique_catalog.h"
+#include "penumbra/scene_io/scene_file.h"
+#include "penumbra/registry/technique_catalog.h"
 #include "test_scenes.h"
 
 using namespace penumbra;

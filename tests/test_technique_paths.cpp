@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "penumbra/shadows/ray_traced.h"
-#include "penumbra/particles/sphere_bvh.h"
+#include "penumbra/geometry/sphere_bvh.h"
 #include "penumbra/particles/sphere_hits.h"
 #include "penumbra/render/renderer.h"
-#include "penumbra/shadows/registry.h"
+#include "penumbra/registry/registry.h"
 #include "penumbra/shadows/shadow_map.h"
 #include "image_check.h"
 #include "test_scenes.h"

@@ -20,8 +20,8 @@
 #include "penumbra/data/volume_stats.h"
 #include "penumbra/render/prepared_volume.h"
 #include "penumbra/render/renderer.h"
-#include "penumbra/scene/data_scene.h"
-#include "penumbra/scene/scene_file.h"
+#include "penumbra/scene_io/data_scene.h"
+#include "penumbra/scene_io/scene_file.h"
 #include "test_volume_io_util.h"
 
 using namespace penumbra;

@@ -17,7 +17,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/distributed/volume_slabs.h"
 #include "penumbra/render/renderer.h"
-#include "penumbra/scene/scene_file.h"
+#include "penumbra/scene_io/scene_file.h"
 #include "cli_run.h"
 #include "penumbra/core/image_io.h"
 #include "image_check.h"
@@ -190,7 +190,7 @@ Image composite(const std::vector<FrameResult>& frames, const Scene& scene) {
 
 }  // namespace
 
-// Shadows across bricks (shadows/shadow_brick.h): each brick builds the CSSM from the light segments it
+// Shadows across bricks (accel/brick_reduction.h): each brick builds the CSSM from the light segments it
 // owns; the per-channel minimum of the bricks' maps is the whole volume's map, bit for bit, though no
 // brick's own map is (the shell's upper half shadows its lower half across the slab faces); rendered
 // with the combined map, the bricks composite to the brick loop's frame exactly, and without it the

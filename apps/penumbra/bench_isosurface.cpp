@@ -22,7 +22,7 @@
 #include "penumbra/render/isosurface_frame.h"
 #include "penumbra/render/light_shadows.h"
 #include "penumbra/render/surface_frame.h"
-#include "penumbra/scene/scene_file.h"
+#include "penumbra/scene_io/scene_file.h"
 
 namespace penumbra::cli {
 namespace {

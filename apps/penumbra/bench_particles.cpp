@@ -22,12 +22,12 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/particles/implicit_sphere_shadow_map.h"
-#include "penumbra/particles/sphere_bvh.h"
+#include "penumbra/geometry/sphere_bvh.h"
 #include "penumbra/particles/sphere_hits.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/render/surface_frame.h"
-#include "penumbra/scene/demo_scenes.h"
-#include "penumbra/scene/scene_file.h"
+#include "penumbra/scene_io/demo_scenes.h"
+#include "penumbra/scene_io/scene_file.h"
 #include "penumbra/shadows/ray_traced.h"
 
 namespace penumbra::cli {

@@ -20,7 +20,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/parallel.h"
-#include "penumbra/scene/demo_scenes.h"
+#include "penumbra/scene_io/demo_scenes.h"
 #include "bench_dsm.h"
 #include "bench_extinction.h"
 #include "bench_isosurface.h"

@@ -17,8 +17,8 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/render/renderer.h"
-#include "penumbra/scene/scene_file.h"
-#include "penumbra/scene/demo_scenes.h"
+#include "penumbra/scene_io/scene_file.h"
+#include "penumbra/scene_io/demo_scenes.h"
 #include "technique_runs.h"
 
 namespace penumbra::cli {

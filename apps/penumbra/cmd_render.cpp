@@ -2,7 +2,7 @@
 //  [--stats S.json] [--threads N] [--orbit N | --light-orbit N | --frames A:B[:STEP] [--video V.mp4] | --edits FILE]
 //  [--strict] [--slabs N] [--compositor direct-send|icet|icet-bswap]
 //  [--write-scene S.json] [--raw-dims X Y Z --raw-type T ...]`
-// Data files (volumes, molecules) make a scene of their own (scene/data_scene.h). Every frame goes
+// Data files (volumes, molecules) make a scene of their own (scene_io/data_scene.h). Every frame goes
 // through the interactive engine (engine/engine.h): an orbit edits camera.eye or the first light each
 // frame, --frames steps the scene's `time` through trajectories and volume series (each frame reading
 // only its data and rebuilding what moved), and --edits replays a recorded interaction.
@@ -32,8 +32,8 @@
 #include "penumbra/render/isosurface_buffers.h"
 #include "penumbra/engine/engine.h"
 #include "penumbra/render/renderer.h"
-#include "penumbra/scene/scene_file.h"
-#include "penumbra/scene/technique_catalog.h"
+#include "penumbra/scene_io/scene_file.h"
+#include "penumbra/registry/technique_catalog.h"
 #include "stats.h"
 
 namespace penumbra::cli {

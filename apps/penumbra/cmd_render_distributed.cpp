@@ -127,7 +127,7 @@ void run_render_distributed(const RenderOptions& o) {
   Timer total;
   ThreadLimit limit(threads_per_rank(o, world));
   std::optional<SceneDocument> document;
-  DocumentCompletion complete;  // data files: their document completed from the data read (scene/data_scene.h)
+  DocumentCompletion complete;  // data files: their document completed from the data read (scene_io/data_scene.h)
   std::optional<Engine> engine;
   std::string error;
   Compositor compositor = Compositor::direct_send;

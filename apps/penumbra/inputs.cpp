@@ -6,7 +6,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/replace_file.h"
-#include "penumbra/scene/data_scene.h"
+#include "penumbra/scene_io/data_scene.h"
 
 namespace penumbra::cli {
 namespace {

@@ -1,5 +1,5 @@
 // What `render` (and later `view`) open: one scene file, or data files (volumes, molecules) that make a
-// scene of their own (scene/data_scene.h), with `--set` overrides and the layout of .raw volumes.
+// scene of their own (scene_io/data_scene.h), with `--set` overrides and the layout of .raw volumes.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -44,7 +44,7 @@ struct SceneDocument {
 std::optional<SceneDocument> scene_file_document(const InputOptions& o, const std::vector<std::string>& extra_sets = {});
 
 // When the inputs are data files (not a scene file): their scene document before anything is loaded
-// (scene/data_scene.h data_scene_inputs) and what completes it from the scene it loads
+// (scene_io/data_scene.h data_scene_inputs) and what completes it from the scene it loads
 // (complete_data_scene, then `extra_sets` and the user's --set) — how a distributed render reads them
 // as bricks (distributed/brick_reading.h). Errors name the file or option.
 struct DataFilesDocument {

@@ -7,7 +7,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/core/replace_file.h"
 #include "penumbra/particles/sphere_hits.h"
-#include "penumbra/scene/technique_catalog.h"
+#include "penumbra/registry/technique_catalog.h"
 
 namespace penumbra::cli {
 

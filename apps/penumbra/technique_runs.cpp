@@ -4,7 +4,7 @@
 #include <limits>
 
 #include "penumbra/render/renderer.h"
-#include "penumbra/scene/scene_file.h"
+#include "penumbra/scene_io/scene_file.h"
 
 namespace penumbra::cli {
 

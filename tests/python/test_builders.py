@@ -249,7 +249,7 @@ def test_a_scene_file_cannot_name_an_array(tmp_path):
 def test_a_trajectory_from_mdanalysis_moves_the_atoms_frame_by_frame():
     mda = pytest.importorskip("MDAnalysis")
     if not all(os.path.exists(os.path.join(DATA, f)) for f in ("md_1tii_chainD.tpr", "md_1tii_chainD.xtc")):
-        pytest.skip(f"staged MD trajectory not found in {DATA} (set PENUMBRA_DATA_DIR)")
+        pytest.skip(f"missing data: the staged MD trajectory is not in {DATA} (set PENUMBRA_DATA_DIR)")
     u = mda.Universe(os.path.join(DATA, "md_1tii_chainD.tpr"), os.path.join(DATA, "md_1tii_chainD.xtc"))
     protein = u.select_atoms("protein")
     common = particle_common() | {"camera": {"width": 48, "height": 40, "direction": [0.2, 0.3, 1]}}

@@ -31,7 +31,7 @@ warnings.filterwarnings("ignore", category=UserWarning)
 def staged(name):
     path = os.path.join(DATA, name)
     if not os.path.exists(path):
-        pytest.skip(f"{path} not found")
+        pytest.skip(f"missing data: {path} not found")
     return path
 
 

@@ -16,7 +16,7 @@ GRO = os.path.join(DATA, "md_1tii_chainD.gro")
 XTC = os.path.join(DATA, "md_1tii_chainD.xtc")
 CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
 
-needs_md = pytest.mark.skipif(not (os.path.exists(GRO) and os.path.exists(XTC)), reason="staged MD trajectory missing")
+needs_md = pytest.mark.skipif(not (os.path.exists(GRO) and os.path.exists(XTC)), reason="missing data: the staged MD trajectory")
 
 
 def md_scene():

@@ -24,7 +24,7 @@ DATA = os.environ.get("PENUMBRA_DATA_DIR", os.path.join(ROOT, "..", "shared", "d
 def staged(name):
     path = os.path.join(DATA, name)
     if not os.path.exists(path):
-        pytest.skip(f"{path} not found")
+        pytest.skip(f"missing data: {path} not found")
     return path
 
 

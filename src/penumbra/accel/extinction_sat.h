@@ -25,7 +25,7 @@
 #include "penumbra/data/particles.h"
 #include "penumbra/data/transfer_function.h"
 #include "penumbra/data/volume.h"
-#include "penumbra/shadows/shadow_brick.h"
+#include "penumbra/accel/brick_reduction.h"
 
 namespace penumbra {
 
@@ -51,7 +51,7 @@ public:
   // sphere fills (a ramp one cell wide across the surface) times τ_s = kOpaqueDepth / (2r), so that a
   // ray through a sphere's diameter loses all but 10⁻⁴ of its light (spheres outside the volume's box
   // are not in the table).
-  // `brick` (a distributed frame, shadows/shadow_brick.h): `volume` may be a window of the whole grid;
+  // `brick` (a distributed frame, accel/brick_reduction.h): `volume` may be a window of the whole grid;
   // this brick sums the voxels whose centres its slab owns (and samples the voxel-less cells whose
   // centres it owns), and the bricks' sums are added up before the means are taken, so that every
   // brick holds the whole volume's table (the same up to the order of the double sums).

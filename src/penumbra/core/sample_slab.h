@@ -1,6 +1,6 @@
 // The samples one brick of a sort-last decomposition owns (distributed/volume_slabs.h): those at world
 // z_lo ≤ z < z_hi, so that every sample of a ray's lattice lies in exactly one brick — the eye's ray
-// casting samples (render/volume_raycaster.h) and the light's march segments (shadows/shadow_casters.h)
+// casting samples (render/volume_raycaster.h) and the light's march segments (lighting/shadow_casters.h)
 // alike, each judged at the point where it is classified.
 #pragma once
 

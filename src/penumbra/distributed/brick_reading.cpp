@@ -11,9 +11,9 @@
 #include "penumbra/data/volume_stats.h"
 #include "penumbra/distributed/sphere_split.h"
 #include "penumbra/distributed/volume_slabs.h"
-#include "penumbra/scene/scene_file.h"
-#include "penumbra/scene/technique_catalog.h"
-#include "penumbra/shadows/registry.h"
+#include "penumbra/scene_io/scene_file.h"
+#include "penumbra/registry/technique_catalog.h"
+#include "penumbra/registry/registry.h"
 
 namespace penumbra {
 namespace {

@@ -56,7 +56,7 @@ struct BrickReading {
   std::size_t volume_bytes = 0;  // the voxels it holds
 };
 
-// Completes a document from the scene it loaded (data files opened directly: scene/data_scene.h
+// Completes a document from the scene it loaded (data files opened directly: scene_io/data_scene.h
 // complete_data_scene, then the command's overrides); `choose(i)` gives volume i's transfer function
 // chosen from the whole grid's histogram.
 using DocumentCompletion =

@@ -18,7 +18,7 @@
 // the bands are composited by depth (the nearest surface shows). Beside a volume, a rank holds the
 // spheres that reach into its slab (all of them when their techniques do not combine over ranks).
 //
-// Shadows across ranks: the light structures that combine over bricks (shadows/shadow_brick.h: the
+// Shadows across ranks: the light structures that combine over bricks (accel/brick_reduction.h: the
 // CSSM by the per-channel minimum, the classic shadow map from the transparency in front and the
 // nearest crossing, the deep shadow map by products and a compression over the ranks, the extinction
 // SAT by sums; the isosurface light pass, each rank extracting from its brick's cells, by its frustum

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "penumbra/shadows/shadow_brick.h"
+#include "penumbra/accel/brick_reduction.h"
 
 namespace penumbra {
 
@@ -58,7 +58,7 @@ public:
   // send.size() values.
   std::vector<double> gather_doubles(std::span<const double> send);
   // values = elementwise minimum over the ranks, on every rank (MPI_Allreduce): how light structures
-  // built per brick combine (shadows/shadow_brick.h).
+  // built per brick combine (accel/brick_reduction.h).
   void minimum(std::span<float> values) override;
   // values = elementwise sum over the ranks, on every rank (MPI_Allreduce): histogram counts, and the
   // extinction SAT's per-cell sums.

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "penumbra/core/error.h"
-#include "penumbra/scene/technique_catalog.h"
+#include "penumbra/registry/technique_catalog.h"
 
 namespace penumbra {
 

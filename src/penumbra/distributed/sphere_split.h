@@ -6,7 +6,7 @@
 // Shadows and occlusion cross the ranks: the implicit sphere shadow map keeps the nearest candidate of
 // every rank per texel, the CSSM the nearest first stop, and the particle ambient occlusion sums the
 // ranks' densities; every rank fits its maps to the box of all the spheres
-// (shadows/shadow_brick.h), so a sphere on one rank shadows a sphere on another.
+// (accel/brick_reduction.h), so a sphere on one rank shadows a sphere on another.
 //
 // Beside a volume split into slabs, a rank holds the spheres that reach into its slab (their z extent
 // overlaps it: a sphere across a slab face is held by both ranks) and shows those whose visible point

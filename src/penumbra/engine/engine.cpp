@@ -10,7 +10,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/data/transfer_function_choice.h"
 #include "penumbra/engine/invalidation.h"
-#include "penumbra/scene/json_reader.h"
+#include "penumbra/scene_io/json_reader.h"
 
 namespace penumbra {
 namespace {
@@ -184,11 +184,15 @@ EngineFrame Engine::render(const FrameOptions& options) {
 
   // accumulation
   if (f.quality == Quality::Full && options.accumulate) {
+    // Colour and coverage are averaged alike: the mean image is then the mean premultiplied colour over
+    // the background with the mean coverage, so the transparent output does not depend on the background.
     if (request.sample == 0) {
       sum_ = f.image.pixels();
+      alpha_sum_ = f.alpha;
       samples_ = 1;
     } else {
       for (std::size_t i = 0; i < sum_.size(); ++i) sum_[i] += f.image.pixels()[i];
+      for (std::size_t i = 0; i < alpha_sum_.size(); ++i) alpha_sum_[i] += f.alpha[i];
       ++samples_;
     }
     if (samples_ == 1) {
@@ -197,6 +201,7 @@ EngineFrame Engine::render(const FrameOptions& options) {
       out.image = Image(f.image.width(), f.image.height());
       const float inv = 1.0f / static_cast<float>(samples_);
       for (std::size_t i = 0; i < sum_.size(); ++i) out.image.pixels()[i] = sum_[i] * inv;
+      for (std::size_t i = 0; i < alpha_sum_.size(); ++i) out.frame.alpha[i] = alpha_sum_[i] * inv;
     }
     out.samples = samples_;
   } else {

@@ -29,7 +29,7 @@
 #include <vector>
 
 #include "penumbra/render/renderer.h"
-#include "penumbra/scene/scene_file.h"
+#include "penumbra/scene_io/scene_file.h"
 
 namespace penumbra {
 
@@ -59,8 +59,9 @@ struct RebuiltStructure {
 
 struct EngineFrame {
   Image image;                   // the mean of the accumulated samples (the frame itself when one)
-  FrameResult frame;             // the last sample's frame: timings, alpha, depth, stats; its image is
-                                 // moved into `image` (and empty) when the image is that one sample
+  FrameResult frame;             // the last sample's frame: timings, depth, stats; its alpha is the mean
+                                 // of the samples' (as `image` is); its image is moved into `image` (and
+                                 // empty) when the image is that one sample
   int samples = 1;               // how many samples the image averages
   int divisor = 1;               // a preview's image was rendered at 1/divisor of each side
   std::vector<RebuiltStructure> rebuilt;
@@ -115,7 +116,8 @@ private:
   std::vector<std::string> edits_;             // paths edited since the last frame
   bool new_renderer_ = true;
   // accumulation
-  std::vector<Rgb> sum_;
+  std::vector<Rgb> sum_;        // the accumulated samples' colour (over the background) ...
+  std::vector<float> alpha_sum_;  // ... and coverage: their means are a premultiplied frame's mean
   int samples_ = 0;
   Quality last_quality_ = Quality::Full;
   double full_render_ms_ = 0;  // the last full frame's render time: sizes the preview

@@ -18,8 +18,8 @@
 #include <vector>
 
 #include "penumbra/isosurface/point_extraction.h"
-#include "penumbra/shadows/shadow_brick.h"
-#include "penumbra/shadows/shadow_technique.h"
+#include "penumbra/accel/brick_reduction.h"
+#include "penumbra/lighting/shadow_technique.h"
 #include "penumbra/isosurface/view_projection.h"
 #include "penumbra/isosurface/visibility_buffer.h"
 
@@ -63,7 +63,7 @@ public:
   void build(const ShadowCasters& casters, const Light& light) override;
   void fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples) override;
   bool view_dependent() const override { return true; }
-  // On a brick (shadows/shadow_brick.h): its share of the receivers and its isosurface cells; the fit,
+  // On a brick (accel/brick_reduction.h): its share of the receivers and its isosurface cells; the fit,
   // the holes (a hole of any brick) and each light pixel's nearest depth combine over the bricks.
   bool combines_over_bricks() const override { return true; }
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "penumbra/core/math.h"
-#include "penumbra/isosurface/grid_tree.h"
-#include "penumbra/isosurface/iso_point.h"
+#include "penumbra/geometry/grid_tree.h"
+#include "penumbra/geometry/iso_point.h"
 #include "penumbra/scene/camera.h"
 
 namespace penumbra {

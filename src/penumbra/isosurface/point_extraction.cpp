@@ -8,7 +8,7 @@
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
-#include "penumbra/isosurface/trilinear_root.h"
+#include "penumbra/geometry/trilinear_root.h"
 
 namespace penumbra {
 

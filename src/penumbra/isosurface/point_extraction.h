@@ -16,8 +16,8 @@
 
 #include <cstddef>
 
-#include "penumbra/isosurface/grid_tree.h"
-#include "penumbra/isosurface/iso_point.h"
+#include "penumbra/geometry/grid_tree.h"
+#include "penumbra/geometry/iso_point.h"
 #include "penumbra/isosurface/view_projection.h"
 #include "penumbra/isosurface/visibility_buffer.h"
 

@@ -4,7 +4,7 @@
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/particles/tile_bins.h"
-#include "penumbra/shadows/shadow_brick.h"
+#include "penumbra/accel/brick_reduction.h"
 
 namespace penumbra {
 

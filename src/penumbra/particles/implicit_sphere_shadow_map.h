@@ -12,7 +12,7 @@
 // an orthographic map (the paper); point and spot lights a perspective one fitted to the spheres (the
 // paper's future work).
 //
-// A particle scene split by space over MPI ranks (shadows/shadow_brick.h) builds one map per rank from
+// A particle scene split by space over MPI ranks (accel/brick_reduction.h) builds one map per rank from
 // its share of the spheres, fitted to the box of all of them, and keeps per texel the nearest of the
 // ranks' candidates (depth, centre and radius: one allreduce of 20 bytes a texel); a texel whose sphere
 // another rank holds is marked so (kOtherBrickSphere), never mistaken for a receiver's own sphere.
@@ -28,7 +28,7 @@
 #include <algorithm>
 #include <vector>
 
-#include "penumbra/shadows/shadow_technique.h"
+#include "penumbra/lighting/shadow_technique.h"
 #include "penumbra/scene/light_projection.h"
 
 namespace penumbra {

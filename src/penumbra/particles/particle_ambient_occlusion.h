@@ -12,7 +12,7 @@
 // level whose cell matches the diameter (trilinear, blended between levels) and compositing its
 // opacity front to back, up to `max_distance`. The ambient factor is 1 minus the cosine-weighted mean
 // of the cones' occlusion. Our choices are explained and measured in docs/techniques/issm.md. A
-// particle scene split by space over MPI ranks (shadows/shadow_brick.h) splats each rank's spheres
+// particle scene split by space over MPI ranks (accel/brick_reduction.h) splats each rank's spheres
 // into a grid over all of them and sums the ranks' densities (one allreduce of a double a cell); beside
 // a volume split into slabs, each rank composes the volume's opacity into the cells whose centres its
 // slab owns (it holds only its brick's voxels) and the ranks add the cells (one allreduce likewise).
@@ -31,7 +31,7 @@
 #include "penumbra/core/math.h"
 #include "penumbra/particles/sphere_cone_cache.h"
 #include "penumbra/scene/scene.h"
-#include "penumbra/shadows/ambient_technique.h"
+#include "penumbra/lighting/ambient_technique.h"
 
 namespace penumbra {
 
@@ -50,7 +50,7 @@ public:
   std::size_t memory_bytes() const override;
   std::string_view name() const override { return "particle_ao"; }
   // Split over bricks: the volumes' opacity composed per cell by the brick owning the cell's centre,
-  // the split spheres' densities added (shadows/shadow_brick.h).
+  // the split spheres' densities added (accel/brick_reduction.h).
   bool combines_over_bricks() const override { return true; }
   bool reads_whole_volume() const override { return false; }
 

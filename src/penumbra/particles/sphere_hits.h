@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "penumbra/data/particles.h"
-#include "penumbra/particles/sphere_bvh.h"
+#include "penumbra/geometry/sphere_bvh.h"
 #include "penumbra/scene/camera.h"
 #include "penumbra/scene/scene.h"
 

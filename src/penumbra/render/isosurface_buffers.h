@@ -4,7 +4,7 @@
 #pragma once
 
 #include "penumbra/core/image.h"
-#include "penumbra/isosurface/iso_point.h"
+#include "penumbra/geometry/iso_point.h"
 #include "penumbra/isosurface/visibility_buffer.h"
 
 namespace penumbra {

@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "penumbra/core/image.h"
-#include "penumbra/isosurface/grid_tree.h"
-#include "penumbra/isosurface/isosurface_raycaster.h"
+#include "penumbra/geometry/grid_tree.h"
+#include "penumbra/geometry/isosurface_raycaster.h"
 #include "penumbra/isosurface/marching_cubes.h"
 #include "penumbra/isosurface/point_extraction.h"
 #include "penumbra/scene/scene.h"

@@ -2,8 +2,8 @@
 
 #include <array>
 
-#include "penumbra/scene/technique_catalog.h"
-#include "penumbra/shadows/registry.h"
+#include "penumbra/registry/technique_catalog.h"
+#include "penumbra/registry/registry.h"
 
 namespace penumbra {
 

@@ -8,7 +8,7 @@
 #include <span>
 #include <vector>
 
-#include "penumbra/shadows/shadow_technique.h"
+#include "penumbra/lighting/shadow_technique.h"
 
 namespace penumbra {
 

@@ -10,10 +10,10 @@
 #include "penumbra/particles/sphere_hits.h"
 #include "penumbra/render/surface_frame.h"
 #include "penumbra/render/volume_raycaster.h"
-#include "penumbra/scene/technique_catalog.h"
+#include "penumbra/registry/technique_catalog.h"
 #include "penumbra/shadows/sat_cone.h"
 #include "penumbra/shadows/volume_ambient_occlusion.h"
-#include "penumbra/shadows/registry.h"
+#include "penumbra/registry/registry.h"
 
 namespace penumbra {
 namespace {

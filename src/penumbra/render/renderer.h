@@ -24,7 +24,7 @@
 #include "penumbra/accel/extinction_sat.h"
 #include "penumbra/accel/light_cache.h"
 #include "penumbra/core/image.h"
-#include "penumbra/particles/sphere_bvh.h"
+#include "penumbra/geometry/sphere_bvh.h"
 #include "penumbra/particles/sphere_hits.h"
 #include "penumbra/render/isosurface_frame.h"
 #include "penumbra/render/light_shadows.h"
@@ -32,8 +32,8 @@
 #include "penumbra/render/surface_frame.h"
 #include "penumbra/render/volume_raycaster.h"
 #include "penumbra/scene/scene.h"
-#include "penumbra/shadows/ambient_technique.h"
-#include "penumbra/shadows/shadow_casters.h"
+#include "penumbra/lighting/ambient_technique.h"
+#include "penumbra/lighting/shadow_casters.h"
 
 namespace penumbra {
 
@@ -58,12 +58,12 @@ struct FrameRequest {
   std::optional<SampleSlab> slab;
   // With a slab, on one rank of a data-parallel frame: the shadow techniques that combine over bricks
   // build from the slab's own segments and combine with the other ranks' through this
-  // (shadows/shadow_brick.h); unset: every structure is built from the whole scene.
+  // (accel/brick_reduction.h); unset: every structure is built from the whole scene.
   BrickReduction* reduction = nullptr;
   // With a reduction, on one rank of a data-parallel frame whose spheres are split by space (a particle
   // scene: no slab; beside a volume: those reaching into the slab): the scene holds this rank's share of
   // the spheres, and the implicit sphere shadow map and the particle ambient occlusion combine over the
-  // ranks (shadows/shadow_brick.h).
+  // ranks (accel/brick_reduction.h).
   bool own_spheres = false;
 };
 

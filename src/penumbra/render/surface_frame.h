@@ -13,11 +13,11 @@
 #include <vector>
 
 #include "penumbra/core/image.h"
-#include "penumbra/isosurface/iso_point.h"
+#include "penumbra/geometry/iso_point.h"
 #include "penumbra/particles/sphere_hits.h"
 #include "penumbra/render/light_shadows.h"
 #include "penumbra/scene/scene.h"
-#include "penumbra/shadows/ambient_technique.h"
+#include "penumbra/lighting/ambient_technique.h"
 
 namespace penumbra {
 

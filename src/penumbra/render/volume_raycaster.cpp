@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cmath>
+#include <vector>
 
 #include "penumbra/core/cancel.h"
 #include "penumbra/core/parallel.h"
@@ -166,10 +167,19 @@ float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, 
   return opacity;
 }
 
+// The samples of one lattice position that several volumes classify: room for every volume (any number
+// may overlap), allocated once per tile.
+struct OverlapSamples {
+  explicit OverlapSamples(std::size_t volumes) : sample(volumes), cells(volumes), holder(volumes) {}
+  std::vector<Rgba> sample;
+  std::vector<TrilinearCell> cells;
+  std::vector<const PreparedVolume*> holder;
+};
+
 // Several volumes on one lattice: every volume that holds a sample classifies it; space is skipped
 // only where every volume is empty (or absent).
 float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& shader, const Ray& ray, float jitter,
-                 float t_surface, SampleBatch& batch, Rgb& color, float& half) {
+                 float t_surface, SampleBatch& batch, OverlapSamples& overlap, Rgb& color, float& half) {
   float opacity = 0;
   float t0 = kInfinity, t1 = -kInfinity;
   for (const PreparedVolume* pv : volumes) {
@@ -183,10 +193,7 @@ float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& s
   const float dt = volumes.front()->step;  // the renderer gives every volume the same step
   const SampleSlab* owned = shader.in.owned;
   if (owned && !owned->clip(ray, dt, t0, t1)) return opacity;
-  constexpr std::size_t kMaxOverlap = 8;
-  std::array<Rgba, kMaxOverlap> sample;
-  std::array<TrilinearCell, kMaxOverlap> cells;
-  std::array<const PreparedVolume*, kMaxOverlap> holder;
+  auto& [sample, cells, holder] = overlap;
   for (auto k = static_cast<std::int64_t>(std::ceil(t0 / dt - jitter));; ++k) {
     const float t = (static_cast<float>(k) + jitter) * dt;
     if (t > t1) break;
@@ -212,7 +219,7 @@ float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& s
       occupied = true;
       const TrilinearCell tc = pv->volume->trilinear_cell(v);
       const Rgba s = pv->lut.lookup(pv->volume->sample_cell(tc));
-      if (s.a <= 0 || n == kMaxOverlap) continue;
+      if (s.a <= 0) continue;
       sample[n] = s;
       cells[n] = tc;
       holder[n] = pv;
@@ -253,6 +260,7 @@ VolumeFrame render_volume_frame(const RayCastInputs& in) {
   const std::uint64_t jitter_key = 0x6a177e5 + static_cast<std::uint64_t>(in.sample) * 0x9e3779b97f4a7c15ull;
   parallel_for_tiles(cam.width, cam.height, kTileSize, [&](const Tile& tile) {
     SampleBatch batch;
+    OverlapSamples overlap(in.volumes.size());
     for (int y = tile.y0; y < tile.y1; ++y) {
       if (cancel_requested()) return;  // a row can take long (ray-traced shadows): stop between rows
       for (int x = tile.x0; x < tile.x1; ++x) {
@@ -269,7 +277,7 @@ VolumeFrame render_volume_frame(const RayCastInputs& in) {
             return in.owned ? trace_one<decltype(type), true>(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color, half)
                             : trace_one<decltype(type), false>(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color, half);
           });
-        else if (!in.volumes.empty()) opacity = trace_many(in.volumes, shader, ray, jitter, t_surface, batch, color, half);
+        else if (!in.volumes.empty()) opacity = trace_many(in.volumes, shader, ray, jitter, t_surface, batch, overlap, color, half);
         const Rgb behind = in.opaque ? in.opaque->color->at(x, y) : in.scene->background;
         out.image.at(x, y) = color + behind * (1 - opacity);
         out.opacity[pixel] = opacity;

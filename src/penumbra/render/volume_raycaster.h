@@ -30,7 +30,7 @@
 #include "penumbra/render/light_shadows.h"
 #include "penumbra/render/prepared_volume.h"
 #include "penumbra/scene/scene.h"
-#include "penumbra/shadows/ambient_technique.h"
+#include "penumbra/lighting/ambient_technique.h"
 
 namespace penumbra {
 

@@ -23,7 +23,7 @@
 // | shadows.nodes       | 3               | N: nodes per colour channel (per_channel) or per texel (shared_depth) |
 // | shadows.dsm_layout  | per_channel     | per_channel or shared_depth (the paper's)             |
 // | shadows.bias        | one shadow step | world units                                           |
-// Across bricks (shadows/shadow_brick.h; a distributed frame): each brick marches the segments it
+// Across bricks (accel/brick_reduction.h; a distributed frame): each brick marches the segments it
 // owns. The transmittance through the bricks in front of it (an exclusive product over the bricks, in
 // the order each ray crosses them) continues its part of every texel's polyline, so the bricks' parts
 // are the whole polyline, cut at the brick faces. The compression then runs over the bricks: the

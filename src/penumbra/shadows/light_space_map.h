@@ -7,7 +7,7 @@
 
 #include "penumbra/scene/scene.h"
 #include "penumbra/scene/light_projection.h"
-#include "penumbra/shadows/shadow_technique.h"
+#include "penumbra/lighting/shadow_technique.h"
 
 namespace penumbra {
 

@@ -15,7 +15,7 @@
 // | shadows.area_rays     | 64       | shadow rays per receiver when light_angle > 0               |
 #pragma once
 
-#include "penumbra/shadows/shadow_technique.h"
+#include "penumbra/lighting/shadow_technique.h"
 
 namespace penumbra {
 

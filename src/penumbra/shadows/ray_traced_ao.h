@@ -11,7 +11,7 @@
 // | ambient.rays         | 64      | rays per point                                             |
 #pragma once
 
-#include "penumbra/shadows/ambient_technique.h"
+#include "penumbra/lighting/ambient_technique.h"
 
 namespace penumbra {
 

@@ -16,7 +16,7 @@
 #include "penumbra/accel/cell_field.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadows/cone_cuboids.h"
-#include "penumbra/shadows/shadow_technique.h"
+#include "penumbra/lighting/shadow_technique.h"
 
 namespace penumbra {
 

@@ -1,7 +1,7 @@
 // Classic shadow map for volumes (the CSSM paper's baseline, §4): one depth per texel, the light depth
 // where the accumulated opacity along the texel's ray first reaches 0.5; a receiver is lit when it is
 // nearer than that depth (minus the bias). Optional percentage-closer filtering over (2r+1)² texels.
-// Built per brick on MPI ranks (shadows/shadow_brick.h) from the combined transparency: the crossing
+// Built per brick on MPI ranks (accel/brick_reduction.h) from the combined transparency: the crossing
 // is the same segment as in one process unless the running product lands within rounding of 0.5 (the
 // bricks' partial products are multiplied in another order).
 //

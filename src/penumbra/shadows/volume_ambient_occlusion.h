@@ -26,7 +26,7 @@
 
 #include "penumbra/accel/cell_field.h"
 #include "penumbra/scene/scene.h"
-#include "penumbra/shadows/ambient_technique.h"
+#include "penumbra/lighting/ambient_technique.h"
 
 namespace penumbra {
 

@@ -24,7 +24,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/timer.h"
-#include "penumbra/scene/json_reader.h"
+#include "penumbra/scene_io/json_reader.h"
 #include "penumbra/viewer/jpeg.h"
 #include "penumbra/viewer/viewer_state.h"
 

@@ -3,7 +3,7 @@
 #include <cmath>
 
 #include "penumbra/data/volume_stats.h"
-#include "penumbra/scene/technique_catalog.h"
+#include "penumbra/registry/technique_catalog.h"
 
 namespace penumbra {
 namespace {

@@ -1,0 +1,110 @@
+#include "penumbra/lighting/shadow_casters.h"
+
+#include "penumbra/core/error.h"
+
+namespace penumbra {
+
+CastingVolume::CastingVolume(const VolumeObject& o, const MacrocellGrid& g, float step)
+    : volume(o.volume.get()),
+      box(o.volume->bounds()),
+      lut(o.shadow_tf(), o.volume->min_value(), o.volume->max_value(), step / o.reference_step(), 4096, o.compositing),
+      grid(&g),
+      empty(g.empty_cells(lut)),
+      achromatic(o.compositing == Compositing::Extinction) {}
+
+ShadowCasters::ShadowCasters(const Scene& scene, std::span<const MacrocellGrid* const> grids) {
+  const float steps_in_voxels = scene.shadows.step > 0 ? scene.shadows.step : kDefaultShadowStepVoxels;
+  // one lattice for every volume: the finest of their voxels
+  float voxel = kInfinity;
+  for (std::size_t i = 0; i < scene.volumes.size(); ++i)
+    if (i < grids.size() && grids[i] && scene.volumes[i].casts_shadows) voxel = std::min(voxel, scene.volumes[i].reference_step());
+  if (voxel < kInfinity) step_ = steps_in_voxels * voxel;
+  for (std::size_t i = 0; i < scene.volumes.size(); ++i)
+    if (i < grids.size() && grids[i] && scene.volumes[i].casts_shadows)
+      volumes_.push_back(std::make_shared<const CastingVolume>(scene.volumes[i], *grids[i], step_));
+  for (const Plane& p : scene.planes)
+    if (p.casts_shadows) planes_.push_back(p);
+  update_bounds();
+}
+
+void ShadowCasters::set_spheres(const CastingSpheres& spheres) {
+  spheres_ = spheres;
+  update_bounds();
+}
+
+void ShadowCasters::add_isosurface(const IsosurfaceRaycaster& raycaster, const GridTree& tree, std::uint32_t object) {
+  const Volume& volume = tree.volume();
+  const Vec3& s = volume.spacing();
+  // Far enough off the surface that float rounding of a point at hundreds of voxels from the origin
+  // cannot put the start behind its own surface; small against any feature.
+  isosurfaces_.push_back(CastingIsosurface{&raycaster, &tree, raycaster.isovalue(), object, 0.05f * std::min({s.x, s.y, s.z}), volume.bounds()});
+  update_bounds();
+}
+
+void ShadowCasters::update_bounds() {
+  Box3 b;
+  for (const auto& v : volumes_) b.extend(v->box);
+  for (const auto& i : isosurfaces_) b.extend(i.bounds);
+  if (spheres_.set) b.extend(spheres_.bounds);
+  // Planes join only when there is nothing else: a light frustum fitted to the other casters already
+  // covers every receiver they can shadow, and a large floor would spread the map's texels thin.
+  if (b.empty())
+    for (const auto& p : planes_) b.extend(p.bounds());
+  bounds_ = b;
+  epsilon_ = 1e-4f * (b.empty() ? 1.0f : std::max(b.radius(), 1e-6f));
+}
+
+ShadowCasters ShadowCasters::restricted_to(KindMask kinds) const {
+  ShadowCasters c = *this;
+  if (!(kinds & kind_bit(ObjectKind::Volume))) c.volumes_.clear();
+  if (!(kinds & kind_bit(ObjectKind::Spheres))) c.spheres_ = CastingSpheres{};
+  if (!(kinds & kind_bit(ObjectKind::Isosurface))) c.isosurfaces_.clear();
+  if (!(kinds & kind_bit(ObjectKind::Plane))) c.planes_.clear();
+  c.update_bounds();
+  return c;
+}
+
+ShadowCasters ShadowCasters::restricted_to_brick(const ShadowBrick& brick) const {
+  ShadowCasters c = *this;
+  c.brick_ = brick;
+  return c;
+}
+
+float ShadowCasters::surface_hit(const Ray& r, float t0, float t1) const {
+  float best = t1;
+  for (const auto& p : planes_) best = std::min(best, p.intersect(r, t0, best));
+  if (spheres_.set && !spheres_.set->spheres.empty()) {
+    if (!spheres_.bvh) throw Error("internal: spheres cast shadows by rays but no BVH was built");
+    // Embree takes tnear >= 0: a ray that starts behind its origin (a directional map's texel line)
+    // restarts where it enters the spheres' box
+    float a = t0, b = best;
+    if (spheres_.bounds.clip(r, a, b, t0, best)) {
+      const float shift = a < 0 ? a : 0.0f;
+      const SphereHit h = spheres_.bvh->first_hit(Ray{r.at(shift), r.direction}, a - shift, best - shift);
+      if (h.id != kNoSphere) best = std::min(best, h.t + shift);
+    }
+  }
+  for (const auto& iso : isosurfaces_) {
+    const float t = iso.raycaster->first_hit(r, t0, best);
+    if (t > t0) best = std::min(best, t);
+  }
+  return best < t1 ? best : kInfinity;
+}
+
+Vec3 ShadowCasters::ray_origin(const SurfacePoint& p, const Vec3& towards) const {
+  const Vec3 n = dot(p.normal, towards) >= 0 ? p.normal : -p.normal;
+  float off = epsilon_;
+  if (spheres_.set && p.self < spheres_.set->size())
+    off = std::max(epsilon_, 1e-3f * spheres_.set->spheres[p.self].radius);  // Embree's precision on its own sphere
+  if (p.kind == ObjectKind::Isosurface)
+    for (const auto& iso : isosurfaces_)
+      if (iso.object == p.object) off = std::max(off, iso.offset);
+  return p.position + n * off;
+}
+
+const ExtinctionSat& ShadowCasters::extinction_sat() const {
+  if (!sat_) throw Error("the extinction techniques (sat_cone, sat_shells, sampled_ao) need a visible volume");
+  return *sat_;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,283 @@
+// What a light sees: every object of the scene that casts shadows — the visible volumes classified by
+// their shadow transfer functions, the spheres, the isosurfaces and the opaque planes. Every shadow and
+// ambient technique reads the scene through this one class, so they all share one colour model
+// (DESIGN.md): a segment with opacity α and transmission colour t passes light of channel λ with
+// probability 1 − α·(1 − t_λ); spheres, isosurfaces and planes pass nothing. A volume with extinction
+// compositing (paper 001) attenuates every channel alike, t = 0, so a segment passes exp(−τ·Δs).
+//
+// Volumes that overlap are sampled at the same positions: a segment's midpoint is classified in every
+// volume that holds it and the colour model's pass probabilities multiply, Π_v (1 − α_v·(1 − t_v,λ)),
+// given back as one segment (α = 1 − Π(1 − α_v), t_λ from the product).
+//
+// A technique may take only some kinds of caster (the catalogue's `casters`): the renderer hands it a
+// copy restricted to those kinds (restricted_to), and the product over the techniques of a light covers
+// every caster once. The extinction techniques also read the volume's 3D summed area table from here,
+// once the renderer has attached it.
+#pragma once
+
+#include <cmath>
+#include <memory>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "penumbra/accel/extinction_sat.h"
+#include "penumbra/accel/macrocell_grid.h"
+#include "penumbra/core/color.h"
+#include "penumbra/core/cutoffs.h"
+#include "penumbra/core/math.h"
+#include "penumbra/data/particles.h"
+#include "penumbra/data/transfer_function.h"
+#include "penumbra/geometry/isosurface_raycaster.h"
+#include "penumbra/geometry/sphere_bvh.h"
+#include "penumbra/scene/scene.h"
+#include "penumbra/accel/brick_reduction.h"
+#include "penumbra/lighting/surface_point.h"
+
+namespace penumbra {
+
+// Light rays sample the volume once per voxel unless shadows.step says otherwise: the light pass is
+// only integrated, never shaded, so it does not need the eye's finer step; all techniques, the
+// ray-traced reference included, use the same step, so their differences are the techniques' own.
+constexpr float kDefaultShadowStepVoxels = 1.0f;
+
+struct MediumSegment {
+  std::int64_t index;  // k: the segment [k·Δ, (k+1)·Δ] of the ray's lattice
+  float t;             // midpoint of the part of the segment inside the volumes
+  float t_begin, t_end;  // that part's ends (a full segment is [kΔ, (k+1)Δ]; the boxes cut the first and last)
+  float alpha;         // opacity of that part (corrected for its length)
+  Rgb transmission;    // t_λ: colour passed when the light interacts (the shadow TF's colour)
+};
+
+// One casting volume under its shadow transfer function, with its empty macrocells.
+struct CastingVolume {
+  CastingVolume(const VolumeObject& object, const MacrocellGrid& grid, float step);
+  const Volume* volume;
+  Box3 box;
+  TransferLut lut;
+  const MacrocellGrid* grid;
+  std::vector<std::uint8_t> empty;
+  bool achromatic;
+};
+
+// The spheres that cast: the first `count` spheres of the frame's particle set (the renderer puts
+// casting particle objects first, so a sphere's index is the same in both).
+struct CastingSpheres {
+  const ParticleSet* set = nullptr;
+  const SphereBvh* bvh = nullptr;  // null when no technique traces rays through spheres
+  Box3 bounds;
+};
+
+struct CastingIsosurface {
+  const IsosurfaceRaycaster* raycaster;
+  const GridTree* tree;
+  float isovalue;
+  std::uint32_t object;  // index into Scene::isosurfaces
+  float offset;          // shadow rays start this far off the surface (a twentieth of a voxel)
+  Box3 bounds;
+};
+
+class ShadowCasters {
+public:
+  // The scene's casting volumes (grids[i] is the macrocell grid of scene.volumes[i]; null for volumes
+  // that are not drawn) and planes. Spheres and isosurfaces are added by the renderer.
+  ShadowCasters(const Scene& scene, std::span<const MacrocellGrid* const> grids);
+  void set_spheres(const CastingSpheres& spheres);
+  void add_isosurface(const IsosurfaceRaycaster& raycaster, const GridTree& tree, std::uint32_t object);
+
+  // A copy holding only the casters of the given kinds (what one technique covers).
+  ShadowCasters restricted_to(KindMask kinds) const;
+
+  bool has_volume() const { return !volumes_.empty(); }
+  float step() const { return step_; }            // Δ, world units
+  const Box3& bounds() const { return bounds_; }  // what light frusta are fitted to
+  const std::vector<Plane>& planes() const { return planes_; }
+  const CastingSpheres& spheres() const { return spheres_; }
+  const std::vector<std::shared_ptr<const CastingVolume>>& volumes() const { return volumes_; }
+  const std::vector<CastingIsosurface>& isosurfaces() const { return isosurfaces_; }
+
+  // Ray parameter of the nearest opaque caster (plane, sphere, isosurface) in (t0, t1), or infinity.
+  float surface_hit(const Ray& r, float t0, float t1) const;
+
+  // Visits the volume segments of r inside [t_begin, t_end] in order (lattice k·Δ from the ray
+  // origin), skipping space that is empty in every volume; visit(segment) returns false to stop.
+  // In a copy restricted to a brick, only the segments the brick owns (their midpoints in its slab).
+  template <class Visit>
+  void march(const Ray& r, float t_begin, float t_end, Visit&& visit) const {
+    if (!brick_) {
+      march_lattice(r, t_begin, t_end, -kInfinity, visit);
+      return;
+    }
+    // The lattice walk starts a step before the slab (its segments cut by the volume boxes only, the
+    // same as in the whole volume's walk) and ends a step after it.
+    float lo = -kInfinity, hi = kInfinity;
+    if (!brick_->slab.clip(r, step_, lo, hi)) return;
+    auto owned = [&](const MediumSegment& s) {
+      if (s.t > hi) return false;
+      return !brick_->slab.owns(r.at(s.t)) || visit(s);
+    };
+    march_lattice(r, t_begin, t_end, lo, owned);
+  }
+
+  // A copy whose march visits only the segments `brick` owns (for a technique that combines over
+  // bricks); brick() is then set.
+  ShadowCasters restricted_to_brick(const ShadowBrick& brick) const;
+  const ShadowBrick* brick() const { return brick_ ? &*brick_ : nullptr; }
+
+  // Exact transmittance along r over [t_begin, t_end] (the product of the colour model over all
+  // segments, zero if an opaque caster is hit), stopping early below kShadowOpaque.
+  Rgb transmittance(const Ray& r, float t_begin, float t_end) const {
+    if (surface_hit(r, t_begin, t_end) < kInfinity) return Rgb(0.0f);
+    Rgb T(1.0f);
+    march(r, t_begin, t_end, [&](const MediumSegment& s) {
+      T *= Rgb(1.0f) - (Rgb(1.0f) - s.transmission) * s.alpha;
+      return T.max_component() > kShadowOpaque;
+    });
+    return T;
+  }
+
+  // The start of an exact shadow ray from a surface point: off the surface by the caster's own
+  // offset (a thousandth of a sphere's radius, a twentieth of a voxel for isosurfaces, the scene's
+  // epsilon for planes), to the side of `towards`.
+  Vec3 ray_origin(const SurfacePoint& p, const Vec3& towards) const;
+  float epsilon() const { return epsilon_; }  // 1e-4 of the bounds' radius
+
+  // The extinction SAT of the visible volume, attached by the renderer for the techniques that need it.
+  void attach_extinction_sat(const ExtinctionSat* sat) { sat_ = sat; }
+  const ExtinctionSat& extinction_sat() const;  // throws Error when none is attached (no volume)
+
+private:
+  void update_bounds();
+
+  // The lattice segments inside [t_begin, t_end], from the one holding t_from on.
+  template <class Visit>
+  void march_lattice(const Ray& r, float t_begin, float t_end, float t_from, Visit& visit) const {
+    if (volumes_.size() == 1) march_one(*volumes_.front(), r, t_begin, t_end, t_from, visit);
+    else if (!volumes_.empty()) march_many(r, t_begin, t_end, t_from, visit);
+  }
+
+  // Segment k of the lattice, [kΔ, (k+1)Δ], cut to [t0, t1] (only the first and last are cut); false
+  // once it starts past t1.
+  bool lattice_segment(std::int64_t k, float t0, float t1, float& seg0, float& seg1) const {
+    const float lo = static_cast<float>(k) * step_, hi = lo + step_;
+    seg0 = lo < t0 ? t0 : lo;
+    seg1 = hi > t1 ? t1 : hi;
+    return seg0 < t1;
+  }
+  // The opacity of a part of length `len` of a segment whose full opacity is `a`.
+  float part_opacity(float a, float len) const {
+    return len >= step_ * 0.9999f ? a : 1.0f - std::pow(1.0f - a, len / step_);
+  }
+
+  // One volume: the voxel type is decided once per ray, so that sampling inlines in the loop.
+  template <class Visit>
+  void march_one(const CastingVolume& cv, const Ray& r, float t_begin, float t_end, float t_from, Visit& visit) const {
+    cv.volume->with_voxel_type([&](auto type) { march_one_as<decltype(type)>(cv, r, t_begin, t_end, t_from, visit); });
+  }
+  template <class T, class Visit>
+  void march_one_as(const CastingVolume& cv, const Ray& r, float t_begin, float t_end, float t_from, Visit& visit) const {
+    float t0, t1;
+    if (!cv.box.clip(r, t0, t1, t_begin, t_end)) return;
+    const EmptySpaceSkipper skipper(*cv.volume, *cv.grid, cv.empty);
+    std::size_t last_cell = SIZE_MAX;
+    std::int64_t k = static_cast<std::int64_t>(std::floor(std::max(t0, t_from) / step_));
+    while (true) {
+      float seg0, seg1;
+      if (!lattice_segment(k, t0, t1, seg0, seg1)) return;
+      if (seg1 <= seg0) { ++k; continue; }
+      const float tm = 0.5f * (seg0 + seg1);
+      const Vec3 p = r.at(tm);
+      const Vec3 v = cv.volume->to_voxel(p);
+      const TrilinearCell tc = cv.volume->trilinear_cell(v);  // shared by the macrocell and the value
+      const std::size_t cell = skipper.cell_of(tc);
+      if (cell != last_cell) {
+        last_cell = cell;
+        if (skipper.empty(cell)) {  // empty cell: continue with the segment that holds the cell's exit
+          const float t_skip = skipper.cell_exit(r, tm, v);
+          k = std::max(k + 1, static_cast<std::int64_t>(std::floor(t_skip / step_)));
+          last_cell = SIZE_MAX;
+          continue;
+        }
+      }
+      const Rgba s = cv.lut.lookup(cv.volume->template sample_cell_as<T>(tc));
+      if (s.a > 0) {
+        const float a = part_opacity(s.a, seg1 - seg0);
+        if (!visit(MediumSegment{k, tm, seg0, seg1, a, cv.achromatic ? Rgb(0.0f) : s.rgb})) return;
+      }
+      ++k;
+    }
+  }
+
+  // Overlapping volumes: the segment's midpoint is classified in every volume that holds it; space
+  // is skipped only where every volume is empty (or absent).
+  template <class Visit>
+  void march_many(const Ray& r, float t_begin, float t_end, float t_from, Visit& visit) const {
+    float t0 = kInfinity, t1 = -kInfinity;
+    for (const auto& cv : volumes_) {
+      float a, b;
+      if (cv->box.clip(r, a, b, t_begin, t_end)) {
+        t0 = std::min(t0, a);
+        t1 = std::max(t1, b);
+      }
+    }
+    if (!(t0 <= t1)) return;
+    std::int64_t k = static_cast<std::int64_t>(std::floor(std::max(t0, t_from) / step_));
+    while (true) {
+      float seg0, seg1;
+      if (!lattice_segment(k, t0, t1, seg0, seg1)) return;
+      if (seg1 <= seg0) { ++k; continue; }
+      const float tm = 0.5f * (seg0 + seg1);
+      const Vec3 p = r.at(tm);
+      Rgb pass(1.0f);
+      float clear = 1;         // Π(1 − α_v)
+      float skip_to = kInfinity;  // where the next non-empty space may start
+      bool occupied = false;
+      const float len = seg1 - seg0;
+      for (const auto& cvp : volumes_) {
+        const CastingVolume& cv = *cvp;
+        float a0, a1;
+        if (!cv.box.clip(r, a0, a1, tm, t1)) continue;  // behind p or missed
+        if (a0 > tm) {  // ahead: its box starts later
+          skip_to = std::min(skip_to, a0);
+          continue;
+        }
+        const Vec3 v = cv.volume->to_voxel(p);
+        const EmptySpaceSkipper skipper(*cv.volume, *cv.grid, cv.empty);
+        const std::size_t cell = skipper.cell_of(v);
+        if (skipper.empty(cell)) {
+          skip_to = std::min(skip_to, skipper.cell_exit(r, tm, v));
+          continue;
+        }
+        occupied = true;
+        const Rgba s = cv.lut.lookup(cv.volume->sample_voxel(v));
+        if (s.a <= 0) continue;
+        const float a = part_opacity(s.a, len);
+        pass *= Rgb(1.0f) - (Rgb(1.0f) - (cv.achromatic ? Rgb(0.0f) : s.rgb)) * a;
+        clear *= 1 - a;
+      }
+      if (!occupied) {
+        if (skip_to == kInfinity) return;
+        k = std::max(k + 1, static_cast<std::int64_t>(std::floor(skip_to / step_)));
+        continue;
+      }
+      const float alpha = 1 - clear;
+      if (alpha > 0) {
+        const Rgb transmission = Rgb(1.0f) - (Rgb(1.0f) - pass) * (1.0f / alpha);
+        if (!visit(MediumSegment{k, tm, seg0, seg1, alpha, transmission})) return;
+      }
+      ++k;
+    }
+  }
+
+  std::vector<std::shared_ptr<const CastingVolume>> volumes_;
+  std::vector<Plane> planes_;  // the casting planes
+  CastingSpheres spheres_;
+  std::vector<CastingIsosurface> isosurfaces_;
+  Box3 bounds_;
+  float step_ = 1;
+  float epsilon_ = 1e-4f;
+  const ExtinctionSat* sat_ = nullptr;
+  std::optional<ShadowBrick> brick_;
+};
+
+}  // namespace penumbra

@@ -1,0 +1,163 @@
+#include "penumbra/registry/technique_catalog.h"
+
+#include <algorithm>
+
+#include "penumbra/core/error.h"
+
+namespace penumbra {
+
+namespace {
+
+constexpr KindMask kVolumes = kind_bit(ObjectKind::Volume);
+constexpr KindMask kSpheres = kind_bit(ObjectKind::Spheres);
+constexpr KindMask kIsosurfaces = kind_bit(ObjectKind::Isosurface);
+
+// The technique that covers a kind when neither shadows.<kind> nor shadows.technique does.
+std::string default_for(ObjectKind kind) {
+  switch (kind) {
+    case ObjectKind::Volume: return "cssm";
+    case ObjectKind::Spheres: return "issm";
+    case ObjectKind::Isosurface: return "light_pass";
+    case ObjectKind::Plane: return "ray_traced";
+  }
+  return "none";
+}
+
+}  // namespace
+
+std::span<const TechniqueInfo> technique_catalog() {
+  using F = TechniqueFamily;
+  // Every key a technique's constructor, build or query reads (docs/scene-file.md describes each key).
+  static const std::vector<TechniqueInfo> catalog{
+      {"none", F::Shadow, kAllKinds, {}},
+      {"shadow_map", F::Shadow, kAllKinds, {"resolution", "bias", "step", "pcf"}, false, true},
+      {"deep_shadow_map", F::Shadow, kAllKinds, {"resolution", "bias", "step", "nodes", "dsm_layout"}, false, true},
+      {"cssm", F::Shadow, kAllKinds, {"resolution", "bias", "step", "offsets", "seed"}, false, true},
+      {"ray_traced", F::Shadow, kAllKinds, {"step", "light_angle", "area_rays"}, false, true},
+      {"sat_cone", F::Shadow, kAllKinds, {"cone_angle", "cone_samples", "cone_growth"}, true, true},
+      {"sampled_cone", F::Shadow, kAllKinds, {"step", "cone_angle", "cone_rays"}, false, true},
+      {"issm", F::Shadow, kSpheres, {"resolution", "rings", "soft_radius", "soft_exponent", "soft_distance"}},
+      {"light_pass", F::Shadow, kIsosurfaces, {"resolution", "bias", "light_frustum"}},
+      {"none", F::Ambient, kAllKinds, {}},
+      {"sat_shells", F::Ambient, kVolumes | kSpheres, {"shells", "radius", "bleeding"}, true},
+      {"sampled_ao", F::Ambient, kVolumes | kSpheres, {"radius", "bleeding"}, true},
+      {"particle_ao", F::Ambient, kSpheres | kVolumes, {"directions", "max_distance", "grid"}},
+      {"ray_traced_ao", F::Ambient, kAllKinds, {"max_distance", "rays"}, false, true},
+  };
+  return catalog;
+}
+
+const TechniqueInfo* find_technique(TechniqueFamily family, std::string_view name) {
+  for (const auto& t : technique_catalog())
+    if (t.family == family && t.name == name) return &t;
+  return nullptr;
+}
+
+std::vector<std::string> technique_names(TechniqueFamily family) {
+  std::vector<std::string> names;
+  for (const auto& t : technique_catalog())
+    if (t.family == family) names.emplace_back(t.name);
+  return names;
+}
+
+std::vector<std::string> technique_names(TechniqueFamily family, ObjectKind kind) {
+  std::vector<std::string> names;
+  for (const auto& t : technique_catalog())
+    if (t.family == family && (t.casters & kind_bit(kind))) names.emplace_back(t.name);
+  return names;
+}
+
+KindMask casting_kinds(const Scene& s) {
+  KindMask k = 0;
+  for (const auto& v : s.volumes)
+    if (v.visible && v.casts_shadows) k |= kVolumes;
+  for (const auto& p : s.particles)
+    if (p.casts_shadows) k |= kSpheres;
+  for (const auto& i : s.isosurfaces)
+    if (i.casts_shadows) k |= kIsosurfaces;
+  for (const auto& p : s.planes)
+    if (p.casts_shadows) k |= kind_bit(ObjectKind::Plane);
+  return k;
+}
+
+KindMask receiving_kinds(const Scene& s) {
+  KindMask k = 0;
+  for (const auto& v : s.volumes)
+    if (v.visible && v.receives_shadows) k |= kVolumes;
+  for (const auto& p : s.particles)
+    if (p.receives_shadows) k |= kSpheres;
+  for (const auto& i : s.isosurfaces)
+    if (i.receives_shadows) k |= kIsosurfaces;
+  for (const auto& p : s.planes)
+    if (p.receives_shadows) k |= kind_bit(ObjectKind::Plane);
+  return k;
+}
+
+std::vector<ShadowAssignment> shadow_assignments(const Scene& s) {
+  std::vector<ShadowAssignment> out;
+  const KindMask casting = casting_kinds(s);
+  if (casting == 0) return out;
+  for (int i = 0; i < kObjectKinds; ++i) {
+    const auto kind = static_cast<ObjectKind>(i);
+    if (!(casting & kind_bit(kind))) continue;
+    const std::string& chosen = s.shadows.by_kind[static_cast<std::size_t>(i)];
+    std::string name;
+    if (!chosen.empty()) {
+      const TechniqueInfo* t = find_technique(TechniqueFamily::Shadow, chosen);
+      if (!t || !(t->casters & kind_bit(kind)))
+        throw Error("shadows." + to_string(kind) + ": technique '" + chosen + "' does not take " + to_string(kind) +
+                    " as casters (expected one of: " + [&] {
+                      std::string all;
+                      for (const auto& n : technique_names(TechniqueFamily::Shadow, kind)) all += (all.empty() ? "" : ", ") + n;
+                      return all;
+                    }() + ")");
+      name = chosen;
+    } else {
+      const TechniqueInfo* main = find_technique(TechniqueFamily::Shadow, s.shadows.technique);
+      name = main && (main->casters & kind_bit(kind)) ? s.shadows.technique : default_for(kind);
+    }
+    if (name == "none") continue;
+    auto same = std::find_if(out.begin(), out.end(), [&](const ShadowAssignment& a) { return a.technique == name; });
+    if (same != out.end()) same->casters |= kind_bit(kind);
+    else out.push_back({name, kind_bit(kind)});
+  }
+  return out;
+}
+
+KindMask ambient_occluders(const Scene& s) {
+  const TechniqueInfo* t = find_technique(TechniqueFamily::Ambient, s.ambient.technique);
+  if (!t || s.ambient.technique == "none") return 0;
+  KindMask present = 0;
+  for (const auto& v : s.volumes)
+    if (v.visible) present |= kVolumes;
+  if (!s.particles.empty()) present |= kSpheres;
+  if (!s.isosurfaces.empty()) present |= kIsosurfaces;
+  if (!s.planes.empty()) present |= kind_bit(ObjectKind::Plane);
+  return t->casters & present;
+}
+
+bool needs_extinction_sat(const Scene& scene) {
+  for (const auto& a : shadow_assignments(scene)) {
+    const TechniqueInfo* t = find_technique(TechniqueFamily::Shadow, a.technique);
+    if (t && t->extinction_sat && (a.casters & kVolumes)) return true;
+  }
+  const TechniqueInfo* ambient = find_technique(TechniqueFamily::Ambient, scene.ambient.technique);
+  return ambient && ambient->extinction_sat;
+}
+
+bool needs_extinction_colour(const Scene& scene) {
+  return needs_extinction_sat(scene) && scene.ambient.technique != "none" && scene.ambient.bleeding > 0;
+}
+
+bool needs_sphere_bvh(const Scene& scene) {
+  if (scene.particles.empty()) return false;
+  if (scene.sphere_rasterizer == SphereRasterizer::Embree) return true;
+  for (const auto& a : shadow_assignments(scene)) {
+    const TechniqueInfo* t = find_technique(TechniqueFamily::Shadow, a.technique);
+    if (t && t->sphere_rays && (a.casters & kSpheres)) return true;
+  }
+  const TechniqueInfo* ambient = find_technique(TechniqueFamily::Ambient, scene.ambient.technique);
+  return ambient && ambient->sphere_rays && (ambient_occluders(scene) & kSpheres);
+}
+
+}  // namespace penumbra

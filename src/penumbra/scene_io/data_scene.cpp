@@ -1,0 +1,161 @@
+#include "penumbra/scene_io/data_scene.h"
+
+#include <cctype>
+#include <filesystem>
+#include <functional>
+#include <string_view>
+
+#include "penumbra/core/error.h"
+#include "penumbra/data/io/particle_io.h"
+#include "penumbra/data/transfer_function_choice.h"
+
+namespace penumbra {
+namespace {
+
+bool has_extension(const std::string& path, std::string_view ext) {
+  if (path.size() < ext.size()) return false;
+  for (std::size_t i = 0; i < ext.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(path[path.size() - ext.size() + i])) != ext[i]) return false;
+  return true;
+}
+
+nlohmann::json vec3(const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
+
+nlohmann::json raw_json(const RawVolumeOptions& o) {
+  return {{"dims", {o.dims[0], o.dims[1], o.dims[2]}},
+          {"type", to_string(o.type)},
+          {"endian", o.big_endian ? "big" : "little"},
+          {"spacing", vec3(o.spacing)},
+          {"header_bytes", o.header_bytes}};
+}
+
+}  // namespace
+
+InputKind input_kind(const std::string& path) {
+  if (has_extension(path, ".json")) return InputKind::SceneFile;
+  if (is_volume_file(path)) return InputKind::Volume;
+  if (!particle_file_format(path).empty()) return InputKind::Particles;
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw Error(path + ": no such file or folder");
+  throw Error(path + ": unknown kind of file (expected a scene .json; a volume .nrrd, .nhdr, .nii, .nii.gz, .raw, .tif, .tiff, "
+                     ".vti, .vtk, .dcm or a folder of DICOM slices; or a molecule .pdb, .ent, .cif, .mmcif, .gro or .xyz, "
+                     "each of those optionally .gz)");
+}
+
+nlohmann::json data_scene_inputs(const std::vector<std::string>& files, const VolumeLoadOptions& volume_options) {
+  if (files.empty()) throw Error("no data files");
+  nlohmann::json doc = nlohmann::json::object();
+  doc["volumes"] = nlohmann::json::array();
+  doc["particles"] = nlohmann::json::array();
+  nlohmann::json dicom_slices = nlohmann::json::array();  // .dcm files given one by one: one volume
+  bool has_dicom = false, has_tiff = false, has_vdb = false;
+  for (const std::string& file : files) {
+    const std::string path = std::filesystem::absolute(file).lexically_normal().string();
+    switch (input_kind(file)) {
+      case InputKind::SceneFile:
+        throw Error(file + ": a scene file is opened on its own, not together with data files");
+      case InputKind::Volume: {
+        std::error_code ec;
+        const bool folder = std::filesystem::is_directory(path, ec);
+        if (!folder && (has_extension(path, ".dcm") || has_extension(path, ".dicom"))) {
+          if (dicom_slices.empty()) doc["volumes"].push_back({{"file", dicom_slices}});  // filled below
+          dicom_slices.push_back(path);
+          has_dicom = true;
+          break;
+        }
+        nlohmann::json v = {{"file", path}, {"visible", false}};  // visible once its transfer function is chosen
+        if (has_extension(path, ".raw")) {
+          if (!volume_options.raw)
+            throw Error(file + ": a .raw file needs its layout: --raw-dims X Y Z and --raw-type (uint8, int16, uint16, float32)");
+          v["raw"] = raw_json(*volume_options.raw);
+        }
+        if (folder) {
+          has_dicom = true;
+          if (!volume_options.series.empty()) v["series"] = volume_options.series;
+        }
+        if (has_extension(path, ".tif") || has_extension(path, ".tiff")) {
+          has_tiff = true;
+          if (volume_options.channel >= 0) v["channel"] = volume_options.channel;
+        }
+        if (has_extension(path, ".vdb")) {
+          has_vdb = true;
+          if (!volume_options.grid.empty()) v["grid"] = volume_options.grid;
+        }
+        doc["volumes"].push_back(v);
+        break;
+      }
+      case InputKind::Particles: {
+        const std::string format = particle_file_format(path);
+        doc["particles"].push_back({{"file", path}, {"color_by", format == "pdb" || format == "mmcif" ? "chain" : "element"}});
+        break;
+      }
+    }
+  }
+  for (auto& v : doc["volumes"])
+    if (v["file"].is_array()) {  // the DICOM slices, in the order given (the reader sorts them)
+      v["file"] = dicom_slices;
+      v["visible"] = false;
+      if (!volume_options.series.empty()) v["series"] = volume_options.series;
+    }
+  if (!volume_options.series.empty() && !has_dicom) throw Error("--series: no DICOM series (a folder or .dcm files) among the inputs");
+  if (volume_options.channel >= 0 && !has_tiff) throw Error("--channel: no TIFF stack (.tif, .tiff) among the inputs");
+  if (!volume_options.grid.empty() && !has_vdb) throw Error("--grid: no OpenVDB file (.vdb) among the inputs");
+  return doc;
+}
+
+void complete_data_scene(nlohmann::json& doc, const Scene& loaded, const std::function<nlohmann::json(std::size_t)>& choose) {
+  bool hounsfield = false;
+  for (std::size_t i = 0; i < loaded.volumes.size(); ++i) {
+    auto& v = doc["volumes"][i];
+    v["transfer_function"] = choose(i);
+    if (loaded.volumes[i].volume->level_set()) {  // a level set is its surface: the isosurface at 0
+      doc["isosurfaces"].push_back({{"volume", i}, {"value", 0.0}});
+      continue;
+    }
+    v.erase("visible");
+    hounsfield = hounsfield || v["transfer_function"].value("preset", "") == "ct-bone";
+  }
+  const bool molecules_only = loaded.volumes.empty();
+  if (doc["volumes"].empty()) doc.erase("volumes");
+  if (doc["particles"].empty()) doc.erase("particles");
+
+  const Vec3 up = hounsfield ? Vec3{0, 0, 1} : Vec3{0, 1, 0};
+  Box3 box;  // of the data (the volumes are not visible yet, so not casters)
+  for (const auto& v : loaded.volumes) box.extend(v.volume->bounds());
+  for (const auto& p : loaded.particles) box.extend(p.set->bounds());
+  const Vec3 size = box.hi - box.lo;
+  const float diagonal = length(size);
+  const Vec3 centre = box.center();
+  const float below = 0.5f * dot(size, up) + 0.04f * diagonal;  // the floor just under the data
+  doc["planes"] = nlohmann::json::array({{{"point", vec3(centre - up * below)},
+                                          {"normal", vec3(up)},
+                                          {"color", {0.8, 0.8, 0.8}},
+                                          {"size", 4.0f * diagonal},
+                                          {"casts_shadows", false}}});  // below everything: it only receives
+  if (loaded.volumes.empty()) doc["shadows"] = {{"technique", "issm"}};
+  else if (loaded.particles.empty()) doc["shadows"] = {{"technique", "cssm"}};
+  else doc["shadows"] = {{"technique", "cssm"}, {"spheres", "issm"}};
+  if (hounsfield) {  // z up: the camera looks from the front (-y in patient coordinates, LPS/RAS alike from above)
+    doc["camera"] = {{"direction", {0.35, -1.0, 0.45}}, {"up", {0, 0, 1}}};
+    doc["lights"] = nlohmann::json::array({{{"type", "directional"}, {"direction", {-0.4, 0.5, -1.0}}}});
+  } else {
+    doc["camera"] = {{"direction", {0.45, 0.4, 1.0}}};
+    doc["lights"] = nlohmann::json::array({{{"type", "directional"}, {"direction", {-0.4, -1.0, -0.45}}}});
+  }
+  if (loaded.particles.empty()) {
+    doc["background"] = {0.08, 0.08, 0.1};
+  } else {
+    doc["ambient"] = {{"technique", "particle_ao"}, {"directions", 16}};
+    doc["background"] = molecules_only ? nlohmann::json{1, 1, 1} : nlohmann::json{0.08, 0.08, 0.1};
+  }
+}
+
+nlohmann::json data_scene(const std::vector<std::string>& files, const VolumeLoadOptions& volume_options, SceneDataCache& cache) {
+  nlohmann::json doc = data_scene_inputs(files, volume_options);
+  // read once as it stands (loading the data into the cache) to choose from what was loaded
+  const Scene loaded = build_scene(doc, "", SceneReadOptions{false, &cache});
+  complete_data_scene(doc, loaded, [&](std::size_t i) { return choose_transfer_function(*loaded.volumes[i].volume); });
+  return doc;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,181 @@
+// The scene file's particles: a molecule or particle file, a trajectory beside its topology, or spheres
+// held in memory (docs/scene-file.md, docs/trajectories.md).
+#include "penumbra/scene_io/scene_sections.h"
+
+#include <filesystem>
+
+#include "penumbra/data/io/particle_io.h"
+
+namespace penumbra::scene_sections {
+namespace {
+
+ParticleObject read_static_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir, const SceneReadOptions& options) {
+  if (j.is_object() && j.contains("array")) {  // the caller's spheres, as they are
+    JsonReader r(j, path);
+    ParticleObject p;
+    require_one_source(r);
+    p.set = named_array(r, options.arrays, &SceneArrays::particles, "particle");
+    p.source = "array:" + r.required_string("array");
+    read_shadow_flags(r, p);
+    r.finish();
+    return p;
+  }
+  if (options.cache && j.is_object()) {  // everything but the shadow flags defines the spheres and their colours
+    JsonReader r(j, path);
+    ParticleObject p;
+    p.set = options.cache->particles(data_key(j, base_dir, {"casts_shadows", "receives_shadows"}, true), [&] {
+      return ParticleSet(*read_static_particles(j, path, base_dir, SceneReadOptions{}).set);
+    });
+    p.source = r.has("file") ? resolve(base_dir, r.required_string("file")) : "procedural:random-spheres";
+    read_shadow_flags(r, p);
+    return p;
+  }
+  JsonReader r(j, path);
+  ParticleObject p;
+  require_one_source(r);
+  const bool has_file = r.has("file");
+  if (has_file) {
+    const std::string file = resolve(base_dir, r.required_string("file"));
+    ParticleLoadOptions o;
+    o.assembly = static_cast<int>(r.integer("assembly", 0, 0, 1000000));
+    const std::string color_by = r.string("color_by", "element");
+    o.coloring = with_context(r.key_path("color_by"), [&] { return particle_coloring_from_string(color_by); });
+    o.uniform_color = r.color("color", o.uniform_color);
+    if (r.has("color") && o.coloring != ParticleColoring::Uniform)
+      r.fail("color", "is used only with \"color_by\": \"uniform\"");
+    if (o.coloring == ParticleColoring::Scalar) {
+      o.scalar = with_context(r.key_path("scalar"), [&] { return particle_scalar_from_string(r.string("scalar", "b_factor")); });
+      if (r.has("color_map")) {
+        const nlohmann::json spec = r.raw("color_map");
+        const std::string where = r.key_path("color_map");
+        o.color_map = [spec, where, base_dir](float lo, float hi) {
+          return with_context(where, [&] { return parse_transfer_function(spec, lo, hi, base_dir); });
+        };
+      }
+    } else {
+      for (const char* key : {"scalar", "color_map"})
+        if (r.has(key)) r.fail(key, "is used only with \"color_by\": \"scalar\"");
+    }
+    if (r.has("radius") && r.has("radius_scale"))
+      r.fail("radius", "give 'radius' (one radius for every sphere) or 'radius_scale' (scales the element radii), not both");
+    o.radius_scale = r.number("radius_scale", o.radius_scale, 0.01f, 100);
+    o.hydrogens = r.boolean("hydrogens", o.hydrogens);
+    ParticleSet set = with_context(r.key_path("file"), [&] { return load_particles(file, o); });
+    // One radius for every sphere (beads, SPH particles, coarse-grained models have no element radii).
+    if (r.has("radius")) {
+      const float radius = r.number("radius", 1, 1e-6f, 1e6f);
+      for (Sphere& sp : set.spheres) sp.radius = radius;
+    }
+    p.set = std::make_shared<ParticleSet>(std::move(set));
+    p.source = file;
+  } else {
+    if (r.has("radius")) r.fail("radius", "generated spheres take their radius inside 'procedural'");
+    JsonReader g(r.raw("procedural"), r.key_path("procedural"));
+    const std::string name = g.required_string("name");
+    if (name != "random-spheres") g.fail("name", "unknown particle generator '" + name + "' (expected random-spheres)");
+    const auto count = static_cast<std::size_t>(g.integer("count", 1000, 1, 100000000));
+    const float radius = g.number("radius", 0.02f, 1e-6f, 1);
+    const auto seed = static_cast<std::uint64_t>(g.integer("seed", 1, 0, INT64_MAX));
+    g.finish();
+    p.set = std::make_shared<ParticleSet>(random_spheres(count, radius, seed));
+    p.source = "procedural:random-spheres";
+  }
+  if (r.has("origin")) {  // moves the set so that its bounding box's centre is here
+    const Vec3 o = r.vec3("origin", {});
+    auto moved = std::make_shared<ParticleSet>(*p.set);
+    const Vec3 shift = o - p.set->bounds().center();
+    for (auto& sp : moved->spheres) sp.center = sp.center + shift;
+    p.set = std::move(moved);
+  }
+  if (p.set->size() == 0) r.fail(has_file ? "file" : "procedural", "holds no particles");
+  read_shadow_flags(r, p);
+  r.finish();
+  return p;
+}
+
+// The files of particles[].trajectory: one file or a list (frames in the order given), resolved.
+std::vector<std::string> trajectory_files(JsonReader& r, const std::string& base_dir) {
+  const nlohmann::json& t = r.raw("trajectory");
+  std::vector<std::string> files;
+  if (t.is_string()) files.push_back(resolve(base_dir, t.get<std::string>()));
+  if (t.is_array())
+    for (const auto& f : t) {
+      if (!f.is_string()) r.fail("trajectory", "lists file names (strings)");
+      files.push_back(resolve(base_dir, f.get<std::string>()));
+    }
+  if (files.empty()) r.fail("trajectory", "expected a file name or a non-empty list of file names");
+  return files;
+}
+
+// particles[] with a "trajectory": the topology (its `file`, read as a static set: radii, colours) with
+// every sphere moved to its atom's position at frame `time` (sphere i is atom i, so the topology keeps
+// every atom: no assembly, hydrogens kept). The trajectory stays open in the cache between frames.
+ParticleObject read_trajectory_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir,
+                                         const SceneReadOptions& options, std::size_t time) {
+  JsonReader r(j, path);
+  if (!r.has("file")) r.fail("trajectory", "needs a topology: give the particles' 'file' (PDB, mmCIF, GRO or XYZ) beside it");
+  if (r.integer("assembly", 0, 0, 1000000) != 0)
+    r.fail("assembly", "cannot be used with a trajectory: its frames hold the deposited atoms, not an assembly");
+  if (!r.boolean("hydrogens", true))
+    r.fail("hydrogens", "cannot be false with a trajectory: its frames hold every atom of the topology");
+  const std::vector<std::string> files = trajectory_files(r, base_dir);
+  nlohmann::json topology_json = j;
+  topology_json.erase("trajectory");
+  topology_json.erase("origin");  // the shift is applied to every frame below
+  ParticleObject p = read_static_particles(topology_json, path, base_dir, options);
+  const std::shared_ptr<const ParticleSet> topology_set = p.set;  // p.set becomes the frame below
+  const ParticleSet& topology = *topology_set;
+  auto open = [&] {
+    return with_context(r.key_path("trajectory"), [&] { return open_trajectory(files, topology.size()); });
+  };
+  std::unique_ptr<TrajectoryReader> own;
+  TrajectoryReader& reader = options.cache ? options.cache->trajectory(nlohmann::json(files).dump(), open) : *(own = open());
+  if (reader.atom_count() != topology.size())
+    r.fail("trajectory", "holds " + std::to_string(reader.atom_count()) + " atoms a frame, but the topology '" +
+                             p.source + "' has " + std::to_string(topology.size()));
+  if (time >= reader.frame_count())
+    throw Error("time: frame " + std::to_string(time) + " is past the last frame of " + r.key_path("trajectory") + " (" +
+                std::to_string(reader.frame_count()) + " frames, 0 to " + std::to_string(reader.frame_count() - 1) + ")");
+  const Vec3 shift = r.has("origin") ? r.vec3("origin", {}) - topology.bounds().center() : Vec3{};
+  double time_ps = 0;
+  auto load_frame = [&] {
+    TrajectoryFrame frame;
+    with_context(r.key_path("trajectory"), [&] { reader.read_frame(time, frame); });
+    ParticleSet moved = topology;
+    for (std::size_t i = 0; i < moved.spheres.size(); ++i) moved.spheres[i].center = frame.positions[i] + shift;
+    time_ps = frame.time_ps;
+    return moved;
+  };
+  // a frame read once per time: edits of anything else keep the same spheres
+  if (options.cache) {
+    std::string key = data_key(j, base_dir, {"casts_shadows", "receives_shadows"}, true) + "@time=" + std::to_string(time);
+    bool loaded = false;
+    p.set = options.cache->particles(key, [&] {
+      loaded = true;
+      return load_frame();
+    });
+    double& stored = options.cache->frame_time_ps(key);
+    if (loaded) stored = time_ps;
+    p.time_ps = stored;
+  } else {
+    p.set = std::make_shared<const ParticleSet>(load_frame());
+    p.time_ps = time_ps;
+  }
+  p.topology_bounds = topology.bounds();
+  if (r.has("origin")) {
+    p.topology_bounds.lo = p.topology_bounds.lo + shift;
+    p.topology_bounds.hi = p.topology_bounds.hi + shift;
+  }
+  p.frames = reader.frame_count();
+  return p;
+}
+
+}  // namespace
+
+ParticleObject read_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir,
+                              const SceneReadOptions& options, std::size_t time) {
+  if (j.is_object() && j.contains("trajectory")) return read_trajectory_particles(j, path, base_dir, options, time);
+  return read_static_particles(j, path, base_dir, options);
+}
+
+}  // namespace penumbra::scene_sections
