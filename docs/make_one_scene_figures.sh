@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates the pictures of docs/techniques/one_scene.md from the built tool (build/release/penumbra)
+# Regenerates the pictures of docs/techniques/one_scene.md (and README's first one) from the built tool (build/release/penumbra)
 # and prints each technique's error against ray_traced on the mixed scenes.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -8,6 +8,9 @@ out=docs/images
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 mkdir -p "$out"
+
+# README's picture: a translucent coloured volume (test-spheres) over white spheres and a floor, exact shadows
+$B render scenes/one-scene.json -o "$out/one_scene.png"
 
 # GroEL (1AON) inside its own density map, an isosurface of the map's dense cores, the atoms, a floor
 $B render scenes/groel-density.json -o "$out/one_scene_groel.png" --width 640 --height 480

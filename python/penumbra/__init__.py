@@ -18,12 +18,40 @@ import html
 import json
 import os
 import struct
+import sys
 import warnings
 import zlib
 
-import numpy as np
 
-from . import _penumbra
+def _built_for():
+    """The interpreter the compiled module was built for (path, version): CMake's Python3_EXECUTABLE,
+    written into _build_info.py beside this file when CMake assembles the package in build/release/python."""
+    try:
+        from ._build_info import PYTHON_EXECUTABLE, PYTHON_VERSION
+        return PYTHON_EXECUTABLE, PYTHON_VERSION
+    except ImportError:
+        return None, None
+
+
+def _wrong_interpreter(what, error):
+    exe, version = _built_for()
+    built = f"{exe} (Python {version})" if exe else "the python3 CMake found when it built the package (Debian's /usr/bin/python3)"
+    return ImportError(
+        f"penumbra: {what} ({error}). This interpreter is {sys.executable} (Python {sys.version.split()[0]}), "
+        f"but penumbra was built for {built}: run that one (PYTHONPATH=build/release/python {exe or '/usr/bin/python3'} ...; "
+        f"a pyenv or virtualenv python3 first on PATH lacks Debian's python3-numpy), or build the package for this one "
+        f"(cmake -DPython3_EXECUTABLE={sys.executable}; docs/python.md)")
+
+
+try:
+    import numpy as np
+except ImportError as e:
+    raise _wrong_interpreter("NumPy cannot be imported", e) from e
+
+try:
+    from . import _penumbra
+except ImportError as e:  # an interpreter of another Python version cannot load the compiled module
+    raise _wrong_interpreter("the compiled module _penumbra cannot be loaded", e) from e
 
 Error = _penumbra.Error
 
