@@ -65,7 +65,7 @@ void BM_ShadowQuery(benchmark::State& state, const char* technique) {
   const Fixture& f = fixture();
   ShadowSettings s;
   s.technique = technique;
-  s.resolution = 512;
+  s.params.set("resolution", 512);
   auto t = make_shadow_technique(s);
   t->build(*f.medium, f.scene.lights[0]);
   std::vector<Rgb> out(32);

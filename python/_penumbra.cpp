@@ -17,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "penumbra/registry/technique_catalog.h"
 #include "penumbra/core/cancel.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/frame_memory.h"
@@ -221,6 +222,36 @@ PYBIND11_MODULE(_penumbra, m) {
     }
   });
 
+  // The shadow and ambient techniques with the keys each declares (lighting/technique_info.h).
+  m.def("techniques", [] {
+    py::list out;
+    for (const TechniqueInfo* t : technique_catalog()) {
+      py::list keys;
+      for (const ParamSpec& p : t->params) {
+        py::dict k;
+        k["key"] = p.key;
+        k["type"] = p.type_text();
+        if (p.type == ParamType::Choice) k["default"] = p.default_choice;
+        else if (p.type == ParamType::Integer) k["default"] = static_cast<std::int64_t>(p.default_number);
+        else k["default"] = p.default_number;
+        k["allowed"] = p.allowed_text();
+        k["unit"] = p.unit;
+        k["meaning"] = p.meaning;
+        keys.append(k);
+      }
+      py::list casters;
+      for (int i = 0; i < kObjectKinds; ++i)
+        if (t->casters & kind_bit(static_cast<ObjectKind>(i))) casters.append(to_string(static_cast<ObjectKind>(i)));
+      py::dict d;
+      d["name"] = t->name;
+      d["family"] = to_string(t->family);
+      d["casters"] = casters;
+      d["summary"] = t->summary;
+      d["keys"] = keys;
+      out.append(d);
+    }
+    return out;
+  });
   // The scene document of a file with `--set` overrides applied, and the folder its paths resolve against.
   m.def("load_document", [](const std::string& path, const std::vector<std::string>& overrides) {
     nlohmann::json j = read_json_file(path);

@@ -19,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "penumbra/registry/technique_catalog.h"
 #include "penumbra/accel/extinction_sat.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/image.h"
@@ -321,12 +322,12 @@ TEST(ExtinctionAmbient, ShellsMatchBruteForce) {
   for (const float beta : {0.0f, 0.7f}) {
     AmbientSettings s;
     s.technique = "sat_shells";
-    s.shells = 4;
-    s.radius = 0.15f;
-    s.bleeding = beta;
-    SatShellsAmbient ao(s);
+    s.params.set("shells", 4);
+    s.params.set("radius", 0.15f);
+    s.params.set("bleeding", beta);
+    SatShellsAmbient ao(s.params);
     ao.build(*holder.medium);
-    const std::vector<int> h = shell_half_sizes(s.shells, s.radius * res);
+    const std::vector<int> h = shell_half_sizes(static_cast<int>(param_integer(TechniqueFamily::Ambient, s.params, "shells")), static_cast<float>(param_number(TechniqueFamily::Ambient, s.params, "radius")) * res);
     const double vcell = sat.cell_volume();
     std::vector<double> w;
     for (const int hi : h) {
@@ -403,17 +404,17 @@ TEST(ExtinctionAmbient, HomogeneousMediumExponent) {
   for (const float radius : radii) {
     const double want = tau * radius;
     AmbientSettings s;
-    s.radius = radius;
+    s.params.set("radius", radius);
     s.technique = "sampled_ao";
-    SampledAmbientOcclusion sampled(s);
+    SampledAmbientOcclusion sampled(s.params);
     sampled.build(*holder.medium);
     s.technique = "sat_shells";
-    s.shells = 8;
-    SatShellsAmbient shells(s);
+    s.params.set("shells", 8);
+    SatShellsAmbient shells(s.params);
     shells.build(*box.medium);
     const double x_sampled = sampled.optical_depth(32, 32, 32).g;
     const double x_shells = shells.optical_depth(32, 32, 32).g;
-    const std::vector<int> h = shell_half_sizes(s.shells, radius * res);
+    const std::vector<int> h = shell_half_sizes(static_cast<int>(param_integer(TechniqueFamily::Ambient, s.params, "shells")), radius * res);
     double sum = 0, inner = 0;  // Σ N_i / (4π (h_i + ½)²); inner = (2h_{i−1} + 1)³
     for (const int hi : h) {
       const double outer = std::pow(2.0 * hi + 1, 3);
@@ -595,7 +596,7 @@ TEST(ExtinctionCone, LightInsideHollowSphere) {
   const Light light{LightType::Point, {0, 0, 0}};
   ShadowSettings ss;
   ss.technique = "sat_cone";
-  SatConeShadows cone(ss);
+  SatConeShadows cone(ss.params);
   cone.build(*holder.medium, light);
   RayTracedShadows rt;
   rt.build(*holder.medium, light);
@@ -827,10 +828,10 @@ double directional_cache_error(const char* name, float cone_samples, float growt
   holder.medium->attach_extinction_sat(&sat);
   ShadowSettings ss;
   ss.technique = "sat_cone";
-  ss.cone_angle = 6;
-  ss.cone_samples = cone_samples;
-  ss.cone_growth = growth;
-  SatConeShadows cone(ss);
+  ss.params.set("cone_angle", 6);
+  ss.params.set("cone_samples", cone_samples);
+  ss.params.set("cone_growth", growth);
+  SatConeShadows cone(ss.params);
   cone.build(*holder.medium, Light{LightType::Directional, {}, dir});
   const auto& d = sat.dims();
   double worst = 0;
@@ -888,8 +889,8 @@ TEST(ExtinctionCone, CuboidConeFollowsTheDenselySampledCone) {
   const Light light{LightType::Point, {0.4f, 0.9f, 0.3f}};
   ShadowSettings ss;
   ss.technique = "sat_cone";
-  ss.cone_angle = 5;
-  SatConeShadows cone(ss);
+  ss.params.set("cone_angle", 5);
+  SatConeShadows cone(ss.params);
   cone.build(*holder.medium, light);
   RayTracedShadows rt;
   rt.build(*holder.medium, light);

@@ -398,7 +398,7 @@ TEST(IsosurfaceScene, SeveralIsosurfacesDrawAndShadowEachOther) {
   light.position = {1.5f, 1.8f, 0.4f};  // beside the cut: the shell shadows much of the inner sphere
   s.lights.push_back(light);
   s.shadows.technique = "light_pass";
-  s.shadows.resolution = 256;
+  s.shadows.params.set("resolution", 256);
   Renderer points(s);
   const FrameResult a = points.render();
   ASSERT_EQ(points.light_shadows().size(), 1u);

@@ -46,11 +46,11 @@ TEST(LightCache, PackedFetchEqualsSeparateFetches) {
   holder.medium->attach_extinction_sat(&sat);
   AmbientSettings as;
   as.technique = "sat_shells";
-  SatShellsAmbient ao(as);
+  SatShellsAmbient ao(as.params);
   ao.build(*holder.medium);
   ShadowSettings ss;
   ss.technique = "sat_cone";
-  SatConeShadows cone0(ss), cone1(ss);
+  SatConeShadows cone0(ss.params), cone1(ss.params);
   cone0.build(*holder.medium, holder.scene.lights.at(0));
   cone1.build(*holder.medium, holder.scene.lights.at(1));
   std::size_t unfilled_cells = 0;

@@ -505,8 +505,8 @@ TEST(MixedScene, SpheresEnterTheExtinctionSat) {
 TEST(MixedScene, ParticleAoSeesTheVolumes) {
   MediumHolder slab(volume_scene({{"name", "slab"}, {"size", 24}, {"thickness", 0.2}}, step_tf(0.9)));
   AmbientSettings s;
-  s.max_distance = 0.5f;
-  ParticleAmbientOcclusion ao(s);
+  s.params.set("max_distance", 0.5f);
+  ParticleAmbientOcclusion ao(s.params);
   ao.build(*slab.medium);
   // a point just above the slab, facing it, is occluded; one far from it is not
   SurfacePoint near, far;
@@ -521,7 +521,7 @@ TEST(MixedScene, ParticleAoSeesTheVolumes) {
   EXPECT_GT(out[1].r, out[0].r + 0.3f) << "facing away from it";
   // the same slab fully transparent occludes nothing
   MediumHolder clear(volume_scene({{"name", "slab"}, {"size", 24}, {"thickness", 0.2}}, step_tf(0.0)));
-  ParticleAmbientOcclusion none(s);
+  ParticleAmbientOcclusion none(s.params);
   none.build(*clear.medium);
   none.ambient(std::span<const SurfacePoint>(pts), std::span<Rgb>(out));
   EXPECT_EQ(out[0].r, 1.0f);

@@ -8,6 +8,7 @@
 #include <random>
 #include <memory>
 
+#include "penumbra/registry/technique_catalog.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/particles/implicit_sphere_shadow_map.h"
 #include "penumbra/particles/particle_ambient_occlusion.h"
@@ -384,8 +385,8 @@ TEST(ParticleAo, LoneSphereIsUnoccludedAndClusterCentreIsOccluded) {
   set.colors.push_back(pack_rgba8(Rgb(1)));
   const SphereWorld w(std::move(set));
   AmbientSettings s;
-  s.max_distance = 0.1f;  // of the longest side (4.5): 0.45, less than the gap
-  ParticleAmbientOcclusion ao(s);
+  s.params.set("max_distance", 0.1f);  // of the longest side (4.5): 0.45, less than the gap
+  ParticleAmbientOcclusion ao(s.params);
   ao.build(w.view);
   std::vector<SurfacePoint> on_lone, in_cluster;
   for (int i = 0; i < 64; ++i) {
@@ -407,10 +408,10 @@ TEST(ParticleAo, LoneSphereIsUnoccludedAndClusterCentreIsOccluded) {
 TEST(ParticleAo, AFloorOutsideTheDensityGridIsOccludedByTheClusterAboveIt) {
   const SphereWorld w(random_spheres(1500, 0.04f, 4));
   AmbientSettings s;
-  s.rays = 1024;
-  ParticleAmbientOcclusion approx(s);
+  s.params.set("rays", 1024);
+  ParticleAmbientOcclusion approx(s.params);
   approx.build(w.view);
-  RayTracedAmbientOcclusion exact(s.max_distance, s.rays);
+  RayTracedAmbientOcclusion exact(static_cast<float>(param_number(TechniqueFamily::Ambient, s.params, "max_distance")), static_cast<int>(param_integer(TechniqueFamily::Ambient, s.params, "rays")));
   exact.build(w.view);
   // floor points under the cluster (outside its box) and far to the side of it
   const std::vector<SurfacePoint> pts{{{0, -0.6f, 0}, {0, 1, 0}, kNoSphere}, {{0.2f, -0.6f, -0.1f}, {0, 1, 0}, kNoSphere},
@@ -426,7 +427,7 @@ TEST(ParticleAo, AFloorOutsideTheDensityGridIsOccludedByTheClusterAboveIt) {
 
 TEST(ParticleAo, AFloorsOcclusionHasNoEdgeWhereItLeavesTheGridsFootprint) {
   const SphereWorld w(random_spheres(3000, 0.025f, 3));
-  ParticleAmbientOcclusion ao(AmbientSettings{});
+  ParticleAmbientOcclusion ao(TechniqueParams{});
   ao.build(w.view);
   // floor points on a line from under the cluster to well outside its box (which ends near x = 0.54)
   std::vector<SurfacePoint> pts;
@@ -557,9 +558,9 @@ TEST(ParticleAo, TheConeCacheChangesNoResult) {
   const SphereWorld w(random_spheres(600, 0.05f, 4));
   const auto pts = frame_points(w, looking_at(w.view.bounds(), 48));
   AmbientSettings s;
-  s.max_distance = 0.3f;
-  const std::size_t cones = 2 * static_cast<std::size_t>(s.directions);
-  ParticleAmbientOcclusion all(s), pooled(s, 600 * 4 + 150 * (cones + 8)), uncached(s, 0);
+  s.params.set("max_distance", 0.3f);
+  const std::size_t cones = 2 * static_cast<std::size_t>(static_cast<int>(param_integer(TechniqueFamily::Ambient, s.params, "directions")));
+  ParticleAmbientOcclusion all(s.params), pooled(s.params, 600 * 4 + 150 * (cones + 8)), uncached(s.params, 0);
   for (ParticleAmbientOcclusion* ao : {&all, &pooled, &uncached}) ao->build(w.view);
   for (int frame = 0; frame < 2; ++frame) {
     SCOPED_TRACE(frame);
@@ -575,11 +576,11 @@ TEST(ParticleAo, AgreesWithMonteCarloAmbientOcclusionOnASmallCluster) {
   const SphereWorld w(random_spheres(800, 0.05f, 9));
   const auto pts = frame_points(w, looking_at(w.view.bounds(), test::sanitize_scale() ? 40 : 64));
   AmbientSettings s;
-  s.max_distance = 0.3f;
-  s.rays = test::sanitize_scale() ? 256 : 1024;
-  ParticleAmbientOcclusion approx(s);
+  s.params.set("max_distance", 0.3f);
+  s.params.set("rays", test::sanitize_scale() ? 256 : 1024);
+  ParticleAmbientOcclusion approx(s.params);
   approx.build(w.view);
-  RayTracedAmbientOcclusion exact(s.max_distance, s.rays);
+  RayTracedAmbientOcclusion exact(static_cast<float>(param_number(TechniqueFamily::Ambient, s.params, "max_distance")), static_cast<int>(param_integer(TechniqueFamily::Ambient, s.params, "rays")));
   exact.build(w.view);
   std::vector<float> a(pts.size()), b(pts.size());
   a = ambient_of(approx, pts);
@@ -591,7 +592,7 @@ TEST(ParticleAo, AgreesWithMonteCarloAmbientOcclusionOnASmallCluster) {
     mean_a += a[i] / n;
     mean_b += b[i] / n;
     sq += (a[i] - b[i]) * (a[i] - b[i]) / n;
-    noise += b[i] * (1.0 - b[i]) / s.rays / n;  // mean σ²
+    noise += b[i] * (1.0 - b[i]) / static_cast<int>(param_integer(TechniqueFamily::Ambient, s.params, "rays")) / n;  // mean σ²
   }
   double var_a = 0, var_b = 0, cov = 0;
   for (std::size_t i = 0; i < pts.size(); ++i) {
@@ -606,7 +607,7 @@ TEST(ParticleAo, AgreesWithMonteCarloAmbientOcclusionOnASmallCluster) {
   const double spread = std::sqrt(std::max(0.0, var_b - noise));  // noise-free RMS error of a constant AO
   std::printf("[ ao       ] %zu points, N = %d: means %.4f / %.4f (SE %.4f), noise-free RMS %.4f, MC σ %.4f, "
               "r %.3f (max %.3f), constant AO's RMS %.4f\n",
-              pts.size(), s.rays, mean_a, mean_b, se_mean, rms, std::sqrt(noise), corr, corr_max, spread);
+              pts.size(), static_cast<int>(param_integer(TechniqueFamily::Ambient, s.params, "rays")), mean_a, mean_b, se_mean, rms, std::sqrt(noise), corr, corr_max, spread);
   const double rms_budget = 0.15, bias_budget = 0.12;
   EXPECT_LT(rms, rms_budget);
   EXPECT_NEAR(mean_a, mean_b, bias_budget + 4 * se_mean);

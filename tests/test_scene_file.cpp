@@ -51,7 +51,7 @@ TEST(SceneFile, BaseSceneBuilds) {
   ASSERT_EQ(s.lights.size(), 2u);
   EXPECT_EQ(s.lights[0].type, LightType::Point);
   EXPECT_EQ(s.camera.width, 16);
-  EXPECT_EQ(s.shadows.resolution, 64);
+  EXPECT_EQ(static_cast<int>(param_integer(TechniqueFamily::Shadow, s.shadows.params, "resolution")), 64);
 }
 
 TEST(SceneFile, OverridesReachNestedObjectsAndArrayElements) {
@@ -69,7 +69,7 @@ TEST(SceneFile, OverridesReachNestedObjectsAndArrayElements) {
   const Scene s = build_scene(j, "");
   EXPECT_FLOAT_EQ(s.lights[0].intensity, 2.5f);
   EXPECT_FLOAT_EQ(s.lights[1].color.b, 1.0f);
-  EXPECT_EQ(s.shadows.seed, 7u);
+  EXPECT_EQ(static_cast<int>(param_integer(TechniqueFamily::Shadow, s.shadows.params, "seed")), 7u);
   EXPECT_FLOAT_EQ(s.camera.eye.z, 3.0f);
   // The value is everything after the first '='.
   nlohmann::json k;
@@ -95,7 +95,7 @@ TEST(SceneFile, ValuesAreJsonWhenValidElseStrings) {
   apply_override(j, "lights.0.type=\"spot\"");  // quoted: JSON string
   EXPECT_EQ(j["lights"][0]["type"], "spot");
   const Scene s = build_scene(j, "");
-  EXPECT_EQ(s.shadows.resolution, 2048);
+  EXPECT_EQ(static_cast<int>(param_integer(TechniqueFamily::Shadow, s.shadows.params, "resolution")), 2048);
   EXPECT_EQ(s.shadows.technique, "cssm");
   EXPECT_TRUE(s.planes.empty());
   EXPECT_FALSE(s.volumes[0].jitter);
@@ -256,7 +256,7 @@ TEST(SceneFile, InvalidJsonFileNamesTheFileAndLine) {
   std::ofstream(good) << base_scene().dump();
   const Scene s = load_scene(good, {"shadows.technique=cssm", "shadows.resolution=128"});
   EXPECT_EQ(s.shadows.technique, "cssm");
-  EXPECT_EQ(s.shadows.resolution, 128);
+  EXPECT_EQ(static_cast<int>(param_integer(TechniqueFamily::Shadow, s.shadows.params, "resolution")), 128);
 }
 
 // particles[].radius: one radius for every sphere of a file (beads and coarse-grained models have no

@@ -96,7 +96,7 @@ void check_placement(const Placement& pl, const LightCase& lc, const std::vector
     SCOPED_TRACE(technique);
     ShadowSettings s;
     s.technique = technique;
-    s.resolution = 128;
+    s.params.set("resolution", 128);
     auto t = make_shadow_technique(s);
     t->build(*h.medium, light);
     int failures = 0;

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "penumbra/registry/technique_catalog.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/shadows/cssm.h"
@@ -274,9 +275,9 @@ void check_cssm_unbiased(int offsets, int seeds) {
   for (int s = 0; s < seeds; ++s) {
     ShadowSettings settings;
     settings.technique = "cssm";
-    settings.resolution = 128;
-    settings.offsets = offsets;
-    settings.seed = 1000 + static_cast<std::uint64_t>(s);
+    settings.params.set("resolution", 128);
+    settings.params.set("offsets", offsets);
+    settings.params.set("seed", 1000 + static_cast<std::int64_t>(s));
     const auto cssm = build_technique(settings, *m.medium, light);
     for (int g = 0; g < 2; ++g)
       for (int i = 0; i < kReceivers; ++i) f[g][i].push_back(transmittance_at(*cssm, receivers[g][i]));
@@ -348,10 +349,10 @@ TEST(ShadowsCssm, SeedDeterminesTheMap) {
   const Light light{LightType::Directional, {}, unit(0.2f, -1, 0.1f)};
   ShadowSettings s;
   s.technique = "cssm";
-  s.resolution = 32;
-  s.seed = 5;
+  s.params.set("resolution", 32);
+  s.params.set("seed", 5);
   const auto a = build_technique(s, *m.medium, light), b = build_technique(s, *m.medium, light);
-  s.seed = 6;
+  s.params.set("seed", 6);
   const auto c = build_technique(s, *m.medium, light);
   const auto& ma = dynamic_cast<const ColoredStochasticShadowMap&>(*a);
   const auto& mb = dynamic_cast<const ColoredStochasticShadowMap&>(*b);
@@ -399,10 +400,10 @@ void check_error_falls_as_nodes_grow(const std::string& layout) {
 
   ShadowSettings s;
   s.technique = "deep_shadow_map";
-  s.dsm_layout = layout;
-  s.resolution = res;
-  s.bias = 0;
-  s.nodes = 2;
+  s.params.set("dsm_layout", layout);
+  s.params.set("resolution", res);
+  s.params.set("bias", 0);
+  s.params.set("nodes", 2);
   const auto probe = build_technique(s, *m.medium, light);
   const LightProjection& proj = dynamic_cast<const DeepShadowMap&>(*probe).projection();
   const Box3 box = m.scene.visible_volume()->volume->bounds();
@@ -430,7 +431,7 @@ void check_error_falls_as_nodes_grow(const std::string& layout) {
   const std::vector<int> nodes{2, 3, 4, 8, 16, 32, 64};
   std::vector<double> mean_err, max_err;
   for (const int n : nodes) {
-    s.nodes = n;
+    s.params.set("nodes", n);
     const auto dsm = build_technique(s, *m.medium, light);
     double sum = 0, worst = 0;
     for (std::size_t i = 0; i < rx.points.size(); ++i) {
@@ -474,10 +475,10 @@ void check_coloured_medium_keeps_coloured_shadows(const std::string& layout) {
   rt.build(*m.medium, light);
   ShadowSettings s;
   s.technique = "deep_shadow_map";
-  s.dsm_layout = layout;
-  s.resolution = 64;
-  s.nodes = 3;
-  s.bias = 0;
+  s.params.set("dsm_layout", layout);
+  s.params.set("resolution", 64);
+  s.params.set("nodes", 3);
+  s.params.set("bias", 0);
   const auto dsm = build_technique(s, *m.medium, light);
   const LightProjection& proj = dynamic_cast<const DeepShadowMap&>(*dsm).projection();
   const float delta = m.medium->step();
@@ -525,10 +526,10 @@ void check_homogeneous_box_closed_forms(const std::string& layout) {
   for (const int n : {2, 64}) {
     ShadowSettings s;
     s.technique = "deep_shadow_map";
-    s.dsm_layout = layout;
-    s.resolution = 32;
-    s.nodes = n;
-    s.bias = 0;
+    s.params.set("dsm_layout", layout);
+    s.params.set("resolution", 32);
+    s.params.set("nodes", n);
+    s.params.set("bias", 0);
     const auto t = build_technique(s, *m.medium, light);
     const auto& dsm = dynamic_cast<const DeepShadowMap&>(*t);
     int checked = 0;
@@ -574,7 +575,7 @@ TEST(ShadowsDeepShadowMap, SharedDepthHomogeneousBoxClosedForms) { check_homogen
 TEST(ShadowsDeepShadowMap, UnknownLayoutIsAnError) {
   ShadowSettings s;
   s.technique = "deep_shadow_map";
-  s.dsm_layout = "per_texel";
+  s.params.set("dsm_layout", "per_texel");
   EXPECT_THROW(make_shadow_technique(s), Error);
   nlohmann::json j = full_box_scene(8, constant_tf(0.1));
   j["shadows"] = {{"technique", "deep_shadow_map"}, {"dsm_layout", "per_texel"}};
@@ -599,9 +600,9 @@ TEST(ShadowsDeepShadowMap, SharedDepthSharesNodesAndEqualsPerChannelInGrey) {
   auto build = [&](const MediumHolder& m, const char* layout, int nodes) {
     ShadowSettings s;
     s.technique = "deep_shadow_map";
-    s.dsm_layout = layout;
-    s.resolution = res;
-    s.nodes = nodes;
+    s.params.set("dsm_layout", layout);
+    s.params.set("resolution", res);
+    s.params.set("nodes", nodes);
     return build_technique(s, *m.medium, light);
   };
   {
@@ -684,7 +685,7 @@ TEST(ShadowsClassicMap, SwitchesWhereOpacityCrossesHalfAlongTheLight) {
   light.towards({}, to_light, distance);
   ShadowSettings s;
   s.technique = "shadow_map";
-  s.resolution = 64;
+  s.params.set("resolution", 64);
   const auto map = build_technique(s, *m.medium, light);
   const float delta = m.medium->step(), bias = delta, spacing = delta / 8;
   double switch_map = kInfinity, switch_ref = kInfinity;  // s along −to_light from the centre
@@ -718,18 +719,18 @@ TEST(ShadowsClassicMap, SwitchesWhereOpacityCrossesHalfAcrossTheShadowEdge) {
   const Light light{LightType::Directional, {}, unit(0, -1, 0)};
   ShadowSettings s;
   s.technique = "shadow_map";
-  s.resolution = 128;
+  s.params.set("resolution", 128);
   const auto map = build_technique(s, *m.medium, light);
   const LightProjection& proj = dynamic_cast<const ClassicShadowMap&>(*map).projection();
-  const float texel = proj.texel_size(1, s.resolution);
+  const float texel = proj.texel_size(1, static_cast<int>(param_integer(TechniqueFamily::Shadow, s.params, "resolution")));
   // The light-space axis that moves across the row, and a texel-centre row through the ball's centre.
   float u0, v0, d0;
   ASSERT_TRUE(proj.project({0, -0.42f, 0}, u0, v0, d0));
-  const float n = static_cast<float>(s.resolution);
+  const float n = static_cast<float>(static_cast<int>(param_integer(TechniqueFamily::Shadow, s.params, "resolution")));
   const float v_centre = (std::floor(v0 * n) + 0.5f) / n;
   std::vector<std::pair<double, bool>> line;  // (u, lit) of the map and of the reference
   double switch_map = -1, switch_ref = -1;
-  const int steps = 8 * s.resolution / 2;
+  const int steps = 8 * static_cast<int>(param_integer(TechniqueFamily::Shadow, s.params, "resolution")) / 2;
   for (int i = 0; i <= steps; ++i) {
     const float u = 0.5f + 0.5f * static_cast<float>(i) / static_cast<float>(steps);  // from the centre outwards
     const Ray ray = proj.texel_ray(u, v_centre);
@@ -796,7 +797,7 @@ TEST(ShadowsLightProjection, LightInsideTheBoundsIsAnError) {
   MediumHolder m(full_box_scene(16, constant_tf(0.05)));
   ShadowSettings s;
   s.technique = "cssm";
-  s.resolution = 16;
+  s.params.set("resolution", 16);
   auto t = make_shadow_technique(s);
   try {
     t->build(*m.medium, Light{LightType::Point, {0.1f, 0.1f, 0.1f}});

@@ -107,10 +107,6 @@ const std::map<std::string, KeyChange>& ambient_keys() {
 
 Image render(const json& j) { return Renderer(build_scene(j, "")).render().image; }
 
-bool reads(const TechniqueInfo& t, const std::string& key) {
-  return std::find(t.keys.begin(), t.keys.end(), key) != t.keys.end();
-}
-
 bool notes_name(const Scene& s, const std::string& path) {
   return std::any_of(s.unread_keys.begin(), s.unread_keys.end(),
                      [&](const std::string& n) { return n.rfind(path + " ", 0) == 0; });
@@ -119,14 +115,15 @@ bool notes_name(const Scene& s, const std::string& path) {
 void check_family(TechniqueFamily family) {
   const std::string section = family == TechniqueFamily::Shadow ? "shadows" : "ambient";
   const auto& keys = family == TechniqueFamily::Shadow ? shadow_keys() : ambient_keys();
-  // Every key the catalogue lists is one this test changes (a new key needs a row above).
-  for (const auto& t : technique_catalog()) {
-    if (t.family != family) continue;
-    for (const auto& k : t.keys) {
-      EXPECT_TRUE(keys.count(std::string(k))) << t.name << " reads " << k << ", which this test does not change";
+  // Every key a technique declares is one this test changes (a new key needs a row above).
+  for (const TechniqueInfo* t : technique_catalog()) {
+    if (t->family != family) continue;
+    for (const ParamSpec& p : t->params) {
+      EXPECT_TRUE(keys.count(p.key)) << t->name << " reads " << p.key << ", which this test does not change";
     }
   }
-  for (const auto& t : technique_catalog()) {
+  for (const TechniqueInfo* info : technique_catalog()) {
+    const TechniqueInfo& t = *info;
     if (t.family != family) continue;
     SCOPED_TRACE(std::string(t.name) + " in a scene of " + to_string(primary_kind(t)));
     for (const auto& [key, change] : keys) {
@@ -141,7 +138,7 @@ void check_family(TechniqueFamily family) {
       json changed = base;
       changed[section][key] = change.value;
       const Scene scene = build_scene(changed, "");
-      const bool read = reads(t, key);
+      const bool read = t.reads(key);
       EXPECT_EQ(notes_name(scene, section + "." + key), !read);
       const Image a = render(base), b = render(changed);
       EXPECT_EQ(a.pixels() != b.pixels(), read) << (read ? "listed as read, but the frame did not change"
@@ -164,7 +161,7 @@ TEST(TechniqueCatalog, LightCacheIsReadOnlyByExtinctionTechniques) {
     base["shadows"] = {{"technique", technique}, {"resolution", 64}};
     json changed = base;
     changed["light_cache"]["resolution"] = 8;
-    const bool read = find_technique(TechniqueFamily::Shadow, technique)->extinction_sat;
+    const bool read = find_technique(TechniqueFamily::Shadow, technique)->needs.extinction_sat;
     EXPECT_EQ(notes_name(build_scene(changed, ""), "light_cache"), !read);
     EXPECT_EQ(render(base).pixels() != render(changed).pixels(), read);
   }

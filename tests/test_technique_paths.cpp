@@ -11,6 +11,7 @@
 #include <set>
 #include <vector>
 
+#include "penumbra/registry/technique_catalog.h"
 #include "penumbra/shadows/ray_traced.h"
 #include "penumbra/geometry/sphere_bvh.h"
 #include "penumbra/particles/sphere_hits.h"
@@ -47,14 +48,14 @@ TEST(ShadowsPcf, FilteredLightIsTheMeanOfTheUnfilteredMapOverTheWindow) {
   for (const int r : {1, 2}) {
     SCOPED_TRACE("pcf " + std::to_string(r));
     MediumHolder filtered_m(ball_scene(r)), plain_m(ball_scene(0));
-    ASSERT_EQ(filtered_m.scene.shadows.pcf, r) << "the scene file's shadows.pcf";
+    ASSERT_EQ(static_cast<int>(param_integer(TechniqueFamily::Shadow, filtered_m.scene.shadows.params, "pcf")), r) << "the scene file's shadows.pcf";
     const Light light = filtered_m.scene.lights.at(0);
     auto filtered = make_shadow_technique(filtered_m.scene.shadows);
     filtered->build(*filtered_m.medium, light);
     auto plain = make_shadow_technique(plain_m.scene.shadows);
     plain->build(*plain_m.medium, light);
     const auto& proj = dynamic_cast<const ClassicShadowMap&>(*plain).projection();
-    const int n = plain_m.scene.shadows.resolution;
+    const int n = static_cast<int>(param_integer(TechniqueFamily::Shadow, plain_m.scene.shadows.params, "resolution"));
     const float fn = static_cast<float>(n);
     float u0, v0, d0;
     ASSERT_TRUE(proj.project({0, -0.42f, 0}, u0, v0, d0));  // under the ball, inside the box

@@ -18,6 +18,7 @@
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene_io/demo_scenes.h"
 #include "penumbra/scene_io/scene_file.h"
+#include "penumbra/registry/technique_catalog.h"
 #include "penumbra/shadows/sat_cone.h"
 #include "penumbra/shadows/volume_ambient_occlusion.h"
 
@@ -89,19 +90,19 @@ void cache_tables(const ExtinctionBenchOptions& o, const std::string& name, cons
     CacheBench b(scene, n);
     const int longest = std::max(b.sat->dims()[0], std::max(b.sat->dims()[1], b.sat->dims()[2]));
     AmbientSettings a;
-    a.radius = 7.0f / static_cast<float>(longest);  // the paper's radius of 7 cells for every column
+    a.params.set("radius", 7.0 / static_cast<double>(longest));  // the paper's radius of 7 cells for every column
     std::vector<double> ao_ms;
     for (const int shells : {3, 7, 11}) {
-      a.shells = shells;
-      ao_ms.push_back(fastest_ms(o.repeats, [&] { SatShellsAmbient(a).build(*b.medium); }));
+      a.params.set("shells", shells);
+      ao_ms.push_back(fastest_ms(o.repeats, [&] { SatShellsAmbient(a.params).build(*b.medium); }));
     }
     const bool sample = n <= o.max_sampled_size;
-    const double sampled_ms = sample ? fastest_ms(1, [&] { SampledAmbientOcclusion(a).build(*b.medium); }) : -1;
+    const double sampled_ms = sample ? fastest_ms(1, [&] { SampledAmbientOcclusion(a.params).build(*b.medium); }) : -1;
     std::vector<double> shadow_ms;
     for (const float samples : {50.0f, 20.0f}) {
       ShadowSettings s = scene.shadows;
-      s.cone_samples = samples;
-      shadow_ms.push_back(fastest_ms(o.repeats, [&] { SatConeShadows(s).build(*b.medium, light); }));
+      s.params.set("cone_samples", static_cast<double>(samples));
+      shadow_ms.push_back(fastest_ms(o.repeats, [&] { SatConeShadows(s.params).build(*b.medium, light); }));
     }
     const double ray_ms = fastest_ms(o.repeats, [&] { hard_ray_cache(*b.medium, *b.sat, light); });
     md << "| " << n << "³ (" << b.sat->dims()[0] << "×" << b.sat->dims()[1] << "×" << b.sat->dims()[2] << ") | "
@@ -119,7 +120,7 @@ void cache_tables(const ExtinctionBenchOptions& o, const std::string& name, cons
   {
     CacheBench b(scene, o.accuracy_cache);
     ShadowSettings s = scene.shadows;
-    SatConeShadows cone(s);
+    SatConeShadows cone(s.params);
     cone.build(*b.medium, light);
     const auto& d = b.sat->dims();
     constexpr int kRays = 32;
@@ -147,7 +148,7 @@ void cache_tables(const ExtinctionBenchOptions& o, const std::string& name, cons
       n += cells[k];
     }
     const double rmse = n ? std::sqrt(sum2 / static_cast<double>(n)) : 0;
-    md << "\nAt " << o.accuracy_cache << "³, " << n << " filled cells: sat_cone (" << s.cone_angle << "°, " << s.cone_samples
+    md << "\nAt " << o.accuracy_cache << "³, " << n << " filled cells: sat_cone (" << param_number(TechniqueFamily::Shadow, s.params, "cone_angle") << "°, " << param_number(TechniqueFamily::Shadow, s.params, "cone_samples")
        << " samples) against the densely sampled cone (" << kRays << " exact rays per cell, " << fmt("%.0f", ms)
        << " ms): transmittance RMSE " << fmt("%.4f", rmse) << ", largest difference " << fmt("%.3f", emax) << ".\n";
     out["cone_accuracy"][name] = {{"cells", n}, {"rays", kRays}, {"sampled_cone_ms", ms}, {"rmse", rmse}, {"max", emax}};
@@ -253,9 +254,9 @@ void frame_table(const ExtinctionBenchOptions& o, const std::string& name, const
   const ImageDifference e_plain = compare_images(img_plain, img_ref_shadow);
   auto fps = [](double ms) { return fmt("%.1f", 1000.0 / ms); };
   md << "\n### " << name << ": frames at " << o.size << "² (paper Table 1)\n\n"
-     << "Extinction compositing; light cache " << lit.light_cache.resolution << "³, " << lit.ambient.shells
-     << " shells, radius " << lit.ambient.radius << ", cone " << lit.shadows.cone_angle << "°, "
-     << lit.shadows.cone_samples << " samples. Build times of the first frame: SAT " << fmt("%.1f", f_lit.sat_ms)
+     << "Extinction compositing; light cache " << lit.light_cache.resolution << "³, " << param_integer(TechniqueFamily::Ambient, lit.ambient.params, "shells")
+     << " shells, radius " << param_number(TechniqueFamily::Ambient, lit.ambient.params, "radius") << ", cone " << param_number(TechniqueFamily::Shadow, lit.shadows.params, "cone_angle") << "°, "
+     << param_number(TechniqueFamily::Shadow, lit.shadows.params, "cone_samples") << " samples. Build times of the first frame: SAT " << fmt("%.1f", f_lit.sat_ms)
      << " ms, AO " << fmt("%.1f", f_lit.ambient_ms) << " ms, shadows " << fmt("%.1f", f_lit.build_ms) << " ms.\n\n"
      << "| frame | ms | fps | × plain | error vs reference: RMSE / PSNR dB |\n|---|---:|---:|---:|---|\n"
      << "| no illumination (local Blinn–Phong) | " << fmt("%.1f", ms_plain) << " | " << fps(ms_plain) << " | 1.00 | "

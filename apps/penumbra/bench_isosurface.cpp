@@ -235,7 +235,7 @@ void bench_dataset(const IsosurfaceBenchOptions& o, const IsosurfaceDataset& d, 
       // a point light beside and above the viewer, well outside the volume: shadows fall visibly
       const Vec3 dir = normalize(v.direction), right = normalize(cross(d.up, dir));
       s.lights[0].position = cam.target + normalize(dir + right * 0.9f + normalize(d.up) * 0.7f) * (2.5f * box.radius());
-      s.shadows.resolution = o.size;
+      s.shadows.params.set("resolution", o.size);
       s.shadows.technique = "none";
       const Run plain = run_frames(s, cam, points, o.repeats);
       s.shadows.technique = "light_pass";

@@ -24,6 +24,7 @@
 #include "penumbra/particles/implicit_sphere_shadow_map.h"
 #include "penumbra/geometry/sphere_bvh.h"
 #include "penumbra/particles/sphere_hits.h"
+#include "penumbra/registry/technique_catalog.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/render/surface_frame.h"
 #include "penumbra/scene_io/demo_scenes.h"
@@ -98,9 +99,9 @@ Scene variant(const Scene& base, const std::string& shadows, const std::string& 
               int rings = 1, SphereRasterizer rasterizer = SphereRasterizer::Splat) {
   Scene s = base;
   s.shadows.technique = shadows;
-  s.shadows.rings = rings;
+  s.shadows.params.set("rings", rings);
   s.ambient.technique = ambient;
-  if (ambient == "ray_traced_ao") s.ambient.rays = 64;
+  if (ambient == "ray_traced_ao") s.ambient.params.set("rays", 64);
   s.camera.width = width;
   s.camera.height = height;
   s.sphere_rasterizer = rasterizer;
@@ -268,7 +269,7 @@ Disagreement shadow_disagreement(const Scene& scene, const ParticleSet& set, int
   ShadowCasters all(scene, no_grids);
   all.set_spheres(CastingSpheres{&set, &bvh, set.bounds()});
   const ShadowCasters spheres = all.restricted_to(kind_bit(ObjectKind::Spheres));
-  ImplicitSphereShadowMap issm(IssmParams{scene.shadows.resolution, rings, 0, 1, 10});
+  ImplicitSphereShadowMap issm(IssmParams{static_cast<int>(param_integer(TechniqueFamily::Shadow, scene.shadows.params, "resolution")), rings, 0, 1, 10});
   issm.build(spheres, light);
   RayTracedShadows exact(0, 1);
   exact.build(spheres, light);

@@ -75,7 +75,7 @@ nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const 
     j["issm_rings"] = first.issm_rings;
   }
   j["threads"] = threads;
-  j["seed"] = scene.shadows.seed;
+  if (const ParamSpec* seed = find_param(TechniqueFamily::Shadow, "seed")) j["seed"] = seed->integer(scene.shadows.params);
   j["rebuilt"] = first.rebuilt;
   return j;
 }

@@ -276,6 +276,29 @@ class Renderer:
         return out
 
 
+def techniques():
+    """The shadow and ambient techniques and the keys each reads, from the techniques' own declarations
+    (the same as `penumbra techniques` and docs/scene-file.md): a list of dicts with name, family
+    ("shadows" or "ambient"), casters, summary and keys (each: key, type, default, allowed, unit,
+    meaning). Set a key with Renderer.set("shadows.<key>", value) or in the scene's document."""
+    return _penumbra.techniques()
+
+
+def _technique_keys_doc():
+    lines = []
+    for t in _penumbra.techniques():
+        if t["name"] == "none":
+            continue
+        lines.append(f"    {t['family']}.technique = {t['name']}: {t['summary']}")
+        for k in t["keys"]:
+            unit = f" {k['unit']}" if k["unit"] else ""
+            lines.append(f"        {t['family']}.{k['key']} ({k['type']}, default {k['default']}, {k['allowed']}{unit}): {k['meaning']}")
+    return "\n".join(lines)
+
+
+Renderer.set.__doc__ += "\n\n    The techniques' keys, from their declarations (penumbra.techniques()):\n" + _technique_keys_doc()
+
+
 class Viewer:
     """A running `penumbra view` server (docs/viewer.md) over its own copy of a scene. In Jupyter it shows
     itself as an IFrame; `url` opens it in any browser (token included); stop() ends it."""

@@ -178,3 +178,22 @@ def test_memory_stays_flat_over_many_renders():
             r.set("lights.0.direction", [0.1 * (i % 7) - 0.3, -1, 0.2])
         r.render()
     assert resident_kb() - warm < 20_000, "resident memory grew over 1000 renders"
+
+
+def test_techniques_and_the_set_docstring_come_from_the_declarations():
+    listed = {(t["family"], t["name"]): t for t in penumbra.techniques()}
+    cssm = listed[("shadows", "cssm")]
+    offsets = next(k for k in cssm["keys"] if k["key"] == "offsets")
+    assert offsets["type"] == "integer" and offsets["default"] == 13 and offsets["allowed"] == "7, 13 or 21"
+    assert ("ambient", "ray_traced_ao") in listed
+    # every key the CLI lists for a technique is in help(Renderer.set)
+    out = subprocess.run([CLI, "techniques"], capture_output=True, text=True, check=True).stdout
+    for t in penumbra.techniques():
+        assert f"{t['family']}.technique = {t['name']}" in out
+        for k in t["keys"]:
+            if t["name"] != "none":
+                assert f"{t['family']}.{k['key']} ({k['type']}" in penumbra.Renderer.set.__doc__
+    # a value the declaration refuses is refused by an edit, naming the key
+    r = penumbra.Renderer(penumbra.Scene(small_scene()))
+    with pytest.raises(penumbra.Error, match="shadows.offsets"):
+        r.set("shadows.offsets", 9)

@@ -7,6 +7,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/timer.h"
+#include "penumbra/lighting/shared_params.h"
 
 namespace penumbra {
 
@@ -250,6 +251,25 @@ std::size_t LightPass::memory_bytes() const {
     bytes += pass.depth.size() * 2 * sizeof(float) + pass.light_points.points.size() * sizeof(IsoPoint) +
              static_cast<std::size_t>(pass.view.width) * static_cast<std::size_t>(pass.view.height) / 8;
   return bytes;
+}
+
+namespace {
+const ParamSpec kLightFrustum = choice_param("light_frustum", "tight", {"tight", "volume"},
+                                             "the light's view: fitted to the receivers' eye points (§4.3) or the volume's box");
+}  // namespace
+
+const TechniqueInfo& light_pass_technique() {
+  static const TechniqueInfo info{
+      "light_pass", TechniqueFamily::Shadow, kind_bit(ObjectKind::Isosurface),
+      "view-dependent light pass: the receivers' isosurface points seen from the light (Livnat & Tricoche, paper 002 §4)",
+      {kMapResolution, kMapBias, kLightFrustum},
+      {},
+      [](const TechniqueParams& p) -> std::unique_ptr<ShadowTechnique> {
+        return std::make_unique<LightPass>(LightPassSettings{static_cast<int>(kMapResolution.integer(p)), light_frustum_from_string(kLightFrustum.choice(p)),
+                                                             static_cast<float>(kMapBias.number(p))});
+      },
+      {}};
+  return info;
 }
 
 }  // namespace penumbra

@@ -20,6 +20,7 @@
 #include "penumbra/isosurface/point_extraction.h"
 #include "penumbra/accel/brick_reduction.h"
 #include "penumbra/lighting/shadow_technique.h"
+#include "penumbra/lighting/technique_info.h"
 #include "penumbra/isosurface/view_projection.h"
 #include "penumbra/isosurface/visibility_buffer.h"
 
@@ -29,7 +30,9 @@ enum class LightFrustum { Tight, Volume };
 LightFrustum light_frustum_from_string(const std::string& name);  // "tight", "volume"
 std::string to_string(LightFrustum f);
 
-// The scene file's shadows.resolution, light_frustum and bias (their defaults are ShadowSettings').
+const TechniqueInfo& light_pass_technique();
+
+// The scene file's shadows.resolution, light_frustum and bias (declared in light_pass_technique()).
 struct LightPassSettings {
   int resolution;        // light visibility buffer pixels per side (the paper: 512, as the screen)
   LightFrustum frustum;

@@ -1,6 +1,7 @@
 #include "penumbra/lighting/shadow_casters.h"
 
 #include "penumbra/core/error.h"
+#include "penumbra/lighting/shared_params.h"
 
 namespace penumbra {
 
@@ -13,7 +14,7 @@ CastingVolume::CastingVolume(const VolumeObject& o, const MacrocellGrid& g, floa
       achromatic(o.compositing == Compositing::Extinction) {}
 
 ShadowCasters::ShadowCasters(const Scene& scene, std::span<const MacrocellGrid* const> grids) {
-  const float steps_in_voxels = scene.shadows.step > 0 ? scene.shadows.step : kDefaultShadowStepVoxels;
+  const float steps_in_voxels = light_step_voxels(scene.shadows.params);
   // one lattice for every volume: the finest of their voxels
   float voxel = kInfinity;
   for (std::size_t i = 0; i < scene.volumes.size(); ++i)

@@ -36,10 +36,10 @@
 
 namespace penumbra {
 
-// Light rays sample the volume once per voxel unless shadows.step says otherwise: the light pass is
-// only integrated, never shaded, so it does not need the eye's finer step; all techniques, the
-// ray-traced reference included, use the same step, so their differences are the techniques' own.
-constexpr float kDefaultShadowStepVoxels = 1.0f;
+// Light rays sample the volume once per voxel unless shadows.step says otherwise (lighting/
+// shared_params.h): the light pass is only integrated, never shaded, so it does not need the eye's
+// finer step; all techniques, the ray-traced reference included, use the same step, so their
+// differences are the techniques' own.
 
 struct MediumSegment {
   std::int64_t index;  // k: the segment [k·Δ, (k+1)·Δ] of the ray's lattice

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "penumbra/core/parallel.h"
+#include "penumbra/lighting/shared_params.h"
 #include "penumbra/particles/tile_bins.h"
 #include "penumbra/accel/brick_reduction.h"
 
@@ -187,6 +188,28 @@ int ImplicitSphereShadowMap::choose_rings(std::span<const SurfacePoint> points, 
     previous.swap(current);
   }
   return max_rings;
+}
+
+namespace {
+const ParamSpec kRings = integer_param("rings", 1, -1, 64, "texels", "t, texel rings searched around the receiver's texel ((2t+1)² spheres tested, §3.1); -1: automatic, grown until the shadows stop changing (§4; --stats reports t)");
+const ParamSpec kSoftRadius = number_param("soft_radius", 0, 0, 1e6, "world units", "s, virtual growth of every occluder's radius (§3.2; Å for molecules); 0: hard shadows; t is raised to cover it");
+const ParamSpec kSoftExponent = number_param("soft_exponent", 1, 0.01, 100, "", "x, the penumbra's falloff (1 - s'/s)^x");
+const ParamSpec kSoftDistance = number_param("soft_distance", 10, 1e-6, 1e6, "world units", "b, the occluder distance of full softness; nearer occluders give sharper shadows");
+}  // namespace
+
+const TechniqueInfo& issm_technique() {
+  static const TechniqueInfo info{
+      "issm", TechniqueFamily::Shadow, kind_bit(ObjectKind::Spheres),
+      "implicit sphere shadow map: per texel the nearest sphere, intersected exactly at look-up (Krone et al.)",
+      {kMapResolution, kRings, kSoftRadius, kSoftExponent, kSoftDistance},
+      {},
+      [](const TechniqueParams& p) -> std::unique_ptr<ShadowTechnique> {
+        return std::make_unique<ImplicitSphereShadowMap>(IssmParams{static_cast<int>(kMapResolution.integer(p)), static_cast<int>(kRings.integer(p)),
+                                                                    static_cast<float>(kSoftRadius.number(p)), static_cast<float>(kSoftExponent.number(p)),
+                                                                    static_cast<float>(kSoftDistance.number(p))});
+      },
+      {}};
+  return info;
 }
 
 }  // namespace penumbra

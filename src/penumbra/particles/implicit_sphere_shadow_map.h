@@ -29,12 +29,15 @@
 #include <vector>
 
 #include "penumbra/lighting/shadow_technique.h"
+#include "penumbra/lighting/technique_info.h"
 #include "penumbra/scene/light_projection.h"
 
 namespace penumbra {
 
-// The scene file's shadows.resolution, rings, soft_radius, soft_exponent and soft_distance (their
-// defaults are ShadowSettings').
+const TechniqueInfo& issm_technique();
+
+// The scene file's shadows.resolution, rings, soft_radius, soft_exponent and soft_distance (declared,
+// with their defaults, in issm_technique()).
 struct IssmParams {
   int resolution;       // N
   int rings;            // t: texel rings around the receiver's texel

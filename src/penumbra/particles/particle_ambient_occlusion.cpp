@@ -10,6 +10,7 @@
 
 #include "penumbra/core/cutoffs.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/lighting/shared_params.h"
 
 namespace penumbra {
 
@@ -382,6 +383,25 @@ std::size_t ParticleAmbientOcclusion::memory_bytes() const {
   for (const auto& l : pyramid_) bytes += l.value.capacity() * sizeof(float);
   bytes += cone_cache_.memory_bytes();
   return bytes;
+}
+
+namespace {
+const ParamSpec kDirections = integer_param("directions", 16, 1, 1024, "cones", "cones over the hemisphere (Staib et al. 2015)");
+const ParamSpec kDensityGrid = integer_param("grid", 64, 4, 512, "cells", "density-volume cells along the spheres' longest side");
+}  // namespace
+
+ParticleAmbientOcclusion::ParticleAmbientOcclusion(const TechniqueParams& params, std::size_t cone_cache_bytes)
+    : directions_(static_cast<int>(kDirections.integer(params))), max_distance_fraction_(static_cast<float>(kAoMaxDistance.number(params))),
+      grid_(static_cast<int>(kDensityGrid.integer(params))), cone_cache_bytes_(cone_cache_bytes) {}
+
+const TechniqueInfo& particle_ao_technique() {
+  static const TechniqueInfo info{"particle_ao", TechniqueFamily::Ambient, kind_bit(ObjectKind::Spheres) | kind_bit(ObjectKind::Volume),
+                                  "ambient occlusion from cones through a density pyramid of the spheres (and volumes) (Staib et al.)",
+                                  {kDirections, kAoMaxDistance, kDensityGrid},
+                                  {},
+                                  {},
+                                  ambient_factory<ParticleAmbientOcclusion>()};
+  return info;
 }
 
 }  // namespace penumbra

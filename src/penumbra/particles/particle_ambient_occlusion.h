@@ -32,18 +32,20 @@
 #include "penumbra/particles/sphere_cone_cache.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/lighting/ambient_technique.h"
+#include "penumbra/lighting/technique_info.h"
 
 namespace penumbra {
 
 // Occluders of every kind it takes (spheres and volumes): the volumes' opacity across a cell (their
 // shadow transfer functions sampled at the cell centres) is composed into the base level with the
 // spheres'. A volume sample (no normal) averages the cones of the whole sphere of directions.
+const TechniqueInfo& particle_ao_technique();
+
 class ParticleAmbientOcclusion final : public AmbientTechnique {
 public:
   static constexpr std::size_t kMaxCacheBytes = std::size_t{512} << 20;  // the cone cache's budget
 
-  explicit ParticleAmbientOcclusion(const AmbientSettings& s, std::size_t cone_cache_bytes = kMaxCacheBytes)
-      : directions_(s.directions), max_distance_fraction_(s.max_distance), grid_(s.grid), cone_cache_bytes_(cone_cache_bytes) {}
+  explicit ParticleAmbientOcclusion(const TechniqueParams& params, std::size_t cone_cache_bytes = kMaxCacheBytes);
   void build(const ShadowCasters& occluders) override;
   void ambient(std::span<const Vec3> points, std::span<Rgb> out) const override;
   void ambient(std::span<const SurfacePoint> points, std::span<Rgb> out) const override;

@@ -1,5 +1,8 @@
 #include "penumbra/registry/registry.h"
 
+#include <algorithm>
+#include <mutex>
+
 #include "penumbra/core/error.h"
 #include "penumbra/isosurface/light_pass.h"
 #include "penumbra/particles/implicit_sphere_shadow_map.h"
@@ -14,8 +17,36 @@
 #include "penumbra/shadows/volume_ambient_occlusion.h"
 
 namespace penumbra {
-
 namespace {
+
+// The built-in techniques, one line each.
+std::vector<const TechniqueInfo*> built_in() {
+  return {&no_shadows_technique(),
+          &shadow_map_technique(),
+          &deep_shadow_map_technique(),
+          &cssm_technique(),
+          &ray_traced_technique(),
+          &sat_cone_technique(),
+          &sampled_cone_technique(),
+          &issm_technique(),
+          &light_pass_technique(),
+          &no_ambient_technique(),
+          &sat_shells_technique(),
+          &sampled_ao_technique(),
+          &particle_ao_technique(),
+          &ray_traced_ao_technique()};
+}
+
+struct Registry {
+  std::mutex mutex;
+  std::vector<const TechniqueInfo*> techniques = built_in();
+  std::size_t built_in_count = techniques.size();
+};
+
+Registry& registry() {
+  static Registry r;
+  return r;
+}
 
 std::string known(TechniqueFamily family) {
   std::string all;
@@ -25,28 +56,52 @@ std::string known(TechniqueFamily family) {
 
 }  // namespace
 
+std::vector<const TechniqueInfo*> registered_techniques() {
+  Registry& r = registry();
+  std::lock_guard lock(r.mutex);
+  std::vector<const TechniqueInfo*> out = r.techniques;
+  std::stable_partition(out.begin(), out.end(), [](const TechniqueInfo* t) { return t->family == TechniqueFamily::Shadow; });
+  return out;
+}
+
+void register_technique(const TechniqueInfo& info) {
+  const std::string what = to_string(info.family) + " technique '" + info.name + "'";
+  if (info.name.empty()) throw Error("register_technique: a technique needs a name");
+  if (info.family == TechniqueFamily::Shadow ? !info.make_shadow : !info.make_ambient)
+    throw Error("register_technique: " + what + " has no factory");
+  Registry& r = registry();
+  std::lock_guard lock(r.mutex);
+  for (const TechniqueInfo* t : r.techniques) {
+    if (t->family != info.family) continue;
+    if (t->name == info.name) throw Error("register_technique: " + what + " is registered already");
+    for (const ParamSpec& p : info.params)
+      if (const ParamSpec* other = t->param(p.key); other && !(*other == p))
+        throw Error("register_technique: " + what + " declares " + to_string(info.family) + "." + p.key + " unlike '" + t->name +
+                    "' does (a key means one thing to every technique of its family)");
+  }
+  r.techniques.push_back(&info);
+}
+
+bool unregister_technique(TechniqueFamily family, const std::string& name) {
+  Registry& r = registry();
+  std::lock_guard lock(r.mutex);
+  const auto it = std::find_if(r.techniques.begin() + static_cast<std::ptrdiff_t>(r.built_in_count), r.techniques.end(),
+                               [&](const TechniqueInfo* t) { return t->family == family && t->name == name; });
+  if (it == r.techniques.end()) return false;
+  r.techniques.erase(it);
+  return true;
+}
+
 std::unique_ptr<ShadowTechnique> make_shadow_technique(const std::string& name, const ShadowSettings& s) {
-  if (name == "none") return std::make_unique<NoShadows>();
-  if (name == "shadow_map") return std::make_unique<ClassicShadowMap>(s);
-  if (name == "deep_shadow_map") return std::make_unique<DeepShadowMap>(s);
-  if (name == "cssm") return std::make_unique<ColoredStochasticShadowMap>(s);
-  if (name == "ray_traced") return std::make_unique<RayTracedShadows>(s.light_angle, s.area_rays);
-  if (name == "sat_cone") return std::make_unique<SatConeShadows>(s);
-  if (name == "sampled_cone") return std::make_unique<SampledConeShadows>(s);
-  if (name == "issm")
-    return std::make_unique<ImplicitSphereShadowMap>(IssmParams{s.resolution, s.rings, s.soft_radius, s.soft_exponent, s.soft_distance});
-  if (name == "light_pass")
-    return std::make_unique<LightPass>(LightPassSettings{s.resolution, light_frustum_from_string(s.light_frustum), s.bias});
-  throw Error("shadows.technique: unknown technique '" + name + "' (expected one of: " + known(TechniqueFamily::Shadow) + ")");
+  const TechniqueInfo* t = find_technique(TechniqueFamily::Shadow, name);
+  if (!t) throw Error("shadows.technique: unknown technique '" + name + "' (expected one of: " + known(TechniqueFamily::Shadow) + ")");
+  return t->make_shadow(s.params);
 }
 
 std::unique_ptr<AmbientTechnique> make_ambient_technique(const AmbientSettings& s) {
-  if (s.technique == "none") return nullptr;
-  if (s.technique == "sat_shells") return std::make_unique<SatShellsAmbient>(s);
-  if (s.technique == "sampled_ao") return std::make_unique<SampledAmbientOcclusion>(s);
-  if (s.technique == "particle_ao") return std::make_unique<ParticleAmbientOcclusion>(s);
-  if (s.technique == "ray_traced_ao") return std::make_unique<RayTracedAmbientOcclusion>(s.max_distance, s.rays);
-  throw Error("ambient.technique: unknown technique '" + s.technique + "' (expected one of: " + known(TechniqueFamily::Ambient) + ")");
+  const TechniqueInfo* t = find_technique(TechniqueFamily::Ambient, s.technique);
+  if (!t) throw Error("ambient.technique: unknown technique '" + s.technique + "' (expected one of: " + known(TechniqueFamily::Ambient) + ")");
+  return t->make_ambient(s.params);
 }
 
 }  // namespace penumbra

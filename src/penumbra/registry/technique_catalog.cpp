@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "penumbra/core/error.h"
+#include "penumbra/registry/registry.h"
 
 namespace penumbra {
 
@@ -25,46 +26,58 @@ std::string default_for(ObjectKind kind) {
 
 }  // namespace
 
-std::span<const TechniqueInfo> technique_catalog() {
-  using F = TechniqueFamily;
-  // Every key a technique's constructor, build or query reads (docs/scene-file.md describes each key).
-  static const std::vector<TechniqueInfo> catalog{
-      {"none", F::Shadow, kAllKinds, {}},
-      {"shadow_map", F::Shadow, kAllKinds, {"resolution", "bias", "step", "pcf"}, false, true},
-      {"deep_shadow_map", F::Shadow, kAllKinds, {"resolution", "bias", "step", "nodes", "dsm_layout"}, false, true},
-      {"cssm", F::Shadow, kAllKinds, {"resolution", "bias", "step", "offsets", "seed"}, false, true},
-      {"ray_traced", F::Shadow, kAllKinds, {"step", "light_angle", "area_rays"}, false, true},
-      {"sat_cone", F::Shadow, kAllKinds, {"cone_angle", "cone_samples", "cone_growth"}, true, true},
-      {"sampled_cone", F::Shadow, kAllKinds, {"step", "cone_angle", "cone_rays"}, false, true},
-      {"issm", F::Shadow, kSpheres, {"resolution", "rings", "soft_radius", "soft_exponent", "soft_distance"}},
-      {"light_pass", F::Shadow, kIsosurfaces, {"resolution", "bias", "light_frustum"}},
-      {"none", F::Ambient, kAllKinds, {}},
-      {"sat_shells", F::Ambient, kVolumes | kSpheres, {"shells", "radius", "bleeding"}, true},
-      {"sampled_ao", F::Ambient, kVolumes | kSpheres, {"radius", "bleeding"}, true},
-      {"particle_ao", F::Ambient, kSpheres | kVolumes, {"directions", "max_distance", "grid"}},
-      {"ray_traced_ao", F::Ambient, kAllKinds, {"max_distance", "rays"}, false, true},
-  };
-  return catalog;
-}
+std::vector<const TechniqueInfo*> technique_catalog() { return registered_techniques(); }
 
 const TechniqueInfo* find_technique(TechniqueFamily family, std::string_view name) {
-  for (const auto& t : technique_catalog())
-    if (t.family == family && t.name == name) return &t;
+  for (const TechniqueInfo* t : registered_techniques())
+    if (t->family == family && t->name == name) return t;
   return nullptr;
 }
 
 std::vector<std::string> technique_names(TechniqueFamily family) {
   std::vector<std::string> names;
-  for (const auto& t : technique_catalog())
-    if (t.family == family) names.emplace_back(t.name);
+  for (const TechniqueInfo* t : registered_techniques())
+    if (t->family == family) names.push_back(t->name);
   return names;
 }
 
 std::vector<std::string> technique_names(TechniqueFamily family, ObjectKind kind) {
   std::vector<std::string> names;
-  for (const auto& t : technique_catalog())
-    if (t.family == family && (t.casters & kind_bit(kind))) names.emplace_back(t.name);
+  for (const TechniqueInfo* t : registered_techniques())
+    if (t->family == family && (t->casters & kind_bit(kind))) names.push_back(t->name);
   return names;
+}
+
+const ParamSpec* find_param(TechniqueFamily family, std::string_view key) {
+  for (const TechniqueInfo* t : registered_techniques())
+    if (t->family == family)
+      if (const ParamSpec* p = t->param(key)) return p;
+  return nullptr;
+}
+
+namespace {
+const ParamSpec& declared(TechniqueFamily family, std::string_view key) {
+  const ParamSpec* p = find_param(family, key);
+  if (!p) throw Error(to_string(family) + "." + std::string(key) + ": no technique declares this key");
+  return *p;
+}
+}  // namespace
+
+double param_number(TechniqueFamily family, const TechniqueParams& params, std::string_view key) {
+  return declared(family, key).number(params);
+}
+
+std::int64_t param_integer(TechniqueFamily family, const TechniqueParams& params, std::string_view key) {
+  return declared(family, key).integer(params);
+}
+
+std::vector<const ParamSpec*> family_params(TechniqueFamily family) {
+  std::vector<const ParamSpec*> out;
+  for (const TechniqueInfo* t : registered_techniques())
+    if (t->family == family)
+      for (const ParamSpec& p : t->params)
+        if (std::none_of(out.begin(), out.end(), [&](const ParamSpec* q) { return q->key == p.key; })) out.push_back(&p);
+  return out;
 }
 
 KindMask casting_kinds(const Scene& s) {
@@ -139,14 +152,17 @@ KindMask ambient_occluders(const Scene& s) {
 bool needs_extinction_sat(const Scene& scene) {
   for (const auto& a : shadow_assignments(scene)) {
     const TechniqueInfo* t = find_technique(TechniqueFamily::Shadow, a.technique);
-    if (t && t->extinction_sat && (a.casters & kVolumes)) return true;
+    if (t && t->needs.extinction_sat && (a.casters & kVolumes)) return true;
   }
   const TechniqueInfo* ambient = find_technique(TechniqueFamily::Ambient, scene.ambient.technique);
-  return ambient && ambient->extinction_sat;
+  return ambient && ambient->needs.extinction_sat;
 }
 
 bool needs_extinction_colour(const Scene& scene) {
-  return needs_extinction_sat(scene) && scene.ambient.technique != "none" && scene.ambient.bleeding > 0;
+  if (!needs_extinction_sat(scene)) return false;
+  const TechniqueInfo* ambient = find_technique(TechniqueFamily::Ambient, scene.ambient.technique);
+  const ParamSpec* bleeding = ambient ? ambient->param("bleeding") : nullptr;  // colour bleeding reads the SAT's colour
+  return bleeding && bleeding->number(scene.ambient.params) > 0;
 }
 
 bool needs_sphere_bvh(const Scene& scene) {
@@ -154,10 +170,10 @@ bool needs_sphere_bvh(const Scene& scene) {
   if (scene.sphere_rasterizer == SphereRasterizer::Embree) return true;
   for (const auto& a : shadow_assignments(scene)) {
     const TechniqueInfo* t = find_technique(TechniqueFamily::Shadow, a.technique);
-    if (t && t->sphere_rays && (a.casters & kSpheres)) return true;
+    if (t && t->needs.sphere_rays && (a.casters & kSpheres)) return true;
   }
   const TechniqueInfo* ambient = find_technique(TechniqueFamily::Ambient, scene.ambient.technique);
-  return ambient && ambient->sphere_rays && (ambient_occluders(scene) & kSpheres);
+  return ambient && ambient->needs.sphere_rays && (ambient_occluders(scene) & kSpheres);
 }
 
 }  // namespace penumbra

@@ -1,11 +1,9 @@
-// What the scene file knows about each shadow and ambient technique, in one declarative table: its
-// name, whether it shadows or occludes, which kinds of caster (volumes, spheres, isosurfaces, planes)
-// it takes, which `shadows.*` / `ambient.*` keys it reads, whether it needs the extinction SAT and
-// whether it traces rays through spheres (then the renderer builds the Embree BVH). The scene reader
-// validates names and warns about keys no chosen technique reads from this table alone;
-// registry/registry.cpp builds the techniques it names (tests/test_technique_catalog.cpp checks that
-// every key listed changes the image and every other key leaves it untouched). Adding a technique: one
-// row here and one line in the registry.
+// What the scene file and the renderer ask of the techniques, answered from the declarations the
+// registry lists (registry.h; each technique declares itself in its own file, lighting/technique_info.h):
+// names, the kinds of caster each takes, the keys each reads, whether it needs the extinction SAT or
+// rays through spheres. The scene reader validates names and keys and notes keys no chosen technique
+// reads from these alone (tests/test_technique_catalog.cpp checks that every key declared changes the
+// image and every other key leaves it untouched).
 //
 // Which technique covers which casters: `shadows.<kind>` when the scene gives it, else
 // `shadows.technique` when that takes the kind, else the kind's default (volumes cssm, spheres issm,
@@ -13,32 +11,31 @@
 // the techniques so chosen (one per distinct name, each built from its kinds of caster only).
 #pragma once
 
-#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "penumbra/lighting/technique_info.h"
 #include "penumbra/scene/scene.h"
 
 namespace penumbra {
 
-enum class TechniqueFamily { Shadow, Ambient };
-
-struct TechniqueInfo {
-  std::string_view name;
-  TechniqueFamily family;
-  KindMask casters;                    // the kinds of caster (occluder) it takes
-  std::vector<std::string_view> keys;  // keys of `shadows` (Shadow) or `ambient` (Ambient) it reads
-  bool extinction_sat = false;         // reads the extinction SAT (and `light_cache.resolution`)
-  bool sphere_rays = false;            // traces rays through spheres (needs the BVH)
-};
-
-std::span<const TechniqueInfo> technique_catalog();
+// Every registered technique (registry.h), shadows first, in registration order.
+std::vector<const TechniqueInfo*> technique_catalog();
 // The technique of that name, or nullptr.
 const TechniqueInfo* find_technique(TechniqueFamily family, std::string_view name);
 // Every name of the family ("none" first); those that take casters of `kind`.
 std::vector<std::string> technique_names(TechniqueFamily family);
 std::vector<std::string> technique_names(TechniqueFamily family, ObjectKind kind);
+// The declaration of `key` among the family's techniques (they declare a shared key alike:
+// register_technique refuses otherwise), or nullptr when no technique of the family reads it.
+const ParamSpec* find_param(TechniqueFamily family, std::string_view key);
+// The value of a declared key: the scene's, or its declared default. Error when no technique of the
+// family declares it.
+double param_number(TechniqueFamily family, const TechniqueParams& params, std::string_view key);
+std::int64_t param_integer(TechniqueFamily family, const TechniqueParams& params, std::string_view key);
+// Every key the family's techniques read, each once, in catalogue order.
+std::vector<const ParamSpec*> family_params(TechniqueFamily family);
 
 // The kinds of object in the scene that cast shadows, and those that receive them.
 KindMask casting_kinds(const Scene& scene);

@@ -13,6 +13,7 @@
 #include "penumbra/registry/technique_catalog.h"
 #include "penumbra/shadows/sat_cone.h"
 #include "penumbra/shadows/volume_ambient_occlusion.h"
+#include "penumbra/lighting/shared_params.h"
 #include "penumbra/registry/registry.h"
 
 namespace penumbra {
@@ -32,16 +33,27 @@ constexpr double kPreviewShadowTargetMs = 20;
 // build time grows with the texels, so the side shrinks with the square root; never below 64.
 Scene preview_settings(const Scene& scene, double full_shadow_ms) {
   Scene s = scene;
-  ShadowSettings& sh = s.shadows;
-  int resolution = sh.resolution / 4;
-  if (full_shadow_ms > 0)
-    resolution = std::min(resolution, static_cast<int>(sh.resolution * std::sqrt(kPreviewShadowTargetMs / full_shadow_ms)));
-  sh.resolution = std::min(sh.resolution, std::max(64, resolution));
-  sh.step = 2 * (sh.step > 0 ? sh.step : kDefaultShadowStepVoxels);
-  sh.cone_rays = std::max(1, sh.cone_rays / 4);
-  sh.area_rays = std::max(1, sh.area_rays / 4);
+  // every key the techniques declare with a role a preview coarsens, at its value or default
+  auto coarsen = [&](TechniqueFamily family, TechniqueParams& params) {
+    for (const ParamSpec* p : family_params(family)) {
+      switch (p->role) {
+        case ParamRole::MapSide: {
+          const auto full = static_cast<int>(p->integer(params));
+          int side = full / 4;
+          if (full_shadow_ms > 0) side = std::min(side, static_cast<int>(full * std::sqrt(kPreviewShadowTargetMs / full_shadow_ms)));
+          params.set(p->key, std::min(full, std::max(64, side)));
+          break;
+        }
+        case ParamRole::LightStep: params.set(p->key, 2.0 * light_step_voxels(params)); break;
+        case ParamRole::RayCount: params.set(p->key, std::max<std::int64_t>(1, p->integer(params) / 4)); break;
+        case ParamRole::Plain:
+        case ParamRole::Seed: break;
+      }
+    }
+  };
+  coarsen(TechniqueFamily::Shadow, s.shadows.params);
+  coarsen(TechniqueFamily::Ambient, s.ambient.params);
   s.light_cache.resolution = std::max(kMinSatResolution, s.light_cache.resolution / 2);
-  s.ambient.rays = std::max(1, s.ambient.rays / 4);
   return s;  // the eye step: PreparedVolume keeps a preview table
 }
 
@@ -53,11 +65,13 @@ float shared_step(const Scene& s) {
   return step;
 }
 
-bool reads_seed(const Scene& s) {
+// The seed key of the scene's shadow techniques (the one accumulated samples move), or nullptr.
+const ParamSpec* seed_param(const Scene& s) {
   for (const ShadowAssignment& a : shadow_assignments(s))
     if (const TechniqueInfo* t = find_technique(TechniqueFamily::Shadow, a.technique))
-      if (std::find(t->keys.begin(), t->keys.end(), "seed") != t->keys.end()) return true;
-  return false;
+      for (const ParamSpec& p : t->params)
+        if (p.role == ParamRole::Seed) return &p;
+  return nullptr;
 }
 
 // The image (and alpha, depth) rendered at 1/divisor of each side, enlarged to width × height by
@@ -408,13 +422,14 @@ void Renderer::update_shadows(const std::vector<Light>& lights, Quality quality,
   }
   full_shadow_ms_of_.resize(lights.size());
   const bool any = !shadow_assignments(scene_).empty();
-  const std::uint64_t seed = scene_.shadows.seed + sample;
-  const bool seeded = reads_seed(scene_);
+  const ParamSpec* seed_key = seed_param(scene_);
+  const bool seeded = seed_key != nullptr;
+  const std::uint64_t seed = seeded ? static_cast<std::uint64_t>(seed_key->integer(scene_.shadows.params)) + sample : 0;
   Scene with_seed;
   const Scene* settings = &settings_;
   if (seeded && sample > 0) {
     with_seed = settings_;
-    with_seed.shadows.seed = seed;
+    with_seed.shadows.params.set(seed_key->key, static_cast<std::int64_t>(seed));
     settings = &with_seed;
   }
   for (std::size_t i = 0; i < lights.size(); ++i) {

@@ -13,6 +13,7 @@
 #include "penumbra/data/particles.h"
 #include "penumbra/data/transfer_function.h"
 #include "penumbra/data/volume.h"
+#include "penumbra/scene/technique_params.h"
 #include "penumbra/scene/camera.h"
 #include "penumbra/scene/light.h"
 
@@ -138,27 +139,12 @@ struct ShadingParams {
   float shininess = 32;
 };
 
+// Which shadow techniques light the scene and the values of their keys. Each technique declares the
+// keys it reads, with their defaults and ranges, in its own file (lighting/technique_info.h); the
+// scene-file reader checks `params` against those declarations (docs/scene-file.md lists them).
 struct ShadowSettings {
   std::string technique = "none";
-  int resolution = 1024;          // shadow map texels per side
-  int offsets = 13;               // cssm: 7, 13 or 21 look-up offsets (paper Table 2)
-  std::uint64_t seed = 1;         // cssm: random numbers of the generation pass
-  int nodes = 3;                  // deep_shadow_map: nodes per colour channel
-  std::string dsm_layout = "per_channel";  // deep_shadow_map: "per_channel" or "shared_depth" (node depths shared by R, G, B: the CSSM paper's DSM)
-  int pcf = 0;                    // shadow_map: percentage-closer filter radius in texels (0 = off)
-  float bias = -1;                // world units subtracted from a receiver's light depth; < 0: one shadow step
-  float step = -1;                // light-ray sampling step in voxels; < 0: one voxel (kDefaultShadowStepVoxels)
-  float cone_angle = 5;           // sat_cone: half-angle of the cone towards the light, degrees (paper 001 §3.3)
-  float cone_samples = 50;        // sat_cone: cuboids per longest side of the light cache (before growth)
-  float cone_growth = 0;          // sat_cone: relative growth of each cuboid's thickness over the previous one
-  int cone_rays = 64;             // sampled_cone: exact shadow rays spread over the cone
-  int rings = 1;                  // issm: texel rings t around the receiver's texel (paper 003 §3.1); -1: automatic (§4)
-  float soft_radius = 0;          // issm: virtual radius growth s in world units (§3.2); 0: hard shadows
-  float soft_exponent = 1;        // issm: exponent x of the penumbra's falloff
-  float soft_distance = 10;       // issm: occluder distance b (world units) at which shadows are softest
-  float light_angle = 0;          // ray_traced on spheres: angular radius of the light in degrees (0: a point)
-  int area_rays = 64;             // ray_traced on spheres with light_angle > 0: shadow rays per receiver
-  std::string light_frustum = "tight";  // light_pass: "tight" (fitted to the eye points, paper 002 §4.3) or "volume"
+  TechniqueParams params;  // shadows.resolution, .bias, .offsets, ...: only the keys the scene gives
   // shadows.volumes, .spheres, .isosurfaces, .planes: the technique covering that kind of caster;
   // empty: shadows.technique when it takes the kind, else the kind's default (technique_catalog.h).
   std::array<std::string, kObjectKinds> by_kind;
@@ -166,13 +152,7 @@ struct ShadowSettings {
 
 struct AmbientSettings {
   std::string technique = "none";
-  int shells = 3;          // sat_shells: number of cuboid shells (paper 001 §3.2)
-  float radius = 0.05f;    // neighbourhood radius, a fraction of the volume's longest side
-  float bleeding = 0;      // colour bleeding β in [0, 1]: 0 grey occlusion (Eq. 4), 1 full colour (Eq. 5)
-  int directions = 16;     // particle_ao: cones over the hemisphere (Staib et al. 2015)
-  float max_distance = 0.7f;  // particle_ao, ray_traced_ao: reach, a fraction of the spheres' longest side
-  int grid = 64;           // particle_ao: density-volume cells along the spheres' longest side
-  int rays = 64;           // ray_traced_ao: hemisphere rays per point
+  TechniqueParams params;  // ambient.radius, .rays, ...: only the keys the scene gives
 };
 
 // The extinction SAT and the light cache of paper 001 (Algorithm 1) share one grid.

@@ -14,6 +14,39 @@ void check_technique(JsonReader& r, const std::string& name, const std::vector<s
   r.fail("technique", "unknown technique '" + name + "' (expected one of: " + join(available) + ")");
 }
 
+bool is_kind_key(const std::string& key) {
+  for (int i = 0; i < kObjectKinds; ++i)
+    if (key == to_string(static_cast<ObjectKind>(i))) return true;
+  return false;
+}
+
+// Every other key of the section: checked against the declaration the family's techniques share
+// (type, range, allowed values) and kept in `params`. A key no technique of the family declares is an
+// error naming the keys they do.
+void read_params(JsonReader& r, const nlohmann::json& j, TechniqueFamily family, TechniqueParams& params) {
+  for (const auto& [key, value] : j.items()) {
+    if (key == "technique" || value.is_null() || (family == TechniqueFamily::Shadow && is_kind_key(key))) continue;
+    const ParamSpec* spec = find_param(family, key);
+    if (!spec) {
+      std::vector<std::string> keys{"technique"};
+      for (const ParamSpec* p : family_params(family)) keys.push_back(p->key);
+      if (family == TechniqueFamily::Shadow)
+        for (int i = 0; i < kObjectKinds; ++i) keys.push_back(to_string(static_cast<ObjectKind>(i)));
+      r.fail(key, "unknown key (expected one of: " + join(keys) + ")");
+    }
+    r.raw(key);  // read
+    ParamValue parsed;
+    if (value.is_number_integer()) parsed = value.get<std::int64_t>();
+    else if (value.is_number()) parsed = value.get<double>();
+    else if (value.is_string()) parsed = value.get<std::string>();
+    else r.fail(key, "expected " + (spec->type == ParamType::Choice ? spec->allowed_text() : "a " + spec->type_text()) + ", got " + json_brief(value));
+    if (spec->type == ParamType::Number && std::holds_alternative<std::int64_t>(parsed))
+      parsed = static_cast<double>(std::get<std::int64_t>(parsed));
+    if (const std::string problem = spec->check(parsed); !problem.empty()) r.fail(key, json_brief(value) + ": " + problem);
+    params.set(key, std::move(parsed));
+  }
+}
+
 }  // namespace
 
 ShadowSettings read_shadows(const nlohmann::json& j) {
@@ -21,34 +54,7 @@ ShadowSettings read_shadows(const nlohmann::json& j) {
   ShadowSettings s;
   s.technique = r.string("technique", s.technique);
   check_technique(r, s.technique, technique_names(TechniqueFamily::Shadow));
-  s.resolution = static_cast<int>(r.integer("resolution", s.resolution, 16, 16384));
-  s.offsets = static_cast<int>(r.integer("offsets", s.offsets, 1, 21));
-  if (s.offsets != 7 && s.offsets != 13 && s.offsets != 21)
-    r.fail("offsets", "value " + std::to_string(s.offsets) + " is not supported (expected 7, 13 or 21, paper §4)");
-  s.seed = static_cast<std::uint64_t>(r.integer("seed", static_cast<std::int64_t>(s.seed), 0, INT64_MAX));
-  s.nodes = static_cast<int>(r.integer("nodes", s.nodes, 2, 64));
-  s.dsm_layout = r.string("dsm_layout", s.dsm_layout);
-  if (s.dsm_layout != "per_channel" && s.dsm_layout != "shared_depth")
-    r.fail("dsm_layout", "unknown value '" + s.dsm_layout + "' (expected per_channel or shared_depth)");
-  s.pcf = static_cast<int>(r.integer("pcf", s.pcf, 0, 16));
-  s.bias = r.number("bias", s.bias, -1, 1e6f);
-  if (s.bias < 0 && s.bias != -1) r.fail("bias", "must be at least 0 (or -1 for the automatic bias)");
-  s.step = r.number("step", s.step, -1, 8);
-  if (s.step < 0.05f && s.step != -1) r.fail("step", "must be at least 0.05 voxels (or -1 for the default, one voxel)");
-  s.cone_angle = r.number("cone_angle", s.cone_angle, 0, 90);
-  if (s.cone_angle >= 90) r.fail("cone_angle", "must be below 90 degrees (the cone's half-angle)");
-  s.cone_samples = r.number("cone_samples", s.cone_samples, 1, 4096);
-  s.cone_growth = r.number("cone_growth", s.cone_growth, 0, 1);
-  s.cone_rays = static_cast<int>(r.integer("cone_rays", s.cone_rays, 1, 4096));
-  s.rings = static_cast<int>(r.integer("rings", s.rings, -1, 64));
-  s.soft_radius = r.number("soft_radius", s.soft_radius, 0, 1e6f);
-  s.soft_exponent = r.number("soft_exponent", s.soft_exponent, 0.01f, 100);
-  s.soft_distance = r.number("soft_distance", s.soft_distance, 1e-6f, 1e6f);
-  s.light_angle = r.number("light_angle", s.light_angle, 0, 45);
-  s.area_rays = static_cast<int>(r.integer("area_rays", s.area_rays, 1, 65536));
-  s.light_frustum = r.string("light_frustum", s.light_frustum);
-  if (s.light_frustum != "tight" && s.light_frustum != "volume")
-    r.fail("light_frustum", "unknown value '" + s.light_frustum + "' (expected tight or volume)");
+  read_params(r, j, TechniqueFamily::Shadow, s.params);
   for (int i = 0; i < kObjectKinds; ++i) {  // shadows.volumes, .spheres, .isosurfaces, .planes
     const auto kind = static_cast<ObjectKind>(i);
     const std::string key = to_string(kind);
@@ -68,15 +74,7 @@ AmbientSettings read_ambient(const nlohmann::json& j) {
   AmbientSettings a;
   a.technique = r.string("technique", a.technique);
   check_technique(r, a.technique, technique_names(TechniqueFamily::Ambient));
-  a.shells = static_cast<int>(r.integer("shells", a.shells, 1, 64));
-  a.radius = r.number("radius", a.radius, 0, 1);
-  if (!(a.radius > 0)) r.fail("radius", "must be positive (a fraction of the volume's longest side, e.g. 0.05)");
-  a.bleeding = r.number("bleeding", a.bleeding, 0, 1);
-  a.directions = static_cast<int>(r.integer("directions", a.directions, 1, 1024));
-  a.max_distance = r.number("max_distance", a.max_distance, 0, 10);
-  if (!(a.max_distance > 0)) r.fail("max_distance", "must be positive (a fraction of the spheres' longest side, e.g. 0.7)");
-  a.grid = static_cast<int>(r.integer("grid", a.grid, 4, 512));
-  a.rays = static_cast<int>(r.integer("rays", a.rays, 1, 65536));
+  read_params(r, j, TechniqueFamily::Ambient, a.params);
   r.finish();
   return a;
 }
@@ -95,12 +93,11 @@ void note_unread_keys(const nlohmann::json& j, const std::string& section, Techn
     }
     bool read = false;
     for (const auto& name : chosen)
-      if (const TechniqueInfo* info = find_technique(family, name))
-        read = read || std::find(info->keys.begin(), info->keys.end(), key) != info->keys.end();
+      if (const TechniqueInfo* info = find_technique(family, name)) read = read || info->reads(key);
     if (read) continue;
     std::vector<std::string> readers;
-    for (const auto& t : technique_catalog())
-      if (t.family == family && std::find(t.keys.begin(), t.keys.end(), key) != t.keys.end()) readers.emplace_back(t.name);
+    for (const TechniqueInfo* t : technique_catalog())
+      if (t->family == family && t->reads(key)) readers.push_back(t->name);
     notes.push_back(section + "." + key + " is not read by " + (chosen.empty() ? std::string("any technique of this scene") : join(chosen)) +
                     "; " + (readers.empty() ? std::string("no technique reads it") : "it is read by: " + join(readers)));
   }

@@ -1,6 +1,7 @@
 #include "penumbra/shadows/cssm.h"
 
 #include <array>
+#include <cstdint>
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/rng.h"
@@ -22,8 +23,30 @@ std::span<const std::pair<int, int>> cssm_offsets(int count) {
   return std::span<const std::pair<int, int>>(kOffsets.data(), static_cast<std::size_t>(count));
 }
 
-ColoredStochasticShadowMap::ColoredStochasticShadowMap(const ShadowSettings& s)
-    : LightSpaceMap(s), seed_(s.seed), offsets_(cssm_offsets(s.offsets)) {
+namespace {
+
+const ParamSpec kOffsetCount = [] {
+  ParamSpec p = integer_param("offsets", 13, 7, 21, "", "m, the look-up offsets averaged per channel: 7, 13 (the paper's set) or 21");
+  p.only = {7, 13, 21};
+  return p;
+}();
+const ParamSpec kSeed = integer_param("seed", 1, 0, INT64_MAX, "", "random numbers r_i = hash(seed, texel, segment)", ParamRole::Seed);
+
+}  // namespace
+
+const TechniqueInfo& cssm_technique() {
+  static const TechniqueInfo info{"cssm", TechniqueFamily::Shadow, kAllKinds,
+                                  "coloured stochastic shadow map: one photon per texel and channel (Weidner & Linsen)",
+                                  {kMapResolution, kMapBias, kLightStep, kOffsetCount, kSeed},
+                                  {.sphere_rays = true},
+                                  shadow_factory<ColoredStochasticShadowMap>(),
+                                  {}};
+  return info;
+}
+
+ColoredStochasticShadowMap::ColoredStochasticShadowMap(const TechniqueParams& params)
+    : LightSpaceMap(params), seed_(static_cast<std::uint64_t>(kSeed.integer(params))),
+      offsets_(cssm_offsets(static_cast<int>(kOffsetCount.integer(params)))) {
   for (const auto& o : offsets_) {
     filter_radius_ = std::max(filter_radius_, std::max(std::abs(o.first), std::abs(o.second)));
     linear_offsets_.push_back((static_cast<std::ptrdiff_t>(o.second) * resolution_ + o.first) * 3);

@@ -13,7 +13,9 @@
 // | shadows.resolution | 1024            | texels per side                                |
 // | shadows.offsets    | 13              | m: 7, 13 (the paper's set) or 21               |
 // | shadows.seed       | 1               | random numbers r_i = hash(seed, texel, segment) |
-// | shadows.bias       | one shadow step | world units                                    |
+// | shadows.bias       | -1: one step    | world units                                    |
+// | shadows.step       | -1: one voxel   | light-ray sampling step in voxels              |
+// (declared with their ranges in cssm_technique(), cssm.cpp)
 // Memory: resolution² · 3 floats.
 #pragma once
 
@@ -22,6 +24,7 @@
 #include <utility>
 #include <vector>
 
+#include "penumbra/lighting/technique_info.h"
 #include "penumbra/shadows/light_space_map.h"
 
 namespace penumbra {
@@ -30,10 +33,12 @@ namespace penumbra {
 // variants (docs/techniques/cssm.md says how those were chosen).
 std::span<const std::pair<int, int>> cssm_offsets(int count);
 
+const TechniqueInfo& cssm_technique();
+
 class ColoredStochasticShadowMap final : public LightSpaceMap {
 public:
   using ShadowTechnique::transmittance;  // keep the one-point overload visible
-  explicit ColoredStochasticShadowMap(const ShadowSettings& s);
+  explicit ColoredStochasticShadowMap(const TechniqueParams& params);
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
   std::size_t memory_bytes() const override { return depth_.size() * sizeof(float); }
   std::string_view name() const override { return "cssm"; }

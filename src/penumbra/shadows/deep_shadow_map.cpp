@@ -89,8 +89,24 @@ DsmLayout parse_dsm_layout(const std::string& name) {
   throw Error("shadows.dsm_layout: unknown value '" + name + "' (expected per_channel or shared_depth)");
 }
 
-DeepShadowMap::DeepShadowMap(const ShadowSettings& s)
-    : LightSpaceMap(s), nodes_(s.nodes), layout_(parse_dsm_layout(s.dsm_layout)) {}
+namespace {
+const ParamSpec kNodes = integer_param("nodes", 3, 2, 64, "", "N: nodes per colour channel (per_channel) or per texel (shared_depth)");
+const ParamSpec kLayout = choice_param("dsm_layout", "per_channel", {"per_channel", "shared_depth"},
+                                       "one polyline per channel, or node depths shared by R, G, B (the CSSM paper's DSM)");
+}  // namespace
+
+const TechniqueInfo& deep_shadow_map_technique() {
+  static const TechniqueInfo info{"deep_shadow_map", TechniqueFamily::Shadow, kAllKinds,
+                                  "deep shadow map: the transmittance along each texel's ray as a compressed polyline (Lokovic & Veach)",
+                                  {kMapResolution, kMapBias, kLightStep, kNodes, kLayout},
+                                  {.sphere_rays = true},
+                                  shadow_factory<DeepShadowMap>(),
+                                  {}};
+  return info;
+}
+
+DeepShadowMap::DeepShadowMap(const TechniqueParams& params)
+    : LightSpaceMap(params), nodes_(static_cast<int>(kNodes.integer(params))), layout_(parse_dsm_layout(kLayout.choice(params))) {}
 
 void DeepShadowMap::build_map(const ShadowCasters& medium) {
   const std::size_t texels = static_cast<std::size_t>(resolution_) * resolution_;

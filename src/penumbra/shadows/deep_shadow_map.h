@@ -44,9 +44,12 @@
 #include <cstdint>
 #include <vector>
 
+#include "penumbra/lighting/technique_info.h"
 #include "penumbra/shadows/light_space_map.h"
 
 namespace penumbra {
+
+const TechniqueInfo& deep_shadow_map_technique();
 
 enum class DsmLayout { PerChannel, SharedDepth };
 
@@ -56,7 +59,7 @@ DsmLayout parse_dsm_layout(const std::string& name);
 class DeepShadowMap final : public LightSpaceMap {
 public:
   using ShadowTechnique::transmittance;  // keep the one-point overload visible
-  explicit DeepShadowMap(const ShadowSettings& s);
+  explicit DeepShadowMap(const TechniqueParams& params);
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
   std::size_t memory_bytes() const override {
     return (node_depth_.size() + node_value_.size()) * sizeof(float) + node_count_.size() + surface_depth_.size() * sizeof(float);

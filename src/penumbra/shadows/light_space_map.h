@@ -8,12 +8,14 @@
 #include "penumbra/scene/scene.h"
 #include "penumbra/scene/light_projection.h"
 #include "penumbra/lighting/shadow_technique.h"
+#include "penumbra/lighting/shared_params.h"
 
 namespace penumbra {
 
 class LightSpaceMap : public ShadowTechnique {
 public:
-  explicit LightSpaceMap(const ShadowSettings& settings) : resolution_(settings.resolution), bias_setting_(settings.bias) {}
+  explicit LightSpaceMap(const TechniqueParams& params)
+      : resolution_(static_cast<int>(kMapResolution.integer(params))), bias_setting_(static_cast<float>(kMapBias.number(params))) {}
 
   void build(const ShadowCasters& medium, const Light& light) final;
   Vec3 surface_receiver(const Vec3& p, const Vec3& n) const final;

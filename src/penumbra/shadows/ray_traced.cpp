@@ -1,5 +1,6 @@
 #include "penumbra/shadows/ray_traced.h"
 
+#include "penumbra/lighting/shared_params.h"
 #include "penumbra/shadows/ray_sampling.h"
 
 namespace penumbra {
@@ -45,6 +46,31 @@ void RayTracedShadows::transmittance(std::span<const SurfacePoint> points, std::
     light_.towards(points[i].position, to_light, distance);
     out[i] = exact(casters_->ray_origin(points[i], to_light), points[i].position);
   }
+}
+
+namespace {
+const ParamSpec kLightAngle = number_param("light_angle", 0, 0, 45, "degrees", "angular radius of the light on spheres (0: a point, one ray; > 0: an area light sampled with area_rays); point and spot lights: the radius subtending it at the scene centre");
+const ParamSpec kAreaRays = integer_param("area_rays", 64, 1, 65536, "rays", "shadow rays per receiver when light_angle > 0", ParamRole::RayCount);
+}  // namespace
+
+const TechniqueInfo& ray_traced_technique() {
+  static const TechniqueInfo info{
+      "ray_traced", TechniqueFamily::Shadow, kAllKinds,
+      "exact: a light ray from every receiver through every caster (the reference the others are measured against)",
+      {kLightStep, kLightAngle, kAreaRays},
+      {.sphere_rays = true},
+      [](const TechniqueParams& p) -> std::unique_ptr<ShadowTechnique> {
+        return std::make_unique<RayTracedShadows>(static_cast<float>(kLightAngle.number(p)), static_cast<int>(kAreaRays.integer(p)));
+      },
+      {}};
+  return info;
+}
+
+const TechniqueInfo& no_shadows_technique() {
+  static const TechniqueInfo info{"none", TechniqueFamily::Shadow, kAllKinds, "no shadows", {}, {},
+                                  [](const TechniqueParams&) -> std::unique_ptr<ShadowTechnique> { return std::make_unique<NoShadows>(); },
+                                  {}};
+  return info;
 }
 
 }  // namespace penumbra

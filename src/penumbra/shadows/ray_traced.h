@@ -16,8 +16,12 @@
 #pragma once
 
 #include "penumbra/lighting/shadow_technique.h"
+#include "penumbra/lighting/technique_info.h"
 
 namespace penumbra {
+
+const TechniqueInfo& ray_traced_technique();
+const TechniqueInfo& no_shadows_technique();  // "none"
 
 class RayTracedShadows final : public ShadowTechnique {
 public:

@@ -1,5 +1,6 @@
 #include "penumbra/shadows/ray_traced_ao.h"
 
+#include "penumbra/lighting/shared_params.h"
 #include "penumbra/shadows/ray_sampling.h"
 
 namespace penumbra {
@@ -39,6 +40,29 @@ void RayTracedAmbientOcclusion::ambient(std::span<const SurfacePoint> points, st
     }
     out[k] = sum * (1.0f / static_cast<float>(rays_));
   }
+}
+
+namespace {
+const ParamSpec kHemisphereRays = integer_param("rays", 64, 1, 65536, "rays", "hemisphere rays per point", ParamRole::RayCount);
+}  // namespace
+
+const TechniqueInfo& ray_traced_ao_technique() {
+  static const TechniqueInfo info{
+      "ray_traced_ao", TechniqueFamily::Ambient, kAllKinds,
+      "exact: hemisphere rays through every occluder, coloured where they cross a translucent volume (the reference)",
+      {kAoMaxDistance, kHemisphereRays},
+      {.sphere_rays = true},
+      {},
+      [](const TechniqueParams& p) -> std::unique_ptr<AmbientTechnique> {
+        return std::make_unique<RayTracedAmbientOcclusion>(static_cast<float>(kAoMaxDistance.number(p)), static_cast<int>(kHemisphereRays.integer(p)));
+      }};
+  return info;
+}
+
+const TechniqueInfo& no_ambient_technique() {
+  static const TechniqueInfo info{"none", TechniqueFamily::Ambient, kAllKinds, "no ambient occlusion", {}, {}, {},
+                                  [](const TechniqueParams&) -> std::unique_ptr<AmbientTechnique> { return nullptr; }};
+  return info;
 }
 
 }  // namespace penumbra

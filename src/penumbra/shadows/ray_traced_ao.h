@@ -12,8 +12,12 @@
 #pragma once
 
 #include "penumbra/lighting/ambient_technique.h"
+#include "penumbra/lighting/technique_info.h"
 
 namespace penumbra {
+
+const TechniqueInfo& ray_traced_ao_technique();
+const TechniqueInfo& no_ambient_technique();  // "none"
 
 class RayTracedAmbientOcclusion final : public AmbientTechnique {
 public:

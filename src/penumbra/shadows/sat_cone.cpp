@@ -3,12 +3,44 @@
 #include <cmath>
 #include <optional>
 
+#include "penumbra/lighting/shared_params.h"
+
 namespace penumbra {
 
-SatConeShadows::SatConeShadows(const ShadowSettings& s) {
-  sampling_.half_angle = radians(s.cone_angle);
-  sampling_.samples_per_unit = s.cone_samples;
-  sampling_.growth = s.cone_growth;
+namespace {
+const ParamSpec kConeAngle = number_param("cone_angle", 5, 0, 89.9, "degrees", "half-angle of the cone towards the light (paper 001 §3.3)");
+const ParamSpec kConeSamples = number_param("cone_samples", 50, 1, 4096, "cuboids", "cuboids per longest side of the light cache, before growth");
+const ParamSpec kConeGrowth = number_param("cone_growth", 0, 0, 1, "", "relative growth of each cuboid's thickness over the previous one");
+const ParamSpec kConeRays = integer_param("cone_rays", 64, 1, 4096, "rays", "exact shadow rays spread over the cone", ParamRole::RayCount);
+}  // namespace
+
+const TechniqueInfo& sat_cone_technique() {
+  static const TechniqueInfo info{"sat_cone", TechniqueFamily::Shadow, kAllKinds,
+                                  "soft shadows: the extinction in a cone towards the light, from cuboids of the 3D summed area table (Schlegel et al.)",
+                                  {kConeAngle, kConeSamples, kConeGrowth},
+                                  {.extinction_sat = true, .sphere_rays = true},
+                                  shadow_factory<SatConeShadows>(),
+                                  {}};
+  return info;
+}
+
+const TechniqueInfo& sampled_cone_technique() {
+  static const TechniqueInfo info{"sampled_cone", TechniqueFamily::Shadow, kAllKinds,
+                                  "the cone's reference: exact shadow rays spread over the cone sat_cone approximates",
+                                  {kLightStep, kConeAngle, kConeRays},
+                                  {.sphere_rays = true},
+                                  shadow_factory<SampledConeShadows>(),
+                                  {}};
+  return info;
+}
+
+SampledConeShadows::SampledConeShadows(const TechniqueParams& params)
+    : half_angle_(radians(static_cast<float>(kConeAngle.number(params)))), rays_(static_cast<int>(kConeRays.integer(params))) {}
+
+SatConeShadows::SatConeShadows(const TechniqueParams& params) {
+  sampling_.half_angle = radians(static_cast<float>(kConeAngle.number(params)));
+  sampling_.samples_per_unit = static_cast<float>(kConeSamples.number(params));
+  sampling_.growth = static_cast<float>(kConeGrowth.number(params));
 }
 
 float SatConeShadows::attenuation(const Vec3& p) const {

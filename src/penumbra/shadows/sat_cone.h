@@ -17,13 +17,17 @@
 #include "penumbra/scene/scene.h"
 #include "penumbra/shadows/cone_cuboids.h"
 #include "penumbra/lighting/shadow_technique.h"
+#include "penumbra/lighting/technique_info.h"
 
 namespace penumbra {
+
+const TechniqueInfo& sat_cone_technique();
+const TechniqueInfo& sampled_cone_technique();
 
 class SatConeShadows final : public ShadowTechnique {
 public:
   using ShadowTechnique::transmittance;
-  explicit SatConeShadows(const ShadowSettings& settings);
+  explicit SatConeShadows(const TechniqueParams& params);
   void build(const ShadowCasters& medium, const Light& light) override;
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
   Vec3 surface_receiver(const Vec3& p, const Vec3& n) const override;
@@ -59,7 +63,7 @@ float sampled_cone_transmittance(const ShadowCasters& medium, const Light& light
 class SampledConeShadows final : public ShadowTechnique {
 public:
   using ShadowTechnique::transmittance;
-  explicit SampledConeShadows(const ShadowSettings& s) : half_angle_(radians(s.cone_angle)), rays_(s.cone_rays) {}
+  explicit SampledConeShadows(const TechniqueParams& params);
   void build(const ShadowCasters& medium, const Light& light) override;
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
   Vec3 surface_receiver(const Vec3& p, const Vec3& n) const override;

@@ -83,4 +83,23 @@ void ClassicShadowMap::transmittance(std::span<const Vec3> points, std::span<Rgb
   });
 }
 
+namespace {
+const ParamSpec kPcfRadius = integer_param("pcf", 0, 0, 16, "texels", "percentage-closer filter radius r (0: off)");
+}  // namespace
+
+const TechniqueInfo& shadow_map_technique() {
+  static const TechniqueInfo info{"shadow_map", TechniqueFamily::Shadow, kAllKinds,
+                                  "classic shadow map: the depth where the opacity along a texel's ray reaches 0.5 (Williams)",
+                                  {kMapResolution, kMapBias, kLightStep, kPcfRadius},
+                                  {.sphere_rays = true},
+                                  shadow_factory<ClassicShadowMap>(),
+                                  {}};
+  return info;
+}
+
+ClassicShadowMap::ClassicShadowMap(const TechniqueParams& params)
+    : LightSpaceMap(params), pcf_(static_cast<int>(kPcfRadius.integer(params))) {
+  filter_radius_ = pcf_;
+}
+
 }  // namespace penumbra

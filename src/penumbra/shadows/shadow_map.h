@@ -13,15 +13,18 @@
 
 #include <vector>
 
+#include "penumbra/lighting/technique_info.h"
 #include "penumbra/shadows/light_space_map.h"
 
 namespace penumbra {
+
+const TechniqueInfo& shadow_map_technique();
 
 class ClassicShadowMap final : public LightSpaceMap {
 public:
   using ShadowTechnique::transmittance;  // keep the one-point overload visible
   static constexpr float kOpacityThreshold = 0.5f;
-  explicit ClassicShadowMap(const ShadowSettings& s) : LightSpaceMap(s), pcf_(s.pcf) { filter_radius_ = s.pcf; }
+  explicit ClassicShadowMap(const TechniqueParams& params);
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
   std::size_t memory_bytes() const override { return depth_.size() * sizeof(float); }
   std::string_view name() const override { return "shadow_map"; }

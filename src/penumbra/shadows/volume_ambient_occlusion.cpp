@@ -25,12 +25,12 @@ std::vector<int> shell_half_sizes(int shells, float radius_cells) {
 
 float VolumeAmbientOcclusion::radius_cells() const {
   const auto& d = sat_->dims();
-  return settings_.radius * static_cast<float>(std::max(d[0], std::max(d[1], d[2])));
+  return radius_ * static_cast<float>(std::max(d[0], std::max(d[1], d[2])));
 }
 
 void VolumeAmbientOcclusion::build(const ShadowCasters& medium) {
   sat_ = &medium.extinction_sat();
-  if (settings_.bleeding > 0 && !sat_->has_colour())
+  if (bleeding_ > 0 && !sat_->has_colour())
     throw Error("ambient.bleeding needs the colour table of the extinction SAT");
   prepare();
   cache_ = CellField<Rgb>(*sat_);
@@ -53,7 +53,7 @@ void VolumeAmbientOcclusion::ambient(std::span<const Vec3> points, std::span<Rgb
 }
 
 void SatShellsAmbient::prepare() {
-  half_sizes_ = shell_half_sizes(settings_.shells, radius_cells());
+  half_sizes_ = shell_half_sizes(shells_, radius_cells());
   weights_.clear();
   const double cell = std::cbrt(static_cast<double>(sat_->cell_volume()));
   for (const int h : half_sizes_) {
@@ -65,7 +65,7 @@ void SatShellsAmbient::prepare() {
 Rgb SatShellsAmbient::optical_depth(int i, int j, int k) const {
   double grey = 0, prev = 0;
   std::array<double, 3> colour{0, 0, 0}, prev_colour{0, 0, 0};
-  const bool bleed = settings_.bleeding > 0;
+  const bool bleed = bleeding_ > 0;
   for (std::size_t s = 0; s < half_sizes_.size(); ++s) {  // §3.2: τ_Sh(i+1) = τ_Sh(i) + (S(Sh_i+1) − S(Sh_i)) / r²
     const int h = half_sizes_[s];
     const CellBox box{{i - h, j - h, k - h}, {i + h + 1, j + h + 1, k + h + 1}};
@@ -80,7 +80,7 @@ Rgb SatShellsAmbient::optical_depth(int i, int j, int k) const {
       }
     }
   }
-  return bleed_exponent(grey, colour, settings_.bleeding);
+  return bleed_exponent(grey, colour, bleeding_);
 }
 
 void SampledAmbientOcclusion::prepare() {
@@ -88,7 +88,7 @@ void SampledAmbientOcclusion::prepare() {
   const Vec3 cell = sat_->cell_size();
   const double v = sat_->cell_volume();
   const Vec3 e = sat_->bounds().extent();
-  const float r_world = settings_.radius * std::max(e.x, std::max(e.y, e.z));
+  const float r_world = radius_ * std::max(e.x, std::max(e.y, e.z));
   const int n[3] = {static_cast<int>(std::ceil(r_world / cell.x)), static_cast<int>(std::ceil(r_world / cell.y)),
                     static_cast<int>(std::ceil(r_world / cell.z))};
   for (int dk = -n[2]; dk <= n[2]; ++dk)
@@ -105,7 +105,7 @@ void SampledAmbientOcclusion::prepare() {
 
 Rgb SampledAmbientOcclusion::optical_depth(int i, int j, int k) const {
   const auto& d = sat_->dims();
-  const bool bleed = settings_.bleeding > 0;
+  const bool bleed = bleeding_ > 0;
   double grey = 0;
   std::array<double, 3> colour{0, 0, 0};
   for (const Offset& o : offsets_) {
@@ -119,7 +119,38 @@ Rgb SampledAmbientOcclusion::optical_depth(int i, int j, int k) const {
       colour[2] += o.weight * tc.b;
     }
   }
-  return bleed_exponent(grey, colour, settings_.bleeding);
+  return bleed_exponent(grey, colour, bleeding_);
+}
+
+namespace {
+const ParamSpec kShells = integer_param("shells", 3, 1, 64, "", "number of cuboid shells around a point (paper 001 §3.2)");
+const ParamSpec kRadius = number_param("radius", 0.05, 1e-6, 1, "of the volume's longest side", "radius of the neighbourhood that occludes");
+const ParamSpec kBleeding =
+    number_param("bleeding", 0, 0, 1, "", "colour bleeding β: 0 grey occlusion (Eq. 4), 1 full colour (Eq. 5)");
+}  // namespace
+
+VolumeAmbientOcclusion::VolumeAmbientOcclusion(const TechniqueParams& params)
+    : radius_(static_cast<float>(kRadius.number(params))), bleeding_(static_cast<float>(kBleeding.number(params))),
+      shells_(static_cast<int>(kShells.integer(params))) {}
+
+const TechniqueInfo& sat_shells_technique() {
+  static const TechniqueInfo info{"sat_shells", TechniqueFamily::Ambient, kind_bit(ObjectKind::Volume) | kind_bit(ObjectKind::Spheres),
+                                  "ambient occlusion and colour bleeding from cuboid shells of the 3D summed area table (Schlegel et al.)",
+                                  {kShells, kRadius, kBleeding},
+                                  {.extinction_sat = true},
+                                  {},
+                                  ambient_factory<SatShellsAmbient>()};
+  return info;
+}
+
+const TechniqueInfo& sampled_ao_technique() {
+  static const TechniqueInfo info{"sampled_ao", TechniqueFamily::Ambient, kind_bit(ObjectKind::Volume) | kind_bit(ObjectKind::Spheres),
+                                  "sat_shells' reference: the extinction integrated over the sphere of radius `radius` voxel by voxel",
+                                  {kRadius, kBleeding},
+                                  {.extinction_sat = true},
+                                  {},
+                                  ambient_factory<SampledAmbientOcclusion>()};
+  return info;
 }
 
 }  // namespace penumbra

@@ -27,8 +27,12 @@
 #include "penumbra/accel/cell_field.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/lighting/ambient_technique.h"
+#include "penumbra/lighting/technique_info.h"
 
 namespace penumbra {
+
+const TechniqueInfo& sat_shells_technique();
+const TechniqueInfo& sampled_ao_technique();
 
 // ∫ 1/|x|² dx over the unit cube centred at the origin (6·∫_face ½ / (¼ + x² + y²)).
 constexpr double kUnitCubeInverseSquare = 7.674124606715782;
@@ -51,11 +55,13 @@ public:
   const CellField<Rgb>& cache() const { return cache_; }
 
 protected:
-  explicit VolumeAmbientOcclusion(const AmbientSettings& s) : settings_(s) {}
+  explicit VolumeAmbientOcclusion(const TechniqueParams& params);
   virtual void prepare() {}  // after sat_ is set, before the cache is filled
   float radius_cells() const;
 
-  AmbientSettings settings_;
+  float radius_;    // a fraction of the volume's longest side
+  float bleeding_;  // β
+  int shells_;      // sat_shells only
   const ExtinctionSat* sat_ = nullptr;
 
 private:
@@ -65,7 +71,7 @@ private:
 
 class SatShellsAmbient final : public VolumeAmbientOcclusion {
 public:
-  explicit SatShellsAmbient(const AmbientSettings& s) : VolumeAmbientOcclusion(s) {}
+  explicit SatShellsAmbient(const TechniqueParams& params) : VolumeAmbientOcclusion(params) {}
   Rgb optical_depth(int i, int j, int k) const override;
   std::string_view name() const override { return "sat_shells"; }
 
@@ -77,7 +83,7 @@ private:
 
 class SampledAmbientOcclusion final : public VolumeAmbientOcclusion {
 public:
-  explicit SampledAmbientOcclusion(const AmbientSettings& s) : VolumeAmbientOcclusion(s) {}
+  explicit SampledAmbientOcclusion(const TechniqueParams& params) : VolumeAmbientOcclusion(params) {}
   Rgb optical_depth(int i, int j, int k) const override;
   std::string_view name() const override { return "sampled_ao"; }
 

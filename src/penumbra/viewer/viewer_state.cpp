@@ -12,15 +12,35 @@ constexpr int kHistogramBins = 64;
 
 nlohmann::json vec3(const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
+// The techniques, the keys each reads, and every key's declaration (type, default, range or choices,
+// unit, meaning: lighting/technique_info.h), so that the page can offer fields for them.
 nlohmann::json technique_lists() {
   nlohmann::json keys = nlohmann::json::object();
-  for (const TechniqueInfo& t : technique_catalog()) {
+  for (const TechniqueInfo* t : technique_catalog()) {
     nlohmann::json k = nlohmann::json::array();
-    for (const auto& key : t.keys) k.push_back(std::string(key));
-    keys[std::string(t.name)] = k;
+    for (const ParamSpec& p : t->params) k.push_back(p.key);
+    keys[t->name] = k;
+  }
+  nlohmann::json params = nlohmann::json::object();
+  for (const TechniqueFamily family : {TechniqueFamily::Shadow, TechniqueFamily::Ambient}) {
+    nlohmann::json section = nlohmann::json::object();
+    for (const ParamSpec* p : family_params(family)) {
+      nlohmann::json d = {{"type", p->type_text()}, {"unit", p->unit}, {"meaning", p->meaning}, {"allowed", p->allowed_text()}};
+      if (p->type == ParamType::Choice) {
+        d["default"] = p->default_choice;
+        d["choices"] = p->choices;
+      } else {
+        d["default"] = p->default_number;
+        d["min"] = p->min;
+        d["max"] = p->max;
+      }
+      section[p->key] = d;
+    }
+    params[to_string(family)] = section;
   }
   return {{"techniques", {{"shadows", technique_names(TechniqueFamily::Shadow)}, {"ambient", technique_names(TechniqueFamily::Ambient)}}},
-          {"technique_keys", keys}};
+          {"technique_keys", keys},
+          {"technique_parameters", params}};
 }
 
 }  // namespace
