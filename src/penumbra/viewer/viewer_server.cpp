@@ -26,11 +26,10 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/scene_io/json_reader.h"
 #include "penumbra/viewer/jpeg.h"
+#include "penumbra/viewer/viewer_page.h"
 #include "penumbra/viewer/viewer_state.h"
 
 namespace penumbra {
-
-extern const char* const kViewerPage;  // page/index.html, embedded by CMake (viewer_page.cpp)
 
 namespace {
 
@@ -76,6 +75,32 @@ std::pair<std::string, std::string> split_target(std::string_view target) {
   return {path, token};
 }
 
+// The page's file served at `path` (a path of the table CMake compiled in), or null: no request reads a file.
+const PageFile* find_page_file(std::string_view path) {
+  for (const PageFile& file : viewer_page_files())
+    if (file.path == path) return &file;
+  return nullptr;
+}
+
+void replace_all(std::string& text, std::string_view from, std::string_view to) {
+  for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) text.replace(at, from.size(), to);
+}
+
+// index.html with its placeholders filled in but the nonce, which is each answer's: the token of the
+// stylesheet's and the main module's URLs, and the import map that gives every module its URL with
+// the token (a module's `import "./view.js"` asks for /js/view.js, which the map turns into
+// /js/view.js?token=T).
+std::string page_html(const std::string& token) {
+  std::string imports;
+  for (const PageFile& file : viewer_page_files())
+    if (file.path.ends_with(".js"))
+      imports += (imports.empty() ? "" : ", ") + ("\"" + std::string(file.path) + "\": \"" + std::string(file.path) + "?token=" + token + "\"");
+  std::string html(find_page_file("/")->body);
+  replace_all(html, "{{import_map}}", "{\"imports\": {" + imports + "}}");
+  replace_all(html, "{{token}}", token);
+  return html;
+}
+
 // An error reply; bytes of the offending message that are not UTF-8 are replaced, not thrown on.
 Text error_message(const std::string& message) {
   return std::make_shared<const std::string>(
@@ -119,6 +144,7 @@ struct ViewerServer::Impl {
   net::io_context ioc{1};
   tcp::acceptor acceptor{ioc};
   ViewerState state;
+  std::string page;  // index.html as served, but its nonce (page_html)
 
   std::mutex mutex;  // guards what follows
   std::condition_variable wake;
@@ -279,7 +305,14 @@ private:
       return;
     }
     if (req.method() != http::verb::get) return respond(http::status::method_not_allowed, "only GET\n", "text/plain", "");
-    if (path == "/") return respond(http::status::ok, kViewerPage, "text/html; charset=utf-8", "");
+    if (const PageFile* file = find_page_file(path)) {
+      if (file->path != "/") return respond(http::status::ok, std::string(file->body), std::string(file->type), "");
+      // the page's one inline script, its import map, runs by the nonce of this answer's policy
+      const std::string nonce = random_token();
+      std::string html = server_.page;
+      replace_all(html, "{{nonce}}", nonce);
+      return respond(http::status::ok, html, std::string(file->type), "", true, nonce);
+    }
     if (path == "/screenshot.png" || path == "/scene.json") {
       stream_.expires_after(std::chrono::minutes(10));  // a full frame of a large scene takes a while
       Job job;
@@ -302,14 +335,16 @@ private:
     respond(http::status::not_found, "not found\n", "text/plain", "");
   }
 
-  void respond(http::status status, const std::string& body, const std::string& type, const std::string& filename, bool keep = true) {
+  void respond(http::status status, const std::string& body, const std::string& type, const std::string& filename, bool keep = true,
+               const std::string& nonce = "") {
     auto res = std::make_shared<http::response<http::string_body>>(status, 11);
     res->set(http::field::server, "penumbra");
     res->set(http::field::content_type, type);
     res->set(http::field::cache_control, "no-store");
     res->set("X-Content-Type-Options", "nosniff");
-    res->set("Content-Security-Policy",
-             "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; img-src 'self' blob: data:; connect-src 'self'");
+    // scripts and style only from the page's own files (and the page's import map, by its nonce)
+    res->set("Content-Security-Policy", "default-src 'none'; script-src 'self'" + (nonce.empty() ? std::string() : " 'nonce-" + nonce + "'") +
+                                            "; style-src 'self'; img-src 'self' blob: data:; connect-src 'self'");
     if (!filename.empty()) res->set(http::field::content_disposition, "attachment; filename=\"" + filename + "\"");
     res->body() = body;
     res->keep_alive(keep && keep_alive_);
@@ -516,6 +551,7 @@ ViewerServer::ViewerServer(Engine engine, ViewerOptions options) : impl_(std::ma
   if (s.options.token.empty()) s.options.token = random_token();
   for (char c : s.options.token)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') throw Error("--token: letters, digits, '-' and '_' only");
+  s.page = page_html(s.options.token);
   s.data_root = std::filesystem::absolute(s.options.data_root.empty() ? "." : s.options.data_root);
   if (!std::filesystem::is_directory(s.data_root)) throw Error("--data-root " + s.data_root.string() + ": not a directory");
   beast::error_code ec;

@@ -1,0 +1,91 @@
+// The connection to the server: the WebSocket (opened again 2 s after it closes), the protocol's
+// messages in (handed to the handlers main.js passes to start) and out, and the edits, coalesced to
+// one message per animation frame. The protocol is docs/viewer.md.
+
+export const TOKEN = new URLSearchParams(location.search).get("token") || "";
+export const TOKEN_QUERY = "?token=" + encodeURIComponent(TOKEN);
+
+let ws = null;
+let connection = "connecting";
+let handlers = null;          // { onStatus, onOpen, onState, onFrameMeta, onFrameBytes, onError }
+
+/** What the page shows, for automated tests: window.penumbraViewer = { state, frames, lastFrame, send }. */
+export const viewer = window.penumbraViewer = {
+  state: null,
+  frames: 0,
+  lastFrame: null,
+  send: (obj) => ws.send(JSON.stringify(obj)),
+};
+
+/** Opens the connection; `on` receives its status, its opening and each message by type. */
+export function start(on) {
+  handlers = on;
+  connect();
+}
+
+function connect() {
+  setConnection("connecting");
+  const scheme = location.protocol === "https:" ? "wss://" : "ws://";
+  try {
+    ws = new WebSocket(scheme + location.host + "/ws" + TOKEN_QUERY);
+  } catch (e) {
+    ws = null;
+    setConnection("disconnected");
+    setTimeout(connect, 2000);
+    return;
+  }
+  ws.binaryType = "arraybuffer";
+  ws.onopen = () => { setConnection("connected"); handlers.onOpen(); };
+  ws.onmessage = onMessage;
+  ws.onclose = () => { setConnection("disconnected"); setTimeout(connect, 2000); };
+}
+
+export const connectionStatus = () => connection;
+export const isOpen = () => ws !== null && ws.readyState === WebSocket.OPEN;
+
+function setConnection(status) {
+  connection = status;
+  handlers.onStatus(status);
+}
+
+export function sendMessage(obj) {
+  if (ws && ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(obj));
+}
+
+function onMessage(event) {
+  if (typeof event.data !== "string") { handlers.onFrameBytes(event.data); return; }
+  let msg;
+  try { msg = JSON.parse(event.data); } catch (e) { return; }
+  if (msg.type === "state") handlers.onState(msg);
+  else if (msg.type === "frame") handlers.onFrameMeta(msg);
+  else if (msg.type === "error") handlers.onError(msg.message);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Edits: coalesced to one message per animation frame
+// ---------------------------------------------------------------------------------------------
+
+let pendingSet = null;
+let editFrame = 0;
+let editTimer = 0;
+
+/**
+ * Merges `set` into the pending edit, sent at the next animation frame. A timer backs the frame up
+ * where none come (a hidden tab, a headless browser); whichever fires first sends.
+ */
+export function queueEdit(set) {
+  pendingSet = Object.assign(pendingSet || {}, set);
+  if (editFrame) return;
+  editFrame = requestAnimationFrame(flushEdits);
+  editTimer = setTimeout(flushEdits, 100);
+}
+
+function flushEdits() {
+  cancelAnimationFrame(editFrame);
+  clearTimeout(editTimer);
+  editFrame = editTimer = 0;
+  if (!pendingSet) return;
+  const set = pendingSet;
+  pendingSet = null;
+  sendMessage({ type: "edit", set });
+}

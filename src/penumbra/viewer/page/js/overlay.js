@@ -1,0 +1,44 @@
+// What lies over the view: the stats (frame time, quality, size, what was rebuilt, the connection)
+// and the error banner.
+
+import { $, el } from "./util.js";
+import { connectionStatus, viewer } from "./connection.js";
+
+let lastRebuilt = null;       // the rebuilt list of the last frame that rebuilt anything
+let errorTimer = 0;
+
+/** Keeps what a frame rebuilt, when it rebuilt anything, for the stats. */
+export function noteRebuilt(rebuilt) {
+  if (Array.isArray(rebuilt) && rebuilt.length) lastRebuilt = rebuilt;
+}
+
+export function renderStats() {
+  const f = viewer.lastFrame, connection = connectionStatus();
+  const lines = [];
+  if (f) {
+    const quality = f.quality === "full" ? "full ×" + (f.samples || 1) : "preview";
+    const ms = typeof f.ms === "number" ? f.ms.toFixed(1) + " ms" : "– ms";
+    lines.push(ms + "  " + quality);
+    const mem = typeof f.memory_mb === "number" ? "  " + Math.round(f.memory_mb) + " MB" : "";
+    const reduced = f.divisor > 1 ? " at 1/" + f.divisor : "";
+    lines.push((f.view_width || f.width) + "×" + (f.view_height || f.height) + reduced + mem);
+  }
+  if (lastRebuilt) {
+    lines.push("rebuilt: " + lastRebuilt.map((r) => r.structure + (r.cause ? " (" + r.cause + ")" : "")).join(", "));
+  }
+  const stats = $("stats");
+  stats.textContent = lines.join("\n") + (lines.length ? "\n" : "");
+  stats.append(el("span", { class: connection === "connected" ? "" : "bad" }, connection));
+}
+
+export function showError(message) {
+  $("error-text").textContent = message;
+  $("error").hidden = false;
+  clearTimeout(errorTimer);
+  errorTimer = setTimeout(hideError, 6000);
+}
+
+export function hideError() {
+  clearTimeout(errorTimer);
+  $("error").hidden = true;
+}

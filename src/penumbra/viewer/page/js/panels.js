@@ -1,0 +1,228 @@
+// The side panel: rebuilt when the document's structure changes (which objects, which techniques),
+// its values synced with every state otherwise. Transfer functions (transfer_function.js),
+// isovalues, the shadow and ambient techniques with the keys each reads, each object's flags.
+
+import { $, el, clone, round6, getPath, findHistogram, objectName } from "./util.js";
+import { viewer, queueEdit } from "./connection.js";
+import { createTfEditor } from "./transfer_function.js";
+
+const OBJECT_KINDS = ["volumes", "particles", "isosurfaces", "planes"];
+const STRING_KEYS = new Set(["dsm_layout", "light_frustum", "volumes", "spheres", "isosurfaces", "planes"]);
+
+let panelBusy = false;        // a pointer is down in the panel (a slider or a TF point is dragged)
+let deferredState = null;     // the latest state that arrived while the panel was busy
+let panelSignature = null;
+let panelControls = [];       // { sync(state) } of every control built
+
+export function updatePanel(state) {
+  if (panelBusy) { deferredState = state; return; }
+  const signature = structureSignature(state);
+  if (signature !== panelSignature) {
+    panelSignature = signature;
+    buildPanel(state);
+  }
+  syncPanel(state);
+}
+
+export function syncPanel(state) {
+  for (const control of panelControls) control.sync(state);
+}
+
+/** What decides which controls exist (not their values). */
+function structureSignature(state) {
+  const doc = state.document || {};
+  const objects = OBJECT_KINDS.map((kind) => (doc[kind] || []).map((o) => [
+    o.file || "", (o.procedural && o.procedural.name) || "", o.visible !== false, o.volume || 0]));
+  return JSON.stringify({
+    objects,
+    tfs: (state.transfer_functions || []).map((t) => t.volume),
+    histograms: (state.histograms || []).map((h) => [h.volume, h.lo, h.hi]),
+    techniques: state.techniques || null,
+    keys: state.technique_keys || null,
+    shadows: (doc.shadows && doc.shadows.technique) || "none",
+    ambient: (doc.ambient && doc.ambient.technique) || "none",
+  });
+}
+
+function buildPanel(state) {
+  panelControls = [];
+  const doc = state.document || {};
+
+  const tfList = $("tf-list");
+  tfList.replaceChildren();
+  for (const tf of state.transfer_functions || []) {
+    const editor = createTfEditor(tf.volume, doc);
+    tfList.append(editor.root);
+    panelControls.push(editor);
+  }
+  $("tf-section").hidden = !(state.transfer_functions || []).length;
+
+  const isoList = $("iso-list");
+  isoList.replaceChildren();
+  (doc.isosurfaces || []).forEach((iso, n) => {
+    const control = createIsoControl(n, iso, state);
+    isoList.append(control.root);
+    panelControls.push(control);
+  });
+  $("iso-section").hidden = !(doc.isosurfaces || []).length;
+
+  for (const group of ["shadows", "ambient"]) {
+    const control = createTechniqueControls(group, state);
+    $(group).replaceChildren(control.root);
+    panelControls.push(control);
+  }
+
+  const objects = $("objects");
+  objects.replaceChildren();
+  for (const kind of OBJECT_KINDS) {
+    (doc[kind] || []).forEach((obj, i) => {
+      const row = createObjectRow(kind, i, obj);
+      objects.append(row.root);
+      panelControls.push(row);
+    });
+  }
+  if (!objects.children.length) objects.append(el("div", { class: "empty" }, "no objects"));
+}
+
+export const isPanelBusy = () => panelBusy;
+
+/** Only what is dragged (a slider, a TF canvas) holds the panel still; selects and boxes do not. */
+export function onPanelPointerDown(e) {
+  if (e.target.matches("input[type=range], canvas")) panelBusy = true;
+}
+
+export function onWindowPointerUp() {
+  if (!panelBusy) return;
+  panelBusy = false;
+  if (deferredState) {
+    const state = deferredState;
+    deferredState = null;
+    updatePanel(state);
+  }
+}
+
+// ---- isosurfaces ----------------------------------------------------------------------------
+
+function createIsoControl(n, iso, state) {
+  const volume = iso.volume || 0;
+  const hist = findHistogram(state, volume);
+  const path = "isosurfaces." + n + ".value";
+  const readout = el("span", { class: "readout" });
+  let input;
+  if (hist && hist.hi > hist.lo) {
+    const step = (hist.hi - hist.lo) / 1000;
+    // The isovalue must lie in (min, max]: the slider starts one step above the minimum.
+    input = el("input", { type: "range", min: hist.lo + step, max: hist.hi, step });
+    input.addEventListener("input", () => {
+      readout.textContent = round6(input.value);
+      queueEdit({ [path]: round6(input.value) });
+    });
+  } else {
+    input = el("input", { type: "number", step: "any" });
+    input.addEventListener("change", () => { if (input.value !== "") queueEdit({ [path]: Number(input.value) }); });
+  }
+  const root = el("div", {},
+    el("div", { class: "sub" }, "isosurface " + n + " · volume " + volume),
+    el("div", { class: "row" }, el("label", { class: "key" }, "value"), input, input.type === "range" ? readout : null));
+  return {
+    root,
+    sync(s) {
+      const current = getPath(s.document || {}, path);
+      if (typeof current !== "number" || document.activeElement === input && input.type === "number") return;
+      input.value = current;
+      readout.textContent = round6(current);
+    },
+  };
+}
+
+// ---- shadow and ambient techniques ----------------------------------------------------------
+
+function createTechniqueControls(group, state) {
+  const doc = state.document || {};
+  const conf = doc[group] || {};
+  const current = conf.technique || "none";
+  const names = ((state.techniques && state.techniques[group]) || ["none"]).slice();
+  if (!names.includes(current)) names.push(current);
+
+  const select = el("select", {}, ...names.map((name) => el("option", { value: name }, name)));
+  select.addEventListener("change", () => queueEdit({ [group + ".technique"]: select.value }));
+  const root = el("div", {}, el("div", { class: "row" }, el("label", { class: "key" }, "technique"), select));
+
+  const keys = ((state.technique_keys && state.technique_keys[current]) || []).filter((k) => k !== "technique");
+  const fields = keys.map((key) => {
+    // A dotted key names its own path (light_cache.resolution); a plain one lives under the group.
+    const path = key.includes(".") ? key : group + "." + key;
+    const isString = STRING_KEYS.has(key) || typeof getPath(doc, path) === "string";
+    const input = el("input", { type: isString ? "text" : "number", step: "any", placeholder: "default" });
+    input.addEventListener("change", () => {
+      const text = input.value.trim();
+      if (text === "") return;   // an edit sets a value; it cannot remove a key
+      const number = Number(text);
+      queueEdit({ [path]: isString && !Number.isFinite(number) ? text : number });
+    });
+    root.append(el("div", { class: "row" }, el("label", { class: "key", title: path }, key), input));
+    return { path, input };
+  });
+
+  return {
+    root,
+    sync(s) {
+      const d = s.document || {};
+      if (document.activeElement !== select) select.value = getPath(d, group + ".technique") || "none";
+      for (const { path, input } of fields) {
+        if (document.activeElement === input) continue;
+        const value = getPath(d, path);
+        input.value = value === undefined || value === null ? "" : value;
+      }
+    },
+  };
+}
+
+// ---- objects: visibility and shadow flags ---------------------------------------------------
+
+function createObjectRow(kind, i, obj) {
+  const prefix = kind + "." + i + ".";
+  const checkbox = (label, onChange) => {
+    const input = el("input", { type: "checkbox" });
+    input.addEventListener("change", () => onChange(input.checked));
+    return { input, label: el("label", {}, input, label) };
+  };
+  const visible = kind === "volumes" ? checkbox("visible", (on) => setVolumeVisible(i, on)) : null;
+  const casts = checkbox("casts", (on) => queueEdit({ [prefix + "casts_shadows"]: on }));
+  const receives = checkbox("receives", (on) => queueEdit({ [prefix + "receives_shadows"]: on }));
+  const root = el("div", { class: "object" },
+    el("div", { class: "name", title: (obj && obj.file) || "" }, objectName(kind, i, obj)),
+    el("div", { class: "flags" }, visible && visible.label, casts.label, receives.label));
+  return {
+    root,
+    sync(s) {
+      const o = ((s.document || {})[kind] || [])[i] || {};
+      const shown = o.visible !== false;
+      if (visible) visible.input.checked = shown;
+      casts.input.checked = o.casts_shadows !== false;
+      receives.input.checked = o.receives_shadows !== false;
+      // An invisible volume takes no shadow flags (the scene reader refuses them).
+      const flagsOff = kind === "volumes" && !shown;
+      for (const c of [casts, receives]) {
+        c.input.disabled = flagsOff;
+        c.label.classList.toggle("disabled", flagsOff);
+      }
+    },
+  };
+}
+
+/**
+ * volumes.i.visible. Hiding a volume whose document entry carries shadow flags would be refused
+ * (an invisible volume takes neither), so then the whole entry is sent without them.
+ */
+function setVolumeVisible(i, on) {
+  const vol = clone((((viewer.state || {}).document || {}).volumes || [])[i]);
+  if (!on && vol && ("casts_shadows" in vol || "receives_shadows" in vol)) {
+    delete vol.casts_shadows;
+    delete vol.receives_shadows;
+    vol.visible = false;
+    queueEdit({ ["volumes." + i]: vol });
+  } else {
+    queueEdit({ ["volumes." + i + ".visible"]: on });
+  }
+}
