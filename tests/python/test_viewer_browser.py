@@ -2,7 +2,8 @@
 driven through Selenium. The page loads and shows frames; a drag on the view orbits the camera and a
 click in the transfer-function editor adds a point, each changing the image; switching the shadow
 technique shows what was rebuilt in the stats; a second tab follows the first; and the page's
-screenshot link gives what `penumbra render` gives for its save-scene link.
+screenshot link gives what `penumbra render` gives for its save-scene link. The page loads its
+stylesheet and every script module, and the browser's console shows no error all along.
 
 Set PENUMBRA_FIGURES to a folder to save a screenshot of the whole page there (viewer_page.png)."""
 import json
@@ -33,7 +34,7 @@ SCENE = {
     "shadows": {"technique": "cssm", "resolution": 128},
 }
 
-# The TF editor's plot in CSS pixels (TF_W, TF_H, TF_PAD, HIT_RADIUS in index.html).
+# The TF editor's plot in CSS pixels (TF_W, TF_H, TF_PAD, HIT_RADIUS in page/js/transfer_function.js).
 TF_W, TF_H, TF_PAD, HIT_RADIUS = 270, 140, 6, 7
 
 
@@ -41,6 +42,7 @@ def chrome():
     options = webdriver.ChromeOptions()
     for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1200,800"):
         options.add_argument(arg)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})  # the console, for console_errors
     if os.path.exists("/usr/bin/chromedriver"):
         return webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
     return webdriver.Chrome(options=options)
@@ -61,6 +63,12 @@ def session(tmp_path_factory):
     finally:
         driver.quit()
         assert server.close() == 0, "Ctrl-C must stop the server cleanly"
+
+
+def console_errors(driver):
+    """The console's errors since the last call (a script's exception, a file that failed to load, a
+    refusal by the page's Content-Security-Policy)."""
+    return [e["message"] for e in driver.get_log("browser") if e["level"] == "SEVERE"]
 
 
 def js(driver, expression):
@@ -129,6 +137,23 @@ def test_the_page_loads_and_shows_frames(session):
     assert js(driver, "document.getElementById('view').src").startswith("blob:")
     wait_full_frame(driver, 0)
     assert "connected" in driver.find_element(By.ID, "stats").text
+
+
+def test_the_page_loads_its_stylesheet_and_modules_with_no_console_errors(session):
+    server, driver = session
+    wait_loaded(driver)
+    assert console_errors(driver) == []
+    # the stylesheet applies (the page's background and the panel's width are its)
+    assert js(driver, "getComputedStyle(document.body).backgroundColor") == "rgb(18, 18, 21)"
+    assert js(driver, "document.getElementById('panel').getBoundingClientRect().width") == 304
+    # every module of page/js came, each with the token (the import map's URL)
+    page = os.path.join(os.environ.get("PENUMBRA_ROOT", os.path.join(os.path.dirname(__file__), "..", "..")),
+                        "src", "penumbra", "viewer", "page")
+    modules = sorted("/js/" + f for f in os.listdir(os.path.join(page, "js")) if f.endswith(".js"))
+    loaded = js(driver, "performance.getEntriesByType('resource').map((r) => new URL(r.name))"
+                        ".map((u) => [u.pathname, u.searchParams.get('token')])")
+    assert sorted(p for p, t in loaded if p.startswith("/js/") and t == server.token) == modules
+    assert ["/style.css", server.token] in loaded
 
 
 def test_a_left_drag_orbits_the_camera_and_changes_the_image(session):
@@ -231,6 +256,7 @@ def test_a_technique_switch_shows_what_was_rebuilt_and_a_second_tab_follows(sess
          "the second tab did not follow")
     select = Select(driver.find_element(By.CSS_SELECTOR, "#shadows select"))
     assert select.first_selected_option.get_attribute("value") == "shadow_map"
+    assert console_errors(driver) == []
     driver.close()
     driver.switch_to.window(first)
 
@@ -254,6 +280,7 @@ def test_the_screenshot_link_equals_penumbra_render_of_the_save_scene_link(sessi
     subprocess.run([CLI, "render", str(scene), "-o", str(tmp_path / "cli.png")], check=True, capture_output=True)
     same = (tmp_path / "cli.png").read_bytes() == png
     assert same, "the screenshot is not what penumbra render makes of the saved scene"
+    assert console_errors(driver) == [], "the console showed errors while the page was used"
 
 
 def test_the_time_slider_and_play_step_through_a_series(tmp_path):
@@ -291,6 +318,7 @@ def test_the_time_slider_and_play_step_through_a_series(tmp_path):
         wait(driver, lambda d: (js(d, "window.penumbraViewer.lastFrame") or {}).get("time") == 2
              and js(d, "window.penumbraViewer.lastFrame").get("quality") == "full", "the slider did not show frame 2")
         assert "frame 2 / 3" in driver.find_element(By.ID, "time-readout").text
+        assert console_errors(driver) == []
     finally:
         if driver:
             driver.quit()

@@ -4,7 +4,10 @@ malformed, mutated, oversized and vanishing clients get errors or are dropped wh
 serving, and the screenshot equals `penumbra render` of the saved scene."""
 import json
 import os
+import pathlib
+import posixpath
 import random
+import re
 import signal
 import socket
 import subprocess
@@ -102,6 +105,55 @@ def test_every_request_needs_the_token(viewer):
     assert e.value.status_code == 403
     # no file is ever served
     for path in ("/../../etc/passwd", "/etc/passwd", "/scene.json/../../etc/passwd", "/%2e%2e/%2e%2e/etc/passwd"):
+        assert viewer.get(path)[0] == 404, path
+
+
+PAGE_DIR = pathlib.Path(os.environ.get("PENUMBRA_ROOT", pathlib.Path(__file__).resolve().parents[2])) / "src/penumbra/viewer/page"
+PAGE_TYPES = {".html": "text/html", ".css": "text/css", ".js": "text/javascript"}
+
+
+def test_the_page_its_stylesheet_and_its_modules_are_served_with_their_types(viewer):
+    """Every file of src/penumbra/viewer/page is served at its path (index.html at /) with its type, only
+    with the token; the page's links and its import map name them with the token, so that the modules'
+    imports carry it; the policy lets scripts and style come from the server only."""
+    files = sorted(p.relative_to(PAGE_DIR).as_posix() for p in PAGE_DIR.rglob("*") if p.is_file())
+    assert "index.html" in files and "style.css" in files and "js/main.js" in files, files
+    status, page, headers = viewer.get("/")
+    assert status == 200
+    page = page.decode()
+    assert "{{" not in page, "a placeholder of index.html was not filled in"
+    # the policy: scripts from the server, and the one inline script (the import map) by this answer's nonce
+    csp = dict((d.split(" ", 1) + [""])[:2] for d in headers["Content-Security-Policy"].split("; "))
+    nonce = re.search(r'<script type="importmap" nonce="([0-9a-f]{32})">', page).group(1)
+    assert csp["script-src"] == f"'self' 'nonce-{nonce}'" and csp["style-src"] == "'self'", csp
+    assert csp["default-src"] == "'none'" and "unsafe" not in headers["Content-Security-Policy"]
+    assert re.search(r'nonce="([0-9a-f]{32})"', viewer.get("/")[1].decode()).group(1) != nonce, "a nonce is each answer's"
+    token = "?token=" + viewer.token
+    assert f'<link rel="stylesheet" href="/style.css{token}">' in page
+    assert f'<script type="module" src="/js/main.js{token}"></script>' in page
+    map_text = re.search(r'<script type="importmap"[^>]*>(.*?)</script>', page, re.S).group(1)
+    import_map = json.loads(map_text)["imports"]
+    source = (PAGE_DIR / "index.html").read_text()
+    assert page == source.replace("{{token}}", viewer.token).replace("{{nonce}}", nonce).replace("{{import_map}}", map_text)
+    modules = [f for f in files if f.endswith(".js")]
+    assert import_map == {"/" + m: "/" + m + token for m in modules}
+    imported = set()
+    for f in files:
+        if f == "index.html":
+            continue
+        status, body, headers = viewer.get("/" + f)
+        assert status == 200, f
+        assert headers["Content-Type"].split(";")[0] == PAGE_TYPES[pathlib.PurePosixPath(f).suffix], (f, headers["Content-Type"])
+        assert headers["X-Content-Type-Options"] == "nosniff"
+        assert body == (PAGE_DIR / f).read_bytes(), f"{f} is not served as it is in the source"
+        assert viewer.get("/" + f, token=False)[0] == 403, f
+        assert viewer.get("/" + f + "?token=wrong", token=False)[0] == 403, f
+        # every module a module imports is in the import map (so its request carries the token)
+        for spec in re.findall(r'^import .* from "([^"]+)";$', body.decode(), re.M):
+            imported.add("/" + posixpath.normpath(posixpath.join(posixpath.dirname(f), spec)))
+    assert imported and imported <= set(import_map), imported
+    # only the table's files: no other path, no folder, no other spelling
+    for path in ("/index.html", "/js/", "/js", "/style.css/", "/JS/main.js", "/js/nope.js", "/js/../style.css", "/favicon.ico"):
         assert viewer.get(path)[0] == 404, path
 
 
