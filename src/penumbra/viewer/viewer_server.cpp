@@ -75,32 +75,6 @@ std::pair<std::string, std::string> split_target(std::string_view target) {
   return {path, token};
 }
 
-// The page's file served at `path` (a path of the table CMake compiled in), or null: no request reads a file.
-const PageFile* find_page_file(std::string_view path) {
-  for (const PageFile& file : viewer_page_files())
-    if (file.path == path) return &file;
-  return nullptr;
-}
-
-void replace_all(std::string& text, std::string_view from, std::string_view to) {
-  for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) text.replace(at, from.size(), to);
-}
-
-// index.html with its placeholders filled in but the nonce, which is each answer's: the token of the
-// stylesheet's and the main module's URLs, and the import map that gives every module its URL with
-// the token (a module's `import "./view.js"` asks for /js/view.js, which the map turns into
-// /js/view.js?token=T).
-std::string page_html(const std::string& token) {
-  std::string imports;
-  for (const PageFile& file : viewer_page_files())
-    if (file.path.ends_with(".js"))
-      imports += (imports.empty() ? "" : ", ") + ("\"" + std::string(file.path) + "\": \"" + std::string(file.path) + "?token=" + token + "\"");
-  std::string html(find_page_file("/")->body);
-  replace_all(html, "{{import_map}}", "{\"imports\": {" + imports + "}}");
-  replace_all(html, "{{token}}", token);
-  return html;
-}
-
 // An error reply; bytes of the offending message that are not UTF-8 are replaced, not thrown on.
 Text error_message(const std::string& message) {
   return std::make_shared<const std::string>(
@@ -309,9 +283,7 @@ private:
       if (file->path != "/") return respond(http::status::ok, std::string(file->body), std::string(file->type), "");
       // the page's one inline script, its import map, runs by the nonce of this answer's policy
       const std::string nonce = random_token();
-      std::string html = server_.page;
-      replace_all(html, "{{nonce}}", nonce);
-      return respond(http::status::ok, html, std::string(file->type), "", true, nonce);
+      return respond(http::status::ok, with_nonce(server_.page, nonce), std::string(file->type), "", true, nonce);
     }
     if (path == "/screenshot.png" || path == "/scene.json") {
       stream_.expires_after(std::chrono::minutes(10));  // a full frame of a large scene takes a while
