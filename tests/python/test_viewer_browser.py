@@ -283,6 +283,31 @@ def test_the_screenshot_link_equals_penumbra_render_of_the_save_scene_link(sessi
     assert console_errors(driver) == [], "the console showed errors while the page was used"
 
 
+def test_the_technique_fields_follow_each_techniques_declared_keys(session):
+    server, driver = session
+    wait_loaded(driver)
+    declared = js(driver, "window.penumbraViewer.state.technique_parameters.shadows")
+    assert declared["dsm_layout"]["choices"] == ["per_channel", "shared_depth"]
+    select = Select(driver.find_element(By.CSS_SELECTOR, "#shadows select"))
+    select.select_by_value("deep_shadow_map")
+    wait(driver, lambda d: js(d, "window.penumbraViewer.state.document.shadows.technique") == "deep_shadow_map",
+         "the technique did not change")
+    labels = lambda: [e.text for e in driver.find_elements(By.CSS_SELECTOR, "#shadows label.key")]
+    wait(driver, lambda d: "dsm_layout" in labels(), "no field for deep_shadow_map's dsm_layout")
+    assert set(labels()) == {"technique", "resolution", "bias", "step", "nodes", "dsm_layout"}
+    nodes = driver.find_element(By.XPATH, "//div[@id='shadows']//label[text()='nodes']/following-sibling::input")
+    assert nodes.get_attribute("placeholder") == "3" and nodes.get_attribute("step") == "1"
+    layout = Select(driver.find_element(By.XPATH, "//div[@id='shadows']//label[text()='dsm_layout']/following-sibling::select"))
+    assert [o.get_attribute("value") for o in layout.options] == ["", "per_channel", "shared_depth"]
+    layout.select_by_value("shared_depth")
+    wait(driver, lambda d: js(d, "window.penumbraViewer.state.document.shadows.dsm_layout") == "shared_depth",
+         "the choice did not reach the scene")
+    Select(driver.find_element(By.CSS_SELECTOR, "#shadows select")).select_by_value("shadow_map")
+    wait(driver, lambda d: js(d, "window.penumbraViewer.state.document.shadows.technique") == "shadow_map",
+         "the technique did not change back")
+    assert console_errors(driver) == []
+
+
 def test_the_time_slider_and_play_step_through_a_series(tmp_path):
     """A scene with frames (a generated volume series) shows the time section; Play steps through every
     frame and wraps, each step waiting for its full frame; Pause stops; the slider jumps to a frame."""

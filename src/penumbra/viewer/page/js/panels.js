@@ -7,7 +7,6 @@ import { viewer, queueEdit } from "./connection.js";
 import { createTfEditor } from "./transfer_function.js";
 
 const OBJECT_KINDS = ["volumes", "particles", "isosurfaces", "planes"];
-const STRING_KEYS = new Set(["dsm_layout", "light_frustum", "volumes", "spheres", "isosurfaces", "planes"]);
 
 let panelBusy = false;        // a pointer is down in the panel (a slider or a TF point is dragged)
 let deferredState = null;     // the latest state that arrived while the panel was busy
@@ -148,19 +147,31 @@ function createTechniqueControls(group, state) {
   select.addEventListener("change", () => queueEdit({ [group + ".technique"]: select.value }));
   const root = el("div", {}, el("div", { class: "row" }, el("label", { class: "key" }, "technique"), select));
 
+  // One field per key the technique declares (the server sends every declaration:
+  // technique_parameters, from lighting/technique_info.h): a list for a choice, a number field with the
+  // declared range otherwise; empty shows the declared default.
+  const declared = (state.technique_parameters && state.technique_parameters[group]) || {};
   const keys = ((state.technique_keys && state.technique_keys[current]) || []).filter((k) => k !== "technique");
   const fields = keys.map((key) => {
-    // A dotted key names its own path (light_cache.resolution); a plain one lives under the group.
-    const path = key.includes(".") ? key : group + "." + key;
-    const isString = STRING_KEYS.has(key) || typeof getPath(doc, path) === "string";
-    const input = el("input", { type: isString ? "text" : "number", step: "any", placeholder: "default" });
+    const path = group + "." + key;
+    const spec = declared[key] || {};
+    const title = path + (spec.meaning ? ": " + spec.meaning : "") + (spec.unit ? " (" + spec.unit + ")" : "") +
+                  (spec.allowed ? "; allowed: " + spec.allowed : "");
+    let input;
+    if (spec.type === "choice") {
+      input = el("select", {}, el("option", { value: "" }, "default (" + spec.default + ")"),
+                 ...(spec.choices || []).map((c) => el("option", { value: c }, c)));
+    } else {
+      const attrs = { type: "number", step: spec.type === "integer" ? "1" : "any",
+                      placeholder: spec.default === undefined ? "default" : String(spec.default) };
+      input = el("input", attrs);
+    }
     input.addEventListener("change", () => {
-      const text = input.value.trim();
+      const text = String(input.value).trim();
       if (text === "") return;   // an edit sets a value; it cannot remove a key
-      const number = Number(text);
-      queueEdit({ [path]: isString && !Number.isFinite(number) ? text : number });
+      queueEdit({ [path]: spec.type === "choice" ? text : Number(text) });
     });
-    root.append(el("div", { class: "row" }, el("label", { class: "key", title: path }, key), input));
+    root.append(el("div", { class: "row" }, el("label", { class: "key", title }, key), input));
     return { path, input };
   });
 
