@@ -8,6 +8,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/particles/sphere_hits.h"
+#include "penumbra/render/frame_settings.h"
 #include "penumbra/render/surface_frame.h"
 #include "penumbra/render/volume_raycaster.h"
 #include "penumbra/registry/technique_catalog.h"
@@ -23,55 +24,12 @@ std::string indexed(const char* kind, std::size_t i, const char* what) {
   return std::string(kind) + "." + std::to_string(i) + "." + what;
 }
 
-// A preview's light structures aim at this much build time, all lights together.
-constexpr double kPreviewShadowTargetMs = 20;
-
-// The scene's settings for a preview: coarser shadow maps, a half-resolution light cache, light steps
-// twice as long, a quarter of the rays of the ray-traced techniques. (The eye step doubles too:
-// PreparedVolume's preview table.) The maps take a quarter of the full resolution, or less where the
-// last full build of the lights (full_shadow_ms, 0: not known) says a quarter would miss the target:
-// build time grows with the texels, so the side shrinks with the square root; never below 64.
-Scene preview_settings(const Scene& scene, double full_shadow_ms) {
-  Scene s = scene;
-  // every key the techniques declare with a role a preview coarsens, at its value or default
-  auto coarsen = [&](TechniqueFamily family, TechniqueParams& params) {
-    for (const ParamSpec* p : family_params(family)) {
-      switch (p->role) {
-        case ParamRole::MapSide: {
-          const auto full = static_cast<int>(p->integer(params));
-          int side = full / 4;
-          if (full_shadow_ms > 0) side = std::min(side, static_cast<int>(full * std::sqrt(kPreviewShadowTargetMs / full_shadow_ms)));
-          params.set(p->key, std::min(full, std::max(64, side)));
-          break;
-        }
-        case ParamRole::LightStep: params.set(p->key, 2.0 * light_step_voxels(params)); break;
-        case ParamRole::RayCount: params.set(p->key, std::max<std::int64_t>(1, p->integer(params) / 4)); break;
-        case ParamRole::Plain:
-        case ParamRole::Seed: break;
-      }
-    }
-  };
-  coarsen(TechniqueFamily::Shadow, s.shadows.params);
-  coarsen(TechniqueFamily::Ambient, s.ambient.params);
-  s.light_cache.resolution = std::max(kMinSatResolution, s.light_cache.resolution / 2);
-  return s;  // the eye step: PreparedVolume keeps a preview table
-}
-
 // The eye lattice step shared by the visible volumes: the finest of their steps.
 float shared_step(const Scene& s) {
   float step = kInfinity;
   for (const auto& v : s.volumes)
     if (v.visible) step = std::min(step, v.step_world());
   return step;
-}
-
-// The seed key of the scene's shadow techniques (the one accumulated samples move), or nullptr.
-const ParamSpec* seed_param(const Scene& s) {
-  for (const ShadowAssignment& a : shadow_assignments(s))
-    if (const TechniqueInfo* t = find_technique(TechniqueFamily::Shadow, a.technique))
-      for (const ParamSpec& p : t->params)
-        if (p.role == ParamRole::Seed) return &p;
-  return nullptr;
 }
 
 // The image (and alpha, depth) rendered at 1/divisor of each side, enlarged to width × height by
@@ -584,51 +542,6 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   frame.render_ms = render.elapsed_ms();
   frame.total_ms = total.elapsed_ms();
   return frame;
-}
-
-std::vector<SurfacePoint> Renderer::receivers_shown(const ShadowBrick& brick, const Camera& camera, const VisibleSurfaces& surfaces) const {
-  // the rectangle holding every brick's surface pixels (a minimum of {x0, y0, −x1, −y1}: integers, exact
-  // in floats), then the minimum distance over the bricks on that rectangle only
-  const auto column = [&](std::uint32_t p) { return static_cast<int>(p % static_cast<std::uint32_t>(camera.width)); };
-  const auto row = [&](std::uint32_t p) { return static_cast<int>(p / static_cast<std::uint32_t>(camera.width)); };
-  float bounds[] = {static_cast<float>(camera.width), static_cast<float>(camera.height), 0, 0};
-  for (const std::uint32_t p : surfaces.pixel) {
-    bounds[0] = std::min(bounds[0], static_cast<float>(column(p))), bounds[1] = std::min(bounds[1], static_cast<float>(row(p)));
-    bounds[2] = std::min(bounds[2], -static_cast<float>(column(p) + 1)), bounds[3] = std::min(bounds[3], -static_cast<float>(row(p) + 1));
-  }
-  brick.reduction->minimum(bounds);
-  const int x0 = static_cast<int>(bounds[0]), y0 = static_cast<int>(bounds[1]);
-  const int columns = std::max(0, static_cast<int>(-bounds[2]) - x0), rows = std::max(0, static_cast<int>(-bounds[3]) - y0);
-  std::vector<float> nearest(static_cast<std::size_t>(columns) * static_cast<std::size_t>(rows));
-  for (int y = 0; y < rows; ++y)
-    for (int x = 0; x < columns; ++x)
-      nearest[static_cast<std::size_t>(y) * static_cast<std::size_t>(columns) + static_cast<std::size_t>(x)] =
-          surfaces.distance[static_cast<std::size_t>(y0 + y) * static_cast<std::size_t>(camera.width) + static_cast<std::size_t>(x0 + x)];
-  brick.reduction->minimum(nearest);
-  const PrimaryRays rays(camera);
-  std::vector<SurfacePoint> shown;
-  for (std::size_t i = 0; i < surfaces.points.size(); ++i) {
-    // the brick whose slab holds the nearest point passes its own nearest point, which is that one (two
-    // bricks holding the same cell may place its point a rounding apart)
-    const int x = column(surfaces.pixel[i]), y = row(surfaces.pixel[i]);
-    const float d = nearest[static_cast<std::size_t>(y - y0) * static_cast<std::size_t>(columns) + static_cast<std::size_t>(x - x0)];
-    if (brick.slab.owns(rays.ray(x, y).at(d))) shown.push_back(surfaces.points[i]);
-  }
-  return shown;
-}
-
-void Renderer::drop_surfaces_outside(const SampleSlab& slab, const Camera& camera, std::span<const float> distance, Image& opaque,
-                                     std::span<float> alpha) const {
-  const PrimaryRays rays(camera);
-  parallel_for(static_cast<std::size_t>(camera.height), [&](std::size_t y0, std::size_t y1) {
-    for (std::size_t y = y0; y < y1; ++y)
-      for (int x = 0; x < camera.width; ++x) {
-        const std::size_t p = y * static_cast<std::size_t>(camera.width) + static_cast<std::size_t>(x);
-        if (!std::isfinite(distance[p]) || slab.owns(rays.ray(x, static_cast<int>(y)).at(distance[p]))) continue;
-        opaque.at(x, static_cast<int>(y)) = scene_.background;
-        alpha[p] = 0;
-      }
-  });
 }
 
 void Renderer::update_light_cache() {

@@ -1,6 +1,8 @@
 // SceneDataCache (scene_file.h): loaded data kept between readings of an edited scene.
 #include "penumbra/scene_io/scene_file.h"
 
+#include "penumbra/data/transfer_function_choice.h"
+
 namespace penumbra {
 
 std::shared_ptr<Volume> SceneDataCache::volume(const std::string& key, const std::function<Volume()>& load) {
