@@ -14,9 +14,11 @@
 #include <filesystem>
 #include <limits>
 #include <string>
+#include <mutex>
 #include <thread>
 #include <vector>
 
+#include "penumbra/core/parallel.h"
 #include "penumbra/registry/technique_catalog.h"
 #include "penumbra/core/cancel.h"
 #include "penumbra/core/error.h"
@@ -120,37 +122,62 @@ SceneReadOptions read_options(const SceneArrays& arrays) {
   return o;
 }
 
+// The engine over NumPy buffers. One engine may be shared by Python threads: every call holds the
+// engine's mutex, waited for with the GIL released (a thread rendering with the GIL released must be
+// able to finish), so frames and edits are serialised and never interleave.
 class PyEngine {
 public:
   PyEngine(const std::string& document, const std::string& base_dir, const py::dict& volumes, const py::dict& particles)
       : engine_(parse(document, "scene"), base_dir, read_options(scene_arrays(volumes, particles))) {}
 
-  void replace_volume(const std::string& name, const py::array& array) { engine_.replace_array(name, view_volume(name, array)); }
+  void replace_volume(const std::string& name, const py::array& array) {
+    const auto lock = locked();
+    engine_.replace_array(name, view_volume(name, array));
+  }
   void replace_particles(const std::string& name, const SphereArray& spheres, const ColorArray& colors) {
+    const auto lock = locked();
     engine_.replace_array(name, pack_particles(name, spheres, colors));
   }
 
   void edit(const std::vector<std::pair<std::string, std::string>>& edits) {
     std::vector<std::pair<std::string, nlohmann::json>> parsed;
     for (const auto& [path, text] : edits) parsed.emplace_back(path, parse(text, path));
+    const auto lock = locked();
     engine_.edit(parsed);
   }
-  std::string get(const std::string& path) const { return engine_.get(path).dump(); }
+  std::string get(const std::string& path) const {
+    const auto lock = locked();
+    return engine_.get(path).dump();
+  }
   // Where the renderer reads volume `index`'s voxels (for checking that an array is shared, not copied).
   std::uintptr_t volume_address(std::size_t index) const {
+    const auto lock = locked();
     const auto& volumes = engine_.scene().volumes;
     if (index >= volumes.size()) throw Error("volumes." + std::to_string(index) + ": no such volume (the scene has " + std::to_string(volumes.size()) + ")");
     return reinterpret_cast<std::uintptr_t>(volumes[index].volume->data());
   }
-  std::string document() const { return engine_.document().dump(); }
-  int width() const { return engine_.scene().camera.width; }
-  int height() const { return engine_.scene().camera.height; }
-  std::size_t frames() const { return engine_.scene().frame_count(); }
+  std::string document() const {
+    const auto lock = locked();
+    return engine_.document().dump();
+  }
+  int width() const {
+    const auto lock = locked();
+    return engine_.scene().camera.width;
+  }
+  int height() const {
+    const auto lock = locked();
+    return engine_.scene().camera.height;
+  }
+  std::size_t frames() const {
+    const auto lock = locked();
+    return engine_.scene().frame_count();
+  }
 
   // Renders into `out` ((H, W, 4) float32 premultiplied linear RGBA, or uint8 sRGB RGBA); returns the
   // frame's stats as JSON text.
   std::string render_into(py::array out, bool preview, bool accumulate, bool transparent) {
-    const auto h = static_cast<py::ssize_t>(height()), w = static_cast<py::ssize_t>(width());
+    const auto lock = locked();
+    const auto h = static_cast<py::ssize_t>(engine_.scene().camera.height), w = static_cast<py::ssize_t>(engine_.scene().camera.width);
     if (out.ndim() != 3 || out.shape(0) != h || out.shape(1) != w || out.shape(2) != 4)
       throw Error("render: the output array must have shape (" + std::to_string(h) + ", " + std::to_string(w) + ", 4)");
     if (!(out.flags() & py::array::c_style)) throw Error("render: the output array must be C-contiguous");
@@ -173,7 +200,18 @@ public:
   }
 
 private:
+  // The engine's lock, taken with the GIL released while waiting, and held until the call returns.
+  std::unique_lock<std::mutex> locked() const {
+    std::unique_lock<std::mutex> lock(mutex_, std::try_to_lock);
+    if (!lock.owns_lock()) {
+      py::gil_scoped_release release;
+      lock.lock();
+    }
+    return lock;
+  }
+
   Engine engine_;
+  mutable std::mutex mutex_;
 };
 
 // `penumbra view` inside Python: the viewer's server over its own engine, serving from a thread
@@ -315,6 +353,16 @@ PYBIND11_MODULE(_penumbra, m) {
     }
     return py::make_tuple(radii, colors);
   });
+
+  // The worker threads of every frame (0: one per core), until set again.
+  m.def("set_threads", [](int threads) {
+    static std::unique_ptr<ThreadLimit> limit;
+    if (threads < 0) throw Error("set_threads: " + std::to_string(threads) + " (expected 0 for one per core, or a count)");
+    py::gil_scoped_release release;
+    limit.reset();
+    if (threads > 0) limit = std::make_unique<ThreadLimit>(threads);
+  }, py::arg("threads"));
+  m.def("threads", [] { return ThreadLimit::current_max(); });
 
   py::class_<PyEngine>(m, "Engine")
       .def(py::init<const std::string&, const std::string&, const py::dict&, const py::dict&>(), py::arg("document"), py::arg("base_dir"),

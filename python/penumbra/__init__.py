@@ -19,6 +19,7 @@ import json
 import os
 import struct
 import sys
+import threading
 import warnings
 import zlib
 
@@ -55,7 +56,7 @@ except ImportError as e:  # an interpreter of another Python version cannot load
 
 Error = _penumbra.Error
 
-__all__ = ["Error", "Image", "Renderer", "Scene", "Viewer", "VolumeData", "compare", "read_volume", "view"]
+__all__ = ["Error", "Image", "Renderer", "Scene", "Viewer", "VolumeData", "compare", "read_volume", "set_threads", "techniques", "threads", "view"]
 
 _VOLUME_DTYPES = (np.uint8, np.int16, np.uint16, np.float32)
 
@@ -181,8 +182,20 @@ class Image(np.ndarray):
         return _png(self)
 
 
+def _serialised(method):
+    """Runs the method holding the renderer's lock: threads sharing a Renderer take turns, a frame
+    never interleaves with an edit (the engine's own lock does the same for _penumbra.Engine)."""
+    def locked(self, *args, **kwargs):
+        with self._lock:
+            return method(self, *args, **kwargs)
+    locked.__name__, locked.__qualname__, locked.__doc__ = method.__name__, method.__qualname__, method.__doc__
+    return locked
+
+
 class Renderer:
-    """The interactive engine over a scene: edits by path, frames as arrays, stats of what was rebuilt."""
+    """The interactive engine over a scene: edits by path, frames as arrays, stats of what was rebuilt.
+    A Renderer may be shared by threads: its calls are serialised (one frame or edit at a time, each
+    whole), and render() releases the GIL while the frame is computed."""
 
     def __init__(self, scene):
         if isinstance(scene, dict):
@@ -193,18 +206,22 @@ class Renderer:
         self._particles = dict(scene._particles)
         self._base_dir = scene.base_dir  # where the scene's relative file names lie
         self._engine = _penumbra.Engine(_dumps(scene.document, "scene"), self._base_dir, self._volumes, self._particles)
+        self._lock = threading.RLock()
         self.stats = {}
 
+    @_serialised
     def set(self, path, value):
         """One edit: `path` as in --set ("lights.0.direction"), `value` anything JSON can hold."""
         self.edit({path: value})
 
+    @_serialised
     def edit(self, edits):
         """Several edits at once ({path: value}); all are refused together when one is invalid."""
         if not isinstance(edits, dict):
             raise Error(f"edit: expected a dict {{path: value}}, got {type(edits).__name__}")
         self._engine.edit([(str(p), _dumps(v, p)) for p, v in edits.items()])
 
+    @_serialised
     def update_particles(self, path, positions=None, radii=None, colors=None):
         """New positions (N, 3), radii or colours for the spheres added at `path` ("particles.N"); the
         sphere shadows and ambient occlusion are rebuilt for the next frame (a trajectory frame)."""
@@ -224,6 +241,7 @@ class Renderer:
         self._engine.replace_particles(name, new_spheres, packed)
         self._particles[name] = (new_spheres, packed)
 
+    @_serialised
     def update_volume(self, path, array=None):
         """The volume at `path` ("volumes.N") after its array changed in place, or a new array for it
         (same rules as Scene.add_volume); what depends on the data is rebuilt for the next frame."""
@@ -240,6 +258,7 @@ class Renderer:
             raise Error(f"{kind}.{index}: not added from an array (its data comes from a file or a generator)") from None
         return name
 
+    @_serialised
     def get(self, path):
         return json.loads(self._engine.get(path))
 
@@ -256,6 +275,7 @@ class Renderer:
         scene._volumes, scene._particles = dict(self._volumes), dict(self._particles)
         return scene
 
+    @_serialised
     def render(self, width=None, height=None, dtype="uint8", quality="full", accumulate=False, transparent=False):
         """A frame as an (H, W, 4) array, row 0 at the top: "uint8" sRGB RGBA (straight alpha) or
         "float32" linear RGBA with premultiplied alpha. quality "preview" is what follows the user's
@@ -274,6 +294,19 @@ class Renderer:
         out = np.empty((self._engine.height, self._engine.width, 4), dtype=np.dtype(dtype)).view(Image)
         self.stats = json.loads(self._engine.render_into(out, quality == "preview", bool(accumulate), bool(transparent)))
         return out
+
+
+def set_threads(threads):
+    """The worker threads every frame uses from now on: a count, or 0 for one per core (the default).
+    Frames are the same bytes for any count."""
+    if not isinstance(threads, (int, np.integer)) or isinstance(threads, bool):
+        raise Error(f"set_threads: expected an int, got {type(threads).__name__}")
+    _penumbra.set_threads(int(threads))
+
+
+def threads():
+    """The worker threads a frame uses now (set_threads)."""
+    return _penumbra.threads()
 
 
 def techniques():

@@ -4,6 +4,7 @@ PYTHONPATH; PENUMBRA_CLI is the built command-line tool the images are checked a
 import json
 import os
 import subprocess
+import sys
 import threading
 import time
 
@@ -197,3 +198,67 @@ def test_techniques_and_the_set_docstring_come_from_the_declarations():
     r = penumbra.Renderer(penumbra.Scene(small_scene()))
     with pytest.raises(penumbra.Error, match="shadows.offsets"):
         r.set("shadows.offsets", 9)
+
+
+def test_an_interpreter_without_numpy_is_told_which_one_penumbra_was_built_for():
+    # NumPy made unimportable, as under a pyenv or virtualenv python3 without Debian's python3-numpy
+    code = "import sys; sys.modules['numpy'] = None; import penumbra"
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=os.environ)
+    assert run.returncode != 0
+    assert "NumPy cannot be imported" in run.stderr
+    from penumbra._build_info import PYTHON_EXECUTABLE
+    assert f"penumbra was built for {PYTHON_EXECUTABLE}" in run.stderr, run.stderr
+
+
+def test_one_renderer_shared_by_threads_renders_whole_frames_and_never_crashes():
+    r = penumbra.Renderer(penumbra.Scene(small_scene()))
+    directions = ([-0.3, -1, -0.2], [0.4, -1, 0.3])
+    references = []
+    for d in directions:
+        r.set("lights.0.direction", d)
+        references.append(r.render(dtype="float32"))
+    assert not np.array_equal(references[0], references[1])
+    failures, frames = [], []
+
+    def renderer_thread():
+        try:
+            for _ in range(12):
+                frames.append(r.render(dtype="float32"))
+        except Exception as e:  # noqa: BLE001 - any error is the test's failure
+            failures.append(repr(e))
+
+    def editor_thread():
+        try:
+            for k in range(12):
+                r.set("lights.0.direction", directions[k % 2])
+                frames.append(r.render(dtype="float32"))
+        except Exception as e:  # noqa: BLE001
+            failures.append(repr(e))
+
+    threads = [threading.Thread(target=renderer_thread), threading.Thread(target=renderer_thread), threading.Thread(target=editor_thread)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(120)
+    assert failures == []
+    assert len(frames) == 36
+    # every frame is one state's whole frame: equal to one of the two references, never a mix
+    for f in frames:
+        assert any(np.array_equal(f, ref) for ref in references)
+
+
+def test_set_threads_changes_the_workers_and_not_the_frame():
+    before = penumbra.threads()
+    try:
+        penumbra.set_threads(1)
+        assert penumbra.threads() == 1
+        one = penumbra.Renderer(penumbra.Scene(small_scene())).render(dtype="float32")
+        penumbra.set_threads(2)
+        assert penumbra.threads() == 2
+        two = penumbra.Renderer(penumbra.Scene(small_scene())).render(dtype="float32")
+        assert np.array_equal(one, two)
+        with pytest.raises(penumbra.Error, match="set_threads"):
+            penumbra.set_threads(-1)
+    finally:
+        penumbra.set_threads(0)
+    assert penumbra.threads() == before
