@@ -10,7 +10,6 @@
 
 namespace penumbra::dicom {
 
-using io_detail::bytes_str;
 using io_detail::printable;
 
 std::string series_line(std::size_t index, const Series& s) {
