@@ -16,28 +16,15 @@
 #include "penumbra/data/io/particle_io.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/scene_io/scene_file.h"
+#include "error_message.h"
 #include "test_volume_io_util.h"
 
 using namespace penumbra;
+using penumbra::test::error_message;
 using penumbra::test::TempDir;
 using penumbra::test::write_file;
 
 namespace {
-
-// The message of the Error that f throws; a test failure (and "") when it throws nothing or
-// something else.
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "escaped as " << typeid(e).name() << ": " << e.what();
-    return "";
-  }
-  ADD_FAILURE() << "no error";
-  return "";
-}
 
 #define EXPECT_HAS(message, part) EXPECT_NE((message).find(part), std::string::npos) << "message: " << (message)
 
@@ -71,11 +58,11 @@ TEST(FuzzFindings, NrrdOverlongFieldLinesAreRefusedBeforeTeem) {
   std::string kinds_line = "kinds:";
   while (kinds_line.size() < 1000) kinds_line += " domain";
   write_file(kinds, kNrrdFields + kinds_line + "\n\n" + kNrrdData);
-  const std::string m1 = error_of([&] { (void)load_volume(unknown); });
+  const std::string m1 = error_message([&] { (void)load_volume(unknown); });
   EXPECT_HAS(m1, unknown);
   EXPECT_HAS(m1, "line 6");
   EXPECT_HAS(m1, "neither a NRRD field");
-  const std::string m2 = error_of([&] { (void)load_volume(kinds); });
+  const std::string m2 = error_message([&] { (void)load_volume(kinds); });
   EXPECT_HAS(m2, kinds);
   EXPECT_HAS(m2, "line 6");
   EXPECT_HAS(m2, "'kinds' line is");
@@ -95,11 +82,11 @@ TEST(FuzzFindings, NrrdCommentOfOnlyControlBytesIsRefused) {
   const std::string bad = dir.file("comment.nrrd"), high = dir.file("high.nrrd"), fine = dir.file("fine.nrrd");
   write_file(bad, kNrrdFields + "#\x01\x02\x03\n\n" + kNrrdData);
   write_file(high, kNrrdFields + "# \xe6\x97\xa5\xe6\x9c\xac\n\n" + kNrrdData);
-  const std::string m = error_of([&] { (void)load_volume(bad); });
+  const std::string m = error_message([&] { (void)load_volume(bad); });
   EXPECT_HAS(m, bad);
   EXPECT_HAS(m, "line 6");
   EXPECT_HAS(m, "comment");
-  EXPECT_HAS(error_of([&] { (void)load_volume(high); }), "line 6");
+  EXPECT_HAS(error_message([&] { (void)load_volume(high); }), "line 6");
   write_file(fine, kNrrdFields + "#\n# \t \n#  text \x01 with a control byte\n\n" + kNrrdData);
   EXPECT_EQ(load_volume(fine).voxel_count(), 8u);
 }
@@ -131,7 +118,7 @@ TEST(FuzzFindings, NrrdHeadersTeemLeaksOnAreRefused) {
   for (const Case& c : cases) {
     const std::string path = dir.file("leak.nrrd");
     write_file(path, c.header + "\n" + kNrrdData);
-    const std::string m = error_of([&] { (void)load_volume(path); });
+    const std::string m = error_message([&] { (void)load_volume(path); });
     EXPECT_HAS(m, path);
     EXPECT_HAS(m, c.expected);
   }
@@ -220,7 +207,7 @@ TEST(FuzzFindings, AssemblySphereCountIsBounded) {
   ParticleLoadOptions o;
   o.assembly = 1;
   o.max_spheres = 3;
-  const std::string m = error_of([&] { (void)load_particles(path, o); });
+  const std::string m = error_message([&] { (void)load_particles(path, o); });
   EXPECT_HAS(m, path);
   EXPECT_HAS(m, "more than 3 spheres");
 }
@@ -321,16 +308,16 @@ TEST(FuzzFindings, SceneNumberOverflowNamesFileLineAndKey) {
   std::string text = kScene;
   text.replace(text.find("\"intensity\": 1"), 14, "\"intensity\": 2e308");
   write_file(path, text);
-  const std::string m = error_of([&] { (void)load_scene(path); });
+  const std::string m = error_message([&] { (void)load_scene(path); });
   EXPECT_HAS(m, path);
   EXPECT_HAS(m, "line 3");
   EXPECT_HAS(m, "lights.0.intensity");
   EXPECT_HAS(m, "2e308");
   // A syntax error and invalid UTF-8 in the file name their key too.
   write_file(path, std::string(kScene).replace(std::string(kScene).find("\"size\": 8"), 9, "\"size\": 8x"));
-  EXPECT_HAS(error_of([&] { (void)load_scene(path); }), "volumes.0.procedural.size");
+  EXPECT_HAS(error_message([&] { (void)load_scene(path); }), "volumes.0.procedural.size");
   write_file(path, std::string(kScene).replace(std::string(kScene).find("test-spheres"), 12, "test-\xff"));
-  const std::string utf = error_of([&] { (void)load_scene(path); });
+  const std::string utf = error_message([&] { (void)load_scene(path); });
   EXPECT_HAS(utf, "volumes.0.procedural.name");
   EXPECT_HAS(utf, "UTF-8");
 }
@@ -343,16 +330,16 @@ TEST(FuzzFindings, SetValuesWithInvalidUtf8OrOverflowNameFileAndKey) {
   write_file(path, std::string(kScene));
   for (const std::string& set : {std::string("shadows.technique=cssm\xff"), std::string("lights.0.color=\xc3\x28"),
                                 std::string("volumes.0.procedural.name=\xed\xa0\x80")}) {
-    const std::string m = error_of([&] { (void)load_scene(path, {set}); });
+    const std::string m = error_message([&] { (void)load_scene(path, {set}); });
     EXPECT_HAS(m, path);
     EXPECT_HAS(m, set.substr(0, set.find('=')));
     EXPECT_HAS(m, "not valid UTF-8");
   }
-  const std::string m = error_of([&] { (void)load_scene(path, {"lights.0.intensity=2e308"}); });
+  const std::string m = error_message([&] { (void)load_scene(path, {"lights.0.intensity=2e308"}); });
   EXPECT_HAS(m, path);
   EXPECT_HAS(m, "lights.0.intensity");
   EXPECT_HAS(m, "double range");
-  EXPECT_HAS(error_of([&] { (void)load_scene(path, {"camera.wid\xfft=3"}); }), "not valid UTF-8");
+  EXPECT_HAS(error_message([&] { (void)load_scene(path, {"camera.wid\xfft=3"}); }), "not valid UTF-8");
   // Valid UTF-8 and plain strings still work.
   EXPECT_NO_THROW((void)load_scene(path, {"lights.0.intensity=2", "camera.width=4"}));
 }
@@ -366,7 +353,7 @@ TEST(FuzzFindings, MmcifIntegersBeyondIntAreRefused) {
   text.replace(text.find(row), row.size(), "ATOM 2 C CA . GLY A 1 99999999999 ");
   const std::string path = dir.file("seq.cif");
   write_file(path, text);
-  const std::string m = error_of([&] { (void)load_particles(path, {}); });
+  const std::string m = error_message([&] { (void)load_particles(path, {}); });
   EXPECT_HAS(m, path);
   EXPECT_HAS(m, "_atom_site.label_seq_id");
   EXPECT_HAS(m, "99999999999");

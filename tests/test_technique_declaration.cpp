@@ -13,6 +13,7 @@
 #include <sstream>
 #include <string>
 
+#include "error_message.h"
 #include "image_check.h"
 #include "penumbra/core/error.h"
 #include "penumbra/registry/registry.h"
@@ -66,20 +67,9 @@ json dimmer_scene(double dimming) {
   return j;
 }
 
-// The message of the Error `f` throws ("" when it throws none).
-template <class F>
-std::string thrown_message(F&& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
-
-#define EXPECT_ERROR_HAS(call, part)                                   \
-  do {                                                                 \
-    const std::string m_ = thrown_message([&] { (void)(call); });            \
+#define EXPECT_ERROR_HAS(call, part)                                          \
+  do {                                                                        \
+    const std::string m_ = error_message([&] { (void)(call); });              \
     EXPECT_NE(m_.find(part), std::string::npos) << "error: '" << m_ << "'"; \
   } while (0)
 
@@ -165,4 +155,19 @@ TEST(TechniqueDeclaration, TheSceneFilePageHoldsTheGeneratedKeyTables) {
   page << in.rdbuf();
   EXPECT_EQ(generated_section(page.str(), "docs/scene-file.md"), technique_keys_markdown() + "\n")
       << "docs/scene-file.md's technique keys differ from the declarations: run `build/release/penumbra techniques --update-doc docs/scene-file.md`";
+}
+
+// As the scene file always read them: null is the default, and an integral number (512.0, as JSON
+// writers and Python floats give it) is an integer; 64.5 is not.
+TEST(TechniqueDeclaration, NullIsTheDefaultAndAnIntegralNumberIsAnInteger) {
+  json j = volume_scene({{"name", "sphere"}, {"size", 8}}, step_tf(0.5));
+  j["shadows"] = {{"technique", "cssm"}, {"resolution", 64.0}, {"step", nullptr}};
+  const Scene s = build_scene(j, "");
+  EXPECT_EQ(param_integer(TechniqueFamily::Shadow, s.shadows.params, "resolution"), 64);
+  EXPECT_EQ(s.shadows.params.find("step"), nullptr);
+  j["shadows"]["resolution"] = 64.5;
+  EXPECT_ERROR_HAS(build_scene(j, ""), "shadows.resolution: expected an integer (16 .. 16384), got 64.5");
+  j["shadows"]["resolution"] = 64;
+  j["shadows"]["seed"] = 18446744073709551615ull;
+  EXPECT_ERROR_HAS(build_scene(j, ""), "shadows.seed");
 }

@@ -11,23 +11,13 @@
 #include "penumbra/core/error.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/data/transfer_function.h"
+#include "error_message.h"
 
 using namespace penumbra;
+using penumbra::test::error_message;
 using nlohmann::json;
 
 namespace {
-
-// Message of the Error that f throws; fails the test when f does not throw.
-template <class F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected a penumbra::Error";
-  return "";
-}
 
 void expect_rgba(const Rgba& c, float r, float g, float b, float a, float tol = 1e-5f) {
   EXPECT_NEAR(c.rgb.r, r, tol);
@@ -65,10 +55,10 @@ TEST(TransferFunction, DuplicateValuesMakeAStep) {
 
 TEST(TransferFunction, RejectsInvalidPoints) {
   EXPECT_THROW(TransferFunction(std::vector<TransferPoint>{}), Error);
-  const std::string nan_msg = error_of([] { TransferFunction({{0, Rgb(0), 0}, {std::nanf(""), Rgb(0), 0}}); });
+  const std::string nan_msg = error_message([] { TransferFunction({{0, Rgb(0), 0}, {std::nanf(""), Rgb(0), 0}}); });
   EXPECT_NE(nan_msg.find("point 1"), std::string::npos) << nan_msg;
   EXPECT_THROW(TransferFunction({{INFINITY, Rgb(0), 0}}), Error);
-  const std::string col_msg = error_of([] { TransferFunction({{0, Rgb(0), 0}, {7, Rgb(0, 1.5f, 0), 0}}); });
+  const std::string col_msg = error_message([] { TransferFunction({{0, Rgb(0), 0}, {7, Rgb(0, 1.5f, 0), 0}}); });
   EXPECT_NE(col_msg.find("point 1"), std::string::npos) << col_msg;
   EXPECT_NE(col_msg.find("7"), std::string::npos) << col_msg;
   EXPECT_NE(col_msg.find("1.5"), std::string::npos) << col_msg;
@@ -108,7 +98,7 @@ TEST(TransferFunction, EveryPresetHasVisibleAndTransparentValues) {
 }
 
 TEST(TransferFunction, UnknownPresetListsKnownNames) {
-  const std::string msg = error_of([] { parse(R"({"preset": "ct-lungs"})"); });
+  const std::string msg = error_message([] { parse(R"({"preset": "ct-lungs"})"); });
   EXPECT_NE(msg.find("ct-lungs"), std::string::npos) << msg;
   for (const std::string& name : transfer_function_preset_names()) EXPECT_NE(msg.find(name), std::string::npos) << msg;
 }
@@ -147,7 +137,7 @@ TEST(TransferFunction, OpacityScaleMultipliesAndClamps) {
 
 TEST(TransferFunction, ParseErrorsNameKeyAndValue) {
   auto expect_msg = [](const std::string& text, const std::string& part) {
-    const std::string msg = error_of([&] { parse(text); });
+    const std::string msg = error_message([&] { parse(text); });
     EXPECT_NE(msg.find(part), std::string::npos) << text << " -> " << msg;
   };
   expect_msg(R"({"preset": "grayscale", "colour": 1})", "colour");
@@ -213,7 +203,7 @@ TEST(TransferFunction, ParaviewMergesColourAndOpacityNodes) {
 TEST(TransferFunction, ParaviewRejectsMalformedNodeLists) {
   EXPECT_THROW(import_paraview_colormap(json::parse(R"({"RGBPoints": [0, 0, 0, 0, 1, 1, 1]})"), ""), Error);
   const std::string msg =
-      error_of([] { import_paraview_colormap(json::parse(R"({"RGBPoints": [0, 0, 0, 0, 1, 1, 1]})"), ""); });
+      error_message([] { import_paraview_colormap(json::parse(R"({"RGBPoints": [0, 0, 0, 0, 1, 1, 1]})"), ""); });
   EXPECT_NE(msg.find("RGBPoints"), std::string::npos) << msg;
   EXPECT_NE(msg.find("7"), std::string::npos) << msg;
   EXPECT_THROW(import_paraview_colormap(json::parse(R"({"RGBPoints": [0, 0, 0, 0], "Points": [0, 1, 0.5]})"), ""), Error);

@@ -2,17 +2,20 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
+#include <charconv>
+#include <cstdint>
 
 #include "penumbra/core/error.h"
 
 namespace penumbra {
 namespace {
 
+// A number as a scene file would write it: integral values whole (1000000, not 1e+06), others the
+// shortest text that reads back exactly.
 std::string number_text(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
+  char text[32];
+  if (std::floor(v) == v && std::abs(v) < 1e16) return std::to_string(static_cast<std::int64_t>(v));
+  return std::string(text, std::to_chars(text, text + sizeof text, v).ptr);
 }
 
 // "a, b or c"

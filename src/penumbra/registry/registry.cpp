@@ -40,7 +40,7 @@ std::vector<const TechniqueInfo*> built_in() {
 struct Registry {
   std::mutex mutex;
   std::vector<const TechniqueInfo*> techniques = built_in();
-  std::size_t built_in_count = techniques.size();
+  std::vector<const TechniqueInfo*> built_in_techniques = techniques;
 };
 
 Registry& registry() {
@@ -59,9 +59,7 @@ std::string known(TechniqueFamily family) {
 std::vector<const TechniqueInfo*> registered_techniques() {
   Registry& r = registry();
   std::lock_guard lock(r.mutex);
-  std::vector<const TechniqueInfo*> out = r.techniques;
-  std::stable_partition(out.begin(), out.end(), [](const TechniqueInfo* t) { return t->family == TechniqueFamily::Shadow; });
-  return out;
+  return r.techniques;
 }
 
 void register_technique(const TechniqueInfo& info) {
@@ -79,15 +77,16 @@ void register_technique(const TechniqueInfo& info) {
         throw Error("register_technique: " + what + " declares " + to_string(info.family) + "." + p.key + " unlike '" + t->name +
                     "' does (a key means one thing to every technique of its family)");
   }
-  r.techniques.push_back(&info);
+  // after the last of its family: shadows stay before ambient techniques
+  const auto after = std::find_if(r.techniques.rbegin(), r.techniques.rend(), [&](const TechniqueInfo* t) { return t->family == info.family; });
+  r.techniques.insert(after.base(), &info);
 }
 
 bool unregister_technique(TechniqueFamily family, const std::string& name) {
   Registry& r = registry();
   std::lock_guard lock(r.mutex);
-  const auto it = std::find_if(r.techniques.begin() + static_cast<std::ptrdiff_t>(r.built_in_count), r.techniques.end(),
-                               [&](const TechniqueInfo* t) { return t->family == family && t->name == name; });
-  if (it == r.techniques.end()) return false;
+  const auto it = std::find_if(r.techniques.begin(), r.techniques.end(), [&](const TechniqueInfo* t) { return t->family == family && t->name == name; });
+  if (it == r.techniques.end() || std::count(r.built_in_techniques.begin(), r.built_in_techniques.end(), *it) > 0) return false;
   r.techniques.erase(it);
   return true;
 }

@@ -260,7 +260,7 @@ VolumeFrame render_volume_frame(const RayCastInputs& in) {
   const std::uint64_t jitter_key = 0x6a177e5 + static_cast<std::uint64_t>(in.sample) * 0x9e3779b97f4a7c15ull;
   parallel_for_tiles(cam.width, cam.height, kTileSize, [&](const Tile& tile) {
     SampleBatch batch;
-    OverlapSamples overlap(in.volumes.size());
+    OverlapSamples overlap(in.volumes.size() > 1 ? in.volumes.size() : 0);  // one volume: trace_one, no overlap
     for (int y = tile.y0; y < tile.y1; ++y) {
       if (cancel_requested()) return;  // a row can take long (ray-traced shadows): stop between rows
       for (int x = tile.x0; x < tile.x1; ++x) {

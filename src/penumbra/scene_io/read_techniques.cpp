@@ -3,6 +3,8 @@
 #include "penumbra/scene_io/scene_sections.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
 
 #include "penumbra/registry/technique_catalog.h"
 
@@ -20,12 +22,34 @@ bool is_kind_key(const std::string& key) {
   return false;
 }
 
+// A value of `key` as its declaration's type: a choice's string, an integer (an integral number such
+// as 512.0, which JSON writers and Python floats produce, counts), or any number.
+ParamValue parse_param(JsonReader& r, const std::string& key, const ParamSpec& spec, const nlohmann::json& v) {
+  const std::string expected = "expected " + (spec.type == ParamType::Choice ? spec.allowed_text()
+                                               : (spec.type == ParamType::Integer ? "an integer" : "a number") + std::string(" (") + spec.allowed_text() + ")");
+  switch (spec.type) {
+    case ParamType::Choice:
+      if (v.is_string()) return v.get<std::string>();
+      break;
+    case ParamType::Integer:
+      if (v.is_number_unsigned() && v.get<std::uint64_t>() > static_cast<std::uint64_t>(INT64_MAX)) r.fail(key, json_brief(v) + ": out of range (" + expected + ")");
+      if (v.is_number_integer()) return v.get<std::int64_t>();
+      if (v.is_number_float() && std::floor(v.get<double>()) == v.get<double>() && std::abs(v.get<double>()) < 9e15)
+        return static_cast<std::int64_t>(v.get<double>());
+      break;
+    case ParamType::Number:
+      if (v.is_number()) return v.get<double>();
+      break;
+  }
+  r.fail(key, expected + ", got " + json_brief(v));
+}
+
 // Every other key of the section: checked against the declaration the family's techniques share
-// (type, range, allowed values) and kept in `params`. A key no technique of the family declares is an
-// error naming the keys they do.
+// (type, range, allowed values) and kept in `params`; null means the default. A key no technique of
+// the family declares is an error naming the keys they do.
 void read_params(JsonReader& r, const nlohmann::json& j, TechniqueFamily family, TechniqueParams& params) {
   for (const auto& [key, value] : j.items()) {
-    if (key == "technique" || value.is_null() || (family == TechniqueFamily::Shadow && is_kind_key(key))) continue;
+    if (key == "technique" || (family == TechniqueFamily::Shadow && is_kind_key(key))) continue;
     const ParamSpec* spec = find_param(family, key);
     if (!spec) {
       std::vector<std::string> keys{"technique"};
@@ -34,14 +58,8 @@ void read_params(JsonReader& r, const nlohmann::json& j, TechniqueFamily family,
         for (int i = 0; i < kObjectKinds; ++i) keys.push_back(to_string(static_cast<ObjectKind>(i)));
       r.fail(key, "unknown key (expected one of: " + join(keys) + ")");
     }
-    r.raw(key);  // read
-    ParamValue parsed;
-    if (value.is_number_integer()) parsed = value.get<std::int64_t>();
-    else if (value.is_number()) parsed = value.get<double>();
-    else if (value.is_string()) parsed = value.get<std::string>();
-    else r.fail(key, "expected " + (spec->type == ParamType::Choice ? spec->allowed_text() : "a " + spec->type_text()) + ", got " + json_brief(value));
-    if (spec->type == ParamType::Number && std::holds_alternative<std::int64_t>(parsed))
-      parsed = static_cast<double>(std::get<std::int64_t>(parsed));
+    if (!r.has(key)) continue;  // null: the default
+    ParamValue parsed = parse_param(r, key, *spec, r.raw(key));
     if (const std::string problem = spec->check(parsed); !problem.empty()) r.fail(key, json_brief(value) + ": " + problem);
     params.set(key, std::move(parsed));
   }

@@ -30,7 +30,7 @@ const ParamSpec kOffsetCount = [] {
   p.only = {7, 13, 21};
   return p;
 }();
-const ParamSpec kSeed = integer_param("seed", 1, 0, INT64_MAX, "", "random numbers r_i = hash(seed, texel, segment)", ParamRole::Seed);
+const ParamSpec kSeed = integer_param("seed", 1, 0, std::int64_t{1} << 53, "", "random numbers r_i = hash(seed, texel, segment)", ParamRole::Seed);
 
 }  // namespace
 

@@ -19,8 +19,8 @@ std::span<const PageFile> viewer_page_files();
 // The file served at `path`, or null: only the table's paths are served, and no request reads a file.
 const PageFile* find_page_file(std::string_view path);
 
-// index.html with its placeholders filled in but the nonce: the token of the stylesheet's and the main
-// module's URLs, and the import map that gives every module its URL with the token (a module's
+// index.html with every placeholder filled in except the nonce (with_nonce, per answer): the token of
+// the stylesheet's and the main module's URLs, and the import map that gives every module its URL with the token (a module's
 // `import "./view.js"` asks for /js/view.js, which the map turns into /js/view.js?token=T).
 std::string page_html(const std::string& token);
 
