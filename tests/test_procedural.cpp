@@ -25,7 +25,7 @@ using nlohmann::json;
 
 namespace {
 
-std::string error_of(const json& spec) {
+std::string procedural_error_of(const json& spec) {
   try {
     make_procedural_volume(spec);
   } catch (const Error& e) {
@@ -186,27 +186,27 @@ TEST(Procedural, TestSpheresSeedIsDeterministic) {
 }
 
 TEST(Procedural, BadSpecsAreErrors) {
-  const std::string unknown = error_of(json{{"name", "cube"}});
+  const std::string unknown = procedural_error_of(json{{"name", "cube"}});
   EXPECT_NE(unknown.find("cube"), std::string::npos) << unknown;
   for (const std::string& n : procedural_volume_names()) EXPECT_NE(unknown.find(n), std::string::npos) << unknown;
-  EXPECT_NE(error_of(json{{"name", "sphere"}, {"size", 0}}).find("size"), std::string::npos);
-  EXPECT_NE(error_of(json{{"name", "sphere"}, {"size", 5000}}).find("5000"), std::string::npos);
-  error_of(json{{"name", "sphere"}, {"size", 1}});
-  error_of(json{{"name", "sphere"}, {"size", 2.5}});
-  error_of(json{{"name", "sphere"}, {"size", "64"}});
-  const std::string key = error_of(json{{"name", "slab"}, {"radius", 0.2}});  // radius is not a slab parameter
+  EXPECT_NE(procedural_error_of(json{{"name", "sphere"}, {"size", 0}}).find("size"), std::string::npos);
+  EXPECT_NE(procedural_error_of(json{{"name", "sphere"}, {"size", 5000}}).find("5000"), std::string::npos);
+  procedural_error_of(json{{"name", "sphere"}, {"size", 1}});
+  procedural_error_of(json{{"name", "sphere"}, {"size", 2.5}});
+  procedural_error_of(json{{"name", "sphere"}, {"size", "64"}});
+  const std::string key = procedural_error_of(json{{"name", "slab"}, {"radius", 0.2}});  // radius is not a slab parameter
   EXPECT_NE(key.find("radius"), std::string::npos) << key;
-  const std::string neg = error_of(json{{"name", "sphere"}, {"radius", -0.1}});
+  const std::string neg = procedural_error_of(json{{"name", "sphere"}, {"radius", -0.1}});
   EXPECT_NE(neg.find("radius"), std::string::npos) << neg;
   EXPECT_NE(neg.find("-0.1"), std::string::npos) << neg;
-  error_of(json{{"name", "sphere"}, {"radius", "big"}});
-  error_of(json{{"name", "slab"}, {"thickness", 0}});
-  error_of(json{{"name", "hollow-sphere"}, {"radius", 0.2}, {"thickness", 0.3}});
-  error_of(json{{"name", "marschner-lobb"}, {"alpha", -1}});
-  error_of(json{{"name", "test-spheres"}, {"seed", -2}});
-  error_of(json{{"size", 32}});
-  error_of(json{{"name", 3}});
-  error_of(json::array());
+  procedural_error_of(json{{"name", "sphere"}, {"radius", "big"}});
+  procedural_error_of(json{{"name", "slab"}, {"thickness", 0}});
+  procedural_error_of(json{{"name", "hollow-sphere"}, {"radius", 0.2}, {"thickness", 0.3}});
+  procedural_error_of(json{{"name", "marschner-lobb"}, {"alpha", -1}});
+  procedural_error_of(json{{"name", "test-spheres"}, {"seed", -2}});
+  procedural_error_of(json{{"size", 32}});
+  procedural_error_of(json{{"name", 3}});
+  procedural_error_of(json::array());
 }
 
 // ---------------------------------------------------------------- ct-body
@@ -359,7 +359,7 @@ TEST(ProceduralCtBody, NoiseHasTheRequestedDeviation) {
 
 TEST(ProceduralCtBody, BadParametersNameTheKey) {
   const auto expect_key = [](const json& spec, const std::string& key) {
-    const std::string e = error_of(spec);
+    const std::string e = procedural_error_of(spec);
     EXPECT_NE(e.find("\"" + key + "\""), std::string::npos) << e;
     EXPECT_NE(e.find("ct-body"), std::string::npos) << e;
   };
@@ -384,7 +384,7 @@ TEST(ProceduralCtBody, BadParametersNameTheKey) {
   }
   spec = base;
   spec["radius"] = 3;
-  const std::string unknown = error_of(spec);
+  const std::string unknown = procedural_error_of(spec);
   EXPECT_NE(unknown.find("radius"), std::string::npos) << unknown;
   EXPECT_NE(unknown.find("dims"), std::string::npos) << unknown;  // lists what is accepted
   EXPECT_EQ(unknown.find("size"), std::string::npos) << unknown;

@@ -29,7 +29,7 @@ namespace {
 
 // The shared data directory: $PENUMBRA_DATA_DIR, else ../shared/data beside the checkout. Tests of real
 // files are skipped (not failed) where the data is not there, e.g. on a machine with the clone alone.
-const std::string kData = shared_data_dir();
+const std::string kVolumeData = shared_data_dir();
 
 // Runs load_volume, expects a penumbra::Error and returns its message ("" if none was thrown).
 std::string load_error(const std::string& path, const std::optional<RawVolumeOptions>& raw = std::nullopt) {
@@ -76,21 +76,21 @@ void expect_volume(const Volume& v, std::array<int, 3> dims, ScalarType type, Ve
 
 TEST(VolumeIoData, CraniumCtGzipNrrd) {
   SKIP_WITHOUT_SHARED_DATA("cranium_ct.nrrd");
-  const Volume v = load_volume(kData + "/cranium_ct.nrrd");
+  const Volume v = load_volume(kVolumeData + "/cranium_ct.nrrd");
   expect_volume(v, {256, 256, 108}, ScalarType::Int16, {0.9570312f, 0.9570312f, 1.5f}, -1024, 2986);
   EXPECT_NEAR(compute_histogram(v, 64).mean, -586, 1.0);  // PROVENANCE.md
 }
 
 TEST(VolumeIoData, ChestCtGzipNrrd) {
   SKIP_WITHOUT_SHARED_DATA("chest_ct.nrrd");
-  const Volume v = load_volume(kData + "/chest_ct.nrrd");
+  const Volume v = load_volume(kVolumeData + "/chest_ct.nrrd");
   expect_volume(v, {256, 256, 133}, ScalarType::UInt8, {1.40625f, 1.40625f, 2.5f}, 0, 255);
   EXPECT_NEAR(compute_histogram(v, 256).mean, 7.1, 0.05);
 }
 
 TEST(VolumeIoData, ChrisT1NiftiGz) {
   SKIP_WITHOUT_SHARED_DATA("chris_t1.nii.gz");
-  const Volume v = load_volume(kData + "/chris_t1.nii.gz");
+  const Volume v = load_volume(kVolumeData + "/chris_t1.nii.gz");
   expect_volume(v, {188, 256, 190}, ScalarType::UInt8, {0.88f, 0.88f, 0.88f}, 0, 255);
   EXPECT_NEAR(v.origin().x, -83.12f, 1e-3f);  // qform offset
   EXPECT_NEAR(v.origin().y, -118.12f, 1e-3f);
@@ -99,14 +99,14 @@ TEST(VolumeIoData, ChrisT1NiftiGz) {
 
 TEST(VolumeIoData, HeadsqDetachedNhdr) {
   SKIP_WITHOUT_SHARED_DATA("headsq.nhdr");
-  const Volume v = load_volume(kData + "/headsq.nhdr");
+  const Volume v = load_volume(kVolumeData + "/headsq.nhdr");
   expect_volume(v, {64, 64, 93}, ScalarType::Int16, {3.2f, 3.2f, 1.5f}, 0, 3926);
   EXPECT_NEAR(compute_histogram(v, 16).mean, 508, 1.0);
 }
 
 TEST(VolumeIoData, NeghipDetachedNhdr) {
   SKIP_WITHOUT_SHARED_DATA("neghip.nhdr");
-  const Volume v = load_volume(kData + "/neghip.nhdr");
+  const Volume v = load_volume(kVolumeData + "/neghip.nhdr");
   expect_volume(v, {66, 66, 66}, ScalarType::UInt8, {1, 1, 1}, 0, 255);
   EXPECT_NEAR(compute_histogram(v, 256).mean, 16.8, 0.05);
 }
@@ -116,8 +116,8 @@ TEST(VolumeIoData, HeadsqRawMatchesNhdr) {
   // The same bytes through the raw loader and through teem must give the same voxels.
   RawVolumeOptions o = raw_options({64, 64, 93}, ScalarType::Int16);
   o.spacing = {3.2f, 3.2f, 1.5f};
-  const Volume raw = load_volume(kData + "/headsq.raw", o);
-  const Volume nrrd = load_volume(kData + "/headsq.nhdr");
+  const Volume raw = load_volume(kVolumeData + "/headsq.raw", o);
+  const Volume nrrd = load_volume(kVolumeData + "/headsq.nhdr");
   ASSERT_EQ(raw.memory_bytes(), nrrd.memory_bytes());
   EXPECT_EQ(std::memcmp(raw.data(), nrrd.data(), raw.memory_bytes()), 0);
   EXPECT_EQ(raw.max_value(), 3926);
@@ -312,7 +312,7 @@ TEST(VolumeIoNrrd, LyingSizesGzip) {
 TEST(VolumeIoNrrd, TruncatedGzip) {
   SKIP_WITHOUT_SHARED_DATA("chest_ct.nrrd");
   TempDir dir;
-  Bytes bytes = read_file(kData + "/chest_ct.nrrd");
+  Bytes bytes = read_file(kVolumeData + "/chest_ct.nrrd");
   ASSERT_GT(bytes.size(), 100000u);
   bytes.resize(bytes.size() / 2);
   const std::string path = dir.file("half.nrrd");

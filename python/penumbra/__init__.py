@@ -145,10 +145,16 @@ class Scene:
         return self._append("isosurfaces", entry)
 
     def add_plane(self, point=(0.0, -0.6, 0.0), normal=(0.0, 1.0, 0.0), **keys):
-        """Adds an opaque plane (keywords: color, size, casts_shadows, receives_shadows); returns its path."""
+        """Adds an opaque plane (keywords: color, size, casts_shadows, receives_shadows, clip); returns its path."""
         entry = {"point": point, "normal": normal}
         entry.update(keys)
         return self._append("planes", entry)
+
+    def add_clip_plane(self, point, normal):
+        """Adds a clip plane: it removes the half-space `normal` points into from every volume, isosurface
+        and particle set (and from planes that say clip=True), for the eye and for every light. Returns
+        its path, e.g. "clip_planes.0"; r.set("clip_planes.0.point", [...]) moves it."""
+        return self._append("clip_planes", {"point": list(point), "normal": list(normal)})
 
     def add_light(self, type="directional", **keys):
         """Adds a light (keywords: direction, position, color, intensity, angle_deg, softness) and returns

@@ -266,3 +266,23 @@ def test_a_trajectory_from_mdanalysis_moves_the_atoms_frame_by_frame():
     fresh = penumbra.Scene(common)
     fresh.add_atoms(protein)
     assert np.array_equal(images[2], penumbra.Renderer(fresh).render(dtype="float32"))
+
+
+def test_a_clip_plane_cuts_the_volume_and_moves_by_path(tmp_path):
+    a = blob((20, 20, 24), np.float32)
+    scene = penumbra.Scene({"camera": {"width": 40, "height": 40}, "shadows": {"technique": "ray_traced"}})
+    scene.add_volume(a, spacing=0.05)
+    scene.add_plane(point=(0, -0.1, 0), size=4)
+    assert scene.add_clip_plane(point=(0.6, 0, 0), normal=(1, 0, 0)) == "clip_planes.0"
+    r = penumbra.Renderer(scene)
+    cut = r.render(dtype="float32")
+    # moving the plane past the data gives the uncut frame; only what it cuts is rebuilt
+    r.set("clip_planes.0.point", [5.0, 0.0, 0.0])
+    uncut = r.render(dtype="float32")
+    rebuilt = {e["structure"] for e in r.stats["rebuilt"]}
+    assert "casters" in rebuilt and "volumes.0.gradients" not in rebuilt, r.stats["rebuilt"]
+    fresh = penumbra.Scene({"camera": {"width": 40, "height": 40}, "shadows": {"technique": "ray_traced"}})
+    fresh.add_volume(a, spacing=0.05)
+    fresh.add_plane(point=(0, -0.1, 0), size=4)
+    assert np.array_equal(uncut, penumbra.Renderer(fresh).render(dtype="float32"))
+    assert not np.array_equal(cut, uncut)

@@ -53,7 +53,7 @@ std::array<int, 3> sat_dims(const Vec3& extent, int resolution) {
 
 ExtinctionSat::ExtinctionSat(const Volume& volume, const TransferFunction& tf, Compositing compositing,
                              float reference_step, int resolution, bool with_colour, const ParticleSet* spheres,
-                             const ShadowBrick* brick) {
+                             const ShadowBrick* brick, const ClipPlanes* clip) {
   if (resolution < kMinSatResolution || resolution > kMaxSatResolution)
     throw Error("light_cache.resolution " + std::to_string(resolution) + " (expected " +
                 std::to_string(kMinSatResolution) + " to " + std::to_string(kMaxSatResolution) + ")");
@@ -126,6 +126,7 @@ ExtinctionSat::ExtinctionSat(const Volume& volume, const TransferFunction& tf, C
     }
   });
 
+  if (clip && !clip->empty()) keep_unclipped(*clip);
   if (spheres) add_spheres(*spheres);
 
   // Prefix sums along x, then y, then z (each pass parallel over the lines it does not run along).
@@ -217,11 +218,38 @@ void ExtinctionSat::cell_means_of_brick(const Volume& volume, const Table& table
   }
 }
 
+void ExtinctionSat::keep_unclipped(const ClipPlanes& clip) {
+  // each cell keeps the fraction of its 4³ sub-cell centres that the planes keep
+  constexpr int kSub = 4;
+  parallel_for(static_cast<std::size_t>(dims_[2]), [&](std::size_t k0, std::size_t k1) {
+    for (int k = static_cast<int>(k0); k < static_cast<int>(k1); ++k)
+      for (int j = 0; j < dims_[1]; ++j)
+        for (int i = 0; i < dims_[0]; ++i) {
+          int kept = 0;
+          for (int q = 0; q < kSub * kSub * kSub; ++q) {
+            const Vec3 f{(static_cast<float>(q % kSub) + 0.5f) / kSub, (static_cast<float>((q / kSub) % kSub) + 0.5f) / kSub,
+                         (static_cast<float>(q / (kSub * kSub)) + 0.5f) / kSub};
+            const Vec3 p = bounds_.lo + Vec3{(static_cast<float>(i) + f.x) * cell_.x, (static_cast<float>(j) + f.y) * cell_.y,
+                                             (static_cast<float>(k) + f.z) * cell_.z};
+            kept += clip.removes(p) ? 0 : 1;
+          }
+          if (kept == kSub * kSub * kSub) continue;
+          const float fraction = static_cast<float>(kept) / (kSub * kSub * kSub);
+          const std::size_t idx = cell_index(i, j, k);
+          tau_[idx] *= fraction;
+          if (!tau_colour_.empty())
+            for (int c = 0; c < 3; ++c) tau_colour_[idx * 3 + static_cast<std::size_t>(c)] *= fraction;
+        }
+  });
+}
+
 void ExtinctionSat::add_spheres(const ParticleSet& spheres) {
   // in file order, one sphere after another: the same sums for any thread count
   const float cell = (cell_.x + cell_.y + cell_.z) / 3.0f;
-  for (const Sphere& s : spheres.spheres) {
-    if (!(s.radius > 0)) continue;
+  for (std::size_t n = 0; n < spheres.size(); ++n) {
+    const Sphere& s = spheres.spheres[n];
+    const SphereClip clip = spheres.clip_of(n);  // a cut sphere fills the cells whose centres it keeps
+    if (!(s.radius > 0) || clip == kSphereRemoved) continue;
     const float tau = static_cast<float>(kOpaqueDepth) / (2.0f * s.radius);
     const Vec3 lo = to_cell(s.center - Vec3{s.radius, s.radius, s.radius});
     const Vec3 hi = to_cell(s.center + Vec3{s.radius, s.radius, s.radius});
@@ -232,6 +260,7 @@ void ExtinctionSat::add_spheres(const ParticleSet& spheres) {
       for (int j = j0; j <= j1; ++j)
         for (int i = i0; i <= i1; ++i) {
           const float inside = clamp(0.5f + (s.radius - length(cell_center(i, j, k) - s.center)) / cell, 0, 1);
+          if (clip != kSphereWhole && spheres.clip_planes.removes(cell_center(i, j, k))) continue;
           if (inside > 0) tau_[cell_index(i, j, k)] += inside * tau;
         }
   }

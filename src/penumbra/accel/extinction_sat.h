@@ -55,8 +55,10 @@ public:
   // this brick sums the voxels whose centres its slab owns (and samples the voxel-less cells whose
   // centres it owns), and the bricks' sums are added up before the means are taken, so that every
   // brick holds the whole volume's table (the same up to the order of the double sums).
+  // `clip` (optional): the clip planes that cut the volume; each cell keeps the fraction of it they keep.
   ExtinctionSat(const Volume& volume, const TransferFunction& tf, Compositing compositing, float reference_step,
-                int resolution, bool with_colour, const ParticleSet* spheres = nullptr, const ShadowBrick* brick = nullptr);
+                int resolution, bool with_colour, const ParticleSet* spheres = nullptr, const ShadowBrick* brick = nullptr,
+                const ClipPlanes* clip = nullptr);
 
   const std::array<int, 3>& dims() const { return dims_; }
   const Box3& bounds() const { return bounds_; }
@@ -105,6 +107,7 @@ public:
 
 private:
   void add_spheres(const ParticleSet& spheres);
+  void keep_unclipped(const ClipPlanes& clip);
   // The cells' means from every brick's sums (see the constructor).
   template <class Table>
   void cell_means_of_brick(const Volume& volume, const Table& table, const std::array<std::vector<int>, 3>& first_voxel,

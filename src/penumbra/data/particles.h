@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/core/clip_planes.h"
 #include "penumbra/core/color.h"
 #include "penumbra/core/math.h"
 
@@ -35,11 +36,16 @@ inline Rgb unpack_rgb8(std::uint32_t p) {
 struct ParticleSet {
   std::vector<Sphere> spheres;
   std::vector<std::uint32_t> colors;  // pack_rgba8, linear RGB; same size as spheres
+  // The frame's spheres under clip planes (set by the renderer; empty otherwise): per sphere whole,
+  // removed, or the mask of `clip_planes` that cut it (geometry/cut_sphere.h intersects it).
+  std::vector<SphereClip> clip_state;
+  ClipPlanes clip_planes;
+  SphereClip clip_of(std::size_t i) const { return clip_state.empty() ? kSphereWhole : clip_state[i]; }
 
   std::size_t size() const { return spheres.size(); }
-  Box3 bounds() const;          // of the spheres (centre ± radius); empty when there are none
+  Box3 bounds() const;          // of the spheres not clipped away (centre ± radius); empty when there are none
   std::size_t memory_bytes() const {
-    return spheres.capacity() * sizeof(Sphere) + colors.capacity() * sizeof(std::uint32_t);
+    return spheres.capacity() * sizeof(Sphere) + colors.capacity() * sizeof(std::uint32_t) + clip_state.capacity();
   }
 };
 

@@ -86,6 +86,7 @@ const std::vector<InvalidationRule>& invalidation_table() {
       {"volumes.#.step", {"volumes.*.lut"}, "the eye lattice (shared by the visible volumes) and its opacity correction"},
       {"volumes.#.jitter", {}, "the eye lattice's offsets only"},
       {"volumes.#.casts_shadows", {"casters"}, "what casts"},
+      {"volumes.#.clip", {"sat", "casters"}, "what the volume casts (the eye pass reads the flag every frame)"},
       {"volumes.#.receives_shadows", {}, "which samples ask for shadows"},
       {"particles", {kScene}, "particle objects added or removed: a new scene"},
       {"particles.#", {"spheres"}, "new spheres (file, generator, array, radius, origin)"},
@@ -94,6 +95,7 @@ const std::vector<InvalidationRule>& invalidation_table() {
       {"particles.#.scalar", {"spheres.colors"}, "colours only"},
       {"particles.#.color_map", {"spheres.colors"}, "colours only"},
       {"particles.#.casts_shadows", {"spheres"}, "the casting spheres come first in the set"},
+      {"particles.#.clip", {"spheres.clip"}, "which spheres are cut or removed, and what hangs off them"},
       {"particles.#.receives_shadows", {}, "which surfaces ask for shadows"},
       {"isosurfaces", {kScene}, "isosurfaces added or removed: a new scene"},
       {"isosurfaces.#", {kScene}, "another volume: a new scene"},
@@ -102,10 +104,15 @@ const std::vector<InvalidationRule>& invalidation_table() {
       {"isosurfaces.#.color", {}, "shading only"},
       {"isosurfaces.#.collapse", {}, "the eye pass only"},
       {"isosurfaces.#.casts_shadows", {"casters"}, "what casts"},
+      {"isosurfaces.#.clip", {"casters"}, "what the surface casts (the eye pass reads the flag every frame)"},
       {"isosurfaces.#.receives_shadows", {}, "which surfaces ask for shadows"},
       {"planes", {kScene}, "planes added or removed: a new scene"},
       {"planes.#", {"casters"}, "what casts"},
       {"planes.#.color", {}, "shading only"},
+      {"planes.#.clip", {"casters"}, "what the plane casts"},
+      {"clip_planes", {"spheres.clip", "sat", "casters"},
+       "the spheres' cut marks, the SAT and every light structure (through the casters); never the gradients or the "
+       "min/max grids"},
       {"planes.#.receives_shadows", {}, "which surfaces ask for shadows"},
       {"shadows", {kAllShadows}, "every light's shadow structures (a technique that needs the SAT or a BVH builds it)"},
       {"shadows.step", {"casters"}, "the light rays' lattice"},
@@ -121,7 +128,8 @@ const std::vector<InvalidationRule>& invalidation_table() {
 
 const std::vector<Dependency>& dependency_table() {
   static const std::vector<Dependency> rows = {
-      {"spheres", {"spheres.colors", "bvh", "casters"}},
+      {"spheres", {"spheres.colors", "spheres.clip", "bvh", "casters"}},
+      {"spheres.clip", {"bvh", "casters"}},
       {"bvh", {"casters"}},
       {"sat", {"casters"}},
       {"casters", {"ambient", kAllShadows}},

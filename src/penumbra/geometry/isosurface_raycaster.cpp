@@ -157,7 +157,7 @@ float IsosurfaceRaycaster::first_hit(const Ray& ray, float tmin, float tmax) con
   return kInfinity;
 }
 
-IsoPoints IsosurfaceRaycaster::render(const Camera& camera) const {
+IsoPoints IsosurfaceRaycaster::render(const Camera& camera, const ClipPlanes& clip) const {
   const PrimaryRays rays(camera);
   const std::size_t pixels = static_cast<std::size_t>(camera.width) * static_cast<std::size_t>(camera.height);
   std::vector<IsoPoint> at_pixel(pixels);
@@ -167,7 +167,9 @@ IsoPoints IsosurfaceRaycaster::render(const Camera& camera) const {
     for (int y = tile.y0; y < tile.y1; ++y)
       for (int x = tile.x0; x < tile.x1; ++x) {
         const Ray ray = rays.ray(x, y);
-        const float t = first_hit(ray, 0, kInfinity);
+        float t0 = 0, t1 = kInfinity;  // the part the clip planes keep
+        if (!clip.keep(ray, t0, t1)) continue;
+        const float t = first_hit(ray, t0, t1);
         if (t == kInfinity) continue;
         const Vec3 p = ray.at(t);
         Vec3 n = normalize(volume.gradient(p));

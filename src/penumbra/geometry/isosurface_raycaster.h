@@ -13,6 +13,7 @@
 // would draw it.
 #pragma once
 
+#include "penumbra/core/clip_planes.h"
 #include "penumbra/geometry/grid_tree.h"
 #include "penumbra/geometry/iso_point.h"
 #include "penumbra/scene/camera.h"
@@ -30,7 +31,7 @@ public:
   // One point per pixel whose primary ray (PrimaryRays) hits, in pixel order (y, then x); the same for
   // any thread count. Normal: the normalized gradient turned to face the eye (-direction where the
   // gradient vanishes); distance: the ray parameter, i.e. from the eye.
-  IsoPoints render(const Camera& camera) const;
+  IsoPoints render(const Camera& camera, const ClipPlanes& clip = ClipPlanes()) const;  // clip: planes that cut it
 
   float isovalue() const { return isovalue_; }
 

@@ -1,6 +1,7 @@
 // Embree 3's BVH over a ParticleSet's spheres (RTC_GEOMETRY_TYPE_SPHERE_POINT, reading the set's
 // packed x, y, z, r in place): exact nearest hits and occlusion queries for the sphere renderer's
-// Embree path and the ray-traced references (shadow rays, ambient-occlusion rays).
+// Embree path and the ray-traced references (shadow rays, ambient-occlusion rays). Spheres that clip
+// planes cut are a user geometry intersected exactly (geometry/cut_sphere.h); removed ones are not hit.
 #pragma once
 
 #include <algorithm>
@@ -39,6 +40,7 @@ private:
   void* device_ = nullptr;  // RTCDevice
   void* scene_ = nullptr;   // RTCScene
   double build_ms_ = 0;
+  std::shared_ptr<void> cut_spheres_;  // the cut spheres' geometry data, while the scene uses it
   std::unique_ptr<std::atomic<std::int64_t>> allocated_ = std::make_unique<std::atomic<std::int64_t>>(0);
 };
 

@@ -176,6 +176,7 @@ void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool v
     options.collapse = false;  // §4.3: a far-subvolume point would shadow the receivers around it
     options.normals = false;
     options.start = &pass.holes;
+    options.clip = &iso.clip;
     pass.light_points = extract_points(*iso.tree, iso.isovalue, pass.view, options);
     pass.depth.assign(static_cast<std::size_t>(pass.view.width) * static_cast<std::size_t>(pass.view.height), kInfinity);
     pass.depth_error.assign(pass.depth.size(), 0);

@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "penumbra/core/clip_planes.h"
 #include "penumbra/core/math.h"
 #include "penumbra/geometry/grid_tree.h"
 #include "penumbra/geometry/iso_point.h"
@@ -35,6 +36,7 @@ TriangleMesh marching_cubes(const GridTree& tree, float isovalue);
 // normal normalized and turned to face the eye, and its distance from the eye. Triangles are clipped
 // to the near plane and to a guard band, and filled by the top-left rule on 1/256-pixel fixed-point
 // vertices, so a pixel on an edge two triangles share is covered once. The same for any thread count.
-IsoPoints rasterize_mesh(const TriangleMesh& mesh, const Camera& camera);
+// `clip`: planes that cut the surface (its fragments beyond them are not drawn).
+IsoPoints rasterize_mesh(const TriangleMesh& mesh, const Camera& camera, const ClipPlanes& clip = ClipPlanes());
 
 }  // namespace penumbra

@@ -169,7 +169,8 @@ std::int64_t fill_bias(const ScreenVertex& a, const ScreenVertex& b) {
   return (dy < 0 || (dy == 0 && dx > 0)) ? 0 : -1;
 }
 
-void rasterize(ScreenTriangle t, std::uint32_t index, TileBuffer& buf) {
+// A fragment where the clip planes remove the mesh is not written, so the surface behind it shows.
+void rasterize(ScreenTriangle t, std::uint32_t index, TileBuffer& buf, const TriangleMesh& mesh, const ClipPlanes& clip) {
   std::int64_t area = edge(t[0], t[1], t[2].x, t[2].y);
   if (area == 0) return;
   if (area < 0) {
@@ -202,10 +203,14 @@ void rasterize(ScreenTriangle t, std::uint32_t index, TileBuffer& buf) {
       }
       const std::size_t p = static_cast<std::size_t>((y - buf.tile.y0) * buf.width + (x - buf.tile.x0));
       if (inv_z <= buf.inv_z[p]) continue;
-      buf.inv_z[p] = inv_z;
-      buf.triangle[p] = index;
       Vec3 corner;
       for (std::size_t i = 0; i < 3; ++i) corner += t[i].weights * static_cast<float>(w[i] / inv_z);
+      if (!clip.empty()) {
+        const std::size_t v = 3 * static_cast<std::size_t>(index);
+        if (clip.removes(mesh.vertices[v] * corner.x + mesh.vertices[v + 1] * corner.y + mesh.vertices[v + 2] * corner.z)) continue;
+      }
+      buf.inv_z[p] = inv_z;
+      buf.triangle[p] = index;
       buf.weights[p] = corner;
     }
   }
@@ -272,7 +277,7 @@ float near_distance(const TriangleMesh& mesh) {
 
 }  // namespace
 
-IsoPoints rasterize_mesh(const TriangleMesh& mesh, const Camera& camera) {
+IsoPoints rasterize_mesh(const TriangleMesh& mesh, const Camera& camera, const ClipPlanes& clip) {
   if (mesh.triangles() == 0) return {};
   const Projector projector(camera, near_distance(mesh));
   const int w = camera.width, h = camera.height;
@@ -289,7 +294,7 @@ IsoPoints rasterize_mesh(const TriangleMesh& mesh, const Camera& camera) {
     for (std::size_t b = bins.first[k]; b < bins.first[k + 1]; ++b) {
       const std::uint32_t t = bins.triangles[b];
       const int n = projector.project(mesh, t, pieces);
-      for (int i = 0; i < n; ++i) rasterize(pieces[static_cast<std::size_t>(i)], t, buf);
+      for (int i = 0; i < n; ++i) rasterize(pieces[static_cast<std::size_t>(i)], t, buf, mesh, clip);
     }
     for (int y = tile.y0; y < tile.y1; ++y)
       for (int x = tile.x0; x < tile.x1; ++x) {

@@ -220,7 +220,7 @@ private:
         if (!visible(x, y)) continue;
         const Ray ray = view_.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f);
         float t0, t1;
-        if (!box.clip(ray, t0, t1)) continue;
+        if (!box.clip(ray, t0, t1) || (options_.clip && !options_.clip->keep(ray, t0, t1))) continue;
         const float t = first_crossing_in_cell(volume_, c, iso_, ray, t0, t1);
         if (t < kInfinity) emit(ray.at(t), x, y);
       }
@@ -261,6 +261,7 @@ private:
   }
 
   void emit(const Vec3& p, int x, int y, const Vec3* gradient = nullptr, float error = 0) {
+    if (options_.clip && options_.clip->removes(p)) return;  // cut away: the pixel stays open
     IsoPoint q;
     q.position = p;
     q.error = error;

@@ -16,6 +16,7 @@
 
 #include <cstddef>
 
+#include "penumbra/core/clip_planes.h"
 #include "penumbra/geometry/grid_tree.h"
 #include "penumbra/geometry/iso_point.h"
 #include "penumbra/isosurface/view_projection.h"
@@ -30,6 +31,9 @@ struct ExtractionOptions {
   // The pass starts from this buffer (the light pass's punched holes, §4.2) instead of all pixels
   // visible; same size as the view.
   const VisibilityBuffer* start = nullptr;
+  // Clip planes that cut the surface (core/clip_planes.h): points they remove are not emitted, so the
+  // pixel stays open for the kept surface behind them.
+  const ClipPlanes* clip = nullptr;
   int tile = 64;           // tile side in pixels
 };
 

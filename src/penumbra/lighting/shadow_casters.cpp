@@ -5,13 +5,14 @@
 
 namespace penumbra {
 
-CastingVolume::CastingVolume(const VolumeObject& o, const MacrocellGrid& g, float step)
+CastingVolume::CastingVolume(const VolumeObject& o, const MacrocellGrid& g, float step, const ClipPlanes& clip_planes)
     : volume(o.volume.get()),
       box(o.volume->bounds()),
       lut(o.shadow_tf(), o.volume->min_value(), o.volume->max_value(), step / o.reference_step(), 4096, o.compositing),
       grid(&g),
       empty(g.empty_cells(lut)),
-      achromatic(o.compositing == Compositing::Extinction) {}
+      achromatic(o.compositing == Compositing::Extinction),
+      clip(clip_planes) {}
 
 ShadowCasters::ShadowCasters(const Scene& scene, std::span<const MacrocellGrid* const> grids) {
   const float steps_in_voxels = light_step_voxels(scene.shadows.params);
@@ -22,7 +23,8 @@ ShadowCasters::ShadowCasters(const Scene& scene, std::span<const MacrocellGrid* 
   if (voxel < kInfinity) step_ = steps_in_voxels * voxel;
   for (std::size_t i = 0; i < scene.volumes.size(); ++i)
     if (i < grids.size() && grids[i] && scene.volumes[i].casts_shadows)
-      volumes_.push_back(std::make_shared<const CastingVolume>(scene.volumes[i], *grids[i], step_));
+      volumes_.push_back(std::make_shared<const CastingVolume>(scene.volumes[i], *grids[i], step_,
+                                                             scene.clip_planes_for(scene.volumes[i].clip)));
   for (const Plane& p : scene.planes)
     if (p.casts_shadows) planes_.push_back(p);
   update_bounds();
@@ -33,12 +35,13 @@ void ShadowCasters::set_spheres(const CastingSpheres& spheres) {
   update_bounds();
 }
 
-void ShadowCasters::add_isosurface(const IsosurfaceRaycaster& raycaster, const GridTree& tree, std::uint32_t object) {
+void ShadowCasters::add_isosurface(const IsosurfaceRaycaster& raycaster, const GridTree& tree, std::uint32_t object,
+                                   const ClipPlanes& clip) {
   const Volume& volume = tree.volume();
   const Vec3& s = volume.spacing();
   // Far enough off the surface that float rounding of a point at hundreds of voxels from the origin
   // cannot put the start behind its own surface; small against any feature.
-  isosurfaces_.push_back(CastingIsosurface{&raycaster, &tree, raycaster.isovalue(), object, 0.05f * std::min({s.x, s.y, s.z}), volume.bounds()});
+  isosurfaces_.push_back(CastingIsosurface{&raycaster, &tree, raycaster.isovalue(), object, 0.05f * std::min({s.x, s.y, s.z}), volume.bounds(), clip});
   update_bounds();
 }
 
@@ -86,7 +89,9 @@ float ShadowCasters::surface_hit(const Ray& r, float t0, float t1) const {
     }
   }
   for (const auto& iso : isosurfaces_) {
-    const float t = iso.raycaster->first_hit(r, t0, best);
+    float a = t0, b = best;  // the part of the ray the clip planes keep
+    if (!iso.clip.keep(r, a, b)) continue;
+    const float t = iso.raycaster->first_hit(r, a, b);
     if (t > t0) best = std::min(best, t);
   }
   return best < t1 ? best : kInfinity;

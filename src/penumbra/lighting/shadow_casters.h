@@ -51,13 +51,19 @@ struct MediumSegment {
 
 // One casting volume under its shadow transfer function, with its empty macrocells.
 struct CastingVolume {
-  CastingVolume(const VolumeObject& object, const MacrocellGrid& grid, float step);
+  CastingVolume(const VolumeObject& object, const MacrocellGrid& grid, float step, const ClipPlanes& clip);
   const Volume* volume;
   Box3 box;
   TransferLut lut;
   const MacrocellGrid* grid;
   std::vector<std::uint8_t> empty;
   bool achromatic;
+  ClipPlanes clip;  // the scene's clip planes when the volume is clipped, else none
+
+  // The part [t0, t1] of r within [tmin, tmax] inside the box and kept by the clip planes.
+  bool span(const Ray& r, float& t0, float& t1, float tmin, float tmax) const {
+    return box.clip(r, t0, t1, tmin, tmax) && clip.keep(r, t0, t1);
+  }
 };
 
 // The spheres that cast: the first `count` spheres of the frame's particle set (the renderer puts
@@ -75,6 +81,7 @@ struct CastingIsosurface {
   std::uint32_t object;  // index into Scene::isosurfaces
   float offset;          // shadow rays start this far off the surface (a twentieth of a voxel)
   Box3 bounds;
+  ClipPlanes clip;       // the scene's clip planes when the isosurface is clipped, else none
 };
 
 class ShadowCasters {
@@ -83,7 +90,8 @@ public:
   // that are not drawn) and planes. Spheres and isosurfaces are added by the renderer.
   ShadowCasters(const Scene& scene, std::span<const MacrocellGrid* const> grids);
   void set_spheres(const CastingSpheres& spheres);
-  void add_isosurface(const IsosurfaceRaycaster& raycaster, const GridTree& tree, std::uint32_t object);
+  void add_isosurface(const IsosurfaceRaycaster& raycaster, const GridTree& tree, std::uint32_t object,
+                      const ClipPlanes& clip = ClipPlanes());
 
   // A copy holding only the casters of the given kinds (what one technique covers).
   ShadowCasters restricted_to(KindMask kinds) const;
@@ -177,7 +185,7 @@ private:
   template <class T, class Visit>
   void march_one_as(const CastingVolume& cv, const Ray& r, float t_begin, float t_end, float t_from, Visit& visit) const {
     float t0, t1;
-    if (!cv.box.clip(r, t0, t1, t_begin, t_end)) return;
+    if (!cv.span(r, t0, t1, t_begin, t_end)) return;
     const EmptySpaceSkipper skipper(*cv.volume, *cv.grid, cv.empty);
     std::size_t last_cell = SIZE_MAX;
     std::int64_t k = static_cast<std::int64_t>(std::floor(std::max(t0, t_from) / step_));
@@ -215,7 +223,7 @@ private:
     float t0 = kInfinity, t1 = -kInfinity;
     for (const auto& cv : volumes_) {
       float a, b;
-      if (cv->box.clip(r, a, b, t_begin, t_end)) {
+      if (cv->span(r, a, b, t_begin, t_end)) {
         t0 = std::min(t0, a);
         t1 = std::max(t1, b);
       }
@@ -236,7 +244,7 @@ private:
       for (const auto& cvp : volumes_) {
         const CastingVolume& cv = *cvp;
         float a0, a1;
-        if (!cv.box.clip(r, a0, a1, tm, t1)) continue;  // behind p or missed
+        if (!cv.span(r, a0, a1, tm, t1)) continue;  // behind p, missed or cut away
         if (a0 > tm) {  // ahead: its box starts later
           skip_to = std::min(skip_to, a0);
           continue;

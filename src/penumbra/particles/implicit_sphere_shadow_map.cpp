@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "penumbra/core/parallel.h"
+#include "penumbra/geometry/cut_sphere.h"
 #include "penumbra/lighting/shared_params.h"
 #include "penumbra/particles/tile_bins.h"
 #include "penumbra/accel/brick_reduction.h"
@@ -37,6 +38,7 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
   parallel_for(ps.size(), [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       const Sphere& s = ps.spheres[i];
+      if (ps.clip_of(i) == kSphereRemoved) continue;  // clipped away: rects[i] stays empty
       if (!projection_.perspective()) {  // parallel light: the disc of radius r around the centre
         float u, v, depth;
         projection_.project(s.center, u, v, depth);
@@ -74,6 +76,10 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
       rects, nearest, [](int, int, int, int) { return 0; },
       [&](int, std::uint32_t id, int k, int j, float) {
         const Sphere& s = ps.spheres[id];
+        if (ps.clip_of(id) != kSphereWhole) {  // a cut sphere: where the texel ray enters its kept part
+          const Ray ray = projection_.texel_ray((static_cast<float>(k) + 0.5f) / fn, (static_cast<float>(j) + 0.5f) / fn);
+          return intersect_particle(ps, id, ray, -kInfinity, kInfinity);
+        }
         if (!projection_.perspective()) {
           // parallel rays: the texel ray at map distance ρ from the centre enters the sphere at
           // depth(centre) − sqrt(r² − ρ²)
@@ -139,6 +145,10 @@ float ImplicitSphereShadowMap::light_at(const Vec3& position, std::uint32_t self
       if (k <= 0 || k >= light_distance) continue;  // behind the receiver or beyond the light
       const float d = std::sqrt(std::max(dot(oc, oc) - k * k, 0.0f));
       const float clearance = d - s.radius;
+      if (id != kOtherBrickSphere && particles_->clip_of(id) != kSphereWhole) {  // a cut sphere: exactly
+        if (clearance <= 0 && intersect_particle(*particles_, id, Ray{position, to_light}, 0, light_distance) < kInfinity) return 0.0f;
+        continue;  // its kept part casts no soft fringe (documented)
+      }
       if (clearance <= 0) return 0.0f;  // the shadow ray hits the sphere
       if (!soft) continue;
       const float kb = k / params_.soft_distance;

@@ -123,12 +123,14 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
       const std::size_t begin = ps.size() * c / chunks, end = ps.size() * (c + 1) / chunks;
       for (std::size_t i = begin; i < end; ++i) {
         const Sphere& s = ps.spheres[i];
-        if (!counted(s)) continue;
+        const SphereClip clip = ps.clip_of(i);  // a cut sphere fills only its kept part; a removed one nothing
+        if (!counted(s) || clip == kSphereRemoved) continue;
         const Vec3 g = (s.center - origin_) * inv_cell - Vec3{0.5f, 0.5f, 0.5f};
         if (s.radius < cell) {  // small sphere: its volume spread trilinearly over the 8 cells around it
           const int x = floor_int(g.x), y = floor_int(g.y), z = floor_int(g.z);
           const float fx = g.x - static_cast<float>(x), fy = g.y - static_cast<float>(y), fz = g.z - static_cast<float>(z);
-          const float vol = (4.0f / 3.0f) * kPi * s.radius * s.radius * s.radius * inv_cell_volume;
+          const float vol = (4.0f / 3.0f) * kPi * s.radius * s.radius * s.radius * inv_cell_volume *
+                            ps.clip_planes.kept_fraction(s.center, s.radius, clip);
           for (int k = 0; k < 8; ++k) {
             const int cx = x + (k & 1), cy = y + ((k >> 1) & 1), cz = z + ((k >> 2) & 1);
             if (cx < 0 || cy < 0 || cz < 0 || cx >= base.nx || cy >= base.ny || cz >= base.nz) continue;
@@ -148,6 +150,7 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
             for (int cx = x0; cx <= x1; ++cx) {
               const Vec3 d{static_cast<float>(cx) - g.x, static_cast<float>(cy) - g.y, static_cast<float>(cz) - g.z};
               const float inside = clamp(0.5f + r - length(d), 0, 1);
+              if (clip != kSphereWhole && ps.clip_planes.removes(origin_ + (g + d + Vec3{0.5f, 0.5f, 0.5f}) * cell)) continue;
               if (inside > 0) acc[index(cx, cy, cz)] += inside;
             }
       }
@@ -189,7 +192,7 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
             }
             float clear = 1.0f - value;
             for (const auto& cv : occluders.volumes()) {
-              if (!cv->box.contains(p)) continue;
+              if (!cv->box.contains(p) || cv->clip.removes(p)) continue;
               const float a = cv->lut.lookup(cv->volume->sample_voxel(cv->volume->to_voxel(p))).a;
               if (a > 0) clear *= std::pow(1.0f - std::min(a, 0.9999f), steps_per_cell);
             }

@@ -6,6 +6,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/geometry/cut_sphere.h"
 #include "penumbra/particles/tile_bins.h"
 
 namespace penumbra {
@@ -59,7 +60,7 @@ SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera) {
   parallel_for(particles.size(), [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       const Sphere& s = particles.spheres[i];
-      rects[i] = pixel_rect(m, s);
+      rects[i] = particles.clip_of(i) == kSphereRemoved ? PixelRect{} : pixel_rect(m, s);
       const float distance = length(s.center - m.eye);
       near_bound[i] = lower_bound_with_margin(distance - s.radius, distance + s.radius);
     }
@@ -82,7 +83,7 @@ SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera) {
       },
       [&](const std::unique_ptr<TileRays>& rays, std::uint32_t id, int x, int y, float nearest) {
         const Vec3& d = rays->dir[static_cast<std::size_t>((y - rays->y0) * kRasterTile + (x - rays->x0))];
-        return intersect_sphere(Ray{m.eye, d}, particles.spheres[id], 0, nearest);
+        return intersect_particle(particles, id, Ray{m.eye, d}, 0, nearest);
       },
       [&](int x, int y, float t, std::uint32_t id) {
         const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(m.width) + static_cast<std::size_t>(x);

@@ -11,12 +11,14 @@ namespace penumbra {
 PreparedIsosurface::PreparedIsosurface(std::shared_ptr<const GridTree> t, const IsosurfaceObject& o)
     : object(&o), tree(std::move(t)), raycaster(*tree, o.value) {}
 
-IsoPoints isosurface_eye_points(const Camera& camera, PreparedIsosurface& iso, IsosurfaceFrameStats& stats) {
+IsoPoints isosurface_eye_points(const Camera& camera, PreparedIsosurface& iso, IsosurfaceFrameStats& stats,
+                                const ClipPlanes& clip) {
   const IsosurfaceObject& o = *iso.object;
   switch (o.method) {
     case IsosurfaceMethod::Points: {
       ExtractionOptions options;
       options.collapse = o.collapse;
+      options.clip = clip.empty() ? nullptr : &clip;
       Extraction e = extract_points(*iso.tree, o.value, ViewProjection::from_camera(camera), options);
       stats.extract_ms = e.stats.ms;
       stats.extraction = e.stats;
@@ -24,7 +26,7 @@ IsoPoints isosurface_eye_points(const Camera& camera, PreparedIsosurface& iso, I
     }
     case IsosurfaceMethod::Raycast: {
       Timer t;
-      IsoPoints points = iso.raycaster.render(camera);
+      IsoPoints points = iso.raycaster.render(camera, clip);
       stats.extract_ms = t.elapsed_ms();
       return points;
     }
@@ -36,7 +38,7 @@ IsoPoints isosurface_eye_points(const Camera& camera, PreparedIsosurface& iso, I
       }
       stats.triangles = iso.mesh->triangles();
       Timer t;
-      IsoPoints points = rasterize_mesh(*iso.mesh, camera);
+      IsoPoints points = rasterize_mesh(*iso.mesh, camera, clip);
       stats.extract_ms = t.elapsed_ms();
       return points;
     }

@@ -48,7 +48,9 @@ struct IsosurfaceFrameStats {
   }
 };
 
-// The eye pass alone: the isosurface's visible points for `camera` by the object's method.
-IsoPoints isosurface_eye_points(const Camera& camera, PreparedIsosurface& iso, IsosurfaceFrameStats& stats);
+// The eye pass alone: the isosurface's visible points for `camera` by the object's method; `clip`: the
+// planes that cut it (what they remove is not drawn, and the surface behind shows).
+IsoPoints isosurface_eye_points(const Camera& camera, PreparedIsosurface& iso, IsosurfaceFrameStats& stats,
+                                const ClipPlanes& clip = ClipPlanes());
 
 }  // namespace penumbra

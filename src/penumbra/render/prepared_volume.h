@@ -43,8 +43,14 @@ struct PreparedVolume {
 
   std::size_t memory_bytes() const { return gradients.size() * sizeof(gradients[0]) + grid.memory_bytes() + empty.size(); }
 
+  // The part [t0, t1] of r within [tmin, tmax] inside the volume's box and kept by its clip planes.
+  bool span(const Ray& r, float& t0, float& t1, float tmin, float tmax) const {
+    return volume->bounds().clip(r, t0, t1, tmin, tmax) && (!clip || clip->keep(r, t0, t1));
+  }
+
   const VolumeObject* object;
   const Volume* volume;
+  const ClipPlanes* clip = nullptr;  // the scene's clip planes that cut this volume (set every frame); null: none
   float step;  // world units: the step in use
   TransferLut lut;  // the table in use
   float full_step = 0, preview_step = 0;

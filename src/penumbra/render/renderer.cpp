@@ -9,6 +9,7 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/particles/sphere_hits.h"
 #include "penumbra/render/frame_settings.h"
+#include "penumbra/render/sphere_clipping.h"
 #include "penumbra/render/surface_frame.h"
 #include "penumbra/render/volume_raycaster.h"
 #include "penumbra/registry/technique_catalog.h"
@@ -64,7 +65,7 @@ void Renderer::mark_all_stale() {
     for (const char* what : {"gradients", "minmax", "lut", "empty_space", "hierarchy"}) stale_.insert(indexed("volumes", i, what));
   for (std::size_t i = 0; i < scene_.isosurfaces.size(); ++i)
     for (const char* what : {"surface", "mesh"}) stale_.insert(indexed("isosurfaces", i, what));
-  for (const char* what : {"spheres", "spheres.colors", "bvh", "casters", "sat", "ambient"}) stale_.insert(what);
+  for (const char* what : {"spheres", "spheres.colors", "spheres.clip", "bvh", "casters", "sat", "ambient"}) stale_.insert(what);
   for (std::size_t i = 0; i < scene_.lights.size(); ++i) stale_.insert(indexed("lights", i, "shadows"));
 }
 
@@ -77,6 +78,7 @@ void Renderer::apply_edit(const Scene& edited, const std::vector<std::string>& s
   for (std::size_t i = 0; i < edited.particles.size(); ++i) scene_.particles[i] = edited.particles[i];
   for (std::size_t i = 0; i < edited.isosurfaces.size(); ++i) scene_.isosurfaces[i] = edited.isosurfaces[i];
   for (std::size_t i = 0; i < edited.planes.size(); ++i) scene_.planes[i] = edited.planes[i];
+  scene_.clip_planes = edited.clip_planes;
   scene_.camera = edited.camera;
   scene_.lights = edited.lights;
   scene_.sphere_rasterizer = edited.sphere_rasterizer;
@@ -121,6 +123,7 @@ std::vector<std::string> Renderer::structures() const {
   if (particles_) {
     names.push_back("spheres");
     names.push_back("spheres.colors");
+    names.push_back("spheres.clip");
   }
   if (bvh_) names.push_back("bvh");
   if (casters_) names.push_back("casters");
@@ -147,6 +150,7 @@ void Renderer::prepare_volumes(FrameResult& frame) {
     const auto i = static_cast<std::size_t>(volume_index_[k]);
     PreparedVolume& pv = *volumes_[k];
     pv.object = &scene_.volumes[i];
+    pv.clip = &scene_.clip_planes_for(scene_.volumes[i].clip);
     if (stale(indexed("volumes", i, "gradients"))) {
       pv.update_gradients();
       rebuilt(indexed("volumes", i, "gradients"), Quality::Full, frame);
@@ -175,7 +179,7 @@ void Renderer::prepare_volumes(FrameResult& frame) {
 
 void Renderer::prepare_particles(FrameResult& frame) {
   if (!scene_.has_particles()) {
-    for (const char* what : {"spheres", "spheres.colors", "bvh"}) stale_.erase(what);
+    for (const char* what : {"spheres", "spheres.colors", "spheres.clip", "bvh"}) stale_.erase(what);
     return;
   }
   // casting objects first, so that the casting spheres are a prefix with the same indices
@@ -214,6 +218,7 @@ void Renderer::prepare_particles(FrameResult& frame) {
     }
     rebuilt("spheres", Quality::Full, frame);
     rebuilt("spheres.colors", Quality::Full, frame);
+    stale_.insert("spheres.clip");  // the new set is not marked yet
     hits_for_.reset();
     stale_.insert("bvh");      // it points at the set
     stale_.insert("casters");  // so do they
@@ -225,6 +230,20 @@ void Renderer::prepare_particles(FrameResult& frame) {
         std::copy(set.colors.begin(), set.colors.end(), casting_particles_->colors.begin() + particle_offsets_[s]);
     }
     rebuilt("spheres.colors", Quality::Full, frame);
+  }
+  if (stale("spheres.clip")) {  // which spheres the clip planes cut or remove
+    std::vector<bool> clipped;
+    for (std::uint32_t i : order) clipped.push_back(scene_.particles[i].clip);
+    clip_spheres(*particles_, scene_.clip_planes, particle_offsets_, clipped);
+    if (casting_particles_ && casting_particles_ != particles_) {
+      casting_particles_->clip_planes = particles_->clip_planes;
+      casting_particles_->clip_state.assign(particles_->clip_state.begin(),
+                                            particles_->clip_state.begin() + static_cast<std::ptrdiff_t>(std::min(particles_->clip_state.size(), casting_particles_->size())));
+    }
+    rebuilt("spheres.clip", Quality::Full, frame);
+    hits_for_.reset();
+    stale_.insert("bvh");      // cut spheres are intersected apart
+    stale_.insert("casters");
   }
   const bool wants_bvh = needs_sphere_bvh(scene_);
   if (wants_bvh && (stale("bvh") || !bvh_)) {
@@ -293,7 +312,8 @@ void Renderer::prepare_casters() {
   }
   for (std::size_t i = 0; i < isosurfaces_.size(); ++i)
     if (scene_.isosurfaces[i].casts_shadows)
-      casters_->add_isosurface(isosurfaces_[i]->raycaster, *isosurfaces_[i]->tree, static_cast<std::uint32_t>(i));
+      casters_->add_isosurface(isosurfaces_[i]->raycaster, *isosurfaces_[i]->tree, static_cast<std::uint32_t>(i),
+                               scene_.clip_planes_for(scene_.isosurfaces[i].clip));
   if (sat_) casters_->attach_extinction_sat(sat_.get());
 }
 
@@ -340,7 +360,7 @@ void Renderer::prepare(Quality quality, FrameResult& frame) {
       // the casting spheres enter the table too (approximate ambient occlusion and cone shadows by spheres)
       sat_ = std::make_unique<ExtinctionSat>(*v->volume, v->shadow_tf(), v->compositing, v->reference_step(),
                                              settings_.light_cache.resolution, needs_extinction_colour(scene_),
-                                             casting_particles_.get(), frame_brick_);
+                                             casting_particles_.get(), frame_brick_, &scene_.clip_planes_for(v->clip));
       sat_slab_ = sat_slab;
       frame.sat_ms = t.elapsed_ms();
       rebuilt("sat", quality, frame);
@@ -471,7 +491,7 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   for (std::size_t s = 0; s < isosurfaces_.size(); ++s) {
     IsosurfaceFrameStats one;
     const bool had_mesh = isosurfaces_[s]->mesh != nullptr;
-    eye[s] = penumbra::isosurface_eye_points(camera, *isosurfaces_[s], one);
+    eye[s] = penumbra::isosurface_eye_points(camera, *isosurfaces_[s], one, scene_.clip_planes_for(scene_.isosurfaces[s].clip));
     if (!had_mesh && isosurfaces_[s]->mesh) rebuilt(indexed("isosurfaces", s, "mesh"), Quality::Full, frame);
     frame.isosurface.add(one);
     frame.isosurface.points += eye[s].size();

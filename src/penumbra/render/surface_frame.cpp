@@ -5,6 +5,7 @@
 
 #include "penumbra/core/cancel.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/geometry/cut_sphere.h"
 #include "penumbra/render/surface_shading.h"
 
 namespace penumbra {
@@ -116,8 +117,9 @@ void visible_surfaces(const SurfaceInputs& in, VisibleSurfaces& vs) {
             const std::uint32_t id = in.hits->id[i];
             const Sphere& s = in.particles->spheres[id];
             const Vec3 pos = rays.ray(x, static_cast<int>(y)).at(t);
-            sp.normal = normalize(pos - s.center);
-            sp.position = s.center + sp.normal * s.radius;  // on the surface to the last bit that matters
+            sp.normal = particle_normal(*in.particles, id, pos);  // a cut sphere's cap: its plane's normal
+            // on the surface to the last bit that matters (a cap point stays where the ray met it)
+            sp.position = in.particles->clip_of(id) == kSphereWhole ? s.center + sp.normal * s.radius : pos;
             sp.kind = ObjectKind::Spheres;
             sp.self = id;
             const auto segment = std::upper_bound(in.particle_offsets.begin(), in.particle_offsets.end(), id) - in.particle_offsets.begin() - 1;

@@ -126,7 +126,7 @@ float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, 
                 SampleBatch& batch, Rgb& color, float& half) {
   float opacity = 0;
   float t0, t1;
-  if (!pv.volume->bounds().clip(ray, t0, t1, 0, t_surface)) return opacity;
+  if (!pv.span(ray, t0, t1, 0, t_surface)) return opacity;
   const SampleSlab* owned = shader.in.owned;
   if constexpr (kSlab) {
     if (!owned->clip(ray, pv.step, t0, t1)) return opacity;
@@ -184,7 +184,7 @@ float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& s
   float t0 = kInfinity, t1 = -kInfinity;
   for (const PreparedVolume* pv : volumes) {
     float a, b;
-    if (pv->volume->bounds().clip(ray, a, b, 0, t_surface)) {
+    if (pv->span(ray, a, b, 0, t_surface)) {
       t0 = std::min(t0, a);
       t1 = std::max(t1, b);
     }
@@ -204,7 +204,7 @@ float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& s
     bool occupied = false;
     for (const PreparedVolume* pv : volumes) {
       float a0, a1;
-      if (!pv->volume->bounds().clip(ray, a0, a1, t, t1)) continue;
+      if (!pv->span(ray, a0, a1, t, t1)) continue;
       if (a0 > t) {
         skip_to = std::min(skip_to, a0);
         continue;

@@ -85,6 +85,11 @@ std::size_t Scene::frame_count() const {
   return n;
 }
 
+const ClipPlanes& Scene::clip_planes_for(bool clip) const {
+  static const ClipPlanes kNone;
+  return clip ? clip_planes : kNone;
+}
+
 const VolumeObject* Scene::visible_volume() const {
   for (const auto& v : volumes)
     if (v.visible) return &v;

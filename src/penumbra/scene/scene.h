@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/core/clip_planes.h"
 #include "penumbra/core/color.h"
 #include "penumbra/core/math.h"
 #include "penumbra/data/particles.h"
@@ -30,10 +31,12 @@ constexpr KindMask kAllKinds = (1u << kObjectKinds) - 1;
 std::string to_string(ObjectKind kind);          // "volumes", "spheres", "isosurfaces", "planes"
 ObjectKind object_kind_from_string(const std::string& name);  // Error listing the names
 
-// Whether an object darkens others and is darkened by them (ChimeraX-style per-object shadow control).
+// Whether an object darkens others and is darkened by them (ChimeraX-style per-object shadow control),
+// and whether the scene's clip planes cut it (for the eye and every light alike).
 struct ShadowFlags {
   bool casts_shadows = true;
   bool receives_shadows = true;
+  bool clip = true;  // spheres are cut exactly (a cap on each cut face), isosurfaces end open at a cut
 };
 
 struct VolumeObject : ShadowFlags {
@@ -100,6 +103,9 @@ struct Plane : ShadowFlags {
   Vec3 normal{0, 1, 0};
   Rgb color{0.8f, 0.8f, 0.8f};
   float size = 0;
+  ClipPlanes clip_planes;   // the scene's clip planes when `clip`, else none (set by the scene reader)
+
+  Plane() { clip = false; }  // a floor stays whole unless asked
 
   // Ray parameter of the hit in (tmin, tmax), or infinity.
   float intersect(const Ray& r, float tmin, float tmax) const {
@@ -112,6 +118,7 @@ struct Plane : ShadowFlags {
       const Vec3 d = r.at(t) - point;
       if (std::abs(dot(d, f.u)) > size * 0.5f || std::abs(dot(d, f.v)) > size * 0.5f) return kInfinity;
     }
+    if (!clip_planes.empty() && clip_planes.removes(r.at(t))) return kInfinity;
     return t;
   }
   Box3 bounds() const;  // empty for infinite planes
@@ -167,6 +174,9 @@ struct Scene {
   std::vector<IsosurfaceObject> isosurfaces;
   SphereRasterizer sphere_rasterizer = SphereRasterizer::Splat;
   std::vector<Plane> planes;
+  // clip_planes: each removes the half-space its normal points into from every object whose `clip` is
+  // true, for the eye and for every light (core/clip_planes.h).
+  ClipPlanes clip_planes;
   std::vector<Light> lights;
   ShadowSettings shadows;
   AmbientSettings ambient;
@@ -186,6 +196,8 @@ struct Scene {
   Box3 caster_bounds() const;
   // The first visible volume, or nullptr.
   const VolumeObject* visible_volume() const;
+  // The clip planes that cut an object with this `clip` flag (none when false).
+  const ClipPlanes& clip_planes_for(bool clip) const;
   bool has_particles() const { return !particles.empty(); }
   bool has_isosurfaces() const { return !isosurfaces.empty(); }
 };

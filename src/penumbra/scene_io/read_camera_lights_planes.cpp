@@ -70,4 +70,24 @@ Plane read_plane(const nlohmann::json& j, const std::string& path) {
   return p;
 }
 
+// clip_planes: each {"point", "normal"} removes the half-space the normal points into.
+ClipPlanes read_clip_planes(const nlohmann::json& j, const std::string& path) {
+  if (!j.is_array()) throw Error(path + ": expected an array of {\"point\": [x, y, z], \"normal\": [x, y, z]}");
+  if (j.size() > ClipPlanes::kMaxPlanes)
+    throw Error(path + ": " + std::to_string(j.size()) + " planes; at most " + std::to_string(ClipPlanes::kMaxPlanes) +
+                " (enough to cut out a box)");
+  std::vector<ClipPlane> planes;
+  for (std::size_t i = 0; i < j.size(); ++i) {
+    JsonReader r(j[i], path + "." + std::to_string(i));
+    if (!r.has("point")) r.fail("point", "missing: a point on the plane");
+    if (!r.has("normal")) r.fail("normal", "missing: the direction of the half-space the plane removes");
+    ClipPlane c{r.vec3("point", {}), r.vec3("normal", {})};
+    if (!(length(c.normal) > 0)) r.fail("normal", "must not be the zero vector");
+    c.normal = normalize(c.normal);
+    r.finish();
+    planes.push_back(c);
+  }
+  return ClipPlanes(std::move(planes));
+}
+
 }  // namespace penumbra::scene_sections

@@ -18,10 +18,12 @@ std::string resolve(const std::string& base_dir, const std::string& file) {
   return p.is_absolute() || base_dir.empty() ? file : (std::filesystem::path(base_dir) / p).string();
 }
 
-// casts_shadows / receives_shadows (default true) of any object that is drawn.
+// casts_shadows / receives_shadows (default true) and clip (default true; planes false) of any object
+// that is drawn.
 void read_shadow_flags(JsonReader& r, ShadowFlags& f) {
   f.casts_shadows = r.boolean("casts_shadows", f.casts_shadows);
   f.receives_shadows = r.boolean("receives_shadows", f.receives_shadows);
+  f.clip = r.boolean("clip", f.clip);
 }
 
 // What defines an object's data (the keys `keys` of it, with the folder relative files resolve against).

@@ -23,7 +23,7 @@ ParticleObject read_static_particles(const nlohmann::json& j, const std::string&
   if (options.cache && j.is_object()) {  // everything but the shadow flags defines the spheres and their colours
     JsonReader r(j, path);
     ParticleObject p;
-    p.set = options.cache->particles(data_key(j, base_dir, {"casts_shadows", "receives_shadows"}, true), [&] {
+    p.set = options.cache->particles(data_key(j, base_dir, {"casts_shadows", "receives_shadows", "clip"}, true), [&] {
       return ParticleSet(*read_static_particles(j, path, base_dir, SceneReadOptions{}).set);
     });
     p.source = r.has("file") ? resolve(base_dir, r.required_string("file")) : "procedural:random-spheres";
@@ -148,7 +148,7 @@ ParticleObject read_trajectory_particles(const nlohmann::json& j, const std::str
   };
   // a frame read once per time: edits of anything else keep the same spheres
   if (options.cache) {
-    std::string key = data_key(j, base_dir, {"casts_shadows", "receives_shadows"}, true) + "@time=" + std::to_string(time);
+    std::string key = data_key(j, base_dir, {"casts_shadows", "receives_shadows", "clip"}, true) + "@time=" + std::to_string(time);
     bool loaded = false;
     p.set = options.cache->particles(key, [&] {
       loaded = true;
