@@ -639,7 +639,10 @@ TEST(DicomSeries, AxisAlignedOrientationsMapPixelsToPatientPositions) {
   }
 }
 
-TEST(DicomSeries, ObliqueSeriesKeepsItsGridAndSaysSo) {
+// An oblique series (rows turned 0.5 rad about z) is resampled onto the patient axes at its smallest
+// spacing, covering its world box, and says so; a sample at a pixel's patient position lies within the
+// pixels around it.
+TEST(DicomSeries, ObliqueSeriesIsResampledOntoPatientAxes) {
   SKIP_WITHOUT_SHARED_DATA("dicom_pancreas_ct/1-045.dcm");
   TempDir dir;
   const double s = std::sin(0.5), c = std::cos(0.5);
@@ -651,13 +654,30 @@ TEST(DicomSeries, ObliqueSeriesKeepsItsGridAndSaysSo) {
     });
   VolumeFileInfo info;
   const Volume v = load({dir.file("")}, "", &info);
-  EXPECT_EQ(v.dims(), (std::array<int, 3>{512, 512, 3}));
-  EXPECT_FLOAT_EQ(v.spacing().z, 2.0f);
-  EXPECT_FLOAT_EQ(v.origin().x, 5.0f);
-  EXPECT_FLOAT_EQ(v.origin().z, 100.0f);
+  const double ps = 1.07421875, side = 511 * ps;
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(v.spacing()[a], ps, 1e-6);
+  // The rotated square spans side·(cos + sin) along x and y; the slices 4 mm along z.
+  EXPECT_EQ(v.dims()[0], static_cast<int>(std::floor(side * (c + s) / ps + 1e-6)) + 1);
+  EXPECT_EQ(v.dims()[2], static_cast<int>(std::floor(4 / ps)) + 1);
+  EXPECT_NEAR(v.origin().x, 5 - side * s, 1e-3);
+  EXPECT_NEAR(v.origin().y, 6, 1e-3);
+  EXPECT_NEAR(v.origin().z, 100, 1e-4);
   EXPECT_EQ(info.orientation.rfind("oblique", 0), 0u) << info.orientation;
-  EXPECT_TRUE(has_note(info, "rotation is not applied"));
-  for (int f = 0; f < 3; ++f) EXPECT_EQ(v.value(310, 200, f), reference().value(310, 200, 94 - (70 - f)));
+  EXPECT_TRUE(has_note(info, "resampled trilinearly onto an axis-aligned grid"));
+  ASSERT_TRUE(info.affine.has_value());
+  EXPECT_NEAR(info.affine->linear[1][0], s * ps, 1e-6);
+  const Volume& axial = reference();
+  for (const auto& [i, j] : {std::pair{100, 100}, std::pair{256, 256}, std::pair{310, 200}, std::pair{400, 300}}) {
+    const Vec3 p{static_cast<float>(5 + ps * (i * c - j * s)), static_cast<float>(6 + ps * (i * s + j * c)), 100.0f};
+    float lo = 1e30f, hi = -1e30f;
+    for (int dj = -2; dj <= 2; ++dj)
+      for (int di = -2; di <= 2; ++di) {
+        const float x = axial.value(i + di, j + dj, 94 - 70);
+        lo = std::min(lo, x), hi = std::max(hi, x);
+      }
+    const float got = v.sample(p);
+    EXPECT_TRUE(got >= lo - 0.5f && got <= hi + 0.5f) << "pixel " << i << "," << j << ": " << got << " outside " << lo << " .. " << hi;
+  }
 }
 
 TEST(DicomSeries, SingleSliceTakesItsThickness) {
