@@ -209,6 +209,30 @@ def test_an_oblique_rotation_is_resampled_and_renders_like_the_turned_view(tmp_p
     assert psnr_dropped < psnr - 5, "the view does not tell a turned volume from an unturned one"
 
 
+def test_nifti_without_sform_or_qform_takes_nibabels_base_affine(tmp_path):
+    voxels = canonical()
+    img = nib.Nifti1Image(voxels, None)
+    img.header.set_zooms(SPACING)
+    path = str(tmp_path / "no_codes.nii")
+    nib.save(img, path)
+    back = nib.load(path)
+    assert int(back.header["sform_code"]) == 0 and int(back.header["qform_code"]) == 0
+    v = penumbra.read_volume(path)
+    assert np.allclose(np.array(v.info["affine"]), (RAS @ back.affine)[:3], atol=1e-6)  # x flipped in RAS: y in LPS
+    assert np.array_equal(v.array, np.flip(voxels, 1).transpose(2, 1, 0))
+    assert any("base affine" in n for n in v.info["notes"])
+
+
+def test_an_oblique_grid_too_large_to_resample_is_an_error(tmp_path):
+    voxels, _ = stored(canonical()[:2, :2, :2].copy(), (0, 1, 2), (False, False, False))
+    lps = np.eye(4)
+    lps[:3, :3] = [[707.1, -0.0007071, 0], [707.1, 0.0007071, 0], [0, 0, 1]]  # 1000 mm and 0.001 mm, turned 45°
+    path = str(tmp_path / "huge_oblique.nrrd")
+    write_nrrd(path, voxels, lps, "left-posterior-superior")
+    with pytest.raises(penumbra.Error, match=r"huge_oblique\.nrrd.*resampled onto an axis-aligned grid of .* GiB \(at most 8 GiB\)"):
+        penumbra.read_volume(path)
+
+
 def test_info_prints_the_affine(tmp_path):
     voxels, lps = stored(canonical(), *CASES["fsl_flipped_x"])
     path = str(tmp_path / "flipped.nii.gz")
