@@ -680,6 +680,40 @@ TEST(DicomSeries, ObliqueSeriesIsResampledOntoPatientAxes) {
   }
 }
 
+// A tilted gantry: axial slices whose positions also move along y (1 mm per 2 mm slice) make a sheared
+// grid, resampled onto the patient axes: a slice's pixel lands at its own patient position.
+TEST(DicomSeries, GantryTiltIsAShearedGridResampled) {
+  SKIP_WITHOUT_SHARED_DATA("dicom_pancreas_ct/1-045.dcm");
+  TempDir dir;
+  for (int f = 0; f < 4; ++f)
+    rewrite(slice_file(70 - f), dir.file("t" + std::to_string(f) + ".dcm"), [&](gdcm::DataSet& ds) {
+      set_text(ds, 0x0020, 0x0037, gdcm::VR::DS, "1\\0\\0\\0\\1\\0");
+      set_text(ds, 0x0020, 0x0032, gdcm::VR::DS, "5\\" + std::to_string(6 + f) + "\\" + std::to_string(100 + 2 * f));
+    });
+  VolumeFileInfo info;
+  const Volume v = load({dir.file("")}, "", &info);
+  EXPECT_TRUE(has_note(info, "within the slice plane over the series (gantry tilt?): the grid is sheared"));
+  EXPECT_TRUE(has_note(info, "resampled trilinearly"));
+  ASSERT_TRUE(info.affine.has_value());
+  EXPECT_NEAR(info.affine->linear[1][2], 1.0, 1e-9);
+  EXPECT_NEAR(info.affine->linear[2][2], 2.0, 1e-9);
+  const double ps = 1.07421875;
+  EXPECT_NEAR(v.origin().y, 6, 1e-4);
+  EXPECT_NEAR(v.bounds().hi.y, 6 + 511 * ps + 3, 1.5 * ps);
+  // On slice 0 (z = 100, a grid plane of the resampled volume) the grid's points fall between pixels
+  // only along y, and 3 mm up the y shift is 1.5 mm: the samples stay within the pixels around.
+  for (const auto& [i, j] : {std::pair{100, 100}, std::pair{256, 256}, std::pair{400, 300}}) {
+    const Vec3 p{static_cast<float>(5 + ps * i), static_cast<float>(6 + ps * j), 100.0f};
+    float lo = 1e30f, hi = -1e30f;
+    for (int dj = -1; dj <= 1; ++dj) {
+      const float x = reference().value(i, j + dj, 94 - 70);
+      lo = std::min(lo, x), hi = std::max(hi, x);
+    }
+    const float got = v.sample(p);
+    EXPECT_TRUE(got >= lo - 0.5f && got <= hi + 0.5f) << "pixel " << i << "," << j << ": " << got << " outside " << lo << " .. " << hi;
+  }
+}
+
 TEST(DicomSeries, SingleSliceTakesItsThickness) {
   SKIP_WITHOUT_SHARED_DATA("dicom_pancreas_ct/1-045.dcm");
   VolumeFileInfo info;
