@@ -16,7 +16,7 @@ namespace {
 
 using Vec3d = std::array<double, 3>;
 
-std::string number_text(double v) {
+std::string affine_number(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.6g", v == 0 ? 0.0 : v);  // no "-0"
   return buf;
@@ -147,7 +147,7 @@ Volume resampled(Volume file_grid, const Affine& affine, VolumeFileInfo& info) {
                        static_cast<double>(scalar_size(file_grid.type()));
   if (bytes > static_cast<double>(kMaxResampledBytes))
     throw Error("the oblique volume (affine " + affine.str() + ") would be resampled onto an axis-aligned grid of " + grid_text + " voxels at " +
-                number_text(step) + " mm, " + number_text(bytes / (1u << 30)) + " GiB (at most " +
+                affine_number(step) + " mm, " + affine_number(bytes / (1u << 30)) + " GiB (at most " +
                 std::to_string(kMaxResampledBytes >> 30) + " GiB)");
   file_grid.recompute_range();  // the background, and NaN voxels rejected before they spread
   const float background = file_grid.min_value();
@@ -179,9 +179,9 @@ Volume resampled(Volume file_grid, const Affine& affine, VolumeFileInfo& info) {
     });
   });
   if (info.orientation.empty()) info.orientation = "oblique: resampled onto LPS axes";
-  info.notes.push_back("oblique affine " + affine.str() + " (axes up to " + number_text(largest_tilt(affine)) +
+  info.notes.push_back("oblique affine " + affine.str() + " (axes up to " + affine_number(largest_tilt(affine)) +
                        " degrees off the world axes): resampled trilinearly onto an axis-aligned grid of " + grid_text + " voxels at " +
-                       number_text(step) + " mm (the file's grid is " + std::to_string(fd[0]) + "x" + std::to_string(fd[1]) + "x" +
+                       affine_number(step) + " mm (the file's grid is " + std::to_string(fd[0]) + "x" + std::to_string(fd[1]) + "x" +
                        std::to_string(fd[2]) + ")");
   return out;
 }
@@ -206,8 +206,8 @@ std::array<double, 3> Affine::apply(const std::array<double, 3>& index) const {
 std::string Affine::str() const {
   std::string s = "[";
   for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) s += number_text(linear[r][c]) + " ";
-    s += number_text(offset[r]) + (r < 2 ? "; " : "]");
+    for (int c = 0; c < 3; ++c) s += affine_number(linear[r][c]) + " ";
+    s += affine_number(offset[r]) + (r < 2 ? "; " : "]");
   }
   return s;
 }
