@@ -330,7 +330,11 @@ PYBIND11_MODULE(_penumbra, m) {
           for (int i = 0; i < d[0]; ++i) *out++ = static_cast<T>(v.value(i, j, k));
       return a;
     });
-    const nlohmann::json described = {{"format", info.format}, {"orientation", info.orientation}, {"series", info.series},
+    nlohmann::json affine;  // the file's index-to-world transform (LPS), rows of [linear | offset], or null
+    if (info.affine)
+      for (int r = 0; r < 3; ++r)
+        affine.push_back({info.affine->linear[r][0], info.affine->linear[r][1], info.affine->linear[r][2], info.affine->offset[r]});
+    const nlohmann::json described = {{"format", info.format}, {"affine", affine}, {"orientation", info.orientation}, {"series", info.series},
                                       {"series_index", info.series_index}, {"channels", info.channels},
                                       {"channel", info.channel}, {"notes", info.notes}};
     return py::make_tuple(array, py::make_tuple(v.spacing().x, v.spacing().y, v.spacing().z),

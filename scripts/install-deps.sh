@@ -8,6 +8,7 @@ packages=(build-essential cmake ninja-build g++ pkg-config
           libgdcm-dev libopenjp2-7-dev libtiff-dev libopenexr-dev  # DICOM series (JPEG 2000: OpenJPEG), TIFF stacks, EXR images
           libopenvdb-dev python3-openvdb  # OpenVDB grids (sparse volumes); pyopenvdb writes the test grids
           python3-pydicom python3-tifffile  # independent readers the loader tests compare against
+          python3-nibabel  # writes NIfTI with flipped, rotated and qform-only affines, read as nibabel reads them
           python3-dev pybind11-dev python3-numpy python3-pytest  # the Python package (python/)
           python3-mdanalysis jupyter-nbconvert python3-ipykernel  # trajectories, the example notebook
           python3-matplotlib  # the bench's error-against-time charts (scripts/bench_charts.py)

@@ -639,7 +639,10 @@ TEST(DicomSeries, AxisAlignedOrientationsMapPixelsToPatientPositions) {
   }
 }
 
-TEST(DicomSeries, ObliqueSeriesKeepsItsGridAndSaysSo) {
+// An oblique series (rows turned 0.5 rad about z) is resampled onto the patient axes at its smallest
+// spacing, covering its world box, and says so; a sample at a pixel's patient position lies within the
+// pixels around it.
+TEST(DicomSeries, ObliqueSeriesIsResampledOntoPatientAxes) {
   SKIP_WITHOUT_SHARED_DATA("dicom_pancreas_ct/1-045.dcm");
   TempDir dir;
   const double s = std::sin(0.5), c = std::cos(0.5);
@@ -651,13 +654,64 @@ TEST(DicomSeries, ObliqueSeriesKeepsItsGridAndSaysSo) {
     });
   VolumeFileInfo info;
   const Volume v = load({dir.file("")}, "", &info);
-  EXPECT_EQ(v.dims(), (std::array<int, 3>{512, 512, 3}));
-  EXPECT_FLOAT_EQ(v.spacing().z, 2.0f);
-  EXPECT_FLOAT_EQ(v.origin().x, 5.0f);
-  EXPECT_FLOAT_EQ(v.origin().z, 100.0f);
+  const double ps = 1.07421875, side = 511 * ps;
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(v.spacing()[a], ps, 1e-6);
+  // The rotated square spans side·(cos + sin) along x and y; the slices 4 mm along z.
+  EXPECT_EQ(v.dims()[0], static_cast<int>(std::floor(side * (c + s) / ps + 1e-6)) + 1);
+  EXPECT_EQ(v.dims()[2], static_cast<int>(std::floor(4 / ps)) + 1);
+  EXPECT_NEAR(v.origin().x, 5 - side * s, 1e-3);
+  EXPECT_NEAR(v.origin().y, 6, 1e-3);
+  EXPECT_NEAR(v.origin().z, 100, 1e-4);
   EXPECT_EQ(info.orientation.rfind("oblique", 0), 0u) << info.orientation;
-  EXPECT_TRUE(has_note(info, "rotation is not applied"));
-  for (int f = 0; f < 3; ++f) EXPECT_EQ(v.value(310, 200, f), reference().value(310, 200, 94 - (70 - f)));
+  EXPECT_TRUE(has_note(info, "resampled trilinearly onto an axis-aligned grid"));
+  ASSERT_TRUE(info.affine.has_value());
+  EXPECT_NEAR(info.affine->linear[1][0], s * ps, 1e-6);
+  const Volume& axial = reference();
+  for (const auto& [i, j] : {std::pair{100, 100}, std::pair{256, 256}, std::pair{310, 200}, std::pair{400, 300}}) {
+    const Vec3 p{static_cast<float>(5 + ps * (i * c - j * s)), static_cast<float>(6 + ps * (i * s + j * c)), 100.0f};
+    float lo = 1e30f, hi = -1e30f;
+    for (int dj = -2; dj <= 2; ++dj)
+      for (int di = -2; di <= 2; ++di) {
+        const float x = axial.value(i + di, j + dj, 94 - 70);
+        lo = std::min(lo, x), hi = std::max(hi, x);
+      }
+    const float got = v.sample(p);
+    EXPECT_TRUE(got >= lo - 0.5f && got <= hi + 0.5f) << "pixel " << i << "," << j << ": " << got << " outside " << lo << " .. " << hi;
+  }
+}
+
+// A tilted gantry: axial slices whose positions also move along y (1 mm per 2 mm slice) make a sheared
+// grid, resampled onto the patient axes: a slice's pixel lands at its own patient position.
+TEST(DicomSeries, GantryTiltIsAShearedGridResampled) {
+  SKIP_WITHOUT_SHARED_DATA("dicom_pancreas_ct/1-045.dcm");
+  TempDir dir;
+  for (int f = 0; f < 4; ++f)
+    rewrite(slice_file(70 - f), dir.file("t" + std::to_string(f) + ".dcm"), [&](gdcm::DataSet& ds) {
+      set_text(ds, 0x0020, 0x0037, gdcm::VR::DS, "1\\0\\0\\0\\1\\0");
+      set_text(ds, 0x0020, 0x0032, gdcm::VR::DS, "5\\" + std::to_string(6 + f) + "\\" + std::to_string(100 + 2 * f));
+    });
+  VolumeFileInfo info;
+  const Volume v = load({dir.file("")}, "", &info);
+  EXPECT_TRUE(has_note(info, "within the slice plane over the series (gantry tilt?): the grid is sheared"));
+  EXPECT_TRUE(has_note(info, "resampled trilinearly"));
+  ASSERT_TRUE(info.affine.has_value());
+  EXPECT_NEAR(info.affine->linear[1][2], 1.0, 1e-9);
+  EXPECT_NEAR(info.affine->linear[2][2], 2.0, 1e-9);
+  const double ps = 1.07421875;
+  EXPECT_NEAR(v.origin().y, 6, 1e-4);
+  EXPECT_NEAR(v.bounds().hi.y, 6 + 511 * ps + 3, 1.5 * ps);
+  // On slice 0 (z = 100, a grid plane of the resampled volume) the grid's points fall between pixels
+  // only along y, and 3 mm up the y shift is 1.5 mm: the samples stay within the pixels around.
+  for (const auto& [i, j] : {std::pair{100, 100}, std::pair{256, 256}, std::pair{400, 300}}) {
+    const Vec3 p{static_cast<float>(5 + ps * i), static_cast<float>(6 + ps * j), 100.0f};
+    float lo = 1e30f, hi = -1e30f;
+    for (int dj = -1; dj <= 1; ++dj) {
+      const float x = reference().value(i, j + dj, 94 - 70);
+      lo = std::min(lo, x), hi = std::max(hi, x);
+    }
+    const float got = v.sample(p);
+    EXPECT_TRUE(got >= lo - 0.5f && got <= hi + 0.5f) << "pixel " << i << "," << j << ": " << got << " outside " << lo << " .. " << hi;
+  }
 }
 
 TEST(DicomSeries, SingleSliceTakesItsThickness) {

@@ -54,6 +54,26 @@ TEST(OpenData, AVolumeFileRendersAndItsSavedSceneRendersTheSameImage) {
   EXPECT_TRUE(non_trivial(read_image(dir.file("direct.pfm"))));
 }
 
+// A volume in a patient frame (NIfTI, DICOM: LPS, superior along +z) stands up, seen from the front
+// (-y, anterior); a volume without one keeps y up.
+TEST(OpenData, AVolumeInAPatientFrameStandsUpSeenFromTheFront) {
+  SKIP_WITHOUT_SHARED_DATA("chris_t1.nii.gz");
+  SKIP_WITHOUT_SHARED_DATA("neghip.nhdr");
+  ScratchDir dir;
+  for (const auto& [file, up] : {std::pair{"chris_t1.nii.gz", nlohmann::json{0, 0, 1}}, std::pair{"neghip.nhdr", nlohmann::json{0, 1, 0}}}) {
+    SCOPED_TRACE(file);
+    const CliRun r = penumbra_cli("render " + data(file) + " -o " + quote(dir.file("x.png")) + " --width 16 --height 16 --write-scene " +
+                                  quote(dir.file("x.json")));
+    ASSERT_EQ(r.status, 0) << r.err;
+    const nlohmann::json saved = nlohmann::json::parse(slurp(dir.file("x.json")));
+    EXPECT_EQ(saved["planes"][0]["normal"], up) << "the floor lies under the data";
+    if (up[2] == 1) {
+      EXPECT_EQ(saved["camera"]["up"], up);
+      EXPECT_LT(saved["camera"]["direction"][1].get<double>(), 0.0) << "seen from anterior";
+    }
+  }
+}
+
 TEST(OpenData, AVolumeAndAMoleculeMakeOneMixedScene) {
   SKIP_WITHOUT_SHARED_DATA("neghip.nhdr");
   SKIP_WITHOUT_SHARED_DATA("1tii.pdb");

@@ -312,18 +312,21 @@ TEST(VdbFile, DoubleGridWithTilesAndPlacement) {
   EXPECT_LT(v.memory_bytes(), v.voxel_count() * sizeof(float) / 2) << "tiles are shared, not stored";
 }
 
-TEST(VdbFile, RotatedTransformIsNotedNotApplied) {
+// A sparse grid is neither reordered nor resampled: a rotation or a flip it cannot honour is an Error
+// naming the file and the transform, never dropped.
+TEST(VdbFile, RotatedOrFlippedTransformIsAnError) {
   TempDir dir;
-  const std::string path = dir.file("rotated.vdb");
+  const std::string rotated = dir.file("rotated.vdb"), flipped = dir.file("flipped.vdb");
   auto g = blobs();
   auto t = openvdb::math::Transform::createLinearTransform(0.2);
   t->postRotate(0.3, openvdb::math::Z_AXIS);
   g->setTransform(t);
-  write_grids(path, {g});
-  VolumeFileInfo info;
-  const Volume v = load_vdb(path, "", &info);
-  EXPECT_NEAR(v.spacing().x, 0.2f, 1e-6f);
-  EXPECT_TRUE(has_note(info, "not an axis-aligned scale")) << "the unapplied rotation is said";
+  write_grids(rotated, {g});
+  expect_error(rotated, "", {"transform [", "not an axis-aligned positive scale"});
+  g->setTransform(openvdb::math::Transform::createLinearTransform(openvdb::Mat4d(
+      -0.5, 0.0, 0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 1.0)));
+  write_grids(flipped, {g});
+  expect_error(flipped, "", {"transform [-0.5 0 0", "not an axis-aligned positive scale"});
 }
 
 TEST(VdbFile, GridIsChosenByNameOrIndex) {

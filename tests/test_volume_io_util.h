@@ -113,7 +113,7 @@ struct NiftiSpec {
   short bitpix = 16;
   std::array<float, 3> pixdim{1.5f, 2.0f, 2.5f};
   float slope = 0, inter = 0;
-  std::array<float, 3> qoffset{0, 0, 0};
+  std::array<float, 3> qoffset{0, 0, 0};  // the LPS origin (written as NIfTI's RAS: x and y negated)
   bool big_endian = false;  // header and voxels in big-endian byte order (pass big-endian voxel bytes)
 };
 
@@ -134,6 +134,7 @@ inline void swap_header(nifti_1_header& h) {
   swap_in_place(h.scl_slope);
   swap_in_place(h.scl_inter);
   swap_in_place(h.qform_code);
+  swap_in_place(h.quatern_d);
   swap_in_place(h.qoffset_x);
   swap_in_place(h.qoffset_y);
   swap_in_place(h.qoffset_z);
@@ -153,10 +154,13 @@ inline Bytes nifti_file(const NiftiSpec& spec, const Bytes& data) {
   h.scl_slope = spec.slope;
   h.scl_inter = spec.inter;
   h.xyzt_units = NIFTI_UNITS_MM;
+  // The qform turns the grid by 180° about z (quaternion d = 1): RAS diag(-1, -1, 1), which is LPS's
+  // identity, so the voxels load in file order.
   h.qform_code = 1;
-  h.quatern_b = h.quatern_c = h.quatern_d = 0;
-  h.qoffset_x = spec.qoffset[0];
-  h.qoffset_y = spec.qoffset[1];
+  h.quatern_b = h.quatern_c = 0;
+  h.quatern_d = 1;
+  h.qoffset_x = -spec.qoffset[0];
+  h.qoffset_y = -spec.qoffset[1];
   h.qoffset_z = spec.qoffset[2];
   std::memcpy(h.magic, "n+1\0", 4);
   if (spec.big_endian) swap_header(h);

@@ -83,6 +83,45 @@ TEST(VolumeWindow, HistogramPartsAddUpToTheWholeGridsAndChooseItsTransferFunctio
   EXPECT_THROW(compute_histogram_part(whole, 16, h.lo, h.hi, 3, 25), Error);
 }
 
+// A window is slices of the placed grid (volume_placement.h), whatever the file's order: a file whose z
+// runs backwards reads the matching slices from the other end (and only them); one whose z is another
+// file axis is read whole and cut.
+TEST(VolumeWindow, WindowsOfReorientedFilesComeFromTheRightSlices) {
+  ScratchDir dir;
+  std::vector<std::int16_t> voxels(5 * 4 * 12);
+  for (std::size_t i = 0; i < voxels.size(); ++i) voxels[i] = static_cast<std::int16_t>(i * 37 % 1001 - 300);
+  const std::string header = "type: short\ndimension: 3\nsizes: 5 4 12\nendian: big\nspace: left-posterior-superior\nspace origin: (1,2,3)\n";
+  const std::string flipped = header + "space directions: (-1,0,0) (0,1,0) (0,0,-2)\n";
+  write_file(dir.file("flipped_z.nrrd"), nrrd_file(flipped + "encoding: raw\n", to_bytes(voxels, true)));
+  write_file(dir.file("flipped_z_gzip.nrrd"), nrrd_file(flipped + "encoding: gzip\n", gzip(to_bytes(voxels, true))));
+  write_file(dir.file("permuted.nrrd"),
+             nrrd_file(header + "space directions: (0,0,2) (1,0,0) (0,1,0)\nencoding: raw\n", to_bytes(voxels, true)));
+  for (const std::string file : {"flipped_z.nrrd", "flipped_z_gzip.nrrd", "permuted.nrrd"}) {
+    SCOPED_TRACE(file);
+    const Volume whole = load_volume(dir.file(file));
+    const int slices = whole.dims()[2];
+    const SliceChooser middle = [&](const std::array<int, 3>& dims) {
+      EXPECT_EQ(dims, whole.dims());
+      return SliceRange{1, slices - 3};  // not centred: the file's slices are 2 ... 10 of 12
+    };
+    WindowRead read;
+    const Volume window = load_volume_window({dir.file(file)}, VolumeLoadOptions{}, middle, read);
+    ASSERT_TRUE(window.is_window());
+    EXPECT_EQ(window.window_first(), 1);
+    EXPECT_EQ(window.bounds().lo, whole.bounds().lo);
+    EXPECT_EQ(window.bounds().hi, whole.bounds().hi);
+    EXPECT_FLOAT_EQ(window.origin().z, whole.origin().z + whole.spacing().z);
+    const auto& d = window.dims();
+    for (int k = 0; k < d[2]; ++k)
+      for (int j = 0; j < d[1]; ++j)
+        for (int i = 0; i < d[0]; ++i) ASSERT_EQ(window.value(i, j, k), whole.value(i, j, k + 1)) << i << " " << j << " " << k;
+    EXPECT_EQ(read.whole, file == "permuted.nrrd");
+    if (file == "flipped_z.nrrd") {
+      EXPECT_EQ(read.bytes_read, 9u * 5 * 4 * 2);
+    }
+  }
+}
+
 TEST(VolumeWindow, FilesAreReadOnlyForTheChosenSlices) {
   ScratchDir dir;
   std::vector<std::int16_t> voxels(5 * 4 * 12);

@@ -264,11 +264,25 @@ TEST(VtkVti, DirectionFlipsAndOblique) {
   EXPECT_EQ(v.value(0, 0, 0), kValues[2]);
   EXPECT_EQ(v.value(2, 0, 0), kValues[0]);
   EXPECT_EQ(v.value(0, 1, 1), kValues[11]);
-  EXPECT_NE(info.orientation.find("x reversed"), std::string::npos);
+  EXPECT_NE(info.orientation.find("x = -i, y = +j, z = +k"), std::string::npos) << info.orientation;
 
-  write_file(dir.file("oblique.vti"), vti("", kImage + " Direction=\"0 1 0 1 0 0 0 0 1\"", data));
-  expect_values(load_vtk(dir.file("oblique.vti"), &info));
-  EXPECT_TRUE(has_note(info, "not an axis-aligned diagonal: ignored"));
+  // Swapped axes: index i steps along world y, j along x.
+  write_file(dir.file("swapped.vti"), vti("", kImage + " Direction=\"0 1 0 1 0 0 0 0 1\"", data));
+  const Volume w = load_vtk(dir.file("swapped.vti"), &info);
+  ASSERT_EQ(w.dims(), (std::array<int, 3>{2, 3, 2}));
+  EXPECT_EQ(w.spacing(), (Vec3{0.25f, 0.5f, 2}));
+  EXPECT_EQ(w.origin(), (Vec3{1, 2, 3}));
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 3; ++i) EXPECT_EQ(w.value(j, i, k), kValues[static_cast<std::size_t>(i + 3 * j + 6 * k)]) << i << j << k;
+  EXPECT_NE(info.orientation.find("x = +j, y = +i, z = +k"), std::string::npos) << info.orientation;
+
+  // A rotation of 30° about z is resampled onto the world's axes, and says so.
+  write_file(dir.file("oblique.vti"), vti("", kImage + " Direction=\"0.8660254 -0.5 0 0.5 0.8660254 0 0 0 1\"", data));
+  const Volume o = load_vtk(dir.file("oblique.vti"), &info);
+  EXPECT_EQ(o.spacing(), (Vec3{0.25f, 0.25f, 0.25f}));
+  EXPECT_TRUE(has_note(info, "resampled trilinearly onto an axis-aligned grid"));
+  EXPECT_EQ(info.orientation, "oblique: resampled onto LPS axes");
 }
 
 TEST(VtkVti, BadInput) {
@@ -366,7 +380,7 @@ TEST(VtkLegacy, AsciiAndBinary) {
   EXPECT_EQ(b.value(0, 0, 0), 6);
   EXPECT_EQ(b.value(2, 1, 0), 65535);
   EXPECT_EQ(b.value(0, 0, 1), 0);
-  EXPECT_NE(info.orientation.find("z reversed"), std::string::npos);
+  EXPECT_NE(info.orientation.find("z = -k"), std::string::npos) << info.orientation;
 
   // Other types: char widens to int16, int and double become float32.
   write_file(dir.file("c.vtk"), "# vtk DataFile Version 2.0\nc\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 1 1\nPOINT_DATA 2\n"

@@ -1,5 +1,5 @@
 // `penumbra info FILE [--bins N] [--assembly N] [--series S] [--channel C]`: for a volume its format,
-// dimensions, type, spacing, orientation, bounds, value range, histogram, the series of a DICOM input
+// dimensions, type, spacing, affine, orientation, bounds, value range, histogram, the series of a DICOM input
 // and the channels of a TIFF stack (a folder or several .dcm files are one DICOM input); for a molecule or particle file its atoms, assembly, spheres and bounds;
 // for a trajectory (.xtc, .dcd, or --trajectory FILE) what info_trajectory.h says.
 #include <cstdio>
@@ -92,6 +92,7 @@ void add_info_command(CLI::App& app) {
     std::printf("type        %s (%zu bytes in memory)\n", to_string(v.type()).c_str(), v.memory_bytes());
     std::printf("spacing     %g %g %g\n", v.spacing().x, v.spacing().y, v.spacing().z);
     std::printf("origin      %g %g %g\n", v.origin().x, v.origin().y, v.origin().z);
+    if (info.affine) std::printf("affine      %s (file voxel index to world, LPS mm)\n", info.affine->str().c_str());
     if (!info.orientation.empty()) std::printf("orientation %s\n", info.orientation.c_str());
     std::printf("bounds      [%g %g %g] .. [%g %g %g]\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
     for (const auto& note : info.notes) std::printf("note        %s\n", note.c_str());

@@ -376,8 +376,10 @@ def view(scene, host="127.0.0.1", port=0, data_root=None, token="", width=960, h
 
 class VolumeData:
     """A volume read from a file: ``array`` (axes z, y, x), ``spacing`` and ``origin`` in the same axis
-    order (z, y, x), as Scene.add_volume takes them, and ``info`` (format, orientation, DICOM series,
-    TIFF channels and the reader's notes)."""
+    order (z, y, x), as Scene.add_volume takes them, and ``info`` (format, affine: the file's voxel
+    index (i, j, k) to world transform in LPS as three rows [linear | offset] or None, orientation, DICOM
+    series, TIFF channels and the reader's notes). The array is the file's voxels placed on the world's
+    axes (docs/volume-formats.md)."""
 
     def __init__(self, array, spacing, origin, info):
         self.array, self.spacing, self.origin, self.info = array, spacing, origin, info

@@ -29,6 +29,15 @@ nlohmann::json raw_json(const RawVolumeOptions& o) {
           {"header_bytes", o.header_bytes}};
 }
 
+// A volume whose file places it in a patient frame (NIfTI, a DICOM series: LPS, superior along +z).
+bool in_patient_frame(const nlohmann::json& file) {
+  if (file.is_array()) return true;  // DICOM slices
+  const std::string path = file.get<std::string>();
+  std::error_code ec;
+  return has_extension(path, ".nii") || has_extension(path, ".nii.gz") || has_extension(path, ".dcm") ||
+         has_extension(path, ".dicom") || std::filesystem::is_directory(path, ec);
+}
+
 }  // namespace
 
 InputKind input_kind(const std::string& path) {
@@ -104,7 +113,7 @@ nlohmann::json data_scene_inputs(const std::vector<std::string>& files, const Vo
 }
 
 void complete_data_scene(nlohmann::json& doc, const Scene& loaded, const std::function<nlohmann::json(std::size_t)>& choose) {
-  bool hounsfield = false;
+  bool patient = false;  // z up: a CT in Hounsfield units or a volume in a patient frame
   for (std::size_t i = 0; i < loaded.volumes.size(); ++i) {
     auto& v = doc["volumes"][i];
     v["transfer_function"] = choose(i);
@@ -113,13 +122,13 @@ void complete_data_scene(nlohmann::json& doc, const Scene& loaded, const std::fu
       continue;
     }
     v.erase("visible");
-    hounsfield = hounsfield || v["transfer_function"].value("preset", "") == "ct-bone";
+    patient = patient || v["transfer_function"].value("preset", "") == "ct-bone" || in_patient_frame(v["file"]);
   }
   const bool molecules_only = loaded.volumes.empty();
   if (doc["volumes"].empty()) doc.erase("volumes");
   if (doc["particles"].empty()) doc.erase("particles");
 
-  const Vec3 up = hounsfield ? Vec3{0, 0, 1} : Vec3{0, 1, 0};
+  const Vec3 up = patient ? Vec3{0, 0, 1} : Vec3{0, 1, 0};
   Box3 box;  // of the data (the volumes are not visible yet, so not casters)
   for (const auto& v : loaded.volumes) box.extend(v.volume->bounds());
   for (const auto& p : loaded.particles) box.extend(p.set->bounds());
@@ -135,7 +144,7 @@ void complete_data_scene(nlohmann::json& doc, const Scene& loaded, const std::fu
   if (loaded.volumes.empty()) doc["shadows"] = {{"technique", "issm"}};
   else if (loaded.particles.empty()) doc["shadows"] = {{"technique", "cssm"}};
   else doc["shadows"] = {{"technique", "cssm"}, {"spheres", "issm"}};
-  if (hounsfield) {  // z up: the camera looks from the front (-y in patient coordinates, LPS/RAS alike from above)
+  if (patient) {  // z up: the camera looks from the front (-y: anterior in LPS, every volume's world frame) and above
     doc["camera"] = {{"direction", {0.35, -1.0, 0.45}}, {"up", {0, 0, 1}}};
     doc["lights"] = nlohmann::json::array({{{"type", "directional"}, {"direction", {-0.4, 0.5, -1.0}}}});
   } else {

@@ -27,6 +27,7 @@
 #include "penumbra/data/io/dicom_slice.h"
 #include "penumbra/data/io/file_checks.h"
 #include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/io/volume_placement.h"
 
 namespace penumbra {
 
@@ -110,11 +111,11 @@ Volume load_dicom_volume(const std::vector<std::string>& paths, const std::strin
   if (integral && !rescaled && !first.is_signed && first.bits_allocated == 8) type = ScalarType::UInt8;
   else if (integral && !rescaled && !first.is_signed && first.bits_allocated == 16) type = ScalarType::UInt16;
   else if (integral) type = ScalarType::Int16;
-  Volume volume(type, L.dims, L.spacing, L.origin, VoxelFill::Uninitialized);
+  Volume volume(type, L.dims, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
   const bool filled = dicom::fill_slices(volume, L);
   if (!filled) {
     info.notes.push_back("rescaled values do not fit int16: the volume is float32");
-    volume = Volume(ScalarType::Float32, L.dims, L.spacing, L.origin, VoxelFill::Uninitialized);
+    volume = Volume(ScalarType::Float32, L.dims, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
     dicom::fill_slices(volume, L);
   }
   if (rescaled)
@@ -126,6 +127,7 @@ Volume load_dicom_volume(const std::vector<std::string>& paths, const std::strin
   for (const Slice* s : L.slices)
     if (s->syntax->lossy) lossy.insert(s->syntax->name);
   for (const std::string& name : lossy) info.notes.push_back("pixel data compressed with lossy " + name);
+  volume = place_volume(std::move(volume), L.affine, info);
   volume.recompute_range();
   return volume;
 }

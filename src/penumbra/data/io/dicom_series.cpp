@@ -117,41 +117,69 @@ Layout arrange(const std::vector<Slice>& input, VolumeFileInfo& info) {
   for (double& x : c) x /= lc;
   const Vec3d normal = cross(r, c);
 
-  // Sort along the normal; check the steps.
+  // Sort along the normal; check the steps against their median (duplicates, missing slices), then fit
+  // the positions against the slice number: positions rounded in the file (0.625 mm slices written to
+  // two decimals: -50.00, -49.38, -48.75 ...) give the true spacing, not their median gap.
   std::vector<std::pair<double, const Slice*>> at;
   for (const Slice& s : input) at.push_back({s.position ? dot(*s.position, normal) : 0.0, &s});
   std::stable_sort(at.begin(), at.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   double step = 0;
+  Vec3d step_vector{0, 0, 0}, fitted_first = input[0].position.value_or(Vec3d{0, 0, 0});
   if (n > 1) {
     std::vector<double> diffs;
     for (std::size_t k = 1; k < n; ++k) diffs.push_back(at[k].first - at[k - 1].first);
     std::vector<double> sorted = diffs;
     std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>((n - 2) / 2), sorted.end());
-    step = sorted[(n - 2) / 2];
-    const double tol = std::max(0.01 * step, 0.01);
+    const double median = sorted[(n - 2) / 2];
+    const double tol = std::max(0.01 * median, 0.01);
+    const auto pair_of = [&](std::size_t k) {
+      return at[k - 1].second->name + " (at " + num(at[k - 1].first) + " mm along the slice normal) and " + at[k].second->name + " (at " +
+             num(at[k].first) + " mm)";
+    };
     for (std::size_t k = 1; k < n; ++k) {
-      const Slice& a = *at[k - 1].second;
-      const Slice& b = *at[k].second;
-      const std::string pair = a.name + " (at " + num(at[k - 1].first) + " mm along the slice normal) and " + b.name + " (at " +
-                               num(at[k].first) + " mm)";
-      if (diffs[k - 1] < tol) throw Error("two slices at the same position: " + pair);
-      const double missing = diffs[k - 1] / step - 1;  // slices missing between the two
-      const std::string apart = num(diffs[k - 1]) + " mm apart, expected the step " + num(step) + " mm";
-      if (std::abs(missing - std::round(missing)) * step < tol && missing > 0.5)
-        throw Error("missing slice" + std::string(missing > 1.5 ? "s" : "") + " between " + pair + ": they are " + apart);
-      if (std::abs(diffs[k - 1] - step) > tol) throw Error("slices not evenly spaced: " + pair + " are " + apart);
+      if (diffs[k - 1] < tol) throw Error("two slices at the same position: " + pair_of(k));
+      const double missing = diffs[k - 1] / median - 1;  // slices missing between the two
+      if (std::abs(missing - std::round(missing)) * median < tol && missing > 0.5)
+        throw Error("missing slice" + std::string(missing > 1.5 ? "s" : "") + " between " + pair_of(k) + ": they are " + num(diffs[k - 1]) +
+                    " mm apart, expected the step " + num(median) + " mm");
     }
-    // Positions that also move within the slice plane (a tilted gantry) make a sheared grid.
-    double shear = 0;
+    // Least squares of each coordinate of the positions against the slice number k.
+    const double mean_k = 0.5 * static_cast<double>(n - 1);
+    double skk = 0;
+    Vec3d mean{0, 0, 0}, skp{0, 0, 0};
     for (const auto& [d, s] : at)
-      for (int a = 0; a < 3; ++a) shear = std::max(shear, std::abs((*s->position)[a] - (*at[0].second->position)[a] - (d - at[0].first) * normal[a]));
-    if (shear > tol)
-      info.notes.push_back("slice positions move up to " + num(shear) + " mm within the slice plane (gantry tilt?): the shear is not applied");
+      for (int a = 0; a < 3; ++a) mean[a] += (*s->position)[a] / static_cast<double>(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const double dk = static_cast<double>(k) - mean_k;
+      skk += dk * dk;
+      for (int a = 0; a < 3; ++a) skp[a] += dk * ((*at[k].second->position)[a] - mean[a]);
+    }
+    for (int a = 0; a < 3; ++a) step_vector[a] = skp[a] / skk, fitted_first[a] = mean[a] - mean_k * step_vector[a];
+    step = dot(step_vector, normal);
+    for (std::size_t k = 0; k < n; ++k) {
+      const double expected = dot(fitted_first, normal) + step * static_cast<double>(k);
+      if (std::abs(at[k].first - expected) > tol)
+        throw Error("slices not evenly spaced: " + at[k].second->name + " is at " + num(at[k].first) + " mm along the slice normal, " +
+                    num(at[k].first - expected) + " mm from the step " + num(step) + " mm fitted through all " + std::to_string(n) +
+                    " slices" + (k > 0 ? " (" + pair_of(k) + ")" : ""));
+    }
+    if (std::abs(step - median) > 1e-6)
+      info.notes.push_back("slice spacing " + num(step) + " mm from a least-squares fit through the " + std::to_string(n) +
+                           " positions (their median gap is " + num(median) + " mm)");
+    // Positions that also move within the slice plane (a tilted gantry) make a sheared grid.
+    Vec3d in_plane = step_vector;
+    for (int a = 0; a < 3; ++a) in_plane[a] -= step * normal[a];
+    const double shear = std::sqrt(dot(in_plane, in_plane)) * static_cast<double>(n - 1);
+    if (shear <= tol)
+      for (int a = 0; a < 3; ++a) step_vector[a] = step * normal[a];
+    else
+      info.notes.push_back("slice positions move " + num(shear) + " mm within the slice plane over the series (gantry tilt?): the grid is sheared");
     if (first.thickness && std::abs(*first.thickness - step) > tol)
       info.notes.push_back("slice spacing " + num(step) + " mm from ImagePositionPatient differs from SliceThickness " + num(*first.thickness) +
                            " mm: the positions are used");
   } else {
     step = first.thickness.value_or(1);
+    for (int a = 0; a < 3; ++a) step_vector[a] = step * normal[a];
     info.notes.push_back("a single slice: its spacing along z is " +
                          (first.thickness ? "the SliceThickness, " + num(step) + " mm" : std::string("1 (no SliceThickness)")));
   }
@@ -166,40 +194,29 @@ Layout arrange(const std::vector<Slice>& input, VolumeFileInfo& info) {
   std::array<double, 2> ps{1, 1};
   if (first.pixel_spacing) ps = *first.pixel_spacing;
   else info.notes.push_back("no PixelSpacing: the spacing within a slice is 1");
-  const std::array<int, 3> grid{first.cols, first.rows, static_cast<int>(n)};
-  const std::array<double, 3> grid_spacing{ps[1], ps[0], step};  // PixelSpacing is (between rows, between columns)
-  const std::array<Vec3d, 3> dirs{r, c, normal};
-  const std::array<std::pair<int, int>, 3> axes{axis_of(r), axis_of(c), axis_of(normal)};
-  const bool aligned = axes[0].first >= 0 && axes[1].first >= 0 && axes[2].first >= 0;
-  Vec3d origin = L.slices[0]->position.value_or(Vec3d{0, 0, 0});
   if (!L.slices[0]->position) info.notes.push_back("no ImagePositionPatient: the origin is 0");
-  std::array<int, 3> to{0, 1, 2};     // volume axis of each grid axis
-  std::array<bool, 3> flip{};
-  if (aligned) {
+  L.dims = {first.cols, first.rows, static_cast<int>(n)};
+  // The file's grid: columns step along the row direction by the spacing between columns, rows along the
+  // column direction (PixelSpacing is: between rows, between columns), slices by the fitted step.
+  for (int a = 0; a < 3; ++a) {
+    L.affine.linear[a][0] = r[a] * ps[1];
+    L.affine.linear[a][1] = c[a] * ps[0];
+    L.affine.linear[a][2] = step_vector[a];
+    L.affine.offset[a] = n > 1 ? fitted_first[a] : L.slices[0]->position.value_or(Vec3d{0, 0, 0})[a];
+  }
+  const std::array<std::pair<int, int>, 3> axes{axis_of(r), axis_of(c), axis_of(normal)};
+  if (axes[0].first >= 0 && axes[1].first >= 0 && axes[2].first >= 0) {
     static const char* const plane[] = {"sagittal", "coronal", "axial"};
     info.orientation = std::string(plane[axes[2].first]) + " (rows along " + axis_str(axes[0]) + ", columns along " + axis_str(axes[1]) +
                        "), slices sorted by position along " + axis_str(axes[2]) + "; volume axes = patient LPS";
-    for (int m = 0; m < 3; ++m) {
-      to[m] = axes[m].first;
-      flip[m] = axes[m].second < 0;
-      if (flip[m])
-        for (int a = 0; a < 3; ++a) origin[a] += (grid[m] - 1) * grid_spacing[m] * dirs[m][a];
-    }
   } else {
     info.orientation = "oblique (rows along " + vec_str(r) + ", columns along " + vec_str(c) + "), slices sorted along the normal " +
-                       vec_str(normal) + "; volume axes = columns, rows, slices";
-    info.notes.push_back("oblique slices: the rotation is not applied; the volume is rendered on the slice grid (x along the rows, y down the "
-                         "columns, z along the normal), with the first slice's ImagePositionPatient as origin");
-  }
-  for (int m = 0; m < 3; ++m) {
-    L.dims[to[m]] = grid[m];
-    L.spacing[to[m]] = static_cast<float>(grid_spacing[m]);
+                       vec_str(normal) + "; resampled onto patient LPS axes";
   }
   const std::array<std::int64_t, 3> stride{1, L.dims[0], static_cast<std::int64_t>(L.dims[0]) * L.dims[1]};
-  L.origin = {static_cast<float>(origin[0]), static_cast<float>(origin[1]), static_cast<float>(origin[2])};
   std::array<std::vector<std::int64_t>*, 3> offsets{&L.col, &L.row, &L.slice};
   for (int m = 0; m < 3; ++m)
-    for (int i = 0; i < grid[m]; ++i) offsets[m]->push_back((flip[m] ? grid[m] - 1 - i : i) * stride[to[m]]);
+    for (int i = 0; i < L.dims[m]; ++i) offsets[m]->push_back(i * stride[m]);
   return L;
 }
 

@@ -1,6 +1,6 @@
 // The slices of a DICOM folder grouped into series, one chosen, checked to be one grid, and placed:
-// sorted along the slice normal, evenly spaced, an axis-aligned series permuted and flipped to patient
-// +x, +y, +z (LPS). Internal to the DICOM reader (dicom_loader.cpp).
+// sorted along the slice normal, evenly spaced (the step fitted through all positions), and given the
+// affine (patient LPS) by which the loader places them (volume_placement.h). Internal to the DICOM reader (dicom_loader.cpp).
 #pragma once
 
 #include <array>
@@ -31,12 +31,12 @@ std::size_t choose_series(const std::vector<Series>& all, const std::string& wan
 // The slices of one series share their size, type and orientation (Error naming the first that differs).
 void check_consistent(const std::vector<Slice>& slices);
 
-// How the sorted slices become the volume: voxel (column i, row j, slice k) goes to index
-// col[i] + row[j] + slice[k]; and the volume's grid.
+// How the sorted slices become the file's grid: voxel (column i, row j, slice k) goes to index
+// col[i] + row[j] + slice[k]; the grid's dimensions and its affine (LPS), which places it.
 struct Layout {
   std::vector<const Slice*> slices;  // sorted by position along the normal
   std::array<int, 3> dims{};
-  Vec3 spacing, origin;
+  Affine affine;
   std::vector<std::int64_t> col, row, slice;
 };
 

@@ -4,8 +4,9 @@
 // only warns "number missing ... (set to 0)"). So the raw 348-byte header is checked here first
 // (3-D, supported datatype, sane voxel count and spacing, enough bytes on disk) and the voxels are
 // read here with zlib, which reads plain files too, counting every byte and checking the gzip trailer.
-// Orientation is deliberately simple: the origin is the qform offset and the rotation is ignored, so
-// an oblique or flipped scan renders in voxel order with the right spacing.
+// Orientation is nibabel's: the sform when sform_code > 0, else the qform when qform_code > 0, else
+// nibabel's base affine (x flipped, the grid centred on 0); its RAS is turned into LPS and the voxels are
+// placed by it (volume_placement.h).
 #include <zlib.h>
 
 #include <algorithm>
@@ -22,6 +23,7 @@
 
 #include "penumbra/data/io/file_checks.h"
 #include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/io/volume_placement.h"
 
 namespace penumbra {
 
@@ -154,9 +156,45 @@ void convert(const void* src, Volume& volume, float slope, float inter, bool sca
   }
 }
 
+// The index-to-world affine as nibabel reads it (img.affine: sform, else qform, else the base affine),
+// in RAS, turned into LPS.
+Affine nifti_affine(const nifti_image& nim, const RawHeader& raw, VolumeFileInfo& info) {
+  Affine a;
+  const auto from_mat44 = [&](const mat44& m) {
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) a.linear[r][c] = m.m[r][c];
+      a.offset[r] = m.m[r][3];
+    }
+  };
+  if (nim.sform_code > 0) {
+    from_mat44(nim.sto_xyz);
+    info.notes.push_back("placed by the sform (sform_code " + std::to_string(nim.sform_code) + ")");
+  } else if (nim.qform_code > 0) {
+    for (int d = 1; d <= 3; ++d)
+      if (raw.h.pixdim[d] < 0)  // niftilib would take 1 instead; nibabel refuses the file
+        throw Error("NIfTI pixdim[" + std::to_string(d) + "] is " + std::to_string(raw.h.pixdim[d]) +
+                    " with a qform (expected a positive spacing: the qform's flips are its quaternion and qfac)");
+    from_mat44(nim.qto_xyz);
+    info.notes.push_back("placed by the qform (qform_code " + std::to_string(nim.qform_code) + "; sform_code 0)");
+  } else {
+    std::array<double, 3> steps{}, origin{};
+    for (int d = 0; d < 3; ++d) {
+      steps[d] = std::abs(raw.h.pixdim[d + 1]) * (d == 0 ? -1.0 : 1.0);
+      origin[d] = -0.5 * static_cast<double>(raw.dims[d] - 1) * steps[d];
+    }
+    a = Affine::diagonal(steps, origin);
+    info.notes.push_back("neither sform nor qform is set: placed by nibabel's base affine (x flipped, the grid centred on 0)");
+  }
+  for (int r = 0; r < 2; ++r) {  // RAS -> LPS
+    for (double& v : a.linear[r]) v = -v;
+    a.offset[r] = -a.offset[r];
+  }
+  return a;
+}
+
 }  // namespace
 
-Volume load_nifti_volume(const std::string& path) {
+Volume load_nifti_volume(const std::string& path, VolumeFileInfo& info) {
   const std::uint64_t file_bytes = io_detail::regular_file_size(path);
   if (file_bytes == 0) throw Error("empty file (expected a NIfTI-1 header)");
   // gzopen reads plain files as they are, so one reader serves .nii and .nii.gz.
@@ -189,12 +227,10 @@ Volume load_nifti_volume(const std::string& path) {
   const float slope = nim->scl_slope, inter = nim->scl_inter;
   const bool scale = slope != 0 && !(slope == 1 && inter == 0);
   if (scale && !(std::isfinite(slope) && std::isfinite(inter))) throw Error("NIfTI scaling is not finite");
-  const Vec3 spacing{std::abs(raw.h.pixdim[1]), std::abs(raw.h.pixdim[2]), std::abs(raw.h.pixdim[3])};
-  const Vec3 origin{nim->qoffset_x, nim->qoffset_y, nim->qoffset_z};
+  const Affine affine = nifti_affine(*nim, raw, info);
   const ScalarType stored = nifti_storage_type(nim->datatype);
   const ScalarType type = scale ? ScalarType::Float32 : stored;
-  Volume volume(type, {static_cast<int>(raw.dims[0]), static_cast<int>(raw.dims[1]), static_cast<int>(raw.dims[2])},
-                spacing, origin);
+  Volume volume(type, {static_cast<int>(raw.dims[0]), static_cast<int>(raw.dims[1]), static_cast<int>(raw.dims[2])});
 
   // Skip any extensions, then read the voxels straight into the volume when no conversion is needed.
   std::vector<unsigned char> skip(static_cast<std::size_t>(raw.offset - sizeof(nifti_1_header)));
@@ -228,6 +264,7 @@ Volume load_nifti_volume(const std::string& path) {
       default: throw Error("unsupported NIfTI datatype");
     }
   }
+  volume = place_volume(std::move(volume), affine, info);
   volume.recompute_range();  // rejects NaN/inf voxels and gives the volume its range
   return volume;
 }

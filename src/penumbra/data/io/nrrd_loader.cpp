@@ -29,6 +29,7 @@
 #include "penumbra/data/io/gzip_stream.h"
 #include "penumbra/data/io/text_fields.h"
 #include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/io/volume_placement.h"
 
 namespace penumbra {
 
@@ -506,41 +507,55 @@ std::uint64_t read_data_file(const TeemRead& teem, const NrrdHeader& h, const Ch
   return done - before;
 }
 
-Vec3 axis_spacing(const Nrrd& nrrd) {
-  Vec3 spacing{1, 1, 1};
-  for (unsigned a = 0; a < 3; ++a) {
-    const NrrdAxisInfo& axis = nrrd.axis[a];
-    double s = 1;
-    if (std::isfinite(axis.spacing)) {
-      s = std::abs(axis.spacing);  // a negative spacing only says the axis runs backwards
-    } else if (nrrd.spaceDim > 0) {
-      double len2 = 0;
-      bool exists = true;
-      for (unsigned d = 0; d < nrrd.spaceDim && d < NRRD_SPACE_DIM_MAX; ++d) {
-        exists = exists && std::isfinite(axis.spaceDirection[d]);
-        len2 += axis.spaceDirection[d] * axis.spaceDirection[d];
-      }
-      if (exists) s = std::sqrt(len2);
-    }
-    spacing[static_cast<int>(a)] = static_cast<float>(s);
+// The index-to-world affine in LPS: `space directions` and `space origin` turned from the NRRD's
+// `space` (right-anterior-superior: x and y negated; left-anterior-superior: y; left-posterior-superior,
+// scanner-xyz and the others: as they are); without a space or its directions, the `spacings` (a
+// negative one reverses its axis) with the origin at 0.
+Affine nrrd_affine(const Nrrd& nrrd, VolumeFileInfo& info) {
+  Affine a;
+  const auto has_direction = [&](unsigned ax) { return std::isfinite(nrrd.axis[ax].spaceDirection[0]); };
+  if (nrrd.spaceDim == 0 || !(has_direction(0) || has_direction(1) || has_direction(2))) {
+    std::array<double, 3> steps{1, 1, 1};
+    for (unsigned ax = 0; ax < 3; ++ax)
+      if (std::isfinite(nrrd.axis[ax].spacing)) steps[ax] = nrrd.axis[ax].spacing;
+    if (nrrd.spaceDim > 0) info.notes.push_back("a space without space directions: the spacings are taken as they are, from 0");
+    return Affine::diagonal(steps, {0, 0, 0});
   }
-  return spacing;
-}
-
-Vec3 space_origin(const Nrrd& nrrd) {
-  Vec3 origin{0, 0, 0};
-  if (nrrd.spaceDim == 0) return origin;
-  for (unsigned d = 0; d < 3 && d < nrrd.spaceDim; ++d)
-    if (!std::isfinite(nrrd.spaceOrigin[d])) return {0, 0, 0};  // "none" or unset origin
-  for (unsigned d = 0; d < 3 && d < nrrd.spaceDim; ++d) origin[static_cast<int>(d)] = static_cast<float>(nrrd.spaceOrigin[d]);
-  return origin;
+  if (nrrd.spaceDim != 3)
+    throw Error("NRRD space dimension " + std::to_string(nrrd.spaceDim) + " (expected 3: a volume's space directions in 3-D)");
+  for (unsigned ax = 0; ax < 3; ++ax)
+    for (unsigned d = 0; d < 3; ++d) {
+      const double v = nrrd.axis[ax].spaceDirection[d];
+      if (!std::isfinite(v))
+        throw Error("NRRD space direction of axis " + std::to_string(ax) + " is not finite (expected three numbers, not 'none')");
+      a.linear[d][ax] = v;
+    }
+  bool has_origin = true;
+  for (unsigned d = 0; d < 3; ++d) has_origin = has_origin && std::isfinite(nrrd.spaceOrigin[d]);
+  for (unsigned d = 0; d < 3; ++d) a.offset[d] = has_origin ? nrrd.spaceOrigin[d] : 0.0;  // "none" or unset: 0
+  std::array<double, 3> to_lps{1, 1, 1};
+  switch (nrrd.space) {
+    case nrrdSpaceRightAnteriorSuperior:
+    case nrrdSpaceRightAnteriorSuperiorTime: to_lps = {-1, -1, 1}; break;
+    case nrrdSpaceLeftAnteriorSuperior:
+    case nrrdSpaceLeftAnteriorSuperiorTime: to_lps = {1, -1, 1}; break;
+    default: break;
+  }
+  for (int d = 0; d < 3; ++d) {
+    for (double& v : a.linear[d]) v *= to_lps[d];
+    a.offset[d] *= to_lps[d];
+  }
+  const char* name = airEnumStr(nrrdSpace, nrrd.space);
+  info.notes.push_back(std::string("space ") + (nrrd.space == nrrdSpaceUnknown ? "not named" : name) +
+                       (to_lps[0] < 0 || to_lps[1] < 0 ? ", turned into LPS" : ", taken as LPS"));
+  return a;
 }
 
 }  // namespace
 
-Volume load_nrrd_volume(const std::string& path) { return load_nrrd_volume(path, nullptr, nullptr); }
+Volume load_nrrd_volume(const std::string& path, VolumeFileInfo& info) { return load_nrrd_volume(path, nullptr, nullptr, info); }
 
-Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, WindowRead* read) {
+Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, WindowRead* read, VolumeFileInfo& info) {
   const std::uint64_t file_bytes = io_detail::regular_file_size(path);
   const NrrdHeader header = parse_header(path, file_bytes);
   // teem resolves a relative data file against the header's directory, which it needs spelled out.
@@ -564,18 +579,32 @@ Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, Win
                   " but the header says " + std::to_string(checked.dims[a]));
 
   const std::array<int, 3> dims{static_cast<int>(checked.dims[0]), static_cast<int>(checked.dims[1]), static_cast<int>(checked.dims[2])};
-  const SliceRange slices = choose ? checked_slices(*choose, dims) : SliceRange{0, dims[2]};
+  const Affine affine = nrrd_affine(n, info);
+  const auto permutation = axis_permutation(affine);
   if (read) *read = WindowRead{0, !direct};
-  if (direct && slices.count < dims[2]) {  // only the window's slices are read
-    Volume window(nrrd_storage_type(n.type), {dims[0], dims[1], slices.count}, axis_spacing(n), space_origin(n), VoxelFill::Uninitialized);
-    const std::uint64_t bytes = read_data_file(teem, header, checked, slices.first, window);
-    if (read) read->bytes_read = bytes;
-    teem = TeemRead{};
-    window.recompute_range();  // this window's own; a distributed scene replaces it by the whole grid's
-    window.set_window(slices.first, dims[2]);
-    return window;
+  // A window whose slices are the file's own (its z is the file's third axis, reversed or not) reads
+  // only them.
+  std::optional<SliceRange> chosen;  // known before reading unless the volume is resampled
+  if (choose && permutation) chosen = checked_slices(*choose, placed_dims(dims, *permutation));
+  if (chosen && direct && permutation->file_axis[2] == 2) {
+    const SliceRange slices = *chosen;
+    if (slices.count < dims[2]) {
+      const int file_first = permutation->reversed[2] ? dims[2] - slices.first - slices.count : slices.first;
+      Volume window(nrrd_storage_type(n.type), {dims[0], dims[1], slices.count}, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
+      const std::uint64_t bytes = read_data_file(teem, header, checked, file_first, window);
+      if (read) read->bytes_read = bytes;
+      teem = TeemRead{};
+      Affine window_affine = affine;
+      for (int d = 0; d < 3; ++d) window_affine.offset[d] += file_first * affine.linear[d][2];
+      window = place_volume(std::move(window), window_affine, info);
+      info.affine = affine;
+      window.recompute_range();  // this window's own; a distributed scene replaces it by the whole grid's
+      window.set_origin(placed_origin(affine, dims, *permutation));
+      window.set_window(slices.first, dims[2]);
+      return window;
+    }
   }
-  Volume volume(nrrd_storage_type(n.type), dims, axis_spacing(n), space_origin(n), VoxelFill::Uninitialized);  // both paths below fill every voxel
+  Volume volume(nrrd_storage_type(n.type), dims, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);  // both paths below fill every voxel
   if (read) read->bytes_read = file_bytes;
   if (direct) {
     const std::uint64_t bytes = read_data_file(teem, header, checked, 0, volume);
@@ -589,7 +618,14 @@ Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, Win
     read_voxels(next, n.type, false, volume);
   }
   teem = TeemRead{};  // free teem's copy, if any, before the range pass
-  if (slices.count < dims[2]) volume = volume.window_z(slices.first, slices.count);  // read whole, kept in part
+  volume = place_volume(std::move(volume), affine, info);
+  if (choose) {
+    const SliceRange slices = chosen ? *chosen : checked_slices(*choose, volume.dims());
+    if (slices.count < volume.dims()[2]) {  // read whole, kept in part
+      volume = volume.window_z(slices.first, slices.count);
+      if (read) read->whole = true;
+    }
+  }
   volume.recompute_range();  // rejects NaN/inf voxels and gives the volume its range
   return volume;
 }

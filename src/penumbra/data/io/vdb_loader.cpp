@@ -7,8 +7,8 @@
 // - a brick is stored unless one value fills its reach (its voxels and one more on each side, which
 //   central differences read): tiles and background count block by block, leaf nodes voxel by voxel;
 //   a flat brick shares the single stored brick of its value (background, a level set's inside);
-// - world placement from the grid's transform when it is an axis-aligned scale and translation; any
-//   other transform keeps the index grid with the voxel size at the origin, and a note says so.
+// - world placement from the grid's transform when it is an axis-aligned positive scale and translation;
+//   any other transform is an Error (a sparse grid is not reordered or resampled, volume_placement.h).
 //
 // OpenVDB's reader is not hardened against corrupt files: fuzzing found it allocating what a broken
 // header claims and copying gigabytes before failing. So it runs in a child process (fork) with an
@@ -37,6 +37,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/io/volume_placement.h"
 
 namespace penumbra {
 namespace {
@@ -133,24 +134,25 @@ BlockMap map_blocks(const openvdb::FloatGrid& grid, const openvdb::Coord& lo, co
   return m;
 }
 
-// World placement: origin and spacing from an axis-aligned positive scale (+ translation); otherwise the
-// voxel size at the origin and a note.
-void place(const openvdb::math::Transform& t, const openvdb::Coord& lo, Vec3& origin, Vec3& spacing,
-           std::vector<std::string>& notes) {
-  const openvdb::Vec3d size = t.voxelSize();
-  spacing = {static_cast<float>(size[0]), static_cast<float>(size[1]), static_cast<float>(size[2])};
+// World placement: origin and spacing from the grid's linear transform when it is an axis-aligned
+// positive scale (+ translation), within kAxisCosineTolerance; any other transform (a flip, an axis swap,
+// a rotation, a frustum) is an Error, as a sparse grid is neither reordered nor resampled.
+void place(const openvdb::math::Transform& t, const openvdb::Coord& lo, Vec3& origin, Vec3& spacing) {
+  if (!t.isLinear()) throw Error("the grid's transform (" + t.mapType() + ") is not linear, which penumbra cannot place a sparse grid by");
+  const openvdb::Mat4d m = t.baseMap()->getAffineMap()->getMat4();  // OpenVDB's row-vector convention: world = index · m
+  Affine affine;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) affine.linear[r][c] = m(c, r);
   const openvdb::Vec3d o = t.indexToWorld(lo);
-  origin = {static_cast<float>(o[0]), static_cast<float>(o[1]), static_cast<float>(o[2])};
-  bool aligned = t.isLinear();
-  if (aligned) {
-    const openvdb::Mat4d m = t.baseMap()->getAffineMap()->getMat4();
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) aligned = aligned && (r == c ? m(r, c) > 0 : m(r, c) == 0);
+  for (int r = 0; r < 3; ++r) affine.offset[r] = o[r];
+  const auto permutation = axis_permutation(affine);
+  if (!permutation || !permutation->identity())
+    throw Error("the grid's transform " + affine.str() + " (" + t.mapType() +
+                ") is not an axis-aligned positive scale: a sparse grid cannot be reordered or resampled onto the world's axes");
+  for (int a = 0; a < 3; ++a) {
+    spacing[a] = static_cast<float>(std::abs(affine.linear[a][a]));
+    origin[a] = static_cast<float>(o[a]);
   }
-  if (!aligned)
-    notes.push_back("the grid's transform (" + t.mapType() +
-                    ") is not an axis-aligned scale: the index grid is shown with its voxel size at the origin, "
-                    "rotation, shear, flips and taper not applied");
 }
 
 // ---- Before OpenVDB: the file's layout, checked here. -------------------------------------------------
@@ -302,7 +304,7 @@ void parse_in_child(const std::string& path, const std::string& grid_choice, Pip
   (void)checked_voxel_count(extent);
   const std::array<int, 3> dims{static_cast<int>(extent[0]), static_cast<int>(extent[1]), static_cast<int>(extent[2])};
   Vec3 origin, spacing;
-  place(grid->transform(), lo, origin, spacing, notes);
+  place(grid->transform(), lo, origin, spacing);
   const BlockMap blocks = map_blocks(*grid, lo, dims);
 
   out.put('V');
@@ -604,6 +606,7 @@ Volume load_vdb_volume(const std::string& path, const std::string& grid_choice, 
         std::memcpy(voxels, parsed.stored.data() + parsed.stored_at[brick_index(c)], Volume::kBrickVoxels * sizeof(float));
       });
   volume.set_level_set(parsed.level_set);
+  out.affine = Affine::diagonal({parsed.spacing.x, parsed.spacing.y, parsed.spacing.z}, {parsed.origin.x, parsed.origin.y, parsed.origin.z});
   out.notes = std::move(parsed.notes);
   const std::size_t stored = parsed.stored.size() / Volume::kBrickVoxels;
   out.notes.push_back("sparse: " + std::to_string(stored) + " of " + std::to_string(parsed.shared.size()) +

@@ -72,11 +72,11 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
     }
     if (ends_with_ci(path, ".nrrd") || ends_with_ci(path, ".nhdr")) {
       out.format = "nrrd";
-      return load_nrrd_volume(path);
+      return load_nrrd_volume(path, out);
     }
     if (ends_with_ci(path, ".nii") || ends_with_ci(path, ".nii.gz")) {
       out.format = "nifti";
-      return load_nifti_volume(path);
+      return load_nifti_volume(path, out);
     }
     if (ends_with_ci(path, ".tif") || ends_with_ci(path, ".tiff")) return load_tiff_volume(path, options.channel, &out);
     if (ends_with_ci(path, ".vti")) return load_vti_volume(path, &out);
@@ -103,7 +103,10 @@ Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoa
   if (paths.size() == 1 && ends_with_ci(paths[0], ".raw") && options.raw)
     return with_context(paths[0], [&] { return load_raw_volume(paths[0], *options.raw, &choose, &read); });
   if (paths.size() == 1 && (ends_with_ci(paths[0], ".nrrd") || ends_with_ci(paths[0], ".nhdr")))
-    return with_context(paths[0], [&] { return load_nrrd_volume(paths[0], &choose, &read); });
+    return with_context(paths[0], [&] {
+      VolumeFileInfo info;
+      return load_nrrd_volume(paths[0], &choose, &read, info);
+    });
   Volume whole = load_volume(paths, options);
   read.whole = true;
   for (const std::string& p : paths) {

@@ -25,10 +25,22 @@ struct RawVolumeOptions {
   std::uint64_t header_bytes = 0;  // bytes to skip at the start of the file
 };
 
+// A file's index-to-world transform in the world frame LPS (see volume_placement.h): the world position of
+// voxel (i, j, k) is linear · (i, j, k) + offset; column a of `linear` is the world step of index a.
+struct Affine {
+  std::array<std::array<double, 3>, 3> linear{{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};  // linear[row][column]
+  std::array<double, 3> offset{0, 0, 0};
+  static Affine diagonal(const std::array<double, 3>& steps, const std::array<double, 3>& origin);
+  std::array<double, 3> column(int a) const { return {linear[0][a], linear[1][a], linear[2][a]}; }
+  std::array<double, 3> apply(const std::array<double, 3>& index) const;
+  std::string str() const;  // "[a b c t; d e f u; g h i v]"
+};
+
 // What a reader found beside the voxels, for `penumbra info` and for the user to know what was done.
 struct VolumeFileInfo {
   std::string format;                // "raw", "nrrd", "nifti", "dicom", "tiff", "vti", "vtk", "vdb"
   std::string orientation;           // how the file's axes became the volume's x, y, z ("" = as stored)
+  std::optional<Affine> affine;      // the file's index-to-world transform (LPS), when the format has one
   std::vector<std::string> series;   // DICOM: one line per series in the input (UID, description, slices)
   int series_index = -1;             // DICOM: the series loaded (index into `series`)
   int channels = 1;                  // TIFF: channels in the file
@@ -60,15 +72,19 @@ struct WindowRead {
 // The chosen slices, checked against the grid (Error naming them when they do not lie in it).
 SliceRange checked_slices(const SliceChooser& choose, const std::array<int, 3>& dims);
 
+// Readers of formats with a world frame place their voxels by it (volume_placement.h) and record the
+// affine in `info`.
 Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options);
-Volume load_nrrd_volume(const std::string& path);   // .nrrd or .nhdr
+Volume load_nrrd_volume(const std::string& path, VolumeFileInfo& info);  // .nrrd or .nhdr
 // Only the chosen slices of a raw file or of NRRD raw data (seeking past the others), or of NRRD gzip
 // data (decompressing and dropping the slices before them, stopping after the last); other NRRD
 // encodings are read whole and cut. The result is a window of the whole grid (Volume::is_window) unless
 // the slices are all of them; its value range is its own.
 Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options, const SliceChooser* choose, WindowRead* read);
-Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, WindowRead* read);
-Volume load_nifti_volume(const std::string& path);  // .nii or .nii.gz
+// A window of a file whose z is reversed reads the matching slices from the other end; one whose z comes
+// from another file axis is read whole and cut.
+Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, WindowRead* read, VolumeFileInfo& info);
+Volume load_nifti_volume(const std::string& path, VolumeFileInfo& info);  // .nii or .nii.gz
 
 // DICOM (dicom_loader.cpp): `paths` is one folder (every DICOM file in it and its subfolders) or a list
 // of slice files. Slices are grouped by SeriesInstanceUID; `series` picks one (see VolumeLoadOptions).

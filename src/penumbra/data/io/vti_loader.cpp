@@ -26,6 +26,7 @@
 #include "penumbra/data/io/file_checks.h"
 #include "penumbra/data/io/text_fields.h"
 #include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/io/volume_placement.h"
 #include "penumbra/data/io/vtk_image_data.h"
 
 namespace penumbra {
@@ -503,42 +504,20 @@ Volume load_vti_volume(const std::string& path, VolumeFileInfo* info) {
     return read_array(f, array, static_cast<std::size_t>(values), need);
   });
 
-  // Axes: world = Origin + Direction * (index * Spacing). An axis whose step runs backwards (a -1 on
-  // the Direction diagonal, or a negative spacing) is reversed so that the volume's steps are positive.
-  const auto& d = f.direction;
-  const bool diagonal = d[1] == 0 && d[2] == 0 && d[3] == 0 && d[5] == 0 && d[6] == 0 && d[7] == 0 &&
-                        std::abs(d[0]) == 1 && std::abs(d[4]) == 1 && std::abs(d[8]) == 1;
-  if (!diagonal) {
-    std::string m;
-    for (const double v : d) m += (m.empty() ? "" : " ") + num(v);
-    out.notes.push_back("Direction " + m + " is not an axis-aligned diagonal: ignored (the volume is in voxel order, with Origin and Spacing)");
-    out.orientation = "Direction ignored";
-  }
-  Vec3 spacing, origin;
-  std::array<bool, 3> flip{};
-  for (std::size_t a = 0; a < 3; ++a) {
-    const double step = (diagonal ? d[a * 4] : 1.0) * f.spacing[a];
-    if (step == 0) throw Error("Spacing along axis " + std::to_string(a) + " is 0");
-    flip[a] = step < 0;
-    const double start = f.origin[a] + step * static_cast<double>(flip[a] ? e[2 * a + 1] : e[2 * a]);
-    spacing[static_cast<int>(a)] = static_cast<float>(std::abs(step));
-    origin[static_cast<int>(a)] = static_cast<float>(start);
-    if (!std::isfinite(spacing[static_cast<int>(a)]) || !std::isfinite(origin[static_cast<int>(a)]))
-      throw Error("Origin or Spacing along axis " + std::to_string(a) + " is outside the float range");
+  // World = Origin + Direction · (index · Spacing), the index counted from the extent's start; VTK's
+  // world has no anatomical frame and is taken as it is. The voxels are placed by it (volume_placement.h).
+  Affine affine;
+  for (std::size_t r = 0; r < 3; ++r) {
+    affine.offset[r] = f.origin[r];
+    for (std::size_t c = 0; c < 3; ++c) {
+      affine.linear[r][c] = f.direction[r * 3 + c] * f.spacing[c];
+      affine.offset[r] += affine.linear[r][c] * static_cast<double>(e[2 * c]);
+    }
   }
   Volume volume(io_detail::vtk_volume_type(array.type), {static_cast<int>(dims[0]), static_cast<int>(dims[1]), static_cast<int>(dims[2])},
-                spacing, origin, VoxelFill::Uninitialized);
+                {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
   io_detail::store_vtk_samples(data.data(), array.type, f.big_endian, array.components, volume, out.notes);
-  std::string flipped;
-  for (int a = 0; a < 3; ++a)
-    if (flip[static_cast<std::size_t>(a)]) {
-      io_detail::flip_volume_axis(volume, a);
-      flipped += std::string(flipped.empty() ? "" : ", ") + "xyz"[a];
-    }
-  if (!flipped.empty()) {
-    out.orientation = flipped + " reversed (negative Direction or Spacing)";
-    out.notes.push_back("axes " + flipped + " run backwards in the file: reversed, so the volume's world box is VTK's");
-  }
+  volume = place_volume(std::move(volume), affine, out);
   volume.recompute_range();  // rejects NaN/inf voxels and gives the volume its range
   return volume;
 }

@@ -179,21 +179,6 @@ void store_vtk_samples(const std::byte* data, VtkType type, bool big_endian, std
                     (exact ? " (all exact)" : type == VtkType::Float64 ? " (rounded)" : " (values beyond 2^24 rounded)"));
 }
 
-void flip_volume_axis(Volume& volume, int axis) {
-  const auto& d = volume.dims();
-  const std::size_t size = scalar_size(volume.type());
-  const std::size_t stride = axis == 0 ? 1 : axis == 1 ? static_cast<std::size_t>(d[0]) : static_cast<std::size_t>(d[0]) * d[1];
-  const std::size_t n = static_cast<std::size_t>(d[static_cast<std::size_t>(axis)]);
-  const std::size_t outer = volume.voxel_count() / (stride * n);
-  std::byte* base = volume.data();
-  for (std::size_t o = 0; o < outer; ++o)
-    for (std::size_t i = 0; i < n / 2; ++i) {
-      std::byte* a = base + (o * n * stride + i * stride) * size;
-      std::byte* b = base + (o * n * stride + (n - 1 - i) * stride) * size;
-      std::swap_ranges(a, a + stride * size, b);
-    }
-}
-
 std::string read_whole_file(const std::string& path, std::uint64_t bytes) {
   std::string text(static_cast<std::size_t>(bytes), '\0');
   std::ifstream in(path, std::ios::binary);

@@ -36,9 +36,6 @@ std::size_t parse_ascii_values(std::string_view text, VtkType type, std::size_t 
 void store_vtk_samples(const std::byte* data, VtkType type, bool big_endian, std::size_t components, Volume& volume,
                        std::vector<std::string>& notes);
 
-// Reverses the voxel order along axis 0, 1 or 2 (the origin is the caller's to adjust).
-void flip_volume_axis(Volume& volume, int axis);
-
 // The file's `bytes` bytes (its size, checked by the caller), as both VTK readers take it whole.
 std::string read_whole_file(const std::string& path, std::uint64_t bytes);
 

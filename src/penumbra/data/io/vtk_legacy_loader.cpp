@@ -18,6 +18,7 @@
 #include "penumbra/data/io/file_checks.h"
 #include "penumbra/data/io/text_fields.h"
 #include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/io/volume_placement.h"
 #include "penumbra/data/io/vtk_image_data.h"
 
 namespace penumbra {
@@ -177,28 +178,18 @@ Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info) {
     with_context("SCALARS " + printable(h.name, 60), [&] { io_detail::parse_ascii_values(body, h.type, values, data.data()); });
   }
 
-  Vec3 spacing, origin;
-  std::string flipped;
-  for (int a = 0; a < 3; ++a) {
-    const auto i = static_cast<std::size_t>(a);
-    if (h.spacing[i] == 0) throw Error("SPACING along axis " + std::to_string(a) + " is 0");
-    spacing[a] = static_cast<float>(std::abs(h.spacing[i]));
-    origin[a] = static_cast<float>(h.origin[i] + (h.spacing[i] < 0 ? h.spacing[i] * static_cast<double>(d[i] - 1) : 0.0));
-    if (!std::isfinite(spacing[a]) || !std::isfinite(origin[a]))
-      throw Error("ORIGIN or SPACING along axis " + std::to_string(a) + " is outside the float range");
+  // World = ORIGIN + index · SPACING (a negative SPACING reverses its axis), taken as it is (VTK's world
+  // has no anatomical frame); the voxels are placed by it (volume_placement.h).
+  std::array<double, 3> steps{}, origin{};
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (h.spacing[a] == 0) throw Error("SPACING along axis " + std::to_string(a) + " is 0");
+    steps[a] = h.spacing[a];
+    origin[a] = h.origin[a];
   }
   Volume volume(io_detail::vtk_volume_type(h.type), {static_cast<int>(d[0]), static_cast<int>(d[1]), static_cast<int>(d[2])},
-                spacing, origin, VoxelFill::Uninitialized);
+                {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
   io_detail::store_vtk_samples(data.data(), h.type, h.binary, h.components, volume, out.notes);
-  for (int a = 0; a < 3; ++a)
-    if (h.spacing[static_cast<std::size_t>(a)] < 0) {
-      io_detail::flip_volume_axis(volume, a);
-      flipped += std::string(flipped.empty() ? "" : ", ") + "xyz"[a];
-    }
-  if (!flipped.empty()) {
-    out.orientation = flipped + " reversed (negative SPACING)";
-    out.notes.push_back("axes " + flipped + " have a negative SPACING: reversed, so the volume's world box is VTK's");
-  }
+  volume = place_volume(std::move(volume), Affine::diagonal(steps, origin), out);
   volume.recompute_range();  // rejects NaN/inf voxels and gives the volume its range
   return volume;
 }
