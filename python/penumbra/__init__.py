@@ -156,6 +156,16 @@ class Scene:
         its path, e.g. "clip_planes.0"; r.set("clip_planes.0.point", [...]) moves it."""
         return self._append("clip_planes", {"point": list(point), "normal": list(normal)})
 
+    def add_slice(self, volume, point=None, normal=(0.0, 0.0, 1.0), **keys):
+        """Adds a slice through a volume (its path or index): a plane cut to the volume's box, coloured by
+        its values (keywords: color_map, a transfer function; window=[lo, hi], grey; casts_shadows,
+        receives_shadows). It receives the scene's shadows. Returns its path, e.g. "slices.0"."""
+        entry = {"volume": _index_of(volume, "volumes", "add_slice"), "normal": list(normal)}
+        if point is not None:
+            entry["point"] = list(point)
+        entry.update(keys)
+        return self._append("slices", entry)
+
     def add_light(self, type="directional", **keys):
         """Adds a light (keywords: direction, position, color, intensity, angle_deg, softness) and returns
         its path. The first one replaces the default light from above."""

@@ -64,6 +64,7 @@ void expand(const std::string& name, const std::string& index, const Scene& s, s
 constexpr const char* kScene = "scene";
 constexpr const char* kAllShadows = "lights.*.shadows";
 constexpr const char* kTrajectorySpheres = "spheres when a trajectory moves them";
+constexpr const char* kCastingSlice = "casters when the slice casts shadows";
 
 }  // namespace
 
@@ -110,6 +111,9 @@ const std::vector<InvalidationRule>& invalidation_table() {
       {"planes.#", {"casters"}, "what casts"},
       {"planes.#.color", {}, "shading only"},
       {"planes.#.clip", {"casters"}, "what the plane casts"},
+      {"slices", {kScene}, "slices added or removed: a new scene"},
+      {"slices.#", {kCastingSlice}, "the slice is drawn anew every frame; what it casts only when it casts"},
+      {"slices.#.casts_shadows", {"casters"}, "what casts"},
       {"clip_planes", {"spheres.clip", "sat", "casters"},
        "the spheres' cut marks, the SAT and every light structure (through the casters); never the gradients or the "
        "min/max grids"},
@@ -181,6 +185,11 @@ std::vector<std::string> invalidated_by(const std::string& path, const Scene& sc
   std::set<std::string> stale;
   for (const char* s : row->stale) {
     if (std::string(s) == kScene) return {kScene};
+    if (std::string(s) == kCastingSlice) {
+      const std::size_t slice = scene.first_slice + static_cast<std::size_t>(std::stoul(index));
+      if (slice < scene.planes.size() && scene.planes[slice].casts_shadows) stale.insert("casters");
+      continue;
+    }
     if (std::string(s) == kTrajectorySpheres) {
       if (std::any_of(scene.particles.begin(), scene.particles.end(), [](const ParticleObject& p) { return p.frames > 0; }))
         stale.insert("spheres");

@@ -79,6 +79,7 @@ void Renderer::apply_edit(const Scene& edited, const std::vector<std::string>& s
   for (std::size_t i = 0; i < edited.isosurfaces.size(); ++i) scene_.isosurfaces[i] = edited.isosurfaces[i];
   for (std::size_t i = 0; i < edited.planes.size(); ++i) scene_.planes[i] = edited.planes[i];
   scene_.clip_planes = edited.clip_planes;
+  scene_.first_slice = edited.first_slice;
   scene_.camera = edited.camera;
   scene_.lights = edited.lights;
   scene_.sphere_rasterizer = edited.sphere_rasterizer;

@@ -96,7 +96,7 @@ void visible_surfaces(const SurfaceInputs& in, VisibleSurfaces& vs) {
             sp.normal = plane.facing_normal(ray.direction);
             sp.kind = ObjectKind::Plane;
             sp.object = what[i] & ~kKind;
-            albedo = plane.color;
+            albedo = plane.color_at(sp.position);
             receives = plane.receives_shadows;
             break;
           }

@@ -55,6 +55,7 @@ SphereRasterizer sphere_rasterizer_from_string(const std::string& s) {
 
 Box3 Plane::bounds() const {
   Box3 b;
+  if (slice) return slice->volume->bounds();  // (the plane's part inside the box lies within it)
   if (size <= 0) return b;
   const Frame f = Frame::from_w(normal);
   for (int i = 0; i < 4; ++i)

@@ -97,13 +97,25 @@ enum class SphereRasterizer { Splat, Embree };
 std::string to_string(SphereRasterizer r);
 SphereRasterizer sphere_rasterizer_from_string(const std::string& s);  // Error listing the names
 
-// An opaque plane: a square of edge `size` centred at `point`, or infinite when size is 0.
+// A slice's colours (slices[]): each point of the plane inside its volume's box takes the colour of the
+// volume's trilinear value there through a colour map (a transfer function's colours; its opacity is
+// not read).
+struct SliceColors {
+  std::shared_ptr<const Volume> volume;
+  std::size_t volume_index = 0;  // in Scene::volumes
+  TransferFunction color_map;
+  Rgb at(const Vec3& p) const { return color_map.evaluate(volume->sample(p)).rgb; }
+};
+
+// An opaque plane: a square of edge `size` centred at `point`, or infinite when size is 0. A slice
+// (slices[], appended to Scene::planes) is a plane cut to its volume's box and coloured by its values.
 struct Plane : ShadowFlags {
   Vec3 point{0, -0.6f, 0};
   Vec3 normal{0, 1, 0};
   Rgb color{0.8f, 0.8f, 0.8f};
   float size = 0;
   ClipPlanes clip_planes;   // the scene's clip planes when `clip`, else none (set by the scene reader)
+  std::shared_ptr<const SliceColors> slice;  // a slice's colours; null for a plain plane
 
   Plane() { clip = false; }  // a floor stays whole unless asked
 
@@ -119,8 +131,10 @@ struct Plane : ShadowFlags {
       if (std::abs(dot(d, f.u)) > size * 0.5f || std::abs(dot(d, f.v)) > size * 0.5f) return kInfinity;
     }
     if (!clip_planes.empty() && clip_planes.removes(r.at(t))) return kInfinity;
+    if (slice && !slice->volume->bounds().contains(r.at(t))) return kInfinity;
     return t;
   }
+  Rgb color_at(const Vec3& p) const { return slice ? slice->at(p) : color; }
   Box3 bounds() const;  // empty for infinite planes
   // The normal on the side a ray travelling along `direction` sees.
   Vec3 facing_normal(const Vec3& direction) const { return dot(normal, direction) <= 0 ? normal : -normal; }
@@ -173,7 +187,8 @@ struct Scene {
   std::vector<ParticleObject> particles;
   std::vector<IsosurfaceObject> isosurfaces;
   SphereRasterizer sphere_rasterizer = SphereRasterizer::Splat;
-  std::vector<Plane> planes;
+  std::vector<Plane> planes;  // planes[], then the slices[] (first_slice on)
+  std::size_t first_slice = 0;
   // clip_planes: each removes the half-space its normal points into from every object whose `clip` is
   // true, for the eye and for every light (core/clip_planes.h).
   ClipPlanes clip_planes;

@@ -180,6 +180,12 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir, const Sc
     const auto& planes = array_at(r, "planes");
     for (std::size_t i = 0; i < planes.size(); ++i) s.planes.push_back(read_plane(planes[i], "planes." + std::to_string(i)));
   }
+  s.first_slice = s.planes.size();
+  if (r.has("slices")) {
+    const auto& slices = array_at(r, "slices");
+    for (std::size_t i = 0; i < slices.size(); ++i)
+      s.planes.push_back(read_slice(slices[i], "slices." + std::to_string(i), s.volumes, base_dir));
+  }
   if (r.has("clip_planes")) s.clip_planes = read_clip_planes(r.raw("clip_planes"), "clip_planes");
   for (Plane& p : s.planes) p.clip_planes = s.clip_planes_for(p.clip);
   const Box3 bounds = s.caster_bounds();

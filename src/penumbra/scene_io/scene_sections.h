@@ -48,6 +48,8 @@ Camera read_camera(const nlohmann::json& j, const Box3& bounds);
 Light read_light(const nlohmann::json& j, const std::string& path, const Box3& bounds);
 Plane read_plane(const nlohmann::json& j, const std::string& path);
 ClipPlanes read_clip_planes(const nlohmann::json& j, const std::string& path);
+Plane read_slice(const nlohmann::json& j, const std::string& path, const std::vector<VolumeObject>& volumes,
+                 const std::string& base_dir);
 VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const std::string& base_dir, const SceneReadOptions& options,
                          std::size_t time);
 IsosurfaceObject read_isosurface(const nlohmann::json& j, const std::string& path, const std::vector<VolumeObject>& volumes);
