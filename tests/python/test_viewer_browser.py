@@ -348,3 +348,30 @@ def test_the_time_slider_and_play_step_through_a_series(tmp_path):
         if driver:
             driver.quit()
         assert server.close() == 0
+
+
+def test_cuts_add_move_flip_and_remove_clip_planes_and_slices(session):
+    server, driver = session
+    wait_loaded(driver)
+    doc = lambda key: js(driver, f"window.penumbraViewer.state.document.{key} || []")
+    before = settled_view(driver)
+    frames = js(driver, "window.penumbraViewer.frames")
+    driver.find_element(By.XPATH, "//div[@id='cut-list']//button[text()='cut x']").click()
+    wait(driver, lambda d: len(doc("clip_planes")) == 1, "the clip plane did not reach the scene")
+    assert doc("clip_planes")[0]["normal"] == [1, 0, 0]
+    cut = settled_view(driver, frames)
+    assert cut != before, "the cut did not change the image"
+    # the slider moves the plane along its normal, nothing else
+    point = doc("clip_planes")[0]["point"]
+    slider = driver.find_element(By.CSS_SELECTOR, "[data-cut='clip_planes.0'] input[type=range]")
+    driver.execute_script("arguments[0].value = arguments[0].min; arguments[0].dispatchEvent(new Event('input'))", slider)
+    wait(driver, lambda d: doc("clip_planes")[0]["point"][0] < point[0] - 1e-6, "the slider did not move the plane")
+    assert doc("clip_planes")[0]["point"][1:] == point[1:]
+    driver.find_element(By.CSS_SELECTOR, "[data-cut='clip_planes.0'] button[title='keep the other side']").click()
+    wait(driver, lambda d: doc("clip_planes")[0]["normal"] == [-1, 0, 0], "flip did not turn the plane")
+    driver.find_element(By.XPATH, "//div[@id='cut-list']//button[text()='slice z']").click()
+    wait(driver, lambda d: len(doc("slices")) == 1, "the slice did not reach the scene")
+    for kind in ("clip_planes", "slices"):
+        driver.find_element(By.CSS_SELECTOR, f"[data-cut='{kind}.0'] button[title^='remove']").click()
+        wait(driver, lambda d: len(doc(kind)) == 0, f"the {kind} entry was not removed")
+    assert console_errors(driver) == []

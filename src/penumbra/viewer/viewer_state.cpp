@@ -59,6 +59,7 @@ nlohmann::json ViewerState::message(const Engine& engine) {
   const Box3 box = scene.caster_bounds();
   m["light_target"] = vec3(box.empty() ? scene.camera.target : box.center());
   m["radius"] = box.empty() ? 1.0f : 0.5f * length(box.hi - box.lo);
+  if (!box.empty()) m["bounds"] = {{"lo", vec3(box.lo)}, {"hi", vec3(box.hi)}};  // where cuts and slices are placed
   m["histograms"] = nlohmann::json::array();
   m["transfer_functions"] = nlohmann::json::array();
   for (std::size_t i = 0; i < scene.volumes.size(); ++i) {

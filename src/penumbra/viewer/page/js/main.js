@@ -1,6 +1,6 @@
 // penumbra view's page: wires the server's messages to the modules and the page's controls to theirs.
 // The modules: connection.js (WebSocket, protocol, edits), view.js (the image, camera and light
-// drags), overlay.js (stats, error banner), panels.js and transfer_function.js (the side panel),
+// drags), overlay.js (stats, error banner), panels.js, transfer_function.js and cuts.js (the side panel),
 // time.js (the time slider), util.js (helpers).
 
 import { $ } from "./util.js";
@@ -9,11 +9,13 @@ import { view, showFrame, followCamera, installViewInput, scheduleResize, sendRe
 import { renderStats, noteRebuilt, showError, hideError } from "./overlay.js";
 import { updatePanel, syncPanel, isPanelBusy, onPanelPointerDown, onWindowPointerUp } from "./panels.js";
 import { syncTime, frameShown, installTimeControls } from "./time.js";
+import { updateCuts } from "./cuts.js";
 
 function onState(state) {
   viewer.state = state;
   followCamera(state);
   updatePanel(state);
+  updateCuts(state);
   syncTime(state);
 }
 
