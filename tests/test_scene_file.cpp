@@ -5,6 +5,7 @@
 #include <fstream>
 #include <string>
 
+#include "error_message.h"
 #include "penumbra/core/error.h"
 #include "penumbra/scene_io/scene_file.h"
 #include "penumbra/registry/technique_catalog.h"
@@ -100,6 +101,23 @@ TEST(SceneFile, ValuesAreJsonWhenValidElseStrings) {
   EXPECT_TRUE(s.planes.empty());
   EXPECT_FALSE(s.volumes[0].jitter);
   EXPECT_EQ(s.lights[0].type, LightType::Spot);
+}
+
+// A scene without "lights" has one default light; its keys are edited by path like any light's.
+TEST(SceneFile, TheDefaultLightIsEditedByPath) {
+  nlohmann::json j = base_scene();
+  j.erase("lights");
+  const Scene before = build_scene(j, "");
+  apply_override(j, "lights.0.direction=[0, -1, 0]");
+  ASSERT_EQ(j["lights"].size(), 1u);
+  const Scene after = build_scene(j, "");
+  ASSERT_EQ(after.lights.size(), 1u);
+  EXPECT_FLOAT_EQ(after.lights[0].direction.y, -1.0f);
+  EXPECT_EQ(after.lights[0].type, before.lights[0].type);
+  EXPECT_FLOAT_EQ(after.lights[0].intensity, before.lights[0].intensity);
+  nlohmann::json k = base_scene();
+  k.erase("lights");
+  EXPECT_NE(error_message([&] { apply_override(k, "lights.1.intensity=2"); }).find("past the end"), std::string::npos);
 }
 
 TEST(SceneFile, BadOverridePathsAreErrors) {

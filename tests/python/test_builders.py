@@ -286,3 +286,14 @@ def test_a_clip_plane_cuts_the_volume_and_moves_by_path(tmp_path):
     fresh.add_plane(point=(0, -0.1, 0), size=4)
     assert np.array_equal(uncut, penumbra.Renderer(fresh).render(dtype="float32"))
     assert not np.array_equal(cut, uncut)
+
+
+def test_the_default_light_is_edited_by_path():
+    scene = penumbra.Scene({"camera": {"width": 32, "height": 32}, "shadows": {"technique": "ray_traced"}})
+    scene.add_volume(blob((16, 16, 16), np.float32), spacing=0.05)
+    r = penumbra.Renderer(scene)
+    before = r.render(dtype="float32")
+    r.set("lights.0.direction", [0.3, -1.0, 0.1])
+    after = r.render(dtype="float32")
+    assert [e["structure"] for e in r.stats["rebuilt"]] == ["lights.0.shadows"]
+    assert not np.array_equal(before, after)

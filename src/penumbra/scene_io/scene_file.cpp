@@ -115,6 +115,12 @@ void apply_override(nlohmann::json& scene, const std::string& path, const std::s
 
 void set_path(nlohmann::json& scene, const std::string& path, nlohmann::json parsed) {
   if (path.empty()) throw Error("--set: empty key");
+  // The default light (a scene without "lights" has one, {}: directional from above) is edited like any
+  // other: lights.0.direction on such a scene makes it the document's first entry (lights.1 is past the
+  // end of that array).
+  if (path.size() > 7 && path.rfind("lights.", 0) == 0 && path[7] >= '0' && path[7] <= '9' && scene.is_object() &&
+      (!scene.contains("lights") || scene["lights"].is_null()))
+    scene["lights"] = nlohmann::json::array({nlohmann::json::object()});
   nlohmann::json* node = &scene;
   std::string walked;
   std::size_t start = 0;
