@@ -297,3 +297,17 @@ def test_the_default_light_is_edited_by_path():
     after = r.render(dtype="float32")
     assert [e["structure"] for e in r.stats["rebuilt"]] == ["lights.0.shadows"]
     assert not np.array_equal(before, after)
+
+
+def test_a_preset_name_is_accepted_by_set_as_by_add_volume():
+    a = blob((16, 16, 16), np.float32)
+    scene = penumbra.Scene({"camera": {"width": 32, "height": 32}})
+    v = scene.add_volume(a, spacing=0.05, transfer_function="grayscale")
+    r = penumbra.Renderer(scene)
+    r.render(dtype="float32")
+    r.set(v + ".transfer_function", "mri-head")
+    by_name = r.render(dtype="float32")
+    r.set(v + ".transfer_function", {"preset": "mri-head"})
+    assert np.array_equal(by_name, r.render(dtype="float32"))
+    with pytest.raises(penumbra.Error, match="not a known preset"):
+        r.set(v + ".transfer_function", "no-such-preset")

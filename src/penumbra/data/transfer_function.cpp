@@ -190,7 +190,9 @@ std::vector<std::string> transfer_function_preset_names() {
 
 TransferFunction parse_transfer_function(const nlohmann::json& spec, float data_min, float data_max,
                                          const std::string& base_dir) {
-  if (!spec.is_object()) throw Error("transfer function: " + spec.dump() + " (expected an object)");
+  // A preset's name alone is that preset, as the Python builders and the viewer give it.
+  if (spec.is_string()) return parse_transfer_function(nlohmann::json{{"preset", spec}}, data_min, data_max, base_dir);
+  if (!spec.is_object()) throw Error("transfer function: " + spec.dump() + " (expected an object, or a preset's name)");
   for (const auto& [key, val] : spec.items())
     if (key != "preset" && key != "points" && key != "paraview" && key != "name" && key != "domain" && key != "opacity_scale")
       throw Error("transfer function: unknown key \"" + key + "\" (expected preset, points, paraview, name, domain, opacity_scale)");
