@@ -47,6 +47,12 @@ int floor_cell(float f, int n) { return static_cast<int>(std::floor(f * static_c
 
 float wrapped(float f) { return f - std::floor(f); }
 
+// Without a box the grid spans the references' bounds, but at least the cutoff along each axis, so a
+// cell is never narrower than the cutoff.
+float axis_width(const Box3& bounds, int axis, float cutoff) {
+  return std::max({bounds.hi[axis] - bounds.lo[axis], cutoff, 1e-6f});
+}
+
 }  // namespace
 
 std::vector<std::uint8_t> points_near(const std::vector<Vec3>& references, const std::vector<Vec3>& points,
@@ -70,8 +76,7 @@ std::vector<std::uint8_t> points_near(const std::vector<Vec3>& references, const
     }
   } else {
     for (const Vec3& r : references) bounds.extend(r);
-    const Vec3 e = bounds.extent();
-    const float width[3] = {std::max(e.x, 1e-6f), std::max(e.y, 1e-6f), std::max(e.z, 1e-6f)};
+    const float width[3] = {axis_width(bounds, 0, cutoff), axis_width(bounds, 1, cutoff), axis_width(bounds, 2, cutoff)};
     size_grid(bins, width, cutoff, references.size());
     for (std::size_t i = 0; i < references.size(); ++i) {
       bins.placed[i] = references[i];
@@ -94,10 +99,8 @@ std::vector<std::uint8_t> points_near(const std::vector<Vec3>& references, const
         p = cell->cartesian(f);
         for (int a = 0; a < 3; ++a) home[a] = std::min(floor_cell(f[a], bins.n[a]), bins.n[a] - 1);
       } else {
-        const Vec3 e = bounds.extent();
         for (int a = 0; a < 3; ++a) {
-          const float w = std::max(e[a], 1e-6f);
-          const float f = (p[a] - bounds.lo[a]) / w;
+          const float f = (p[a] - bounds.lo[a]) / axis_width(bounds, a, cutoff);
           home[a] = f < -1 ? -2 : f > 2 ? bins.n[a] + 1 : floor_cell(f, bins.n[a]);  // far outside: no neighbour cell
         }
       }
