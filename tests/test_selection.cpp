@@ -73,6 +73,7 @@ TEST(Selection, AroundExcludesTheReferenceAndWithinKeepsIt) {
   const Fixture f;
   EXPECT_EQ(f.select("around 1 name OW"), (Indices{2, 4}));
   EXPECT_EQ(f.select("around 0.99 name OW"), Indices{});
+  EXPECT_EQ(f.select("around 1 not name OW"), (Indices{3}));  // more references than tested atoms
   EXPECT_EQ(f.select("within 1 of name OW"), (Indices{2, 3, 4}));
   EXPECT_EQ(f.select("sphzone 1 resid 2"), (Indices{3, 4}));  // centre 3.5
   EXPECT_TRUE(parse_selection("around 3 protein")->depends_on_positions());
@@ -85,6 +86,7 @@ TEST(Selection, DistancesAreMinimumImageInTheBox) {
   EXPECT_EQ(f.select("around 1.5 index 0"), (Indices{1}));
   EXPECT_EQ(f.select("around 1.5 index 0", CellDimensions{6, 6, 6, 90, 90, 90}), (Indices{1, 5}));
   EXPECT_EQ(f.select("around 1.5 index 0", CellDimensions{6, 7, 8, 60, 60, 90}), (Indices{1, 5}));
+  EXPECT_EQ(f.select("around 1.5 not index 0", CellDimensions{6, 6, 6, 90, 90, 90}), (Indices{0}));
   EXPECT_EQ(f.select("sphzone 1.5 index 0", CellDimensions{6, 6, 6, 90, 90, 90}), (Indices{0, 1, 5}));
 }
 

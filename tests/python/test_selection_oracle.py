@@ -43,6 +43,7 @@ GEOMETRIC = [
     "around 5 protein", "around 3.5 resname NA CL", "sphzone 10 protein", "sphzone 6 resid 10",
     "resname SOL and around 4 resid 50:60", "byres around 3 protein", "same residue as around 3 resname NA",
     "not around 10 protein and resname SOL", "around 2.5 name OW and resid 100", "around 8 (resname CL and index 18000:18182)",
+    "around 4 not resname NA CL",  # more reference atoms than tested ones: the grid bins the references
 ]
 FRAMES = [0, 75, 150]
 # penumbra's extensions and the MDAnalysis selection each equals

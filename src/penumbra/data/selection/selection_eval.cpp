@@ -120,13 +120,9 @@ private:
   // around: atoms outside the selection within the distance of it; within (VMD): the selection too.
   AtomMask near(const SelectionNode& n) const {
     const AtomMask reference = eval(*n.children[0]);
-    std::vector<Vec3> refs;
     AtomMask test(reference.size());
-    for (std::size_t i = 0; i < reference.size(); ++i) {
-      if (reference[i]) refs.push_back(positions_[i]);
-      test[i] = !reference[i];
-    }
-    AtomMask m = points_near(refs, positions_, test, static_cast<float>(n.distance), cell_);
+    for (std::size_t i = 0; i < reference.size(); ++i) test[i] = !reference[i];
+    AtomMask m = points_near(positions_, reference, test, static_cast<float>(n.distance), cell_);
     if (n.kind == Kind::Within)
       for (std::size_t i = 0; i < m.size(); ++i) m[i] |= reference[i];
     return m;
