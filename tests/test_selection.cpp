@@ -126,6 +126,24 @@ TEST(Selection, MalformedSelectionsNamePositionAndExpectation) {
   EXPECT_EQ(error_message([] { parse_selection("within 3 protein"); }),
             "at character 10: expected 'of' (VMD's 'within D of SELECTION'), found 'protein'");
   EXPECT_NE(error_message([] { parse_selection("smarts c1ccccc1"); }).find("MDAnalysis's 'smarts' is not one"), std::string::npos);
+  EXPECT_EQ(error_message([] { parse_selection("resid 1:"); }),
+            "at character 7: expected a number or a range ('10:20', '10-20', '10 to 20') after 'resid', found '1:'");
+  EXPECT_EQ(error_message([] { parse_selection("index 99999999999999999999"); }),
+            "at character 7: expected a number that fits 64 bits, found '99999999999999999999'");
+}
+
+// What a viewer user may type stays within bounds: deep nesting and very long selections are refused
+// (the recursion of parsing, evaluating and freeing stays shallow), long values are read.
+TEST(Selection, HugeSelectionsAreRefusedOrRead) {
+  EXPECT_NE(error_message([] { parse_selection(std::string(500, '(') + "all" + std::string(500, ')')); })
+                .find("at character 101: expected at most 100 levels of nesting"), std::string::npos);
+  std::string chain = "name A";
+  for (int i = 0; i < 6000; ++i) chain += " or name A";
+  EXPECT_NE(error_message([&] { parse_selection(chain); }).find("expected at most 10000 words"), std::string::npos);
+  EXPECT_NE(error_message([] { parse_selection("resid " + std::string(100000, '1')); }).find("expected a number that fits 64 bits"),
+            std::string::npos);
+  EXPECT_NE(error_message([] { parse_selection("resid 1-" + std::string(100000, 'x')); }).find("expected a number or a range"),
+            std::string::npos);
 }
 
 nlohmann::json md_particles(nlohmann::json entry) {

@@ -5,10 +5,10 @@
 // around the separator). Errors give the 1-based character where the parser stopped and what it expected.
 #include <algorithm>
 #include <cctype>
-#include <cerrno>
 #include <cmath>
 #include <cstdlib>
-#include <regex>
+#include <charconv>
+#include <optional>
 #include <string_view>
 
 #include "penumbra/core/error.h"
@@ -59,13 +59,72 @@ bool is_mdanalysis_keyword(const SelectionToken& t) {
   return t.end || std::any_of(std::begin(kKeywords), std::end(kKeywords), [&](const char* k) { return t.text == k; });
 }
 
+// One value of a numeric keyword, read as MDAnalysis's patterns do: "-?\d+" alone (resid: with an
+// optional insertion code, one word character, after it), or a range: two of them separated by ':',
+// '-' or ' to ' with blanks allowed around; what follows the second number is ignored (MDAnalysis's
+// re.match has no end anchor there).
+struct NumberValue {
+  std::string_view lo, hi;
+  bool range = false, insertion_code = false;
+};
+
+bool is_word_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+bool is_blank(char c) { return std::isspace(static_cast<unsigned char>(c)) != 0; }
+
+// "-?\d+" at s[i], i moved past it.
+std::optional<std::string_view> scan_integer(std::string_view s, std::size_t& i) {
+  std::size_t j = i;
+  if (j < s.size() && s[j] == '-') ++j;
+  const std::size_t digits = j;
+  while (j < s.size() && std::isdigit(static_cast<unsigned char>(s[j]))) ++j;
+  if (j == digits) return std::nullopt;
+  const std::string_view number = s.substr(i, j - i);
+  i = j;
+  return number;
+}
+
+std::optional<NumberValue> number_value(std::string_view s, bool insertion_codes) {
+  NumberValue v;
+  std::size_t i = 0;
+  const auto lo = scan_integer(s, i);
+  if (!lo) return std::nullopt;
+  v.lo = v.hi = *lo;
+  if (insertion_codes && i < s.size() && is_word_char(s[i])) {
+    v.insertion_code = true;
+    ++i;
+  }
+  if (i == s.size()) return v;
+  std::size_t j = i;
+  while (j < s.size() && is_blank(s[j])) ++j;
+  if (j < s.size() && (s[j] == ':' || s[j] == '-')) {
+    ++j;
+  } else if (j > i && s[j - 1] == ' ' && s.substr(j, 3) == "to ") {
+    j += 3;
+  } else {
+    return std::nullopt;
+  }
+  while (j < s.size() && is_blank(s[j])) ++j;
+  const auto hi = scan_integer(s, j);
+  if (!hi) return std::nullopt;
+  v.hi = *hi;
+  v.range = true;
+  if (insertion_codes && j < s.size() && is_word_char(s[j])) v.insertion_code = true;
+  return v;
+}
+
 std::string found_text(const SelectionToken& t) { return t.end ? "the end of the selection" : "'" + t.text + "'"; }
 
 class SelectionParser {
 public:
   explicit SelectionParser(const std::string& text) : tokens_(tokenize_selection(text)) {}
 
+  // Bounds that keep the recursion of parsing, evaluating and freeing a selection shallow.
+  static constexpr std::size_t kMaxTokens = 10000;
+  static constexpr int kMaxNesting = 100;
+
   std::unique_ptr<SelectionNode> parse() {
+    if (tokens_.size() > kMaxTokens + 1)
+      fail_at(tokens_[kMaxTokens], "at most " + std::to_string(kMaxTokens) + " words and parentheses in a selection");
     auto root = expression(0);
     if (!peek().end) fail("'and', 'or' or the end of the selection");
     return root;
@@ -75,6 +134,7 @@ public:
 private:
   std::vector<SelectionToken> tokens_;
   std::size_t next_ = 0;
+  int nesting_ = 0;  // expressions being parsed, one inside the other
 
   const SelectionToken& peek() const { return tokens_[next_]; }
   const SelectionToken& take() { return tokens_[next_ == tokens_.size() - 1 ? next_ : next_++]; }
@@ -86,6 +146,8 @@ private:
   static int precedence(const SelectionToken& t) { return !t.end && (t.text == "and" || t.text == "or") ? 3 : -1; }
 
   std::unique_ptr<SelectionNode> expression(int min_precedence) {
+    if (++nesting_ > kMaxNesting)
+      fail("at most " + std::to_string(kMaxNesting) + " levels of nesting (parentheses, not, around, sphzone, within, byres, same … as)");
     auto left = subexpression();
     while (precedence(peek()) >= min_precedence) {
       const Kind kind = take().text == "and" ? Kind::And : Kind::Or;
@@ -95,6 +157,7 @@ private:
       node->children.push_back(expression(3 + 1));
       left = std::move(node);
     }
+    --nesting_;
     return left;
   }
 
@@ -221,29 +284,20 @@ private:
   }
 
   std::unique_ptr<SelectionNode> numbers(Kind kind, const SelectionToken& keyword, bool resid) {
-    static const std::regex kSingle(R"(^(-?\d+)$)"), kSingleIcode(R"(^(-?\d+)(\w?)$)");
-    // re.match without an end anchor, as MDAnalysis: what follows the second number is ignored
-    static const std::regex kRange(R"(^(-?\d+)\s*(?:[:-]| to )\s*(-?\d+))"),
-        kRangeIcode(R"(^(-?\d+)(\w?)\s*(?:[:-]| to )\s*(-?\d+)(\w?))");
     auto n = leaf(kind);
     for (const SelectionToken& v : joined(values(keyword))) {
-      std::smatch m;
-      const auto number = [&](const std::string& s) {
-        errno = 0;
-        const long long x = std::strtoll(s.c_str(), nullptr, 10);
-        if (errno == ERANGE) fail_at(v, "a number that fits 64 bits");
-        return static_cast<std::int64_t>(x);
+      const std::optional<NumberValue> value = number_value(v.text, resid);
+      if (!value) fail_at(v, "a number or a range ('10:20', '10-20', '10 to 20') after '" + keyword.text + "'");
+      if (value->insertion_code)
+        fail_at(v, value->range ? "a residue range without insertion codes (the topology has none)"
+                                : "a residue number without an insertion code (the topology has none)");
+      const auto number = [&](std::string_view digits) {
+        std::int64_t x = 0;
+        const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), x);
+        if (ec != std::errc() || end != digits.data() + digits.size()) fail_at(v, "a number that fits 64 bits");
+        return x;
       };
-      if (std::regex_match(v.text, m, resid ? kSingleIcode : kSingle)) {
-        if (resid && m[2].length() > 0) fail_at(v, "a residue number without an insertion code (the topology has none)");
-        n->ranges.emplace_back(number(m[1]), number(m[1]));
-      } else if (std::regex_search(v.text, m, resid ? kRangeIcode : kRange)) {
-        if (resid && (m[2].length() > 0 || m[4].length() > 0))
-          fail_at(v, "a residue range without insertion codes (the topology has none)");
-        n->ranges.emplace_back(number(m[1]), number(m[resid ? 3 : 2]));
-      } else {
-        fail_at(v, "a number or a range ('10:20', '10-20', '10 to 20') after '" + keyword.text + "'");
-      }
+      n->ranges.emplace_back(number(value->lo), number(value->hi));
     }
     return n;
   }
