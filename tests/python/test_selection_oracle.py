@@ -147,3 +147,29 @@ def test_malformed_selection_names_position_and_expectation(universe, selection,
     assert message in result.stderr, result.stderr
     with pytest.raises(Exception):
         universe.select_atoms(selection)
+
+
+# A PDB file (gemmi's reading against MDAnalysis's PDB parser): chain ids, segment ids (the chain
+# where the file has none), element types, the CRYST1 box (hexagonal: 90/90/120°).
+PDB = os.path.join(DATA, "1tii.pdb")
+PDB_SELECTIONS = [
+    "all", "protein", "chainID A and name CA", "segid D", "resid 10:20 and chainID D", "resname HOH", "type C",
+    "type FE S", "name O*", "byres around 4 resname HOH", "around 5 chainID D", "sphzone 10 chainID E", "bynum 5000:5100",
+    "same residue as index 100",
+]
+
+
+@pytest.fixture(scope="module")
+def pdb_universe():
+    if not os.path.exists(PDB):
+        pytest.skip(f"missing data: {PDB} not found")
+    return mda.Universe(PDB)
+
+
+@pytest.mark.parametrize("selection", PDB_SELECTIONS)
+def test_pdb_selection_matches_mdanalysis(pdb_universe, tmp_path, selection):
+    out = tmp_path / "indices.txt"
+    result = subprocess.run([CLI, "select", PDB, selection, "--indices", str(out)], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    ours = np.array([int(v) for v in out.read_text().split()], dtype=np.int64)
+    np.testing.assert_array_equal(ours, pdb_universe.select_atoms(selection).indices, err_msg=selection)
