@@ -18,14 +18,13 @@ std::shared_ptr<const AtomSelection> read_selection(JsonReader& r) {
 }
 
 // The file read once per cache (every particle set naming it shares the reading).
-std::shared_ptr<const ParticleFile> particle_file(JsonReader& r, const std::string& file, SceneDataCache* files) {
-  const auto read = [&] { return with_context(r.key_path("file"), [&] { return read_particle_file(file); }); };
-  return files ? files->particle_file(file, read) : read();
+std::shared_ptr<const ParticleFile> particle_file(JsonReader& r, const std::string& file, SceneDataCache& files) {
+  return files.particle_file(file, [&] { return with_context(r.key_path("file"), [&] { return read_particle_file(file); }); });
 }
 
-// `files`: where files already read are kept (null: read here).
+// `files`: where files already read are kept.
 ParticleObject read_static_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir,
-                                     const SceneReadOptions& options, SceneDataCache* files) {
+                                     const SceneReadOptions& options, SceneDataCache& files) {
   if (j.is_object() && j.contains("array")) {  // the caller's spheres, as they are
     JsonReader r(j, path);
     ParticleObject p;
@@ -42,7 +41,7 @@ ParticleObject read_static_particles(const nlohmann::json& j, const std::string&
     const std::string key = data_key(j, base_dir, {"casts_shadows", "receives_shadows", "clip"}, true);
     std::optional<std::size_t>& selected = options.cache->selected_atoms(key);
     p.set = options.cache->particles(key, [&] {
-      ParticleObject built = read_static_particles(j, path, base_dir, SceneReadOptions{}, options.cache);
+      ParticleObject built = read_static_particles(j, path, base_dir, SceneReadOptions{}, files);
       selected = built.selected_atoms;
       return ParticleSet(*built.set);
     });
@@ -162,27 +161,27 @@ ParticleSet pick_spheres(const ParticleSet& set, const std::vector<std::uint32_t
 // on positions (around, sphzone, within) evaluated at this frame with the frame's box, others once.
 // The trajectory stays open in the cache between frames.
 ParticleObject read_trajectory_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir,
-                                         const SceneReadOptions& options, std::size_t time) {
+                                         const SceneReadOptions& options, std::size_t time, SceneDataCache& files) {
   JsonReader r(j, path);
   if (!r.has("file")) r.fail("trajectory", "needs a topology: give the particles' 'file' (PDB, mmCIF, GRO or XYZ) beside it");
   if (r.integer("assembly", 0, 0, 1000000) != 0)
     r.fail("assembly", "cannot be used with a trajectory: its frames hold the deposited atoms, not an assembly");
   if (!r.boolean("hydrogens", true))
     r.fail("hydrogens", "cannot be false with a trajectory: its frames hold every atom of the topology");
-  const std::vector<std::string> files = trajectory_files(r, base_dir);
+  const std::vector<std::string> trajectory_paths = trajectory_files(r, base_dir);
   const std::shared_ptr<const AtomSelection> selection = read_selection(r);
   nlohmann::json topology_json = j;
   topology_json.erase("trajectory");
   topology_json.erase("origin");  // the shift is applied to every frame below
   topology_json.erase("select");  // applied to every frame below
-  ParticleObject p = read_static_particles(topology_json, path, base_dir, options, options.cache);
+  ParticleObject p = read_static_particles(topology_json, path, base_dir, options, files);
   const std::shared_ptr<const ParticleSet> topology_set = p.set;  // p.set becomes the frame below
   const ParticleSet& topology = *topology_set;
   auto open = [&] {
-    return with_context(r.key_path("trajectory"), [&] { return open_trajectory(files, topology.size()); });
+    return with_context(r.key_path("trajectory"), [&] { return open_trajectory(trajectory_paths, topology.size()); });
   };
   std::unique_ptr<TrajectoryReader> own;
-  TrajectoryReader& reader = options.cache ? options.cache->trajectory(nlohmann::json(files).dump(), open) : *(own = open());
+  TrajectoryReader& reader = options.cache ? options.cache->trajectory(nlohmann::json(trajectory_paths).dump(), open) : *(own = open());
   if (reader.atom_count() != topology.size())
     r.fail("trajectory", "holds " + std::to_string(reader.atom_count()) + " atoms a frame, but the topology '" +
                              p.source + "' has " + std::to_string(topology.size()));
@@ -195,7 +194,7 @@ ParticleObject read_trajectory_particles(const nlohmann::json& j, const std::str
   std::shared_ptr<const ParticleFile> atoms;
   std::shared_ptr<const std::vector<std::uint32_t>> topology_selected;
   if (selection) {
-    atoms = particle_file(r, p.source, options.cache);
+    atoms = particle_file(r, p.source, files);
     const auto evaluate = [&] {
       return selection->evaluate(topology_of(*atoms), positions_of(*atoms), topology_of(*atoms).unit_cell);
     };
@@ -254,9 +253,9 @@ ParticleObject read_trajectory_particles(const nlohmann::json& j, const std::str
 }  // namespace
 
 ParticleObject read_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir,
-                              const SceneReadOptions& options, std::size_t time) {
-  if (j.is_object() && j.contains("trajectory")) return read_trajectory_particles(j, path, base_dir, options, time);
-  return read_static_particles(j, path, base_dir, options, options.cache);
+                              const SceneReadOptions& options, std::size_t time, SceneDataCache& files) {
+  if (j.is_object() && j.contains("trajectory")) return read_trajectory_particles(j, path, base_dir, options, time, files);
+  return read_static_particles(j, path, base_dir, options, files);
 }
 
 }  // namespace penumbra::scene_sections
