@@ -179,6 +179,19 @@ TEST(Selection, SeveralSetsFromOneFile) {
   EXPECT_EQ(s.particles[0].selected_atoms, std::optional<std::size_t>(1470));
   EXPECT_LT(s.particles[0].set->size(), 1470u);  // hydrogens dropped after selecting
   EXPECT_EQ(s.particles[1].set->size(), *s.particles[1].selected_atoms);
+  // each sphere names its atom in the file: the protein comes first in the file, the ions last
+  const auto file = read_particle_file(test::shared_data_dir() + "/md_1tii_chainD.gro");
+  const AtomTopology& topology = topology_of(*file);
+  ASSERT_EQ(s.particles[0].set->atoms.size(), s.particles[0].set->size());
+  for (const std::uint32_t a : s.particles[0].set->atoms) {
+    EXPECT_LT(a, 1470u);
+    EXPECT_NE(topology.strings[topology.types[a]], "H");
+  }
+  ASSERT_EQ(s.particles[1].set->atoms.size(), s.particles[1].set->size());
+  for (const std::uint32_t a : s.particles[1].set->atoms) {
+    const std::string& resname = topology.strings[topology.resnames[a]];
+    EXPECT_TRUE(resname == "NA" || resname == "CL") << a << " " << resname;
+  }
   int reads = 0;
   cache.particle_file(test::shared_data_dir() + "/md_1tii_chainD.gro", [&] {
     ++reads;
@@ -201,6 +214,24 @@ TEST(Selection, TrajectorySelectionsFollowTheFrames) {
   EXPECT_NE(s0.particles[0].selected_atoms, s150.particles[0].selected_atoms);
   EXPECT_EQ(s0.particles[1].set->size(), 1470u);
   EXPECT_EQ(s150.particles[1].set->size(), 1470u);
+  EXPECT_EQ(s0.particles[0].set->atoms.size(), 2177u);
+  EXPECT_NE(s0.particles[0].set->atoms, s150.particles[0].set->atoms);
+  EXPECT_EQ(s150.particles[1].set->atoms.back(), 1469u);
+}
+
+// An assembly copies the selected atoms: `index` and every other keyword name the deposited atoms,
+// and each copy names the atom it copies.
+TEST(Selection, AssembliesCopyTheSelectedAtoms) {
+  SKIP_WITHOUT_SHARED_DATA("3j6r.pdb.gz");
+  nlohmann::json j;
+  j["particles"] = {{{"file", test::shared_data_dir() + "/3j6r.pdb.gz"}, {"assembly", 1}, {"select", "chainID A and name CA"}}};
+  const Scene s = build_scene(j, "");
+  const std::size_t selected = *s.particles[0].selected_atoms;
+  const ParticleSet& set = *s.particles[0].set;
+  ASSERT_GT(selected, 0u);
+  EXPECT_EQ(set.size(), 60 * selected);  // 60 operators
+  ASSERT_EQ(set.atoms.size(), set.size());
+  for (std::size_t k = 0; k < set.size(); ++k) EXPECT_EQ(set.atoms[k], set.atoms[k % selected]);
 }
 
 TEST(Selection, ProceduralSpheresTakeAUniformColour) {

@@ -143,9 +143,10 @@ std::vector<std::string> trajectory_files(JsonReader& r, const std::string& base
   return files;
 }
 
-// The spheres of `set` at `indices`, in that order.
+// The spheres of `set` (sphere i: atom i) at `indices`, in that order, each naming its atom.
 ParticleSet pick_spheres(const ParticleSet& set, const std::vector<std::uint32_t>& indices) {
   ParticleSet out;
+  out.atoms = indices;
   out.spheres.reserve(indices.size());
   out.colors.reserve(indices.size());
   for (const std::uint32_t i : indices) {

@@ -394,6 +394,7 @@ ParticleSet expand_assembly(const PackedMolecule& m, const std::vector<std::uint
   reserve_huge(out.colors, static_cast<std::size_t>(total));
   out.spheres.resize(static_cast<std::size_t>(total));
   out.colors.resize(static_cast<std::size_t>(total));
+  if (!base.atoms.empty()) out.atoms.resize(static_cast<std::size_t>(total));
   std::vector<char> overflow(jobs.size(), 0);  // per job: a transformed centre was not finite
   parallel_for(jobs.size(), [&](std::size_t begin, std::size_t end) {
     for (std::size_t j = begin; j < end; ++j) {
@@ -401,6 +402,7 @@ ParticleSet expand_assembly(const PackedMolecule& m, const std::vector<std::uint
       const AssemblyOperator& a = *job.op;
       Sphere* dst = out.spheres.data() + job.offset;
       std::uint32_t* dst_color = out.colors.data() + job.offset;
+      std::uint32_t* dst_atom = out.atoms.empty() ? nullptr : out.atoms.data() + job.offset;
       for (const std::uint32_t k : *job.atoms) {
         const Sphere& s = base.spheres[k];
         const double x = s.center.x, y = s.center.y, z = s.center.z;
@@ -411,6 +413,7 @@ ParticleSet expand_assembly(const PackedMolecule& m, const std::vector<std::uint
         if (!is_finite(dst->center)) overflow[j] = 1;
         ++dst;
         *dst_color++ = base.colors[k];
+        if (dst_atom) *dst_atom++ = base.atoms[k];
       }
     }
   });
@@ -462,6 +465,7 @@ ParticleSet build_from_molecule(const PackedMolecule& m, const ParticleLoadOptio
     const TransferFunction map = o.color_map ? o.color_map(lo, hi) : cool_to_warm(lo, hi);
     for (std::size_t k = 0; k < kept.size(); ++k) base.colors[k] = pack_rgba8(map.evaluate(v[kept[k]]).rgb);
   }
+  if (o.selection) base.atoms = kept;
   if (o.assembly == 0 || kept.empty()) return base;
   return expand_assembly(m, kept, base, o.assembly, std::min(o.max_spheres, kMaxSpheres), info.operators);
 }
