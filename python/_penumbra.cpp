@@ -39,11 +39,16 @@ namespace {
 nlohmann::json parse(const std::string& text, const std::string& what) { return parse_json_text(text, what); }
 
 // The stats of a frame, as the CLI's --stats names them.
-nlohmann::json frame_stats(const EngineFrame& f) {
+nlohmann::json frame_stats(const EngineFrame& f, const Scene& scene) {
   const FrameResult& r = f.frame;
   nlohmann::json rebuilt = nlohmann::json::array();
   for (const auto& s : f.rebuilt) rebuilt.push_back({{"structure", s.structure}, {"cause", s.cause}});
-  return {{"timings_ms",
+  // per particle set: the spheres drawn, and the atoms its `select` kept (None without one)
+  nlohmann::json particles = nlohmann::json::array();
+  for (const ParticleObject& p : scene.particles)
+    particles.push_back({{"spheres", p.set->size()}, {"selected", p.selected_atoms ? nlohmann::json(*p.selected_atoms) : nlohmann::json(nullptr)}});
+  return {{"particles", particles},
+          {"timings_ms",
            {{"prepare", r.prepare_ms}, {"sat", r.sat_ms}, {"ambient", r.ambient_ms}, {"build", r.build_ms},
             {"render", r.render_ms}, {"hits", r.hits_ms}, {"bvh", r.bvh_ms}, {"total", r.total_ms}}},
           {"rebuilt", rebuilt},
@@ -196,7 +201,7 @@ public:
       py::gil_scoped_release release;
       f = engine_.render(options);
     }
-    return frame_stats(f).dump();
+    return frame_stats(f, engine_.scene()).dump();
   }
 
 private:

@@ -7,7 +7,8 @@ For each scene a scripted session is written and replayed with `penumbra render 
 viewer does: each edit, a preview, then the full-quality frame). The session is built from the scene
 itself, so any scene works: camera moves (camera.direction turning), a light drag (the first light's
 direction or position turning), transfer-function edits (the first visible volume's opacity_scale),
-isovalue edits (the first isosurface's value), technique switches (shadows.technique to another
+isovalue edits (the first isosurface's value), selection edits (the first particle file's `select`
+cycling through SELECTIONS), technique switches (shadows.technique to another
 technique that takes the scene's casters, and back), and one cancelled full frame. The table gives,
 per edit type, the median and 95th percentile of the time from the edit to its first preview and to
 its full-quality frame. Then, for the first scene with a cssm volume, the PSNR of accumulated
@@ -19,6 +20,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 STEPS = 8  # edits per type
 # NAME or NAME:WxH (the viewport)
 DEFAULT_SCENES = ["cranium.json", "1aon.json:1920x1200", "ct-body.json", "ct-implants.json"]
+# particles[].select edits, in turn (1AON: GroEL chains A-N, GroES O-U, ADP and Mg ions)
+SELECTIONS = ["protein", "chainID A B C D E F G", "around 6 resname ADP", "backbone", "all", "resid 1:300",
+              "byres around 4 chainID O", "not name C*"]
 ALTERNATIVE = {"cssm": "shadow_map", "shadow_map": "cssm", "deep_shadow_map": "cssm", "issm": "ray_traced",
                "light_pass": "ray_traced", "ray_traced": "shadow_map", "sat_cone": "cssm", "none": "shadow_map"}
 
@@ -54,6 +58,11 @@ def session(scene):
         value = scene["isosurfaces"][0]["value"]
         for i in range(1, STEPS + 1):
             steps.append(("isovalue", {"set": {"isosurfaces.0.value": value * (1 + 0.01 * i * (-1) ** i)}}))
+    for pi, p in enumerate(scene.get("particles", [])):
+        if "file" in p and "trajectory" not in p:
+            for i in range(STEPS):
+                steps.append(("selection", {"set": {f"particles.{pi}.select": SELECTIONS[i % len(SELECTIONS)]}}))
+            break
     technique = scene.get("shadows", {}).get("technique", "none")
     other = ALTERNATIVE.get(technique, "shadow_map")
     if scene.get("particles") and not scene.get("volumes") and technique == "issm":

@@ -182,6 +182,28 @@ TEST(Engine, ParticleColoursRebuildOnlyTheColours) {
   check_edit(j, "particles.0.radius", 0.25);
 }
 
+// A selection edit rebuilds the spheres and what hangs off them, and the image is a fresh render's.
+TEST(Engine, SelectionEditRebuildsTheSpheres) {
+  ScratchDir dir;
+  const std::string xyz = dir.file("atoms.xyz");
+  {
+    std::ofstream out(xyz);
+    out << "3\nselection\nC 0 0 0\nO 0.5 0 0\nN 0 0.5 0\n";
+  }
+  json j;
+  j["particles"] = json::array({{{"file", xyz}, {"radius", 0.2}, {"select", "all"}}});
+  j["shadows"] = {{"technique", "ray_traced"}};
+  j["camera"] = {{"width", 32}, {"height", 32}};
+  check_edit(j, "particles.0.select", "name C O");
+  Engine engine(j, "");
+  engine.render();
+  engine.set("particles.0.select", "name N");
+  const EngineFrame f = engine.render();
+  EXPECT_NE(std::find_if(f.rebuilt.begin(), f.rebuilt.end(), [](const auto& r) { return r.structure == "spheres"; }), f.rebuilt.end());
+  EXPECT_EQ(engine.scene().particles[0].set->size(), 1u);
+  EXPECT_EQ(engine.scene().particles[0].selected_atoms, std::optional<std::size_t>(1));
+}
+
 // Each pixel's nearest sphere is found again only when what the eye sees of the spheres can change:
 // a light edit keeps it (and the image is still a fresh render's), a camera, sphere or rasterizer edit
 // finds it again.

@@ -13,5 +13,6 @@ void add_montage_command(CLI::App& app);
 void add_info_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
 void add_techniques_command(CLI::App& app);
+void add_select_command(CLI::App& app);
 
 }  // namespace penumbra::cli

@@ -71,6 +71,11 @@ nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const 
     if (mesh_bytes) j["memory_bytes"]["mesh"] = mesh_bytes;
   }
   if (scene.has_particles()) {
+    // per particle set: the spheres drawn, and the atoms its `select` kept (null without one)
+    j["particles"] = nlohmann::json::array();
+    for (const ParticleObject& p : scene.particles)
+      j["particles"].push_back({{"source", p.source}, {"spheres", p.set->size()},
+                                {"selected", p.selected_atoms ? nlohmann::json(*p.selected_atoms) : nlohmann::json(nullptr)}});
     j["sphere_renderer"] = to_string(scene.sphere_rasterizer);
     j["issm_rings"] = first.issm_rings;
   }

@@ -262,3 +262,22 @@ def test_set_threads_changes_the_workers_and_not_the_frame():
     finally:
         penumbra.set_threads(0)
     assert penumbra.threads() == before
+
+
+def test_a_selection_edit_draws_only_the_selected_atoms(tmp_path):
+    """r.set("particles.0.select", …) rebuilds the spheres (and what hangs off them), the stats count
+    the atoms selected and the spheres drawn, and a malformed selection raises naming the key."""
+    (tmp_path / "atoms.xyz").write_text("4\natoms\nC 0 0 0\nO 0.5 0 0\nN 0 0.5 0\nC 0 0 0.5\n")
+    scene = {"particles": [{"file": "atoms.xyz", "radius": 0.2}], "camera": {"width": 40, "height": 32},
+             "shadows": {"technique": "ray_traced"}}
+    r = penumbra.Renderer(penumbra.Scene(scene, base_dir=str(tmp_path)))
+    everything = r.render()
+    assert r.stats["particles"] == [{"spheres": 4, "selected": None}]
+    r.set("particles.0.select", "name C")
+    carbons = r.render()
+    assert r.stats["particles"] == [{"spheres": 2, "selected": 2}]
+    assert {"structure": "spheres", "cause": "particles.0.select"} in r.stats["rebuilt"]
+    assert not np.array_equal(everything, carbons)
+    with pytest.raises(penumbra.Error, match=r"particles\.0\.select: at character 11: expected a selection"):
+        r.set("particles.0.select", "name C and")
+    assert r.get("particles.0.select") == "name C"

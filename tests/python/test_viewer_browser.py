@@ -21,6 +21,7 @@ from selenium import webdriver  # noqa: E402
 from selenium.webdriver.chrome.service import Service  # noqa: E402
 from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
+from selenium.webdriver.common.keys import Keys  # noqa: E402
 from selenium.webdriver.support.ui import Select, WebDriverWait  # noqa: E402
 from test_viewer_protocol import Viewer  # noqa: E402  (the server under test, started and stopped alike)
 
@@ -375,3 +376,36 @@ def test_cuts_add_move_flip_and_remove_clip_planes_and_slices(session):
         driver.find_element(By.CSS_SELECTOR, f"[data-cut='{kind}.0'] button[title^='remove']").click()
         wait(driver, lambda d: len(doc(kind)) == 0, f"the {kind} entry was not removed")
     assert console_errors(driver) == []
+
+
+def test_the_selection_field_shows_the_count_and_errors_inline(tmp_path):
+    """A particle file's row has a selection field: Enter sends particles.N.select, the readout shows
+    the atoms selected, and a malformed selection shows its message under the field, not in the banner."""
+    (tmp_path / "atoms.xyz").write_text("4\natoms\nC 0 0 0\nO 0.5 0 0\nN 0 0.5 0\nC 0 0 0.5\n")
+    scene = {"particles": [{"file": "atoms.xyz", "radius": 0.2}], "camera": {"width": 64, "height": 48}}
+    server = Viewer(tmp_path, scene)
+    driver = None
+    try:
+        driver = chrome()
+        driver.get(server.url)
+        wait(driver, lambda d: d.find_elements(By.CSS_SELECTOR, "input.selection"), "no selection field")
+        field = driver.find_element(By.CSS_SELECTOR, "input.selection")
+        count = driver.find_element(By.CSS_SELECTOR, ".selection-count")
+        wait(driver, lambda d: count.text == "4 atoms", f"readout {count.text!r}")
+        field.send_keys("name C\n")
+        wait(driver, lambda d: count.text == "2 selected", f"readout {count.text!r} after 'name C'")
+        field.send_keys(Keys.CONTROL, "a")  # typed over, as a user would (clear() would send "all" on its change)
+        field.send_keys("name C and\n")
+        error = driver.find_element(By.CSS_SELECTOR, ".selection-error")
+        wait(driver, lambda d: error.is_displayed(), "the error did not show under the field")
+        assert "at character 11: expected a selection" in error.text
+        assert not driver.find_element(By.ID, "error").is_displayed(), "the error went to the banner too"
+        assert count.text == "2 selected"
+        field.send_keys(Keys.CONTROL, "a")
+        field.send_keys("name O\n")
+        wait(driver, lambda d: count.text == "1 selected" and not error.is_displayed(), "a good selection did not clear the error")
+        assert console_errors(driver) == []
+    finally:
+        if driver:
+            driver.quit()
+        assert server.close() == 0

@@ -360,3 +360,29 @@ def test_penumbra_view_of_a_renderer_keeps_its_scene_folder(tmp_path, monkeypatc
     assert "outside the data root" in receive(ws, "error")["message"]
     ws.close()
     viewer.stop()
+
+
+def test_a_selection_edit_comes_back_with_its_count_and_a_bad_one_with_its_position(tmp_path):
+    """particles.N.select: the state carries the atoms selected (and the spheres drawn); a malformed
+    selection is refused naming the key, the character and what was expected, and the scene stays."""
+    (tmp_path / "atoms.xyz").write_text("4\natoms\nC 0 0 0\nO 0.5 0 0\nN 0 0.5 0\nC 0 0 0.5\n")
+    scene = {"particles": [{"file": "atoms.xyz", "radius": 0.2}], "camera": {"width": 32, "height": 32}}
+    v = Viewer(tmp_path, scene)
+    try:
+        ws = v.connect()
+        state = receive(ws, "state")
+        assert state["particles"] == [{"spheres": 4, "selected": None}]
+        ws.send(json.dumps({"type": "edit", "set": {"particles.0.select": "name C"}}))
+        while state["document"]["particles"][0].get("select") != "name C":
+            state = receive(ws, "state")
+        assert state["particles"] == [{"spheres": 2, "selected": 2}]
+        ws.send(json.dumps({"type": "edit", "set": {"particles.0.select": "name C and"}}))
+        error = receive(ws, "error")
+        assert "particles.0.select: at character 11: expected a selection" in error["message"], error
+        ws.send(json.dumps({"type": "edit", "set": {"particles.0.select": "not name C"}}))
+        while state["document"]["particles"][0].get("select") != "not name C":
+            state = receive(ws, "state")
+        assert state["particles"] == [{"spheres": 2, "selected": 2}]
+        ws.close()
+    finally:
+        assert v.close() == 0

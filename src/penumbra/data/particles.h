@@ -36,6 +36,9 @@ inline Rgb unpack_rgb8(std::uint32_t p) {
 struct ParticleSet {
   std::vector<Sphere> spheres;
   std::vector<std::uint32_t> colors;  // pack_rgba8, linear RGB; same size as spheres
+  // Per sphere, the 0-based index in its file of the atom it draws, when the spheres are a selection
+  // of a file's atoms (particles[].select; an assembly's copies name the atom copied); empty otherwise.
+  std::vector<std::uint32_t> atoms;
   // The frame's spheres under clip planes (set by the renderer; empty otherwise): per sphere whole,
   // removed, or the mask of `clip_planes` that cut it (geometry/cut_sphere.h intersects it).
   std::vector<SphereClip> clip_state;
@@ -45,7 +48,8 @@ struct ParticleSet {
   std::size_t size() const { return spheres.size(); }
   Box3 bounds() const;          // of the spheres not clipped away (centre ± radius); empty when there are none
   std::size_t memory_bytes() const {
-    return spheres.capacity() * sizeof(Sphere) + colors.capacity() * sizeof(std::uint32_t) + clip_state.capacity();
+    return spheres.capacity() * sizeof(Sphere) + (colors.capacity() + atoms.capacity()) * sizeof(std::uint32_t) +
+           clip_state.capacity();
   }
 };
 

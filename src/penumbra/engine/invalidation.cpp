@@ -91,6 +91,7 @@ const std::vector<InvalidationRule>& invalidation_table() {
       {"volumes.#.receives_shadows", {}, "which samples ask for shadows"},
       {"particles", {kScene}, "particle objects added or removed: a new scene"},
       {"particles.#", {"spheres"}, "new spheres (file, generator, array, radius, origin)"},
+      {"particles.#.select", {"spheres"}, "other atoms: the spheres and what hangs off them (the file stays read)"},
       {"particles.#.color_by", {"spheres.colors"}, "colours only"},
       {"particles.#.color", {"spheres.colors"}, "colours only"},
       {"particles.#.scalar", {"spheres.colors"}, "colours only"},

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -75,6 +76,9 @@ struct ParticleObject : ShadowFlags {
   std::size_t frames = 0;
   double time_ps = 0;
   Box3 topology_bounds;
+  // particles[].select: the atoms of the file it kept (at this frame for a trajectory), before
+  // hydrogens are dropped and an assembly is built; none without a selection.
+  std::optional<std::size_t> selected_atoms;
 };
 
 // How an isosurface is drawn (paper 002): view-dependent points, the exact ray-cast reference, or the

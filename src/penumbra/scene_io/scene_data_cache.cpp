@@ -33,6 +33,27 @@ double& SceneDataCache::frame_time_ps(const std::string& key) {
   return frame_times_[key];
 }
 
+std::shared_ptr<const ParticleFile> SceneDataCache::particle_file(const std::string& path,
+                                                                  const std::function<std::shared_ptr<const ParticleFile>()>& read) {
+  used_.insert("a" + path);
+  auto& f = particle_files_[path];
+  if (!f) f = read();
+  return f;
+}
+
+std::optional<std::size_t>& SceneDataCache::selected_atoms(const std::string& key) {
+  used_.insert("n" + key);
+  return selected_atoms_[key];
+}
+
+std::shared_ptr<const std::vector<std::uint32_t>> SceneDataCache::selected_indices(
+    const std::string& key, const std::function<std::vector<std::uint32_t>()>& evaluate) {
+  used_.insert("i" + key);
+  auto& s = selected_indices_[key];
+  if (!s) s = std::make_shared<const std::vector<std::uint32_t>>(evaluate());
+  return s;
+}
+
 TrajectoryReader& SceneDataCache::trajectory(const std::string& key, const std::function<std::unique_ptr<TrajectoryReader>()>& open) {
   used_.insert("r" + key);
   auto& t = trajectories_[key];
@@ -62,6 +83,9 @@ void SceneDataCache::drop_unused() {
   std::erase_if(particles_, [&](const auto& e) { return !used_.count("p" + e.first); });
   std::erase_if(trajectories_, [&](const auto& e) { return !used_.count("r" + e.first); });
   std::erase_if(frame_times_, [&](const auto& e) { return !used_.count("f" + e.first); });
+  std::erase_if(particle_files_, [&](const auto& e) { return !used_.count("a" + e.first); });
+  std::erase_if(selected_atoms_, [&](const auto& e) { return !used_.count("n" + e.first); });
+  std::erase_if(selected_indices_, [&](const auto& e) { return !used_.count("i" + e.first); });
   std::erase_if(series_, [&](const auto& e) { return !used_.count("s" + e.first); });
   used_.clear();
 }

@@ -173,8 +173,10 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir, const Sc
   }
   if (r.has("particles")) {
     const auto& parts = array_at(r, "particles");
+    SceneDataCache files_of_this_scene;
+    SceneDataCache& files = options.cache ? *options.cache : files_of_this_scene;
     for (std::size_t i = 0; i < parts.size(); ++i)
-      s.particles.push_back(read_particles(parts[i], "particles." + std::to_string(i), base_dir, options, s.time));
+      s.particles.push_back(read_particles(parts[i], "particles." + std::to_string(i), base_dir, options, s.time, files));
   }
   s.sphere_rasterizer = with_context("sphere_renderer", [&] { return sphere_rasterizer_from_string(r.string("sphere_renderer", "splat")); });
   if (r.has("isosurfaces")) {

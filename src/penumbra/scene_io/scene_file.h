@@ -6,11 +6,13 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "penumbra/data/io/particle_io.h"
 #include "penumbra/data/io/trajectory_io.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/scene/scene.h"
@@ -52,6 +54,13 @@ public:
   // An open trajectory (its frame index built once), so that moving to another frame reads only that frame.
   TrajectoryReader& trajectory(const std::string& key, const std::function<std::unique_ptr<TrajectoryReader>()>& open);
   double& frame_time_ps(const std::string& key);  // the time (ps) of the frame cached under `key`
+  // A particle file read once (by path) for every particle set built from it.
+  std::shared_ptr<const ParticleFile> particle_file(const std::string& path, const std::function<std::shared_ptr<const ParticleFile>()>& read);
+  // The atoms a selection kept for the spheres cached under `key` (none: no selection).
+  std::optional<std::size_t>& selected_atoms(const std::string& key);
+  // The atom indices a trajectory's selection that does not depend on positions keeps, evaluated once.
+  std::shared_ptr<const std::vector<std::uint32_t>> selected_indices(const std::string& key,
+                                                                     const std::function<std::vector<std::uint32_t>()>& evaluate);
   // A series' reference: `step`'s grid and range when the series is new to the cache, else the stored one.
   const SeriesGrid& series(const std::string& key, const Volume& step, const std::string& file);
   // The transfer function chosen from a volume's data (data/transfer_function_choice.h), once per data.
@@ -70,6 +79,9 @@ private:
   std::map<std::string, std::shared_ptr<const ParticleSet>> particles_;
   std::map<std::string, std::shared_ptr<TrajectoryReader>> trajectories_;  // shared by copies of the cache
   std::map<std::string, double> frame_times_;
+  std::map<std::string, std::shared_ptr<const ParticleFile>> particle_files_;
+  std::map<std::string, std::optional<std::size_t>> selected_atoms_;
+  std::map<std::string, std::shared_ptr<const std::vector<std::uint32_t>>> selected_indices_;
   std::map<std::string, SeriesGrid> series_;
   std::map<std::string, nlohmann::json> transfer_functions_;
   std::function<nlohmann::json(const Volume&)> chooser_;  // empty: choose_transfer_function

@@ -53,8 +53,10 @@ Plane read_slice(const nlohmann::json& j, const std::string& path, const std::ve
 VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const std::string& base_dir, const SceneReadOptions& options,
                          std::size_t time);
 IsosurfaceObject read_isosurface(const nlohmann::json& j, const std::string& path, const std::vector<VolumeObject>& volumes);
+// `files`: where the particle files read are kept, so that entries naming one file read it once (the
+// scene's cache, or one for the scene being read when there is none).
 ParticleObject read_particles(const nlohmann::json& j, const std::string& path, const std::string& base_dir,
-                              const SceneReadOptions& options, std::size_t time);
+                              const SceneReadOptions& options, std::size_t time, SceneDataCache& files);
 ShadowSettings read_shadows(const nlohmann::json& j);
 AmbientSettings read_ambient(const nlohmann::json& j);
 void note_unread_keys(const nlohmann::json& j, const std::string& section, TechniqueFamily family,

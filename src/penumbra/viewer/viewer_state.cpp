@@ -56,6 +56,11 @@ nlohmann::json ViewerState::message(const Engine& engine) {
   m["time"] = {{"frame", scene.time}, {"frames", scene.frame_count()}};
   for (const auto& p : scene.particles)
     if (p.frames > 0) m["time"]["time_ps"] = p.time_ps;
+  // per particle set: the spheres drawn and, with particles[].select, the atoms the selection kept
+  m["particles"] = nlohmann::json::array();
+  for (const auto& p : scene.particles)
+    m["particles"].push_back({{"spheres", p.set ? p.set->size() : 0},
+                              {"selected", p.selected_atoms ? nlohmann::json(*p.selected_atoms) : nlohmann::json(nullptr)}});
   const Box3 box = scene.caster_bounds();
   m["light_target"] = vec3(box.empty() ? scene.camera.target : box.center());
   m["radius"] = box.empty() ? 1.0f : 0.5f * length(box.hi - box.lo);

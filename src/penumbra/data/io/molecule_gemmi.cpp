@@ -230,6 +230,15 @@ PackedMolecule pack(const gemmi::Structure& st, MoleculeFormat format) {
   m.reserve(count);
   std::unordered_map<std::string, std::uint32_t> chain_index, unit_index;
   const bool pdb = format == MoleculeFormat::Pdb;
+  // MDAnalysis's PDB parser: the segment ids (columns 73-76), or the chain ids where no atom has one
+  bool any_segment = false;
+  for (const gemmi::Chain& chain : model.chains)
+    for (const gemmi::Residue& res : chain.residues) any_segment = any_segment || !res.segment.empty();
+  if (st.cell.is_crystal() && !(st.cell.a == 1 && st.cell.b == 1 && st.cell.c == 1 && st.cell.alpha == 90 &&
+                                st.cell.beta == 90 && st.cell.gamma == 90))
+    m.topology.unit_cell = CellDimensions{static_cast<float>(st.cell.a), static_cast<float>(st.cell.b), static_cast<float>(st.cell.c),
+                                          static_cast<float>(st.cell.alpha), static_cast<float>(st.cell.beta),
+                                          static_cast<float>(st.cell.gamma)};
   for (const gemmi::Chain& chain : model.chains) {
     const std::uint32_t c = index_of(chain.name, chain_index, m.chain_names);
     for (const gemmi::Residue& res : chain.residues) {
@@ -249,6 +258,10 @@ PackedMolecule pack(const gemmi::Structure& st, MoleculeFormat format) {
         m.chains.push_back(c);
         m.units.push_back(u);
         m.residue_keys.push_back(key);
+        std::string type = atom.element.name();
+        for (char& ch : type) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+        m.topology.add(atom.name, res.name, type, any_segment ? res.segment : chain.name, chain.name, res.seqid.num.value,
+                       res.seqid.num.value);
       }
     }
   }

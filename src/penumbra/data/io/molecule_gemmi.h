@@ -11,6 +11,7 @@
 
 #include "penumbra/core/math.h"
 #include "penumbra/data/elements.h"
+#include "penumbra/data/selection/atom_topology.h"
 
 namespace penumbra::io_detail {
 
@@ -43,6 +44,7 @@ struct PackedMolecule {
   std::vector<std::string> chain_names;       // author chain ids in order of first appearance
   std::vector<std::string> unit_names;        // PDB: = chain_names; mmCIF: label_asym_ids
   std::vector<MoleculeAssembly> assemblies;   // in file order
+  AtomTopology topology;                      // names, residues, … and the unit cell, for selections
 
   std::size_t size() const { return positions.size(); }
   void reserve(std::size_t n) {
@@ -53,6 +55,7 @@ struct PackedMolecule {
     residue_keys.reserve(n);
     b_factors.reserve(n);
     occupancies.reserve(n);
+    topology.reserve(n);
   }
 };
 

@@ -15,6 +15,11 @@
 //      letter that is no one-letter symbol (TIP4P's virtual site MW, LP lone pairs) is an unknown
 //      element. Coarse-grained bead names are not recognised as such (MARTINI's BB reads as boron).
 // The .gro and .xyz formats have no chains: every atom is in chain 0. XYZ has no residues (colour key 0).
+//
+// Topology for selections, as MDAnalysis's parsers give it: GRO residue number (columns 1-5, numbers
+// after a wrap from 99999 to 0 raised by 100000), residue and atom name, segid SYSTEM, no chain id,
+// type guessed from the atom name (guess_atom_type), unit cell from the box line; XYZ names from the
+// first column, resid 1, segid SYSTEM, types guessed.
 #include "penumbra/data/io/particle_io.h"
 
 #include <zlib.h>
@@ -29,6 +34,7 @@
 #include <cstdint>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <string_view>
 #include <unordered_map>
 
@@ -161,6 +167,38 @@ int gro_element(std::string_view atom_name, std::string_view residue_name) {
   return element_from_symbol(letters.substr(0, 1));
 }
 
+bool parse_integer(std::string_view s, std::int64_t& n) {
+  s = trim(s);
+  if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), n);
+  return !s.empty() && ec == std::errc() && end == s.data() + s.size();
+}
+
+// GRO residue numbers have five columns: after 99999 comes 0. As MDAnalysis's GRO parser, every run
+// of zeros not at the start raises the numbers from it on by 100000.
+void unwrap_gro_residue_numbers(AtomTopology& t) {
+  for (std::size_t i = 1; i < t.resids.size(); ++i)
+    if (t.resids[i] == 0 && t.resids[i - 1] != 0)
+      for (std::size_t j = i; j < t.resids.size(); ++j) t.resids[j] += 100000;
+  t.resnums = t.resids;
+}
+
+// The box line's vectors (nm: v1x v2y v3z, then v1y v1z v2x v2z v3x v3y) as lengths (Å) and angles;
+// none when it is all zeros.
+std::optional<CellDimensions> gro_cell_dimensions(const std::vector<std::string_view>& box) {
+  double v[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  for (std::size_t i = 0; i < box.size(); ++i) parse_number(box[i], v[i]);
+  const Vec3 a{static_cast<float>(v[0]), static_cast<float>(v[3]), static_cast<float>(v[4])},
+      b{static_cast<float>(v[5]), static_cast<float>(v[1]), static_cast<float>(v[6])},
+      c{static_cast<float>(v[7]), static_cast<float>(v[8]), static_cast<float>(v[2])};
+  const float la = length(a), lb = length(b), lc = length(c);
+  if (la == 0 || lb == 0 || lc == 0) return std::nullopt;
+  const auto angle = [](Vec3 x, Vec3 y) {
+    return static_cast<float>(std::acos(std::clamp(dot(x, y) / (length(x) * length(y)), -1.0f, 1.0f)) * 180.0 / 3.14159265358979323846);
+  };
+  return CellDimensions{la * 10, lb * 10, lc * 10, angle(b, c), angle(a, c), angle(a, b)};
+}
+
 // GROMACS .gro (manual, "File formats: gro"): title; atom count; per atom "%5d%-5s%5s%5d" then x y z
 // (nm) and optionally velocities, in fields of p + 5 columns for p decimals (%8.3f normally); then the box line (3 or 9 numbers). Later frames are ignored.
 PackedMolecule read_gro(std::string_view text) {
@@ -197,6 +235,11 @@ PackedMolecule read_gro(std::string_view text) {
       throw Error(r.where() + ": atom line is truncated (" + std::to_string(line.size()) + " columns; expected " +
                   "residue and atom in columns 1-20, then x y z in " + std::to_string(width) + "-column fields)");
     const std::string_view residue = trim(line.substr(5, 5)), atom = trim(line.substr(10, 5));
+    std::int64_t resid = 0;
+    if (!parse_integer(line.substr(0, 5), resid))
+      throw Error(r.where() + ": residue number (columns 1-5) " + quoted(line.substr(0, 5)) + " is not an integer");
+    m.topology.add(atom, residue, guess_atom_type(atom), "SYSTEM", "", static_cast<std::int32_t>(resid),
+                   static_cast<std::int32_t>(resid));
     const Vec3 p{finite_coordinate(line.substr(20, width), "x", r), finite_coordinate(line.substr(20 + width, width), "y", r),
                  finite_coordinate(line.substr(20 + 2 * width, width), "z", r)};
     push_atom(m, p * 10.0f, gro_element(atom, residue), residue_color_key(residue));  // nm → Å
@@ -209,6 +252,8 @@ PackedMolecule read_gro(std::string_view text) {
       !std::all_of(box.begin(), box.end(), [&](std::string_view t) { return parse_number(t, v); }))
     throw Error(r.where() + ": expected the box line (3 or 9 numbers) after " + std::to_string(count) +
                 " atoms, found " + quoted(line) + "; is the atom count on line 2 right?");
+  unwrap_gro_residue_numbers(m.topology);
+  m.topology.unit_cell = gro_cell_dimensions(box);
   return m;
 }
 
@@ -243,6 +288,7 @@ PackedMolecule read_xyz(std::string_view text) {
       z = element_from_symbol(leading_letters(tokens[0]));
     push_atom(m, {finite_coordinate(tokens[1], "x", r), finite_coordinate(tokens[2], "y", r), finite_coordinate(tokens[3], "z", r)},
               z, kOtherResidue);
+    m.topology.add(tokens[0], "", guess_atom_type(tokens[0]), "SYSTEM", "", 1, 1);
   }
   while (r.next(line)) {
     if (trim(line).empty()) continue;
@@ -348,6 +394,7 @@ ParticleSet expand_assembly(const PackedMolecule& m, const std::vector<std::uint
   reserve_huge(out.colors, static_cast<std::size_t>(total));
   out.spheres.resize(static_cast<std::size_t>(total));
   out.colors.resize(static_cast<std::size_t>(total));
+  if (!base.atoms.empty()) out.atoms.resize(static_cast<std::size_t>(total));
   std::vector<char> overflow(jobs.size(), 0);  // per job: a transformed centre was not finite
   parallel_for(jobs.size(), [&](std::size_t begin, std::size_t end) {
     for (std::size_t j = begin; j < end; ++j) {
@@ -355,6 +402,7 @@ ParticleSet expand_assembly(const PackedMolecule& m, const std::vector<std::uint
       const AssemblyOperator& a = *job.op;
       Sphere* dst = out.spheres.data() + job.offset;
       std::uint32_t* dst_color = out.colors.data() + job.offset;
+      std::uint32_t* dst_atom = out.atoms.empty() ? nullptr : out.atoms.data() + job.offset;
       for (const std::uint32_t k : *job.atoms) {
         const Sphere& s = base.spheres[k];
         const double x = s.center.x, y = s.center.y, z = s.center.z;
@@ -365,6 +413,7 @@ ParticleSet expand_assembly(const PackedMolecule& m, const std::vector<std::uint
         if (!is_finite(dst->center)) overflow[j] = 1;
         ++dst;
         *dst_color++ = base.colors[k];
+        if (dst_atom) *dst_atom++ = base.atoms[k];
       }
     }
   });
@@ -373,18 +422,26 @@ ParticleSet expand_assembly(const PackedMolecule& m, const std::vector<std::uint
   return out;
 }
 
-ParticleSet build_particles(const PackedMolecule& m, const ParticleLoadOptions& o, ParticleFileInfo& info) {
+ParticleSet build_from_molecule(const PackedMolecule& m, const ParticleLoadOptions& o, ParticleFileInfo& info) {
   if (!std::isfinite(o.radius_scale) || o.radius_scale <= 0)
     throw Error("radius_scale must be a positive finite number, got " + num(o.radius_scale));
   info.atoms_in_file = m.size();
   info.unknown_elements = static_cast<std::size_t>(std::count(m.elements.begin(), m.elements.end(), kUnknownElement));
   info.operators = 0;
 
+  std::vector<std::uint32_t> selected;
+  if (o.selection) {
+    selected = o.selection->evaluate(m.topology, m.positions, m.topology.unit_cell);
+  } else {
+    selected.resize(m.size());
+    for (std::size_t i = 0; i < m.size(); ++i) selected[i] = static_cast<std::uint32_t>(i);
+  }
+  info.selected_atoms = selected.size();
   std::vector<std::uint32_t> kept;
-  kept.reserve(m.size());
-  for (std::size_t i = 0; i < m.size(); ++i)
-    if (o.hydrogens || m.elements[i] != kHydrogen) kept.push_back(static_cast<std::uint32_t>(i));
-  if (kept.empty()) throw Error("no atoms left after dropping hydrogens (the file has only H/D atoms)");
+  kept.reserve(selected.size());
+  for (const std::uint32_t i : selected)
+    if (o.hydrogens || m.elements[i] != kHydrogen) kept.push_back(i);
+  if (kept.empty() && !o.selection) throw Error("no atoms left after dropping hydrogens (the file has only H/D atoms)");
 
   ParticleSet base;
   base.spheres.resize(kept.size());
@@ -408,7 +465,8 @@ ParticleSet build_particles(const PackedMolecule& m, const ParticleLoadOptions& 
     const TransferFunction map = o.color_map ? o.color_map(lo, hi) : cool_to_warm(lo, hi);
     for (std::size_t k = 0; k < kept.size(); ++k) base.colors[k] = pack_rgba8(map.evaluate(v[kept[k]]).rgb);
   }
-  if (o.assembly == 0) return base;
+  if (o.selection) base.atoms = kept;
+  if (o.assembly == 0 || kept.empty()) return base;
   return expand_assembly(m, kept, base, o.assembly, std::min(o.max_spheres, kMaxSpheres), info.operators);
 }
 
@@ -424,14 +482,18 @@ std::string particle_file_format(const std::string& path) {
   return "";
 }
 
-ParticleSet load_particles(const std::string& path, const ParticleLoadOptions& options, ParticleFileInfo* info) {
+struct ParticleFile {
+  std::string path, format;
+  PackedMolecule molecule;
+};
+
+std::shared_ptr<const ParticleFile> read_particle_file(const std::string& path) {
   return with_context(path, [&] {
     const bool gz = ends_with_ci(path, ".gz");
-    ParticleFileInfo local;
-    ParticleFileInfo& out_info = info ? *info : local;
-    out_info = ParticleFileInfo{};
-    out_info.format = particle_file_format(path);
-    if (out_info.format.empty())
+    auto file = std::make_shared<ParticleFile>();
+    file->path = path;
+    file->format = particle_file_format(path);
+    if (file->format.empty())
       throw Error("unknown particle file extension (supported: .pdb, .ent, .cif, .mmcif, .gro, .xyz, each "
                   "optionally gzip-compressed with .gz)");
 
@@ -440,14 +502,31 @@ ParticleSet load_particles(const std::string& path, const ParticleLoadOptions& o
     const std::string text = gz ? read_gzip(path, size) : read_plain(path, size);
     if (trim(text).empty()) throw Error(gz ? "empty file (after decompression)" : "empty file (only blanks)");
 
-    const std::string& format = out_info.format;
-    const PackedMolecule m =
+    const std::string& format = file->format;
+    file->molecule =
         format == "gro"   ? read_gro(text)
         : format == "xyz" ? read_xyz(text)
                           : io_detail::read_molecule_gemmi(
                                 text, format == "pdb" ? io_detail::MoleculeFormat::Pdb : io_detail::MoleculeFormat::Mmcif, path);
-    return build_particles(m, options, out_info);
+    return std::shared_ptr<const ParticleFile>(std::move(file));
   });
+}
+
+const AtomTopology& topology_of(const ParticleFile& file) { return file.molecule.topology; }
+const std::vector<Vec3>& positions_of(const ParticleFile& file) { return file.molecule.positions; }
+
+ParticleSet build_particles(const ParticleFile& file, const ParticleLoadOptions& options, ParticleFileInfo* info) {
+  return with_context(file.path, [&] {
+    ParticleFileInfo local;
+    ParticleFileInfo& out_info = info ? *info : local;
+    out_info = ParticleFileInfo{};
+    out_info.format = file.format;
+    return build_from_molecule(file.molecule, options, out_info);
+  });
+}
+
+ParticleSet load_particles(const std::string& path, const ParticleLoadOptions& options, ParticleFileInfo* info) {
+  return build_particles(*read_particle_file(path), options, info);
 }
 
 std::string to_string(ParticleColoring c) {

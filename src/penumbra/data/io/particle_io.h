@@ -7,10 +7,13 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "penumbra/data/particles.h"
+#include "penumbra/data/selection/atom_topology.h"
+#include "penumbra/data/selection/selection.h"
 #include "penumbra/data/transfer_function.h"
 
 namespace penumbra {
@@ -33,6 +36,9 @@ struct ParticleLoadOptions {
   std::function<TransferFunction(float lo, float hi)> color_map;
   // An assembly with more spheres than this is refused (with a message) before anything is allocated.
   std::uint64_t max_spheres = std::uint64_t{1} << 30;
+  // The atoms to keep (null: all), evaluated on the file's atoms and coordinates — `index` is an
+  // atom's 0-based position in the file — before hydrogens are dropped and the assembly is built.
+  std::shared_ptr<const AtomSelection> selection;
 };
 
 // What a load produced besides the spheres, for `penumbra info` and --stats.
@@ -42,9 +48,21 @@ struct ParticleFileInfo {
   int operators = 0;            // assembly operators applied (0: none)
   std::size_t unknown_elements = 0;  // atoms whose element was not recognised (drawn as carbon-sized grey)
   float scalar_min = 0, scalar_max = 0;  // the range ParticleColoring::Scalar mapped
+  std::size_t selected_atoms = 0;  // atoms of the file the selection kept (all atoms without one)
 };
 
+// A particle file as read: its atoms, their topology and the assemblies, before radii, colours and
+// selections are applied; one reading serves every particle set built from the file.
+struct ParticleFile;
+
 // Throws Error naming the file (and line where there is one) on unreadable or malformed input.
+std::shared_ptr<const ParticleFile> read_particle_file(const std::string& path);
+const AtomTopology& topology_of(const ParticleFile& file);
+const std::vector<Vec3>& positions_of(const ParticleFile& file);  // Å, in file order
+// The spheres of `file` under `options`; Error naming the file when the options do not fit it.
+ParticleSet build_particles(const ParticleFile& file, const ParticleLoadOptions& options, ParticleFileInfo* info = nullptr);
+
+// read_particle_file then build_particles.
 ParticleSet load_particles(const std::string& path, const ParticleLoadOptions& options,
                            ParticleFileInfo* info = nullptr);
 

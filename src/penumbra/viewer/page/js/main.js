@@ -7,7 +7,7 @@ import { $ } from "./util.js";
 import { TOKEN_QUERY, viewer, start } from "./connection.js";
 import { view, showFrame, followCamera, installViewInput, scheduleResize, sendResize } from "./view.js";
 import { renderStats, noteRebuilt, showError, hideError } from "./overlay.js";
-import { updatePanel, syncPanel, isPanelBusy, onPanelPointerDown, onWindowPointerUp } from "./panels.js";
+import { updatePanel, syncPanel, isPanelBusy, onPanelPointerDown, onWindowPointerUp, showSelectionError } from "./panels.js";
 import { syncTime, frameShown, installTimeControls } from "./time.js";
 import { updateCuts } from "./cuts.js";
 
@@ -27,7 +27,7 @@ function onFrameMeta(meta) {
 }
 
 function onError(message) {
-  showError(message || "error");
+  if (!showSelectionError(message || "")) showError(message || "error");
   // A refused edit leaves the scene as it was: put the controls back to the last state.
   if (viewer.state && !isPanelBusy()) syncPanel(viewer.state);
 }

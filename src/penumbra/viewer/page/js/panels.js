@@ -45,6 +45,7 @@ function structureSignature(state) {
 
 function buildPanel(state) {
   panelControls = [];
+  selectionFields.length = 0;
   const doc = state.document || {};
 
   const tfList = $("tf-list");
@@ -201,12 +202,15 @@ function createObjectRow(kind, i, obj) {
   const visible = kind === "volumes" ? checkbox("visible", (on) => setVolumeVisible(i, on)) : null;
   const casts = checkbox("casts", (on) => queueEdit({ [prefix + "casts_shadows"]: on }));
   const receives = checkbox("receives", (on) => queueEdit({ [prefix + "receives_shadows"]: on }));
+  const selection = kind === "particles" && obj && obj.file ? createSelectionField(prefix, i) : null;
   const root = el("div", { class: "object" },
     el("div", { class: "name", title: (obj && obj.file) || "" }, objectName(kind, i, obj)),
-    el("div", { class: "flags" }, visible && visible.label, casts.label, receives.label));
+    el("div", { class: "flags" }, visible && visible.label, casts.label, receives.label),
+    selection && selection.root);
   return {
     root,
     sync(s) {
+      if (selection) selection.sync(s);
       const o = ((s.document || {})[kind] || [])[i] || {};
       const shown = o.visible !== false;
       if (visible) visible.input.checked = shown;
@@ -220,6 +224,54 @@ function createObjectRow(kind, i, obj) {
       }
     },
   };
+}
+
+/**
+ * particles.i.select: a text field (MDAnalysis's selection language, docs/selections.md) sent on Enter
+ * or when it loses focus; beside it the atoms selected (the state's particles[i].selected) or, after a
+ * refused edit, the error, inline.
+ */
+function createSelectionField(prefix, i) {
+  const input = el("input", { type: "text", class: "selection", placeholder: "all", spellcheck: "false",
+                              title: "atoms to draw, in MDAnalysis's selection language" });
+  const readout = el("span", { class: "readout selection-count" });
+  const error = el("div", { class: "selection-error", role: "alert" });
+  error.hidden = true;
+  let sent = null;
+  const send = () => {
+    const text = input.value.trim() || "all";
+    if (text === sent) return;
+    sent = text;
+    queueEdit({ [prefix + "select"]: text });
+  };
+  input.addEventListener("keydown", (e) => { if (e.key === "Enter") send(); });
+  input.addEventListener("change", send);
+  selectionFields.push({ key: prefix + "select", showError(message) {
+    error.textContent = message;
+    error.hidden = false;
+    sent = null;
+  } });
+  return {
+    root: el("div", { class: "selection-row" }, el("label", {}, "select ", input), readout, error),
+    sync(s) {
+      const o = ((s.document || {}).particles || [])[i] || {};
+      if (document.activeElement !== input && error.hidden) input.value = o.select || "";
+      const info = (s.particles || [])[i] || {};
+      readout.textContent = info.selected === null || info.selected === undefined
+        ? (info.spheres || 0) + " atoms" : info.selected + " selected";
+      if (o.select === sent) error.hidden = true;
+    },
+  };
+}
+
+const selectionFields = [];   // { key, showError } of the selection fields built
+
+/** A refused selection edit shows its message under its field; returns whether one took it. */
+export function showSelectionError(message) {
+  const field = selectionFields.find((f) => message.startsWith(f.key + ":") || message.includes(" " + f.key + ":"));
+  if (!field) return false;
+  field.showError(message);
+  return true;
 }
 
 /**
