@@ -113,8 +113,8 @@ TEST(MpiRender, OneToFourRanksSplitTheSpheresAndGiveTheSingleProcessFrame) {
   std::ofstream(dir.file("ao.json")) << ao.dump();
   for (const std::string scene : {"issm", "soft", "cssm", "ao"}) {
     SCOPED_TRACE(scene);
-    const std::string json = quote(dir.file(scene + ".json"));
-    const CliRun whole = penumbra_cli("render " + json + " -o " + quote(dir.file(scene + "_whole.pfm")));
+    const std::string scene_file = quote(dir.file(scene + ".json"));
+    const CliRun whole = penumbra_cli("render " + scene_file + " -o " + quote(dir.file(scene + "_whole.pfm")));
     ASSERT_EQ(whole.status, 0) << whole.err;
     const Image reference = read_image(dir.file(scene + "_whole.pfm"));
     ASSERT_TRUE(non_trivial(reference));
@@ -122,7 +122,7 @@ TEST(MpiRender, OneToFourRanksSplitTheSpheresAndGiveTheSingleProcessFrame) {
       SCOPED_TRACE(np);
       const std::string n = std::to_string(np);
       const std::string out = dir.file(scene + "_np" + n + ".pfm");
-      const CliRun ranks = mpirun_cli(np, "render " + json + " -o " + quote(out) + " --stats " + quote(dir.file("stats" + n + ".json")));
+      const CliRun ranks = mpirun_cli(np, "render " + scene_file + " -o " + quote(out) + " --stats " + quote(dir.file("stats" + n + ".json")));
       ASSERT_EQ(ranks.status, 0) << ranks.out << ranks.err;
       const Image distributed = read_image(out);
       FailureImages keep;
@@ -182,8 +182,8 @@ TEST(MpiRender, OneToFourRanksGiveTheBrickLoopsFrameBitForBit) {
   std::ofstream(dir.file("isosurface.json")) << isosurface.dump();
   for (const std::string scene : {"shell", "deep", "deep_shared", "classic", "surfaces", "sat", "isosurface"}) {
     SCOPED_TRACE(scene);
-    const std::string json = quote(dir.file(scene + ".json"));
-    const CliRun whole = penumbra_cli("render " + json + " -o " + quote(dir.file(scene + "_whole.pfm")));
+    const std::string scene_file = quote(dir.file(scene + ".json"));
+    const CliRun whole = penumbra_cli("render " + scene_file + " -o " + quote(dir.file(scene + "_whole.pfm")));
     ASSERT_EQ(whole.status, 0) << whole.err;
     const Image reference = read_image(dir.file(scene + "_whole.pfm"));
     ASSERT_TRUE(non_trivial(reference));
@@ -191,10 +191,10 @@ TEST(MpiRender, OneToFourRanksGiveTheBrickLoopsFrameBitForBit) {
       SCOPED_TRACE(np);
       const std::string n = std::to_string(np);
       const std::string out = dir.file(scene + "_np" + n + ".pfm"), loop = dir.file(scene + "_loop" + n + ".pfm");
-      const CliRun ranks = mpirun_cli(np, "render " + json + " -o " + quote(out) + " --stats " + quote(dir.file("stats" + n + ".json")));
+      const CliRun ranks = mpirun_cli(np, "render " + scene_file + " -o " + quote(out) + " --stats " + quote(dir.file("stats" + n + ".json")));
       ASSERT_EQ(ranks.status, 0) << ranks.out << ranks.err;
       EXPECT_NE(ranks.err.find(n + " ranks"), std::string::npos) << ranks.err;
-      const CliRun brick_loop = penumbra_cli("render " + json + " --slabs " + n + " -o " + quote(loop));
+      const CliRun brick_loop = penumbra_cli("render " + scene_file + " --slabs " + n + " -o " + quote(loop));
       ASSERT_EQ(brick_loop.status, 0) << brick_loop.err;
       const Image distributed = read_image(out);
       FailureImages keep;
@@ -312,16 +312,16 @@ TEST(MpiRender, RanksReadOnlyTheirBrickAndGiveTheSameFrame) {
   for (const std::string scene : {"raw", "gzip", "plain", "chosen", "sat", "implants", "isosurface", "isosurface_lamp", "isosurface_in_volume"})
     scenes.emplace_back(scene, quote(dir.file(scene + ".json")));
   scenes.insert(scenes.end(), direct.begin(), direct.end());
-  for (const auto& [scene, json] : scenes) {
+  for (const auto& [scene, scene_file] : scenes) {
     SCOPED_TRACE(scene);
     for (const int np : rank_counts({2, 3})) {
       SCOPED_TRACE(np);
       const std::string n = std::to_string(np);
       const std::string out = dir.file(scene + "_np" + n + ".pfm"), loop = dir.file(scene + "_loop" + n + ".pfm");
       const std::string stats_file = dir.file(scene + "_stats" + n + ".json");
-      const CliRun ranks = mpirun_cli(np, "render " + json + " -o " + quote(out) + " --stats " + quote(stats_file));
+      const CliRun ranks = mpirun_cli(np, "render " + scene_file + " -o " + quote(out) + " --stats " + quote(stats_file));
       ASSERT_EQ(ranks.status, 0) << ranks.out << ranks.err;
-      const CliRun brick_loop = penumbra_cli("render " + json + " --slabs " + n + " -o " + quote(loop));
+      const CliRun brick_loop = penumbra_cli("render " + scene_file + " --slabs " + n + " -o " + quote(loop));
       ASSERT_EQ(brick_loop.status, 0) << brick_loop.err;
       FailureImages keep;
       keep.add(scene + "_np" + n, read_image(out), read_image(loop));
@@ -411,13 +411,13 @@ TEST(MpiRender, RanksRenderSequencesFrameByFrame) {
 
   for (const std::string scene : {"series", "trajectory"}) {
     SCOPED_TRACE(scene);
-    const std::string json = quote(dir.file(scene + ".json"));
-    const CliRun whole = penumbra_cli("render " + json + " --frames 0:2 -o " + quote(dir.file(scene + "_whole.pfm")));
+    const std::string scene_file = quote(dir.file(scene + ".json"));
+    const CliRun whole = penumbra_cli("render " + scene_file + " --frames 0:2 -o " + quote(dir.file(scene + "_whole.pfm")));
     ASSERT_EQ(whole.status, 0) << whole.err;
     for (const int np : rank_counts({2, 3})) {
       SCOPED_TRACE(np);
       const std::string n = std::to_string(np), out = dir.file(scene + "_np" + n + ".pfm"), stats = dir.file(scene + "_stats" + n + ".json");
-      const CliRun ranks = mpirun_cli(np, "render " + json + " --frames 0:2 -o " + quote(out) + " --stats " + quote(stats));
+      const CliRun ranks = mpirun_cli(np, "render " + scene_file + " --frames 0:2 -o " + quote(out) + " --stats " + quote(stats));
       ASSERT_EQ(ranks.status, 0) << ranks.out << ranks.err;
       const nlohmann::json frames = nlohmann::json::parse(slurp(stats))["frames"];
       ASSERT_EQ(frames.size(), 3u);
@@ -431,7 +431,7 @@ TEST(MpiRender, RanksRenderSequencesFrameByFrame) {
         Image reference = read_image(dir.file(scene + "_whole" + suffix));
         if (scene == "series") {  // the brick loop of step k; each rank read its slices of step k's file only
           const std::string loop = dir.file("loop" + n + "_" + std::to_string(k) + ".pfm");
-          const CliRun brick_loop = penumbra_cli("render " + json + " --set time=" + std::to_string(k) + " --slabs " + n + " -o " + quote(loop));
+          const CliRun brick_loop = penumbra_cli("render " + scene_file + " --set time=" + std::to_string(k) + " --slabs " + n + " -o " + quote(loop));
           ASSERT_EQ(brick_loop.status, 0) << brick_loop.err;
           EXPECT_GT(compare_images(distributed, reference).psnr, 50.0);
           reference = read_image(loop);
@@ -541,20 +541,20 @@ TEST(MpiRender, IceTCompositesTheFrameOfDirectSend) {
   std::ofstream(dir.file("spheres.json")) << spheres_scene().dump();
   for (const std::string scene : {"shell", "inside", "surfaces", "spheres"}) {
     SCOPED_TRACE(scene);
-    const std::string json = quote(dir.file(scene + ".json"));
+    const std::string scene_file = quote(dir.file(scene + ".json"));
     // 3 ranks (binary swap folds the third in) and 4 for the eye between slabs and the spheres
     for (const int np : rank_counts(scene == "inside" || scene == "spheres" ? std::vector<int>{3, 4} : std::vector<int>{3})) {
       SCOPED_TRACE(np);
       const std::string n = std::to_string(np);
       const std::string direct = dir.file(scene + "_direct" + n + ".pfm");
-      const CliRun by_direct_send = mpirun_cli(np, "render " + json + " -o " + quote(direct));
+      const CliRun by_direct_send = mpirun_cli(np, "render " + scene_file + " -o " + quote(direct));
       ASSERT_EQ(by_direct_send.status, 0) << by_direct_send.err;
       const Image reference = read_image(direct);
       ASSERT_TRUE(non_trivial(reference));
       for (const std::string compositor : {"icet", "icet-bswap"}) {
         SCOPED_TRACE(compositor);
         const std::string out = dir.file(scene + "_" + compositor + n + ".pfm"), stats = dir.file("stats.json");
-        const CliRun ranks = mpirun_cli(np, "render " + json + " --compositor " + compositor + " -o " + quote(out) + " --stats " + quote(stats));
+        const CliRun ranks = mpirun_cli(np, "render " + scene_file + " --compositor " + compositor + " -o " + quote(out) + " --stats " + quote(stats));
         ASSERT_EQ(ranks.status, 0) << ranks.out << ranks.err;
         EXPECT_NE(ranks.err.find("composited by " + compositor + ","), std::string::npos) << ranks.err;
         const Image composited = read_image(out);
