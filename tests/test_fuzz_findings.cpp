@@ -7,7 +7,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <chrono>
+#include <cstring>
 #include <functional>
 #include <string>
 
@@ -23,6 +25,9 @@ using namespace penumbra;
 using penumbra::test::error_message;
 using penumbra::test::TempDir;
 using penumbra::test::write_file;
+using penumbra::test::Bytes;
+using penumbra::test::nifti_file;
+using penumbra::test::NiftiSpec;
 
 namespace {
 
@@ -363,4 +368,42 @@ TEST(FuzzFindings, MmcifIntegersBeyondIntAreRefused) {
   text.replace(text.find(row), row.size(), "ATOM 2 C CA . GLY A 1 -000000000002147483647 ");
   write_file(path, text);
   EXPECT_EQ(load_particles(path, {}).size(), 2u);
+}
+
+// ------------------------------------------------------------------------------------------- NIfTI
+
+namespace {
+
+// A 4x3x2 NIfTI whose sform (code 1, RAS rows) is the given one.
+std::string nifti_with_sform(const TempDir& dir, const std::array<std::array<float, 4>, 3>& rows) {
+  Bytes bytes = nifti_file(NiftiSpec{}, Bytes(4 * 3 * 2 * 2, 0));
+  nifti_1_header h{};
+  std::memcpy(&h, bytes.data(), sizeof h);
+  h.sform_code = 1;
+  std::memcpy(h.srow_x, rows[0].data(), sizeof h.srow_x);
+  std::memcpy(h.srow_y, rows[1].data(), sizeof h.srow_y);
+  std::memcpy(h.srow_z, rows[2].data(), sizeof h.srow_z);
+  std::memcpy(bytes.data(), &h, sizeof h);
+  const std::string path = dir.file("sform.nii");
+  write_file(path, bytes);
+  return path;
+}
+
+}  // namespace
+
+// An oblique sform whose k axis is 8e23 mm long made the resampled grid's voxel count overflow the
+// integer it was cast to (UBSan: float-cast-overflow). Spacings outside 1e-12..1e12 mm are refused,
+// and a grid too large to count is refused with its size, before any integer conversion.
+TEST(FuzzFindings, NiftiAffinesTooLargeToResampleAreRefused) {
+  TempDir dir;
+  std::string path = nifti_with_sform(dir, {{{-52553.2f, -70, -77, -84}, {-66, -73, -8.21692e+23f, -87}, {94, 1, 8, 0.06f}}});
+  std::string m = error_message([&] { (void)load_volume(path); });
+  EXPECT_HAS(m, path);
+  EXPECT_HAS(m, "spacing of 8.21692e+23 mm along k");
+  // In range, oblique, but a step of 1e-9 mm over kilometres: refused by its size, not overflowed.
+  path = nifti_with_sform(dir, {{{1e-9f, 0, 0, 0}, {0, 1e6f, 1e6f, 0}, {0, -1e6f, 1e6f, 0}}});
+  m = error_message([&] { (void)load_volume(path); });
+  EXPECT_HAS(m, path);
+  EXPECT_HAS(m, "would be resampled onto an axis-aligned grid of");
+  EXPECT_HAS(m, "GiB (at most 8 GiB)");
 }

@@ -37,8 +37,16 @@ void check_affine(const Affine& a) {
       if (!std::isfinite(v)) throw Error("index-to-world affine " + a.str() + " is not finite");
   for (const double v : a.offset)
     if (!std::isfinite(v)) throw Error("index-to-world affine " + a.str() + " has a non-finite origin");
+  for (const double v : a.offset)
+    if (std::abs(v) > 1e15) throw Error("index-to-world affine " + a.str() + " has an origin beyond 1e15 mm");
   double scale = 1;
-  for (int c = 0; c < 3; ++c) scale *= norm(a.column(c));
+  for (int c = 0; c < 3; ++c) {
+    const double spacing = norm(a.column(c));
+    if (spacing > 1e12 || spacing < 1e-12)
+      throw Error("index-to-world affine " + a.str() + " has a spacing of " + affine_number(spacing) + " mm along " + std::string(1, "ijk"[c]) +
+                  " (expected 1e-12 to 1e12)");
+    scale *= spacing;
+  }
   if (!(scale > 0) || std::abs(determinant(a)) < 1e-6 * scale)
     throw Error("index-to-world affine " + a.str() + " is singular (expected three independent axes of non-zero spacing)");
 }
@@ -140,18 +148,24 @@ Volume resampled(Volume file_grid, const Affine& affine, VolumeFileInfo& info) {
   for (int c = 0; c < 3; ++c)
     if (fd[c] > 1) step = std::min(step, norm(affine.column(c)));
   if (step == 1e300) step = norm(affine.column(0));
-  std::array<std::int64_t, 3> dims{};
-  for (int a = 0; a < 3; ++a) dims[a] = static_cast<std::int64_t>(std::floor((hi[a] - lo[a]) / step + 1e-6)) + 1;
-  const std::string grid_text = std::to_string(dims[0]) + "x" + std::to_string(dims[1]) + "x" + std::to_string(dims[2]);
-  const double bytes = static_cast<double>(dims[0]) * static_cast<double>(dims[1]) * static_cast<double>(dims[2]) *
-                       static_cast<double>(scalar_size(file_grid.type()));
-  if (bytes > static_cast<double>(kMaxResampledBytes))
+  // Counted in double first: a tiny step over a huge extent must be refused, not overflow an integer.
+  std::array<double, 3> extent{};
+  for (int a = 0; a < 3; ++a) extent[a] = std::floor((hi[a] - lo[a]) / step + 1e-6) + 1;
+  const double bytes = extent[0] * extent[1] * extent[2] * static_cast<double>(scalar_size(file_grid.type()));
+  const auto count_text = [](double n) { return n < 1e15 ? std::to_string(static_cast<std::int64_t>(n)) : affine_number(n); };
+  const std::string grid_text = count_text(extent[0]) + "x" + count_text(extent[1]) + "x" + count_text(extent[2]);
+  const bool representable = std::isfinite(bytes) && static_cast<float>(step) > 0 && std::isfinite(static_cast<float>(step)) &&
+                             std::abs(lo[0]) < 1e30 && std::abs(lo[1]) < 1e30 && std::abs(lo[2]) < 1e30 &&
+                             std::max({extent[0], extent[1], extent[2]}) < 2147483647.0;
+  if (!representable || bytes > static_cast<double>(kMaxResampledBytes))
     throw Error("the oblique volume (affine " + affine.str() + ") would be resampled onto an axis-aligned grid of " + grid_text + " voxels at " +
                 affine_number(step) + " mm, " + affine_number(bytes / (1u << 30)) + " GiB (at most " +
                 std::to_string(kMaxResampledBytes >> 30) + " GiB)");
   file_grid.recompute_range();  // the background, and NaN voxels rejected before they spread
   const float background = file_grid.min_value();
   const Vec3 origin = to_vec3(lo);
+  const std::array<std::int64_t, 3> dims{static_cast<std::int64_t>(extent[0]), static_cast<std::int64_t>(extent[1]),
+                                         static_cast<std::int64_t>(extent[2])};
   Volume out(file_grid.type(), {static_cast<int>(dims[0]), static_cast<int>(dims[1]), static_cast<int>(dims[2])},
              Vec3{1, 1, 1} * static_cast<float>(step), origin, VoxelFill::Uninitialized);
   const auto inv = inverse(affine);
