@@ -11,7 +11,8 @@
 
 A scene is exactly the scene file's schema (docs/scene-file.md); it is checked when a renderer is made
 from it or on scene.validate(), and errors raise penumbra.Error (a ValueError) with the CLI's message.
-In Jupyter, a rendered image shows itself.
+In Jupyter, a rendered frame (a penumbra.Image, an ndarray) shows itself; anything computed from it
+(img[..., :3], img.mean(), img.astype(np.float32)) is a plain ndarray.
 """
 import copy
 import html
@@ -56,7 +57,7 @@ except ImportError as e:  # an interpreter of another Python version cannot load
 
 Error = _penumbra.Error
 
-__all__ = ["Error", "Image", "Renderer", "Scene", "Viewer", "VolumeData", "compare", "read_volume", "set_threads", "techniques", "threads", "view"]
+__all__ = ["Error", "Renderer", "Scene", "Viewer", "VolumeData", "compare", "read_volume", "set_threads", "techniques", "threads", "view"]
 
 _VOLUME_DTYPES = (np.uint8, np.int16, np.uint16, np.float32)
 
@@ -118,7 +119,7 @@ class Scene:
     def add_particles(self, positions, radii=1.0, colors=(0.8, 0.8, 0.8), **keys):
         """Adds spheres and returns their path ("particles.N"). positions: (N, 3) world x, y, z; radii:
         one number or N; colors: one colour or one per sphere, (N, 3) or (N, 4) floats in [0, 1] as
-        linear RGB (the scene file's colours) or uint8 as sRGB bytes (alpha is ignored). The spheres
+        linear RGB (the scene file's colours) or integers 0-255 (uint8, int64, ...) as 8-bit sRGB (alpha is ignored). The spheres
         are packed once (16 bytes each); Renderer.update_particles moves them, frame by frame.
         Other keywords: casts_shadows, receives_shadows."""
         name = self._name("particles", self._particles)
@@ -192,10 +193,66 @@ class Scene:
 
 
 class Image(np.ndarray):
-    """A rendered frame: an (H, W, 4) ndarray that shows itself in Jupyter."""
+    """A rendered frame: the (H, W, 4) ndarray Renderer.render returns, which shows itself in Jupyter.
+
+    Only the frame itself knows what its numbers mean (uint8 sRGB with straight alpha, or float32
+    premultiplied linear RGBA), so only it displays itself. Everything computed from it is a plain
+    ndarray: img[..., :3], img.mean(), img.astype(np.float32) / 255, np.flipud(img)."""
+
+    _encoding = None  # "srgb8" or "linear": set by Renderer.render on the frame alone
+
+    def __array_finalize__(self, obj):
+        self._encoding = None  # a view or copy made by NumPy: numbers of unknown meaning
+
+    def __getitem__(self, key):
+        return np.asarray(self)[key]
+
+    def __array_ufunc__(self, ufunc, method, *inputs, **kwargs):
+        inputs = tuple(_plain(x) for x in inputs)
+        if "out" in kwargs:
+            kwargs["out"] = tuple(_plain(x) for x in kwargs["out"])
+        return getattr(ufunc, method)(*inputs, **kwargs)
+
+    def __array_function__(self, func, types, args, kwargs):
+        return func(*(_plain(a) for a in args), **{k: _plain(v) for k, v in kwargs.items()})
+
+    def astype(self, *args, **kwargs):
+        return np.asarray(self).astype(*args, **kwargs)
+
+    def view(self, *args, **kwargs):
+        return np.asarray(self).view(*args, **kwargs)
+
+    def reshape(self, *args, **kwargs):
+        return np.asarray(self).reshape(*args, **kwargs)
+
+    def transpose(self, *axes):
+        return np.asarray(self).transpose(*axes)
+
+    @property
+    def T(self):
+        return np.asarray(self).T
+
+    def copy(self, order="C"):
+        """A copy of the frame that still shows itself."""
+        out = np.asarray(self).copy(order).view(Image)
+        out._encoding = self._encoding
+        return out
+
+    def __reduce__(self):  # pickles as the plain array it holds
+        return np.asarray(self).copy().__reduce__()
 
     def _repr_png_(self):
-        return _png(self)
+        if self._encoding is None or self.ndim != 3 or self.shape[2] != 4:
+            return None
+        return _png(np.asarray(self))
+
+
+def _plain(x):
+    if isinstance(x, Image):
+        return np.asarray(x)
+    if isinstance(x, (list, tuple)):
+        return type(x)(_plain(v) for v in x)
+    return x
 
 
 def _serialised(method):
@@ -307,9 +364,11 @@ class Renderer:
             raise Error(f"render: dtype {dtype!r} (expected 'uint8' or 'float32')")
         if quality not in ("full", "preview"):
             raise Error(f"render: quality {quality!r} (expected 'full' or 'preview')")
-        out = np.empty((self._engine.height, self._engine.width, 4), dtype=np.dtype(dtype)).view(Image)
+        out = np.empty((self._engine.height, self._engine.width, 4), dtype=np.dtype(dtype))
         self.stats = json.loads(self._engine.render_into(out, quality == "preview", bool(accumulate), bool(transparent)))
-        return out
+        frame = out.view(Image)
+        frame._encoding = "srgb8" if out.dtype == np.uint8 else "linear"
+        return frame
 
 
 def set_threads(threads):
@@ -490,15 +549,23 @@ def _pack_colors(colors, n, where):
         c = np.broadcast_to(c, (n, c.shape[0]))
     if c.ndim != 2 or c.shape[0] != n or c.shape[1] not in (3, 4):
         raise Error(f"{where}: colors has shape {np.shape(colors)} (expected one colour (3,) or (N, 3|4) with N = {n})")
-    if c.dtype == np.uint8:  # sRGB bytes
+    if c.dtype.kind in "iu":  # 8-bit sRGB, as image libraries write colours; never linear numbers clamped
+        if c.dtype != np.uint8:
+            if c.size and (c.min() < 0 or c.max() > 255):
+                raise Error(f"{where}: integer colors from {c.min()} to {c.max()} (expected 8-bit sRGB 0-255, or floats in [0, 1] as linear RGB)")
+            if c.size and c.max() <= 1:
+                raise Error(f"{where}: integer colors of only 0 and 1 are ambiguous (write 1.0 for linear RGB in [0, 1], or 255 for 8-bit sRGB)")
         s = c[:, :3].astype(np.float64) / 255.0
         linear = np.where(s <= 0.04045, s / 12.92, ((s + 0.055) / 1.055) ** 2.4)
-    elif c.dtype.kind in "fiu":
+    elif c.dtype.kind == "f":
         linear = c[:, :3].astype(np.float64)
         if not np.all(np.isfinite(linear)):
             raise Error(f"{where}: colors holds NaN or infinite values (expected linear RGB in [0, 1])")
+        if linear.size and (linear.min() < 0 or linear.max() > 1):
+            hint = "; 8-bit colours: pass them as integers (e.g. np.uint8)" if linear.max() > 1 and linear.max() <= 255 else ""
+            raise Error(f"{where}: float colors from {linear.min():g} to {linear.max():g} (expected linear RGB in [0, 1]{hint})")
     else:
-        raise Error(f"{where}: colors dtype {c.dtype} (expected floats in [0, 1] or uint8)")
+        raise Error(f"{where}: colors dtype {c.dtype} (expected floats in [0, 1] or integers 0-255)")
     return np.ascontiguousarray(linear, dtype=np.float32)
 
 

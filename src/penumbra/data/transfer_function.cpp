@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "penumbra/core/error.h"
+#include "penumbra/data/colormaps.h"
 
 namespace penumbra {
 
@@ -70,12 +71,25 @@ std::vector<TransferPoint> preset_points(const std::string& name) {
     return pts;
   }
   if (name == "grayscale") return {{0.0f, Rgb(0.0f), 0.0f}, {1.0f, Rgb(1.0f), 0.5f}};  // normalised
+  if (const ColormapSamples* samples = colormap_samples(name)) {
+    // A colour map over the normalised range, its opacity a ramp as grayscale's (and as ParaView gives
+    // an imported colour map without opacity points).
+    std::vector<TransferPoint> pts;
+    for (std::size_t i = 0; i < samples->size(); ++i) {
+      const float t = static_cast<float>(i) / static_cast<float>(samples->size() - 1);
+      const auto& c = (*samples)[i];
+      pts.push_back(srgb_point(t, c[0], c[1], c[2], 0.5f * t));
+    }
+    return pts;
+  }
   std::string known;
   for (const std::string& n : transfer_function_preset_names()) known += (known.empty() ? "" : ", ") + n;
   throw Error("\"preset\": \"" + name + "\" is not a known preset (expected one of: " + known + ")");
 }
 
-bool preset_is_normalized(const std::string& name) { return name == "mri-head" || name == "grayscale"; }
+bool preset_is_normalized(const std::string& name) {
+  return name == "mri-head" || name == "grayscale" || colormap_samples(name) != nullptr;
+}
 
 float get_number(const json& j, const std::string& key) {
   if (!j.is_number()) throw Error("\"" + key + "\": " + j.dump() + " (expected a number)");
@@ -185,7 +199,9 @@ Rgba TransferFunction::evaluate(float value) const {
 }
 
 std::vector<std::string> transfer_function_preset_names() {
-  return {"ct-bone", "ct-soft-tissue", "mri-head", "test-spheres", "grayscale"};
+  std::vector<std::string> names{"ct-bone", "ct-soft-tissue", "mri-head", "test-spheres", "grayscale"};
+  for (const std::string& c : colormap_names()) names.push_back(c);
+  return names;
 }
 
 TransferFunction parse_transfer_function(const nlohmann::json& spec, float data_min, float data_max,

@@ -37,7 +37,8 @@ private:
 };
 
 // Names of the built-in presets: "ct-bone", "ct-soft-tissue" (Hounsfield units), "mri-head"
-// (normalised to the data range), "test-spheres" (for the procedural test-spheres volume), "grayscale".
+// (normalised to the data range), "test-spheres" (for the procedural test-spheres volume), "grayscale",
+// and matplotlib's colour maps by name (colormaps.h: viridis, magma, ..., over the normalised range).
 std::vector<std::string> transfer_function_preset_names();
 
 // Builds a transfer function from its scene-file JSON (docs/scene-file.md), e.g.

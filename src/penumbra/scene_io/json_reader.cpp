@@ -210,7 +210,9 @@ Rgb JsonReader::color(const std::string& key, const Rgb& fallback) {
   if (!has(key)) return fallback;
   const Vec3 c = vec3(key, {});
   for (int i = 0; i < 3; ++i)
-    if (c[i] < 0 || c[i] > 1) fail(key, "colour components must be in [0, 1], got " + json_brief(raw(key)));
+    if (c[i] < 0 || c[i] > 1)
+      fail(key, "colour components must be in [0, 1] (linear RGB), got " + json_brief(raw(key)) +
+                    (c[i] > 1 && c[i] <= 255 ? "; an 8-bit colour is its bytes / 255, made linear" : ""));
   return {c.x, c.y, c.z};
 }
 
