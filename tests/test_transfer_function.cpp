@@ -10,6 +10,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/core/rng.h"
+#include "penumbra/data/colormaps.h"
 #include "penumbra/data/transfer_function.h"
 #include "error_message.h"
 
@@ -69,7 +70,7 @@ TEST(TransferFunction, RejectsInvalidPoints) {
 
 TEST(TransferFunction, EveryPresetHasVisibleAndTransparentValues) {
   const auto names = transfer_function_preset_names();
-  ASSERT_EQ(names.size(), 5u);
+  ASSERT_EQ(names.size(), 5u + colormap_names().size());
   for (const std::string& name : names) {
     // Each on the range of the data it is meant for.
     const bool ct = name.rfind("ct-", 0) == 0;
@@ -82,7 +83,8 @@ TEST(TransferFunction, EveryPresetHasVisibleAndTransparentValues) {
     }
     EXPECT_GT(visible, 10) << name;
     // The background (air, empty space) is transparent; grayscale's ramp is clear only there.
-    EXPECT_GE(clear, name == "grayscale" ? 1 : 10) << name;
+    const bool ramp = name == "grayscale" || colormap_samples(name) != nullptr;
+    EXPECT_GE(clear, ramp ? 1 : 10) << name;
     EXPECT_EQ(tf.evaluate(lo).a, 0.0f) << name;
   }
   // Bone presets: air transparent, dense bone nearly opaque and bright.
@@ -277,4 +279,22 @@ TEST(TransferFunction, AnyVisibleAgreesWithBruteForce) {
   }
   EXPECT_GT(visible_cases, 300);
   EXPECT_LT(visible_cases, 2700);
+}
+
+// Matplotlib's maps by name span the data's range: viridis runs from its dark purple (#440154) to its
+// yellow (#fde725), through the teal of its middle sample, in linear RGB; names ignore case.
+TEST(TransferFunction, MatplotlibColourMapsSpanTheDataRange) {
+  const TransferFunction tf = parse_transfer_function(json("Viridis"), 100.0f, 300.0f, "");
+  const auto linear = [](float r, float g, float b) { return Rgb(srgb_to_linear(r), srgb_to_linear(g), srgb_to_linear(b)); };
+  const Rgb first = linear(0x44 / 255.0f, 0x01 / 255.0f, 0x54 / 255.0f), last = linear(0xfd / 255.0f, 0xe7 / 255.0f, 0x25 / 255.0f);
+  const auto& mid = (*colormap_samples("viridis"))[16];
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(tf.evaluate(100.0f).rgb[c], first[c], 0.003f);
+    EXPECT_NEAR(tf.evaluate(300.0f).rgb[c], last[c], 0.003f);
+    EXPECT_NEAR(tf.evaluate(200.0f).rgb[c], linear(mid[0], mid[1], mid[2])[c], 1e-5f);
+  }
+  EXPECT_EQ(tf.evaluate(100.0f).a, 0.0f);
+  EXPECT_NEAR(tf.evaluate(300.0f).a, 0.5f, 1e-6f);
+  EXPECT_EQ(colormap_samples("no-such-map"), nullptr);
+  EXPECT_EQ(colormap_samples("GREY"), colormap_samples("gray"));
 }

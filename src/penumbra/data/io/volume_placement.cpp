@@ -157,6 +157,13 @@ Volume resampled(Volume file_grid, const Affine& affine, VolumeFileInfo& info) {
   const bool representable = std::isfinite(bytes) && static_cast<float>(step) > 0 && std::isfinite(static_cast<float>(step)) &&
                              std::abs(lo[0]) < 1e30 && std::abs(lo[1]) < 1e30 && std::abs(lo[2]) < 1e30 &&
                              std::max({extent[0], extent[1], extent[2]}) < 2147483647.0;
+  const double file_voxels = static_cast<double>(fd[0]) * static_cast<double>(fd[1]) * static_cast<double>(fd[2]);
+  const double voxels = extent[0] * extent[1] * extent[2];
+  if (representable && voxels > std::max(kMaxResampledGrowth * file_voxels, kResampledVoxelFloor))
+    throw Error("the oblique volume (affine " + affine.str() + ") would be resampled onto an axis-aligned grid of " + grid_text +
+                " voxels at its finest spacing, " + affine_number(step) + " mm: " + affine_number(voxels / file_voxels) +
+                " times its own " + std::to_string(fd[0]) + "x" + std::to_string(fd[1]) + "x" + std::to_string(fd[2]) + " (at most " +
+                affine_number(kMaxResampledGrowth) + " times; are the spacings in the header right?)");
   if (!representable || bytes > static_cast<double>(kMaxResampledBytes))
     throw Error("the oblique volume (affine " + affine.str() + ") would be resampled onto an axis-aligned grid of " + grid_text + " voxels at " +
                 affine_number(step) + " mm, " + affine_number(bytes / (1u << 30)) + " GiB (at most " +

@@ -29,6 +29,11 @@ namespace penumbra {
 constexpr double kAxisCosineTolerance = 1e-3;
 // The largest grid an oblique volume is resampled onto.
 constexpr std::size_t kMaxResampledBytes = std::size_t{8} << 30;
+// ... and at most this many times the file's voxels (beyond a floor of kResampledVoxelFloor): a turn
+// grows the box about 3x and a step of the finest spacing 10x for 10:1 anisotropic voxels, whereas an
+// affine with one tiny spacing (a header error) would ask for millions of times more.
+constexpr double kMaxResampledGrowth = 64;
+constexpr double kResampledVoxelFloor = double{1 << 24};
 
 // The stored axis w holds the file's axis file_axis[w], reversed when `reversed[w]`.
 struct AxisPermutation {
