@@ -9,12 +9,16 @@
 
 #include <nlohmann/json.hpp>
 
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <limits>
-#include <string>
 #include <mutex>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -196,15 +200,56 @@ public:
     options.quality = preview ? Quality::Preview : Quality::Full;
     options.accumulate = accumulate;
     options.buffers = &buffers;
-    EngineFrame f;
-    {
-      py::gil_scoped_release release;
-      f = engine_.render(options);
-    }
+    const EngineFrame f = render_interruptibly(options);
     return frame_stats(f, engine_.scene()).dump();
   }
 
 private:
+  // Renders on a worker thread while this one, with the GIL released but for a moment every 20 ms,
+  // lets Python run its signal handlers: Ctrl-C (or any handler that raises) cancels the frame, which
+  // stops within a chunk's time (core/cancel.h), and the handler's exception (KeyboardInterrupt) is
+  // raised here once the worker has let go of the engine. The engine is left as after a cancelled
+  // viewer frame: the next render starts afresh.
+  EngineFrame render_interruptibly(FrameOptions options) {
+    std::atomic<bool> cancel{false};
+    options.cancel = &cancel;
+    EngineFrame frame;
+    std::exception_ptr failure;
+    bool interrupted = false;
+    {
+      py::gil_scoped_release release;
+      std::mutex m;
+      std::condition_variable finished;
+      bool done = false;
+      std::thread worker([&] {
+        try {
+          frame = engine_.render(options);
+        } catch (...) {
+          failure = std::current_exception();
+        }
+        const std::lock_guard<std::mutex> g(m);
+        done = true;
+        finished.notify_one();
+      });
+      std::unique_lock<std::mutex> lock(m);
+      while (!finished.wait_for(lock, std::chrono::milliseconds(20), [&] { return done; })) {
+        if (interrupted) continue;
+        lock.unlock();
+        {
+          py::gil_scoped_acquire acquire;
+          interrupted = PyErr_CheckSignals() != 0;  // the handler's exception stays set
+        }
+        if (interrupted) cancel = true;
+        lock.lock();
+      }
+      lock.unlock();
+      worker.join();
+    }
+    if (interrupted) throw py::error_already_set();
+    if (failure) std::rethrow_exception(failure);
+    return frame;
+  }
+
   // The engine's lock, taken with the GIL released while waiting, and held until the call returns.
   std::unique_lock<std::mutex> locked() const {
     std::unique_lock<std::mutex> lock(mutex_, std::try_to_lock);

@@ -136,3 +136,24 @@ def test_matplotlib_colour_maps_are_transfer_functions_slices_and_particle_maps(
 def test_an_unknown_colour_map_lists_the_known_ones():
     with pytest.raises(penumbra.Error, match="not a known preset.*viridis"):
         penumbra.Renderer(penumbra.Scene().add_volume and {"volumes": [{"procedural": {"name": "test-spheres", "size": 8}, "transfer_function": "viridiss"}]})
+
+
+# ------------------------------------------------------------------------------------------ Ctrl-C
+
+def test_ctrl_c_cancels_a_frame_and_leaves_the_renderer_whole():
+    scene = {"volumes": [{"procedural": {"name": "test-spheres", "size": 160}, "transfer_function": {"preset": "test-spheres"}}],
+             "lights": [{"type": "directional", "direction": [-0.3, -1, -0.2]}], "camera": {"width": 1200, "height": 1000},
+             "shadows": {"technique": "ray_traced"}}
+    r = penumbra.Renderer(scene)
+    r.render(width=48, height=40)  # the volume's structures, built once
+    r.set("lights.0.direction", [0.3, -1, 0.2])
+    sent = []
+    timer = threading.Timer(0.3, lambda: (sent.append(time.perf_counter()), os.kill(os.getpid(), signal.SIGINT)))
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        r.render(width=1200, height=1000)  # ~35 s uninterrupted on 2 cores; ~50 ms to stop (docs/BENCHMARKS.md)
+    latency = time.perf_counter() - sent[0]
+    timer.join()
+    assert latency < 10, f"the frame went on for {latency:.1f} s after Ctrl-C"  # a hang guard, not a timing check
+    scene["lights"][0]["direction"] = [0.3, -1, 0.2]
+    assert np.array_equal(r.render(width=48, height=40), penumbra.Renderer(scene).render(width=48, height=40))
