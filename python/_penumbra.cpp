@@ -9,10 +9,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cstdint>
 #include <cstring>
 #include <exception>
 #include <filesystem>
@@ -120,7 +122,9 @@ SceneArrays scene_arrays(const py::dict& volumes, const py::dict& particles) {
   for (const auto& [name, array] : volumes) a.volumes[name.cast<std::string>()] = view_volume(name.cast<std::string>(), array.cast<py::array>());
   for (const auto& [name, pair] : particles) {
     const auto t = pair.cast<py::tuple>();
-    a.particles[name.cast<std::string>()] = pack_particles(name.cast<std::string>(), t[0].cast<SphereArray>(), t[1].cast<ColorArray>());
+    const std::string n = name.cast<std::string>();
+    a.particles[n] = pack_particles(n, t[0].cast<SphereArray>(), t[1].cast<ColorArray>());
+    a.particle_framing[n] = a.particles[n]->bounds();  // the camera frames these, however they move later
   }
   return a;
 }
@@ -157,6 +161,10 @@ public:
   std::string get(const std::string& path) const {
     const auto lock = locked();
     return engine_.get(path).dump();
+  }
+  bool is_set(const std::string& path) const {
+    const auto lock = locked();
+    return engine_.is_set(path);
   }
   // Where the renderer reads volume `index`'s voxels (for checking that an array is shared, not copied).
   std::uintptr_t volume_address(std::size_t index) const {
@@ -408,6 +416,43 @@ PYBIND11_MODULE(_penumbra, m) {
     return py::make_tuple(radii, colors);
   });
 
+  // A 64-bit digest of an array's bytes that changes when any byte does, or when two words swap: each
+  // 8-byte word is mixed with its position (splitmix64's finaliser) and the mixes XORed, so every core
+  // takes a share. What tells the package that a volume's array was changed in place without
+  // update_volume (docs/python.md gives its cost).
+  m.def("digest", [](const py::buffer& buffer) {
+    const py::buffer_info info = buffer.request();
+    if (info.strides.size() > 0 && info.itemsize * info.size > 0) {
+      py::ssize_t expected = info.itemsize;
+      for (std::size_t d = info.shape.size(); d-- > 0;) {
+        if (info.strides[d] != expected) throw Error("digest: the array must be C-contiguous");
+        expected *= info.shape[d];
+      }
+    }
+    const auto* bytes = static_cast<const unsigned char*>(info.ptr);
+    const std::size_t size = static_cast<std::size_t>(info.itemsize * info.size);
+    const auto mix = [](std::uint64_t z) {
+      z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+      z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+      return z ^ (z >> 31);
+    };
+    std::atomic<std::uint64_t> digest{mix(size)};
+    py::gil_scoped_release release;
+    const std::size_t words = size / 8;
+    parallel_for((words + 65535) / 65536, [&](std::size_t c0, std::size_t c1) {
+      std::uint64_t local = 0;
+      for (std::size_t w = c0 * 65536; w < std::min(words, c1 * 65536); ++w) {
+        std::uint64_t v;
+        std::memcpy(&v, bytes + 8 * w, 8);
+        local ^= mix(v + 0x9e3779b97f4a7c15ull * (w + 1));
+      }
+      digest.fetch_xor(local, std::memory_order_relaxed);
+    });
+    std::uint64_t tail = 0;
+    std::memcpy(&tail, bytes + 8 * words, size - 8 * words);
+    return digest.load() ^ mix(tail + 0x9e3779b97f4a7c15ull * (words + 1));
+  }, py::arg("array"));
+
   // The worker threads of every frame (0: one per core), until set again.
   m.def("set_threads", [](int threads) {
     static std::unique_ptr<ThreadLimit> limit;
@@ -425,6 +470,7 @@ PYBIND11_MODULE(_penumbra, m) {
       .def("replace_particles", &PyEngine::replace_particles, "The particle array of that name is now these spheres and colours")
       .def("edit", &PyEngine::edit, "Edits [(path, JSON text)] together; Error naming the path when refused")
       .def("get", &PyEngine::get)
+      .def("is_set", &PyEngine::is_set)
       .def("volume_address", &PyEngine::volume_address)
       .def("document", &PyEngine::document)
       .def_property_readonly("width", &PyEngine::width)

@@ -9,6 +9,7 @@ packages=(build-essential cmake ninja-build g++ pkg-config
           libopenvdb-dev python3-openvdb  # OpenVDB grids (sparse volumes); pyopenvdb writes the test grids
           python3-pydicom python3-tifffile  # independent readers the loader tests compare against
           python3-nibabel  # writes NIfTI with flipped, rotated and qform-only affines, read as nibabel reads them
+          python3-pip python3-venv mypy  # `pip install .` into a fresh environment, and the stubs under mypy --strict
           python3-dev pybind11-dev python3-numpy python3-pytest  # the Python package (python/)
           python3-mdanalysis jupyter-nbconvert python3-ipykernel  # trajectories, the example notebook
           python3-matplotlib  # the bench's error-against-time charts (scripts/bench_charts.py)

@@ -3,11 +3,13 @@
 #include <cstdio>
 #include <exception>
 #include <memory>
+#include <string>
 
 #include "commands.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/frame_memory.h"
 #include "mpi_launch.h"
+#include "penumbra_version.h"
 
 int main(int argc, char** argv) {
   penumbra::keep_frame_memory_mapped();
@@ -15,6 +17,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<penumbra::MpiWorld> world;
   if (penumbra::MpiWorld::launched_by_mpirun()) world = std::make_unique<penumbra::MpiWorld>(argc, argv);
   CLI::App app{"penumbra: shadowed volume rendering, every technique measured against an exact reference"};
+  app.set_version_flag("--version", std::string("penumbra ") + PENUMBRA_VERSION + " (" + PENUMBRA_GIT_DESCRIBE + ")");
   app.require_subcommand(1);
   penumbra::cli::add_render_command(app);
   penumbra::cli::add_view_command(app);

@@ -184,7 +184,10 @@ def test_moving_particles_rebuilds_their_shadows_and_matches_a_fresh_renderer():
     for structure in ("spheres", "casters", "ambient", "lights.0.shadows"):
         assert rebuilt.get(structure) == path, (structure, r.stats["rebuilt"])
     assert not np.array_equal(first, second)
-    fresh = penumbra.Scene(particle_common())
+    # the camera stays where the first spheres framed it (a fresh renderer would frame the moved ones)
+    camera = {k: r.get(f"camera.{k}") for k in ("eye", "target", "width", "height")}
+    assert not r.is_set("camera.eye")
+    fresh = penumbra.Scene(particle_common() | {"camera": camera})
     fresh.add_particles(moved, radii=0.7, colors=scene._particles["particles0"][1])
     assert np.array_equal(second, penumbra.Renderer(fresh).render(dtype="float32"))
 
@@ -263,7 +266,7 @@ def test_a_trajectory_from_mdanalysis_moves_the_atoms_frame_by_frame():
     assert not np.array_equal(images[0], images[2])
     u.trajectory[2]  # frame 2 equals a renderer made at frame 2
     assert np.allclose(u.atoms.positions[0], [31.97, 43.5, 12.36], atol=2.0)  # PROVENANCE: atom 0 near (32.11, 43.68, 12.22) at t = 0
-    fresh = penumbra.Scene(common)
+    fresh = penumbra.Scene(common | {"camera": {k: r.get(f"camera.{k}") for k in ("eye", "target", "width", "height")}})
     fresh.add_atoms(protein)
     assert np.array_equal(images[2], penumbra.Renderer(fresh).render(dtype="float32"))
 

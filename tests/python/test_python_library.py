@@ -157,3 +157,120 @@ def test_ctrl_c_cancels_a_frame_and_leaves_the_renderer_whole():
     assert latency < 10, f"the frame went on for {latency:.1f} s after Ctrl-C"  # a hang guard, not a timing check
     scene["lights"][0]["direction"] = [0.3, -1, 0.2]
     assert np.array_equal(r.render(width=48, height=40), penumbra.Renderer(scene).render(width=48, height=40))
+
+
+# ------------------------------------------------------------------------------------------ get: defaults and typos
+
+def test_get_answers_defaults_and_refuses_typos_naming_the_keys():
+    r = penumbra.Renderer({"volumes": [{"procedural": {"name": "test-spheres", "size": 16}}], "camera": {"width": 40, "height": 30}})
+    assert r.get("camera.width") == 40 and r.is_set("camera.width")
+    assert r.get("lights.0.direction") == [-0.4, -1.0, -0.3] and not r.is_set("lights.0.direction")
+    assert r.get("camera.fov_deg") == 35.0
+    assert r.get("shadows.technique") == "none" and isinstance(r.get("shadows.resolution"), int)
+    assert r.get("volumes.0.step") == 0.5
+    assert "points" in r.get("volumes.0.transfer_function")  # chosen from the data
+    with pytest.raises(penumbra.Error, match=r"camera.fovv: not a key of the scene \(camera has: .*fov_deg"):
+        r.get("camera.fovv")
+    with pytest.raises(penumbra.Error, match=r"lights.0.directon: .*lights.0 has: color, direction"):
+        r.is_set("lights.0.directon")
+    with pytest.raises(penumbra.Error, match=r"volumes.3.step: no such element \(volumes has 1\)"):
+        r.get("volumes.3.step")
+    # the default follows the scene: the framed eye moves with the camera's direction
+    eye = r.get("camera.eye")
+    r.set("camera.direction", [0, 0, 1])
+    assert r.get("camera.eye") != eye and not r.is_set("camera.eye")
+    r.set("lights.0.direction", [0.1, -1, 0])
+    assert r.get("lights.0.direction") == [0.1, -1, 0] and r.is_set("lights.0.direction")
+
+
+# ------------------------------------------------------------------------------------------ arrays changed in place
+
+def test_a_volume_changed_in_place_without_update_volume_is_found_and_rebuilt():
+    scene_doc = small_scene()
+    ramp = np.zeros((24, 24, 24), dtype=np.float32)
+    ramp[6:18, 6:18, 6:18] = 0.6
+    scene = penumbra.Scene(scene_doc)
+    del scene.document["volumes"]
+    scene.add_volume(ramp, spacing=1 / 24, origin=-0.5, transfer_function="test-spheres")
+    r = penumbra.Renderer(scene)
+    before = r.render()
+    ramp[6:18, 6:18, 6:18] = 0.8  # in place, no update_volume
+    with pytest.warns(UserWarning, match=r"volumes.0: its array changed .*update_volume\('volumes.0'\)"):
+        changed = r.render()
+    assert not np.array_equal(changed, before)
+    assert any(s["cause"] == "volumes.0" for s in r.stats["rebuilt"])
+    fresh = penumbra.Scene(scene_doc)
+    del fresh.document["volumes"]
+    fresh.add_volume(ramp.copy(), spacing=1 / 24, origin=-0.5, transfer_function="test-spheres")
+    assert np.array_equal(changed, penumbra.Renderer(fresh).render())
+    import warnings as w
+    with w.catch_warnings():
+        w.simplefilter("error")  # unchanged: no warning, nothing rebuilt
+        r.render()
+    assert r.stats["rebuilt"] == []
+
+
+def test_the_digest_sees_one_byte_and_a_swap():
+    a = np.arange(1 << 20, dtype=np.uint8).reshape(64, 128, 128) % 251
+    d = penumbra._penumbra.digest(a)
+    b = a.copy()
+    b[63, 127, 127] ^= 1
+    assert penumbra._penumbra.digest(b) != d
+    c = a.copy()
+    c.reshape(-1)[[8, 16]] = c.reshape(-1)[[16, 8]]
+    c.reshape(-1)[8:16], c.reshape(-1)[16:24] = a.reshape(-1)[16:24].copy(), a.reshape(-1)[8:16].copy()
+    assert penumbra._penumbra.digest(c) != d
+    assert penumbra._penumbra.digest(a.copy()) == d
+
+
+# ------------------------------------------------------------------------------------------ MDAnalysis
+
+DATA = os.environ.get("PENUMBRA_DATA_DIR", os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data"))
+
+
+def staged_run():
+    gro, xtc = os.path.join(DATA, "md_1tii_chainD.gro"), os.path.join(DATA, "md_1tii_chainD.xtc")
+    if not (os.path.exists(gro) and os.path.exists(xtc)):
+        pytest.skip(f"missing data: the staged MD run is not in {DATA} (set PENUMBRA_DATA_DIR)")
+    return gro, xtc
+
+
+def test_an_atom_group_follows_its_universe_with_a_still_camera_as_the_own_reader_plays_it():
+    mda = pytest.importorskip("MDAnalysis")
+    gro, xtc = staged_run()
+    u = mda.Universe(gro, xtc)
+    protein = u.select_atoms("protein")
+    common = {"camera": {"width": 64, "height": 48}, "shadows": {"technique": "issm", "resolution": 256}}
+    scene = penumbra.Scene(common)
+    path = scene.add_atoms(protein)
+    r = penumbra.Renderer(scene)
+    eye = r.get("camera.eye")
+    r.set_frame(u.trajectory[75])  # a Timestep, as `for ts in u.trajectory` gives
+    assert u.trajectory.ts.frame == 75
+    moved = r.render()
+    assert r.get("camera.eye") == eye, "the camera must not follow the atoms"
+    # penumbra's own reader of the same files at frame 75, through the same camera: the same frame
+    own = penumbra.Renderer(common | {"camera": {k: r.get(f"camera.{k}") for k in ("eye", "target", "width", "height")},
+                                      "particles": [{"file": gro, "trajectory": xtc, "select": "protein"}], "time": 75})
+    assert np.array_equal(moved, own.render())
+    r.set_frame(0)
+    assert not np.array_equal(r.render(), moved)
+    with pytest.raises(penumbra.Error, match="frame 151 of a trajectory of 151 frames"):
+        r.set_frame(151)
+
+
+def test_an_updating_selection_is_evaluated_again_at_each_frame():
+    mda = pytest.importorskip("MDAnalysis")
+    gro, xtc = staged_run()
+    u = mda.Universe(gro, xtc)
+    near = u.select_atoms("resname SOL and around 3.5 protein", updating=True)
+    scene = penumbra.Scene({"camera": {"width": 32, "height": 24}})
+    scene.add_atoms(near)
+    r = penumbra.Renderer(scene)
+    counts = []
+    for k in (0, 150):
+        r.set_frame(k)
+        r.render()
+        counts.append((len(near), r.stats["particles"][0]["spheres"]))
+    assert all(n == spheres for n, spheres in counts)
+    assert counts[0][0] != counts[1][0]  # the water shell changes between the first and last frames

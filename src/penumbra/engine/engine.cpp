@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <functional>
+#include <set>
 #include <utility>
 
 #include "penumbra/core/error.h"
@@ -47,7 +48,7 @@ Engine::Engine(nlohmann::json document, std::string base_dir, const SceneReadOpt
     : document_(std::move(document)), base_dir_(std::move(base_dir)), strict_(options.strict) {
   if (options.arrays) arrays_ = *options.arrays;
   if (options.cache) cache_ = *options.cache;
-  renderer_ = std::make_unique<Renderer>(build_scene(document_, base_dir_, read_options()));
+  renderer_ = std::make_unique<Renderer>(build_scene(document_, base_dir_, read_options(&defaults_)));
   cache_.drop_unused();
 }
 
@@ -68,7 +69,7 @@ nlohmann::json Engine::saved_document(const std::string& folder) const {
   return saved;
 }
 
-nlohmann::json Engine::get(const std::string& path) const {
+const nlohmann::json* Engine::document_value(const std::string& path) const {
   const nlohmann::json* node = &document_;
   std::size_t start = 0;
   while (true) {
@@ -76,16 +77,71 @@ nlohmann::json Engine::get(const std::string& path) const {
     const std::string part = path.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
     if (node->is_array()) {
       const bool index = !part.empty() && std::all_of(part.begin(), part.end(), [](char c) { return c >= '0' && c <= '9'; });
-      if (!index || std::stoul(part) >= node->size()) throw Error(path + ": no such element (the array has " + std::to_string(node->size()) + ")");
+      if (!index || part.size() > 9 || std::stoul(part) >= node->size()) return nullptr;
       node = &(*node)[std::stoul(part)];
-    } else if (node->is_object() && node->contains(part)) {
+    } else if (node->is_object() && node->contains(part) && !(*node)[part].is_null()) {
       node = &(*node)[part];
     } else {
-      throw Error(path + ": not set in the scene (its default applies)");
+      return nullptr;
     }
-    if (dot == std::string::npos) return *node;
+    if (dot == std::string::npos) return node;
     start = dot + 1;
   }
+}
+
+bool Engine::is_set(const std::string& path) const {
+  if (document_value(path)) return true;
+  (void)get(path);  // throws for an unknown path
+  return false;
+}
+
+nlohmann::json Engine::get(const std::string& path) const {
+  if (const nlohmann::json* value = document_value(path)) return *value;
+  if (const auto it = defaults_.find(path); it != defaults_.end()) {
+    // a volume's transfer function, chosen from its data, is written out as saved_document does
+    const std::string prefix = "volumes.";
+    const std::string suffix = ".transfer_function";
+    if (it->second.is_null() && path.rfind(prefix, 0) == 0 && path.size() > suffix.size() &&
+        path.compare(path.size() - suffix.size(), suffix.size(), suffix) == 0) {
+      const std::string index = path.substr(prefix.size(), path.size() - prefix.size() - suffix.size());
+      const auto& volumes = scene().volumes;
+      if (!index.empty() && index.size() < 9 && std::all_of(index.begin(), index.end(), [](char c) { return c >= '0' && c <= '9'; }) &&
+          std::stoul(index) < volumes.size())
+        return choose_transfer_function(*volumes[std::stoul(index)].volume);
+    }
+    return it->second;
+  }
+  // An index past an array's end: say how many there are.
+  for (std::size_t dot = path.find('.'); dot != std::string::npos; dot = path.find('.', dot + 1)) {
+    const std::string head = path.substr(0, dot);
+    const nlohmann::json* list = document_value(head);
+    if (list && list->is_array()) {
+      const std::size_t end = path.find('.', dot + 1);
+      const std::string index = path.substr(dot + 1, end == std::string::npos ? std::string::npos : end - dot - 1);
+      if (!document_value(head + "." + index))
+        throw Error(path + ": no such element (" + head + " has " + std::to_string(list->size()) + ")");
+    }
+  }
+  // Unknown: name the keys its object has (set or defaulted).
+  const std::size_t dot = path.rfind('.');
+  const std::string parent = dot == std::string::npos ? "" : path.substr(0, dot);
+  std::set<std::string> keys;
+  const auto add_key = [&](const std::string& full) {
+    if (parent.empty() ? full.find('.') == std::string::npos : full.size() > parent.size() + 1 && full.compare(0, parent.size() + 1, parent + ".") == 0) {
+      const std::string rest = parent.empty() ? full : full.substr(parent.size() + 1);
+      keys.insert(rest.substr(0, rest.find('.')));
+    }
+  };
+  for (const auto& [full, value] : defaults_) add_key(full);
+  const nlohmann::json* object = parent.empty() ? &document_ : document_value(parent);
+  if (object && object->is_object())
+    for (const auto& [key, value] : object->items()) keys.insert(key);
+  if (object && object->is_array())
+    throw Error(path + ": no such element (" + parent + " has " + std::to_string(object->size()) + ")");
+  std::string known;
+  for (const auto& k : keys) known += (known.empty() ? "" : ", ") + k;
+  if (keys.empty()) throw Error(path + ": not a key of the scene (docs/scene-file.md)");
+  throw Error(path + ": not a key of the scene (" + (parent.empty() ? std::string("the scene") : parent) + " has: " + known + ")");
 }
 
 void Engine::edit(const std::vector<std::pair<std::string, nlohmann::json>>& edits) {
@@ -105,7 +161,8 @@ void Engine::edit(const std::vector<std::pair<std::string, nlohmann::json>>& edi
 
 void Engine::apply(nlohmann::json edited, const std::vector<std::string>& paths) {
   // read exactly like a scene file; the engine keeps its scene when this throws
-  Scene scene = with_context("edit refused", [&] { return build_scene(edited, base_dir_, read_options()); });
+  ReadDefaults defaults;
+  Scene scene = with_context("edit refused", [&] { return build_scene(edited, base_dir_, read_options(&defaults)); });
   std::vector<std::string> stale;
   bool new_scene = !same_objects(scene, renderer_->scene());
   for (const auto& path : paths) {
@@ -124,6 +181,7 @@ void Engine::apply(nlohmann::json edited, const std::vector<std::string>& paths)
     renderer_->apply_edit(scene, stale);
   }
   document_ = std::move(edited);
+  defaults_ = std::move(defaults);
   cache_.drop_unused();
   edits_.insert(edits_.end(), paths.begin(), paths.end());
   samples_ = 0;

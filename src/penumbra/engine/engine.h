@@ -89,8 +89,12 @@ public:
   // transfer functions chosen from the data (for volumes that came without one) written out, so that
   // `penumbra render` of the saved file gives this engine's image.
   nlohmann::json saved_document(const std::string& folder) const;
-  // The document's value at a path (Error when there is none).
+  // The value at a path: the document's, else the default the scene's read took (null where the default
+  // is worked out from the data or the scene and has no fixed value). Error for a path that is
+  // neither, naming the keys its object has.
   nlohmann::json get(const std::string& path) const;
+  // Whether the document sets the path (false for defaults; Error for an unknown path, as get).
+  bool is_set(const std::string& path) const;
 
   EngineFrame render(const FrameOptions& options = {});
 
@@ -104,7 +108,13 @@ private:
   // Reads the edited document and makes stale what the edited paths invalidate.
   void apply(nlohmann::json edited, const std::vector<std::string>& paths);
   void replace_array(const std::string& name, const char* kind);
-  SceneReadOptions read_options() { return SceneReadOptions{strict_, &cache_, arrays_ ? &*arrays_ : nullptr}; }
+  // Options for reading the document: the defaults it takes land in `defaults` (null: not noted).
+  SceneReadOptions read_options(ReadDefaults* defaults = nullptr) {
+    SceneReadOptions o{strict_, &cache_, arrays_ ? &*arrays_ : nullptr};
+    o.defaults = defaults;
+    return o;
+  }
+  const nlohmann::json* document_value(const std::string& path) const;  // null when the document lacks it
 
   nlohmann::json document_;
   std::string base_dir_;
@@ -114,6 +124,7 @@ private:
   std::unique_ptr<Renderer> renderer_;
   std::map<std::string, std::string> causes_;  // stale structure → the path that made it stale
   std::vector<std::string> edits_;             // paths edited since the last frame
+  ReadDefaults defaults_;                      // the defaults the document's last read took
   bool new_renderer_ = true;
   // accumulation
   std::vector<Rgb> sum_;        // the accumulated samples' colour (over the background) ...

@@ -71,10 +71,12 @@ struct ParticleObject : ShadowFlags {
   std::shared_ptr<const ParticleSet> set;
   std::string source;  // file path or "procedural:random-spheres", for messages and stats
   // particles[].trajectory: `set` is the topology's spheres at frame Scene::time of `frames`, the
-  // frame's time in ps as the file stores it; what default cameras frame is the topology's box, so the
-  // view holds still while the atoms move. frames = 0: static spheres.
+  // frame's time in ps as the file stores it. frames = 0: static spheres.
   std::size_t frames = 0;
   double time_ps = 0;
+  // What default cameras and lights frame when not empty: a trajectory's topology box, or the first
+  // spheres of an array the caller moves (SceneArrays::particle_framing), so that the view holds still
+  // while the atoms move. Empty: the spheres' own bounds.
   Box3 topology_bounds;
   // particles[].select: the atoms of the file it kept (at this frame for a trajectory), before
   // hydrogens are dropped and an assembly is built; none without a selection.

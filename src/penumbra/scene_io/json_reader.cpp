@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <vector>
 
@@ -131,6 +132,32 @@ void check_utf8(std::string_view s, const std::string& what) {
   }
 }
 
+namespace {
+
+thread_local ReadDefaults* current_defaults = nullptr;
+
+// A float default as the shortest decimal that reads back as the same float (0.55f is 0.55, not
+// 0.550000011920929).
+nlohmann::json float_json(float v) {
+  char text[32];
+  for (int digits = 6; digits <= 9; ++digits) {
+    std::snprintf(text, sizeof text, "%.*g", digits, static_cast<double>(v));
+    if (std::strtof(text, nullptr) == v) break;
+  }
+  return std::strtod(text, nullptr);
+}
+
+}  // namespace
+
+RecordDefaults::RecordDefaults(ReadDefaults* defaults) : previous_(current_defaults) { current_defaults = defaults; }
+RecordDefaults::~RecordDefaults() { current_defaults = previous_; }
+
+void note_default(const std::string& path, const nlohmann::json& value) {
+  if (!current_defaults) return;
+  auto& slot = (*current_defaults)[path];
+  if (slot.is_null()) slot = value;
+}
+
 JsonReader::JsonReader(const nlohmann::json& object, std::string path) : object_(object), path_(std::move(path)) {
   if (!object_.is_object())
     throw Error((path_.empty() ? std::string("scene") : path_) + ": expected a JSON object, got " + json_brief(object_));
@@ -143,7 +170,9 @@ void JsonReader::fail(const std::string& key, const std::string& what) const {
 bool JsonReader::has(const std::string& key) const {
   auto it = object_.find(key);
   used_.insert(key);
-  return it != object_.end() && !it->is_null();
+  const bool present = it != object_.end() && !it->is_null();
+  if (!present) note_default(key_path(key), nullptr);  // known; its fallback (if any) is noted by the caller
+  return present;
 }
 
 const nlohmann::json& JsonReader::raw(const std::string& key) {
@@ -154,7 +183,7 @@ const nlohmann::json& JsonReader::raw(const std::string& key) {
 }
 
 std::string JsonReader::string(const std::string& key, const std::string& fallback) {
-  if (!has(key)) return fallback;
+  if (!has(key)) return note_default(key_path(key), fallback), fallback;
   const auto& v = raw(key);
   if (!v.is_string()) fail(key, "expected a string, got " + json_brief(v));
   return v.get<std::string>();
@@ -166,14 +195,14 @@ std::string JsonReader::required_string(const std::string& key) {
 }
 
 bool JsonReader::boolean(const std::string& key, bool fallback) {
-  if (!has(key)) return fallback;
+  if (!has(key)) return note_default(key_path(key), fallback), fallback;
   const auto& v = raw(key);
   if (!v.is_boolean()) fail(key, "expected true or false, got " + json_brief(v));
   return v.get<bool>();
 }
 
 float JsonReader::number(const std::string& key, float fallback, float lo, float hi) {
-  if (!has(key)) return fallback;
+  if (!has(key)) return note_default(key_path(key), float_json(fallback)), fallback;
   const auto& v = raw(key);
   if (!v.is_number()) fail(key, "expected a number, got " + json_brief(v));
   const double d = v.get<double>();
@@ -183,7 +212,7 @@ float JsonReader::number(const std::string& key, float fallback, float lo, float
 }
 
 std::int64_t JsonReader::integer(const std::string& key, std::int64_t fallback, std::int64_t lo, std::int64_t hi) {
-  if (!has(key)) return fallback;
+  if (!has(key)) return note_default(key_path(key), fallback), fallback;
   const auto& v = raw(key);
   if (!v.is_number_integer() && !(v.is_number_float() && std::floor(v.get<double>()) == v.get<double>() &&
                                    std::abs(v.get<double>()) < 9e15))
@@ -197,7 +226,7 @@ std::int64_t JsonReader::integer(const std::string& key, std::int64_t fallback, 
 }
 
 Vec3 JsonReader::vec3(const std::string& key, const Vec3& fallback) {
-  if (!has(key)) return fallback;
+  if (!has(key)) return note_default(key_path(key), {float_json(fallback.x), float_json(fallback.y), float_json(fallback.z)}), fallback;
   const auto& v = raw(key);
   if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() || !v[2].is_number())
     fail(key, "expected an array of three numbers, got " + json_brief(v));
@@ -207,7 +236,7 @@ Vec3 JsonReader::vec3(const std::string& key, const Vec3& fallback) {
 }
 
 Rgb JsonReader::color(const std::string& key, const Rgb& fallback) {
-  if (!has(key)) return fallback;
+  if (!has(key)) return note_default(key_path(key), {float_json(fallback[0]), float_json(fallback[1]), float_json(fallback[2])}), fallback;
   const Vec3 c = vec3(key, {});
   for (int i = 0; i < 3; ++i)
     if (c[i] < 0 || c[i] > 1)

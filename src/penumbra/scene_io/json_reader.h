@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <map>
 #include <set>
 #include <string>
 #include <string_view>
@@ -43,6 +44,27 @@ private:
   std::string path_;
   mutable std::set<std::string> used_;
 };
+
+// The defaults a scene read took: every key a JsonReader looked for and did not find, by its dotted
+// path, with the fallback it used (null where the reader computes it, e.g. from the data). What
+// Engine::get answers for keys the document leaves out, so that a default is told from a typo.
+using ReadDefaults = std::map<std::string, nlohmann::json>;
+
+// While alive, the JsonReaders of this thread note their defaults into `defaults` (nested scopes: the
+// innermost wins; null: none noted).
+class RecordDefaults {
+public:
+  explicit RecordDefaults(ReadDefaults* defaults);
+  ~RecordDefaults();
+  RecordDefaults(const RecordDefaults&) = delete;
+  RecordDefaults& operator=(const RecordDefaults&) = delete;
+
+private:
+  ReadDefaults* previous_;
+};
+
+// Notes a default taken outside JsonReader (a technique's declared parameter) into the current scope.
+void note_default(const std::string& path, const nlohmann::json& value);
 
 std::string json_brief(const nlohmann::json& value);  // the value as compact JSON, shortened for messages
 

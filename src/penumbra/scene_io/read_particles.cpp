@@ -31,6 +31,8 @@ ParticleObject read_static_particles(const nlohmann::json& j, const std::string&
     require_one_source(r);
     p.set = named_array(r, options.arrays, &SceneArrays::particles, "particle");
     p.source = "array:" + r.required_string("array");
+    const auto framing = options.arrays->particle_framing.find(r.required_string("array"));
+    if (framing != options.arrays->particle_framing.end()) p.topology_bounds = framing->second;
     read_shadow_flags(r, p);
     r.finish();
     return p;

@@ -65,6 +65,17 @@ void read_params(JsonReader& r, const nlohmann::json& j, TechniqueFamily family,
   }
 }
 
+// The declared defaults of the family's keys that `j` leaves out (every key a technique of the family
+// declares, read or not by the chosen one), noted for Engine::get.
+void note_param_defaults(const nlohmann::json& j, const std::string& section, TechniqueFamily family) {
+  for (const ParamSpec* p : family_params(family)) {
+    if (j.contains(p->key) && !j[p->key].is_null()) continue;
+    if (p->type == ParamType::Choice) note_default(section + "." + p->key, p->default_choice);
+    else if (p->type == ParamType::Integer) note_default(section + "." + p->key, static_cast<std::int64_t>(p->default_number));
+    else note_default(section + "." + p->key, p->default_number);
+  }
+}
+
 }  // namespace
 
 ShadowSettings read_shadows(const nlohmann::json& j) {
@@ -83,6 +94,7 @@ ShadowSettings read_shadows(const nlohmann::json& j) {
       r.fail(key, "technique '" + name + "' does not take " + key + " as casters (expected one of: " + join(takes) + ")");
     s.by_kind[static_cast<std::size_t>(i)] = name;
   }
+  note_param_defaults(j, "shadows", TechniqueFamily::Shadow);
   r.finish();
   return s;
 }
@@ -93,6 +105,7 @@ AmbientSettings read_ambient(const nlohmann::json& j) {
   a.technique = r.string("technique", a.technique);
   check_technique(r, a.technique, technique_names(TechniqueFamily::Ambient));
   read_params(r, j, TechniqueFamily::Ambient, a.params);
+  note_param_defaults(j, "ambient", TechniqueFamily::Ambient);
   r.finish();
   return a;
 }

@@ -163,6 +163,7 @@ void apply_override(nlohmann::json& scene, const std::string& assignment) {
 }
 
 Scene build_scene(const nlohmann::json& j, const std::string& base_dir, const SceneReadOptions& options) {
+  const RecordDefaults recording(options.defaults);
   JsonReader r(j, "");
   Scene s;
   s.time = static_cast<std::size_t>(r.integer("time", 0, 0, INT32_MAX));
@@ -205,11 +206,13 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir, const Sc
     s.lights.push_back(read_light(nlohmann::json::object(), "lights.0", bounds));  // one light from above
   }
   s.camera = read_camera(r.has("camera") ? r.raw("camera") : nlohmann::json::object(), bounds);
-  if (r.has("shadows")) s.shadows = read_shadows(r.raw("shadows"));
-  if (r.has("ambient")) s.ambient = read_ambient(r.raw("ambient"));
-  if (r.has("shading")) s.shading = read_shading(r.raw("shading"));
-  if (r.has("light_cache")) {
-    JsonReader lc(r.raw("light_cache"), "light_cache");
+  // Absent sections are read as empty objects: the same settings, and their defaults noted.
+  const nlohmann::json empty = nlohmann::json::object();
+  s.shadows = read_shadows(r.has("shadows") ? r.raw("shadows") : empty);
+  s.ambient = read_ambient(r.has("ambient") ? r.raw("ambient") : empty);
+  s.shading = read_shading(r.has("shading") ? r.raw("shading") : empty);
+  {
+    JsonReader lc(r.has("light_cache") ? r.raw("light_cache") : empty, "light_cache");
     s.light_cache.resolution = static_cast<int>(lc.integer("resolution", s.light_cache.resolution, kMinSatResolution, kMaxSatResolution));
     lc.finish();
   }

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "penumbra/data/io/particle_io.h"
+#include "penumbra/scene_io/json_reader.h"
 #include "penumbra/data/io/trajectory_io.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/scene/scene.h"
@@ -93,6 +94,10 @@ private:
 struct SceneArrays {
   std::map<std::string, std::shared_ptr<const Volume>> volumes;  // views of the caller's voxels (Volume::view)
   std::map<std::string, std::shared_ptr<const ParticleSet>> particles;
+  // The bounds the camera and lights frame a particle array by: those of its first spheres, kept when
+  // Engine::replace_array moves them (as a trajectory is framed by its topology), so that the camera
+  // stays still while a molecule moves. A name without an entry is framed by its current spheres.
+  std::map<std::string, Box3> particle_framing;
 };
 
 struct SceneReadOptions {
@@ -103,6 +108,8 @@ struct SceneReadOptions {
   // Reads the volumes named by "file" or "files" (null: load_volume); a rank of a distributed render
   // reads only its brick (distributed/brick_reading.h).
   const std::function<Volume(const std::vector<std::string>& paths, const VolumeLoadOptions& options)>* volume_reader = nullptr;
+  // Where the defaults the read took are noted, by dotted path (null: not noted; json_reader.h).
+  ReadDefaults* defaults = nullptr;
 };
 
 // Builds the scene; relative file paths are resolved against base_dir. Every error names the key.
