@@ -45,7 +45,8 @@ namespace {
 nlohmann::json parse(const std::string& text, const std::string& what) { return parse_json_text(text, what); }
 
 // The stats of a frame, as the CLI's --stats names them.
-nlohmann::json frame_stats(const EngineFrame& f, const Scene& scene) {
+nlohmann::json frame_stats(const EngineFrame& f, const Renderer& renderer) {
+  const Scene& scene = renderer.scene();
   const FrameResult& r = f.frame;
   nlohmann::json rebuilt = nlohmann::json::array();
   for (const auto& s : f.rebuilt) rebuilt.push_back({{"structure", s.structure}, {"cause", s.cause}});
@@ -53,7 +54,17 @@ nlohmann::json frame_stats(const EngineFrame& f, const Scene& scene) {
   nlohmann::json particles = nlohmann::json::array();
   for (const ParticleObject& p : scene.particles)
     particles.push_back({{"spheres", p.set->size()}, {"selected", p.selected_atoms ? nlohmann::json(*p.selected_atoms) : nlohmann::json(nullptr)}});
+  std::size_t volume_bytes = 0;
+  for (const auto& v : scene.volumes) volume_bytes += v.volume->memory_bytes();
+  nlohmann::json gradients = nlohmann::json::array();
+  for (const bool stored : renderer.volume_gradients_stored()) gradients.push_back(stored ? "stored" : "on_the_fly");
   return {{"particles", particles},
+          {"memory_bytes",
+           {{"volume", volume_bytes}, {"volume_structures", renderer.volume_structure_memory_bytes()},
+            {"shadow", renderer.shadow_memory_bytes()}, {"ambient", renderer.ambient_memory_bytes()}, {"sat", renderer.sat_memory_bytes()},
+            {"particles", renderer.particle_memory_bytes()}, {"bvh", renderer.bvh_memory_bytes()},
+            {"light_cache", renderer.light_cache_memory_bytes()}}},
+          {"gradients", gradients},
           {"timings_ms",
            {{"prepare", r.prepare_ms}, {"sat", r.sat_ms}, {"ambient", r.ambient_ms}, {"build", r.build_ms},
             {"render", r.render_ms}, {"hits", r.hits_ms}, {"bvh", r.bvh_ms}, {"total", r.total_ms}}},
@@ -209,7 +220,7 @@ public:
     options.accumulate = accumulate;
     options.buffers = &buffers;
     const EngineFrame f = render_interruptibly(options);
-    return frame_stats(f, engine_.scene()).dump();
+    return frame_stats(f, engine_.renderer()).dump();
   }
 
 private:

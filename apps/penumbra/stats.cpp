@@ -44,6 +44,7 @@ nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const 
   for (const auto& v : scene.volumes) volume_bytes += v.volume->memory_bytes();
   j["memory_bytes"] = {{"shadow", renderer.shadow_memory_bytes()}, {"ambient", renderer.ambient_memory_bytes()},
                         {"sat", renderer.sat_memory_bytes()}, {"volume", volume_bytes},
+                        {"volume_structures", renderer.volume_structure_memory_bytes()},
                         {"particles", renderer.particle_memory_bytes()}, {"bvh", renderer.bvh_memory_bytes()},
                         {"light_cache", renderer.light_cache_memory_bytes()}};
   const IsosurfaceFrameStats& iso = first.isosurface;

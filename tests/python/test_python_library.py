@@ -274,3 +274,39 @@ def test_an_updating_selection_is_evaluated_again_at_each_frame():
         counts.append((len(near), r.stats["particles"][0]["spheres"]))
     assert all(n == spheres for n, spheres in counts)
     assert counts[0][0] != counts[1][0]  # the water shell changes between the first and last frames
+
+
+# ------------------------------------------------------------------------------------------ memory
+
+def test_gradients_on_the_fly_draw_the_same_frame_without_their_memory():
+    vol = np.zeros((40, 40, 40), dtype=np.uint8)
+    z, y, x = np.mgrid[0:40, 0:40, 0:40]
+    vol[(x - 20) ** 2 + (y - 20) ** 2 + (z - 20) ** 2 < 150] = 200
+    vol[(x - 12) ** 2 + (y - 26) ** 2 + (z - 18) ** 2 < 40] = 120
+    images, stats = [], []
+    for mode in ("stored", "on_the_fly"):
+        scene = penumbra.Scene({"camera": {"width": 64, "height": 48}, "shadows": {"technique": "cssm", "resolution": 64}})
+        scene.add_volume(vol, spacing=0.05, origin=-1, transfer_function=[[0, 0, 0, 0, 0], [100, 0.9, 0.5, 0.3, 0.3], [255, 1, 1, 1, 0.9]],
+                         gradients=mode)
+        r = penumbra.Renderer(scene)
+        images.append(r.render(dtype="float32"))
+        stats.append(r.stats)
+    assert np.array_equal(images[0], images[1])  # the same arithmetic, per sample instead of per voxel
+    assert [s["gradients"] for s in stats] == [["stored"], ["on_the_fly"]]
+    saved = stats[0]["memory_bytes"]["volume_structures"] - stats[1]["memory_bytes"]["volume_structures"]
+    assert saved == 4 * vol.size
+    assert stats[0]["memory_bytes"]["volume"] == vol.nbytes or stats[0]["memory_bytes"]["volume"] >= 0
+
+
+def test_gradients_auto_stores_small_volumes_and_the_mode_is_an_edit():
+    scene = penumbra.Scene({"camera": {"width": 32, "height": 24}})
+    scene.add_volume(np.ones((8, 8, 8), dtype=np.float32))
+    r = penumbra.Renderer(scene)
+    r.render()
+    assert r.stats["gradients"] == ["stored"] and r.get("volumes.0.gradients") == "auto"
+    r.set("volumes.0.gradients", "on_the_fly")
+    r.render()
+    assert r.stats["gradients"] == ["on_the_fly"]
+    assert {"structure": "volumes.0.gradients", "cause": "volumes.0.gradients"} in r.stats["rebuilt"]
+    with pytest.raises(penumbra.Error, match=r"volumes.0.gradients: unknown value 'never' \(expected auto, stored or on_the_fly\)"):
+        r.set("volumes.0.gradients", "never")

@@ -86,6 +86,7 @@ const std::vector<InvalidationRule>& invalidation_table() {
       {"volumes.#.compositing", {"volumes.#.lut", "volumes.#.empty_space", "sat", "casters"}, "as a transfer function"},
       {"volumes.#.step", {"volumes.*.lut"}, "the eye lattice (shared by the visible volumes) and its opacity correction"},
       {"volumes.#.jitter", {}, "the eye lattice's offsets only"},
+      {"volumes.#.gradients", {"volumes.#.gradients"}, "the shading normals: stored or freed"},
       {"volumes.#.casts_shadows", {"casters"}, "what casts"},
       {"volumes.#.clip", {"sat", "casters"}, "what the volume casts (the eye pass reads the flag every frame)"},
       {"volumes.#.receives_shadows", {}, "which samples ask for shadows"},

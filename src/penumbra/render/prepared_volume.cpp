@@ -107,8 +107,13 @@ PreparedVolume::PreparedVolume(const VolumeObject& o, float step_world) : object
 
 void PreparedVolume::update_gradients() {
   volume = object->volume.get();
-  gradients = gradient_volume(*volume, object->reference_step() / std::max(volume->max_value() - volume->min_value(), 1e-20f) /
-                                           kFullShadingGradient);
+  gradient_weight_scale = object->reference_step() / std::max(volume->max_value() - volume->min_value(), 1e-20f) / kFullShadingGradient;
+  const std::size_t stored_bytes = volume->stored_voxel_count() * sizeof(gradients[0]);
+  gradients_on_the_fly = object->gradients == VolumeObject::Gradients::OnTheFly ||
+                         (object->gradients == VolumeObject::Gradients::Auto && stored_bytes > kStoredGradientBytes);
+  gradients.clear();
+  gradients.shrink_to_fit();  // an edit to on_the_fly gives the memory back
+  if (!gradients_on_the_fly) gradients = gradient_volume(*volume, gradient_weight_scale);
 }
 
 void PreparedVolume::update_grid() {
@@ -135,7 +140,25 @@ void PreparedVolume::use(bool preview) {
 
 void PreparedVolume::update_empty() { empty = grid.empty_cells(lut); }
 
+// The stored path's arithmetic on the cell's eight corners, each gradient computed from the voxels
+// (voxel_gradient, quantised as stored), so that both paths give the same bits.
+void PreparedVolume::normal_on_the_fly(const TrilinearCell& cell, Vec3& direction, float& weight) const {
+  const auto& d = volume->dims();
+  const Vec3 inv2{0.5f / volume->spacing().x, 0.5f / volume->spacing().y, 0.5f / volume->spacing().z};
+  const int i1 = std::min(cell.i + 1, d[0] - 1), j1 = std::min(cell.j + 1, d[1] - 1), k1 = std::min(cell.k + 1, d[2] - 1);
+  float acc[4] = {0, 0, 0, 0};
+  const float wx[2] = {1 - cell.tx, cell.tx}, wy[2] = {1 - cell.ty, cell.ty}, wz[2] = {1 - cell.tz, cell.tz};
+  for (int c = 0; c < 8; ++c) {
+    const float w = wx[c & 1] * wy[(c >> 1) & 1] * wz[(c >> 2) & 1];
+    const auto g = voxel_gradient(*volume, c & 1 ? i1 : cell.i, c & 2 ? j1 : cell.j, c & 4 ? k1 : cell.k, inv2, gradient_weight_scale);
+    for (int a = 0; a < 4; ++a) acc[a] += w * static_cast<float>(g[a]);
+  }
+  direction = {acc[0], acc[1], acc[2]};
+  weight = acc[3] * (1.0f / 127.0f);
+}
+
 void PreparedVolume::normal_at(const TrilinearCell& cell, Vec3& direction, float& weight) const {
+  if (gradients_on_the_fly) return normal_on_the_fly(cell, direction, weight);
   float acc[4] = {0, 0, 0, 0};
   const std::size_t offs[8] = {0, cell.sx, cell.sy, cell.sx + cell.sy, cell.sz, cell.sz + cell.sx, cell.sz + cell.sy,
                                cell.sz + cell.sx + cell.sy};

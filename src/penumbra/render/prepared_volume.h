@@ -2,7 +2,9 @@
 // its macrocell grid (shared with the shadow medium), the cells that grid marks empty, and a gradient
 // volume: central differences at every voxel (world units), stored as a quantised unit normal plus a
 // shading weight, 4 bytes a voxel, so that a shaded sample costs one 4-channel trilinear fetch instead
-// of six scalar ones.
+// of six scalar ones per corner. Where that memory is not wanted (volumes[].gradients = on_the_fly, or
+// auto beyond kStoredGradientBytes) the eight corners' gradients are computed per shaded sample with
+// the same arithmetic: the same frame, more time, no memory.
 #pragma once
 
 #include <array>
@@ -19,6 +21,9 @@ namespace penumbra {
 // gradient-shaded; flatter samples fade to unshaded (pure emission under the light), as their normal
 // is noise. Keeps homogeneous interiors from speckling.
 constexpr float kFullShadingGradient = 0.03f;
+// volumes[].gradients = auto stores the gradients up to this size (1 GiB: a 640³ volume), and computes
+// them per sample beyond it, where 4 bytes a voxel would add to a volume that is itself large.
+constexpr std::size_t kStoredGradientBytes = std::size_t{1} << 30;
 
 // Each part can be rebuilt in place (the renderer does so after an edit): the gradients and the min/max
 // grid depend only on the data, the table on the transfer function and the step, the empty cells on
@@ -41,7 +46,9 @@ struct PreparedVolume {
   void normal_at(const Vec3& v, Vec3& direction, float& weight) const { normal_at(volume->trilinear_cell(v), direction, weight); }
   void normal_at(const TrilinearCell& cell, Vec3& direction, float& weight) const;  // the cell the sample's value came from
 
-  std::size_t memory_bytes() const { return gradients.size() * sizeof(gradients[0]) + grid.memory_bytes() + empty.size(); }
+  std::size_t memory_bytes() const { return gradient_bytes() + grid.memory_bytes() + empty.size(); }
+  std::size_t gradient_bytes() const { return gradients.size() * sizeof(gradients[0]); }
+  bool gradients_stored() const { return !gradients_on_the_fly; }
 
   // The part [t0, t1] of r within [tmin, tmax] inside the volume's box and kept by its clip planes.
   bool span(const Ray& r, float& t0, float& t1, float tmin, float tmax) const {
@@ -57,7 +64,12 @@ struct PreparedVolume {
   TransferLut full_lut, preview_lut;
   MacrocellGrid grid;
   std::vector<std::uint8_t> empty;
-  std::vector<std::array<std::int8_t, 4>> gradients;  // (nx, ny, nz) · 127, weight · 127
+  std::vector<std::array<std::int8_t, 4>> gradients;  // (nx, ny, nz) · 127, weight · 127; empty when on the fly
+  bool gradients_on_the_fly = false;
+  float gradient_weight_scale = 0;  // |∇v| (world units) to shading weight
+
+private:
+  void normal_on_the_fly(const TrilinearCell& cell, Vec3& direction, float& weight) const;
 };
 
 }  // namespace penumbra

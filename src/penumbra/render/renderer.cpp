@@ -325,6 +325,18 @@ std::size_t Renderer::voxel_count() const {
   return n;
 }
 
+std::size_t Renderer::volume_structure_memory_bytes() const {
+  std::size_t bytes = 0;
+  for (const auto& pv : volumes_) bytes += pv->memory_bytes();
+  return bytes;
+}
+
+std::vector<bool> Renderer::volume_gradients_stored() const {
+  std::vector<bool> stored;
+  for (const auto& pv : volumes_) stored.push_back(pv->gradients_stored());
+  return stored;
+}
+
 std::size_t Renderer::bvh_memory_bytes() const {
   return (bvh_ ? bvh_->memory_bytes() : 0) + (casting_bvh_ ? casting_bvh_->memory_bytes() : 0);
 }

@@ -121,6 +121,10 @@ public:
   std::size_t sphere_count() const { return particles_ ? particles_->size() : 0; }
   std::size_t particle_memory_bytes() const { return particles_ ? particles_->memory_bytes() : 0; }
   std::size_t bvh_memory_bytes() const;
+  // The visible volumes' own structures: gradients (when stored), min/max grids and empty-cell marks.
+  std::size_t volume_structure_memory_bytes() const;
+  // Per visible volume (in the scene's order): whether its gradients are stored (false: on the fly).
+  std::vector<bool> volume_gradients_stored() const;
   double prepare_ms() const { return prepare_ms_; }  // the first frame's preparation
   // Each isosurface with its min/max hierarchy; each light's shadows of the last frame; the last
   // frame's isosurface eye points (all isosurfaces, in order).

@@ -50,6 +50,9 @@ struct VolumeObject : ShadowFlags {
   Compositing compositing = Compositing::Alpha;  // how the transfer function's opacity is read
   bool visible = true;
   bool jitter = true;                   // per-pixel offset of the sample lattice (against wood-grain rings)
+  // volumes[].gradients: the shading normals stored (4 bytes a voxel), computed per sample from the
+  // voxels (no memory, slower shading; the same frame), or (Auto) stored up to kStoredGradientBytes.
+  enum class Gradients { Auto, Stored, OnTheFly } gradients = Gradients::Auto;
   std::size_t frames = 0;               // volumes[].files: the steps of the series (`volume` is step Scene::time); 0: one volume
 
   float step_world() const {

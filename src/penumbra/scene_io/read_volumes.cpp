@@ -236,6 +236,11 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   else if (comp == "extinction") v.compositing = Compositing::Extinction;
   else r.fail("compositing", "unknown value '" + comp + "' (expected alpha or extinction)");
   v.jitter = r.boolean("jitter", true);
+  const std::string gradients = r.string("gradients", "auto");
+  if (gradients == "auto") v.gradients = VolumeObject::Gradients::Auto;
+  else if (gradients == "stored") v.gradients = VolumeObject::Gradients::Stored;
+  else if (gradients == "on_the_fly") v.gradients = VolumeObject::Gradients::OnTheFly;
+  else r.fail("gradients", "unknown value '" + gradients + "' (expected auto, stored or on_the_fly)");
   if (!v.visible)
     for (const char* key : {"casts_shadows", "receives_shadows"})
       if (r.has(key)) r.fail(key, "the volume is not visible ('visible': false): it neither casts nor receives shadows");
