@@ -24,7 +24,7 @@ def main(out: str) -> None:
     volume = scene.add_volume(blob(64), spacing=1 / 64, origin=-0.5, transfer_function="viridis")
     scene.add_plane(point=(0, -0.55, 0), size=3)
     r = penumbra.Renderer(scene)
-    r.set(volume + ".transfer_function", "magma")
+    r.set(volume + ".transfer_function", {"preset": "magma", "opacity_scale": 0.35})  # or just "magma"
     approximate = r.render(width=320, height=240, dtype="float32")
     r.set("shadows.technique", "ray_traced")
     exact = r.render(width=320, height=240, dtype="float32")
