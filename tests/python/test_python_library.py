@@ -310,3 +310,23 @@ def test_gradients_auto_stores_small_volumes_and_the_mode_is_an_edit():
     assert {"structure": "volumes.0.gradients", "cause": "volumes.0.gradients"} in r.stats["rebuilt"]
     with pytest.raises(penumbra.Error, match=r"volumes.0.gradients: unknown value 'never' \(expected auto, stored or on_the_fly\)"):
         r.set("volumes.0.gradients", "never")
+
+
+# ------------------------------------------------------------------------------------------ mixed scenes
+
+def test_a_camera_move_in_a_mixed_scene_rebuilds_nothing():
+    """Spheres with particle AO beside a translucent volume (issue 42's cliff): an orbit frame rebuilds
+    no structure, and the volume samples' ambient lattice is reused (docs/BENCHMARKS.md times it)."""
+    rng = np.random.default_rng(3)
+    scene = penumbra.Scene({"ambient": {"technique": "particle_ao"}, "shadows": {"technique": "issm", "resolution": 128},
+                            "camera": {"width": 48, "height": 40}})
+    scene.add_particles(rng.uniform(-0.4, 0.4, size=(300, 3)), radii=0.05)
+    z, y, x = np.mgrid[0:24, 0:24, 0:24].astype(np.float32) / 23 - 0.5
+    scene.add_volume(np.ascontiguousarray(np.clip(1 - np.sqrt(x * x + y * y + z * z) / 0.5, 0, 1), dtype=np.float32),
+                     spacing=1 / 23, origin=-0.5, transfer_function=[[0, 0.2, 0.4, 1, 0], [1, 0.2, 0.4, 1, 0.05]])
+    r = penumbra.Renderer(scene)
+    r.render()
+    for direction in ([1, 0.5, 0.3], [0.2, 0.5, 1], [-1, 0.3, 0.2]):
+        r.set("camera.direction", direction)
+        r.render()
+        assert r.stats["rebuilt"] == [], r.stats["rebuilt"]

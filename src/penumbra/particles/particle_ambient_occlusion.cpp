@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <span>
 #if defined(__SSE__)
 #include <xmmintrin.h>  // SSE: the per-pixel cone weighting
@@ -281,6 +282,11 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
   cone_cache_.reset(ps.size(), cone_dirs_.size(), cone_cache_bytes_);
   const Level& b0 = pyramid_[0];
   grid_box_ = Box3{origin_, origin_ + Vec3{static_cast<float>(b0.nx), static_cast<float>(b0.ny), static_cast<float>(b0.nz)} * cell};
+  // the volume samples' lattice: every corner unfilled until a sample needs it
+  corners_x_ = b0.nx + 1, corners_y_ = b0.ny + 1, corners_z_ = b0.nz + 1;
+  const std::size_t corners = static_cast<std::size_t>(corners_x_) * static_cast<std::size_t>(corners_y_) * static_cast<std::size_t>(corners_z_);
+  volume_ambient_ = std::make_unique<std::atomic<std::uint32_t>[]>(corners);
+  for (std::size_t c = 0; c < corners; ++c) volume_ambient_[c].store(kUnfilled, std::memory_order_relaxed);
 }
 
 float ParticleAmbientOcclusion::density(int level, const Vec3& p) const {
@@ -373,11 +379,46 @@ void ParticleAmbientOcclusion::ambient(std::span<const SurfacePoint> points, std
   }
 }
 
+float ParticleAmbientOcclusion::volume_point_ambient(const Vec3& p) const {
+  if (cone_dirs_.empty()) return 1.0f;
+  float sum = 0;
+  for (const Vec3& d : cone_dirs_) sum += occlusion(p, d, 0);
+  return 1.0f - sum / static_cast<float>(cone_dirs_.size());
+}
+
+float ParticleAmbientOcclusion::corner_ambient(int x, int y, int z) const {
+  std::atomic<std::uint32_t>& slot =
+      volume_ambient_[(static_cast<std::size_t>(z) * static_cast<std::size_t>(corners_y_) + static_cast<std::size_t>(y)) *
+                          static_cast<std::size_t>(corners_x_) + static_cast<std::size_t>(x)];
+  std::uint32_t bits = slot.load(std::memory_order_relaxed);
+  if (bits == kUnfilled) {
+    const float cell = pyramid_.front().cell;
+    const float a = volume_point_ambient(origin_ + Vec3{static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)} * cell);
+    std::memcpy(&bits, &a, sizeof bits);
+    slot.store(bits, std::memory_order_relaxed);
+  }
+  float a;
+  std::memcpy(&a, &bits, sizeof a);
+  return a;
+}
+
 void ParticleAmbientOcclusion::ambient(std::span<const Vec3> points, std::span<Rgb> out) const {
+  const float inv_cell = pyramid_.empty() ? 0.0f : 1.0f / pyramid_.front().cell;
   for (std::size_t i = 0; i < points.size(); ++i) {
-    float sum = 0;
-    for (const Vec3& d : cone_dirs_) sum += occlusion(points[i], d, 0);
-    out[i] = Rgb(cone_dirs_.empty() ? 1.0f : 1.0f - sum / static_cast<float>(cone_dirs_.size()));
+    const Vec3 g = (points[i] - origin_) * inv_cell;
+    const int x = floor_int(g.x), y = floor_int(g.y), z = floor_int(g.z);
+    if (!volume_ambient_ || x < 0 || y < 0 || z < 0 || x + 1 >= corners_x_ || y + 1 >= corners_y_ || z + 1 >= corners_z_) {
+      out[i] = Rgb(volume_point_ambient(points[i]));
+      continue;
+    }
+    const float tx = g.x - static_cast<float>(x), ty = g.y - static_cast<float>(y), tz = g.z - static_cast<float>(z);
+    float c[2][2][2];
+    for (int dz = 0; dz < 2; ++dz)
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) c[dz][dy][dx] = corner_ambient(x + dx, y + dy, z + dz);
+    const auto lerp = [](float a, float b, float t) { return a + (b - a) * t; };
+    out[i] = Rgb(lerp(lerp(lerp(c[0][0][0], c[0][0][1], tx), lerp(c[0][1][0], c[0][1][1], tx), ty),
+                      lerp(lerp(c[1][0][0], c[1][0][1], tx), lerp(c[1][1][0], c[1][1][1], tx), ty), tz));
   }
 }
 
@@ -385,6 +426,7 @@ std::size_t ParticleAmbientOcclusion::memory_bytes() const {
   std::size_t bytes = 0;
   for (const auto& l : pyramid_) bytes += l.value.capacity() * sizeof(float);
   bytes += cone_cache_.memory_bytes();
+  bytes += static_cast<std::size_t>(corners_x_) * static_cast<std::size_t>(corners_y_) * static_cast<std::size_t>(corners_z_) * sizeof(std::uint32_t);
   return bytes;
 }
 

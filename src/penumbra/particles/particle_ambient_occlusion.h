@@ -58,6 +58,9 @@ public:
 
   // Density (filled fraction) of level `level` at world point p, trilinear; 0 outside the grid.
   float density(int level, const Vec3& p) const;
+  // The ambient factor at a volume sample p, from every cone of the sphere of directions, uncached:
+  // what the lattice below holds at its corners, and what points outside the lattice get.
+  float volume_point_ambient(const Vec3& p) const;
   int levels() const { return static_cast<int>(pyramid_.size()); }
 
 private:
@@ -94,6 +97,15 @@ private:
   std::vector<float> cone_x_, cone_y_, cone_z_;  // the same by component, zero-padded to a multiple of 4
   const ParticleSet* particles_ = nullptr;
   SphereConeCache cone_cache_;
+  // Volume samples' ambient factor on the corners of the base level's cells, filled as samples first
+  // need them and kept until the next build: it does not depend on the camera, so an orbit reuses it
+  // (a volume sample costs 2·directions cone marches uncached; a 64-cell grid has 65³ corners against
+  // tens of millions of samples a frame). A sample interpolates its cell's eight corners. Each corner
+  // holds a float's bits, or kUnfilled; threads that fill the same corner store the same value.
+  static constexpr std::uint32_t kUnfilled = 0xFFFFFFFFu;
+  float corner_ambient(int x, int y, int z) const;
+  int corners_x_ = 0, corners_y_ = 0, corners_z_ = 0;
+  std::unique_ptr<std::atomic<std::uint32_t>[]> volume_ambient_;
 };
 
 }  // namespace penumbra
