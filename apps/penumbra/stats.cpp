@@ -1,5 +1,6 @@
 #include "stats.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -49,7 +50,13 @@ nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const 
                         {"light_cache", renderer.light_cache_memory_bytes()}};
   const IsosurfaceFrameStats& iso = first.isosurface;
   j["counts"] = {{"voxels", renderer.voxel_count()}, {"spheres", renderer.sphere_count()}, {"points", iso.points},
-                 {"lights", scene.lights.size()}, {"sphere_pixels", first.sphere_pixels}};
+                 {"lights", scene.lights.size()}, {"sphere_pixels", first.sphere_pixels},
+                 {"volume_samples", first.volume_samples}, {"volume_shaded_samples", first.volume_shaded_samples}};
+  // What the eye pass got through per second of its time (render_ms: the surfaces and the ray casting
+  // together), to hold against the machine's ceiling (docs/BENCHMARKS.md).
+  const double render_s = std::max(first.render_ms, 1e-3) / 1000.0;
+  j["throughput"] = {{"samples_per_second", static_cast<double>(first.volume_samples) / render_s},
+                     {"sphere_pixels_per_second", static_cast<double>(first.sphere_pixels) / render_s}};
   if (!renderer.isosurfaces().empty()) {
     nlohmann::json surfaces = nlohmann::json::array();
     std::set<const GridTree*> trees;

@@ -330,3 +330,27 @@ def test_a_camera_move_in_a_mixed_scene_rebuilds_nothing():
         r.set("camera.direction", direction)
         r.render()
         assert r.stats["rebuilt"] == [], r.stats["rebuilt"]
+
+
+# ------------------------------------------------------------------------------------------ throughput
+
+def test_the_frame_counts_its_volume_samples_the_same_for_any_thread_count():
+    scene = small_scene(64)
+    counts = []
+    for threads in (1, 2):
+        penumbra.set_threads(threads)
+        try:
+            r = penumbra.Renderer(scene)
+            r.render()
+            counts.append(r.stats["counts"])
+        finally:
+            penumbra.set_threads(0)
+    assert counts[0] == counts[1]
+    assert counts[0]["volume_samples"] > counts[0]["volume_shaded_samples"] > 0
+    assert r.stats["throughput"]["samples_per_second"] > 0
+    # a transfer function that shows nothing: empty space is skipped, nothing is sampled
+    clear = small_scene(64)
+    clear["volumes"][0]["transfer_function"] = {"points": [[0, 0, 0, 0, 0], [1, 0, 0, 0, 0]]}
+    r = penumbra.Renderer(clear)
+    r.render()
+    assert r.stats["counts"]["volume_samples"] == 0 and r.stats["throughput"]["samples_per_second"] == 0

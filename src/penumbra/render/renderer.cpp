@@ -561,6 +561,8 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
         RayCastInputs{&scene_, &camera, volume_ptrs, lights, shadow_ptrs, ambient_.get(), light_cache_.get(), light_slot_,
                       &layer, request.sample, request.slab ? &*request.slab : nullptr});
     frame.image = std::move(vf.image);
+    frame.volume_samples = vf.samples;
+    frame.volume_shaded_samples = vf.shaded_samples;
     for (std::size_t p = 0; p < pixels; ++p) {
       frame.alpha[p] = frame.alpha[p] + (1 - frame.alpha[p]) * vf.opacity[p];
       frame.depth[p] = std::min(frame.depth[p], vf.half_depth[p]);

@@ -81,6 +81,8 @@ struct FrameResult {
   double hits_ms = 0;     // spheres: each pixel's nearest sphere (splatting or Embree rays); 0 when the last frame's were kept
   int issm_rings = -1;    // spheres: the rings t the ISSM used (chosen this frame when automatic)
   std::size_t sphere_pixels = 0;  // pixels showing a sphere
+  std::size_t volume_samples = 0;         // volume lattice samples classified (VolumeFrame::samples)
+  std::size_t volume_shaded_samples = 0;  // of which shaded
   IsosurfaceFrameStats isosurface;  // isosurfaces: eye pass, shadow passes, counts
   double total_ms = 0;
   Quality quality = Quality::Full;

@@ -1,6 +1,7 @@
 #include "penumbra/render/volume_raycaster.h"
 
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <vector>
 
@@ -117,13 +118,18 @@ struct Shader {
   }
 };
 
+// A tile's tally of lattice samples (VolumeFrame::samples, shaded_samples), added to the frame's once.
+struct SampleCounts {
+  std::size_t classified = 0, shaded = 0;
+};
+
 // One volume: the lattice walk with macrocell skipping, for voxels of type T (the volume's), of every
 // sample or (kSlab) of the samples in.owned holds — two instances, so that the whole frame's walk
 // carries no ownership test.
 // `half` becomes the ray parameter where the opacity first reaches 1/2 (left as it is when it never does).
 template <class T, bool kSlab>
 float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, float jitter, float t_surface,
-                SampleBatch& batch, Rgb& color, float& half) {
+                SampleBatch& batch, Rgb& color, float& half, SampleCounts& counts) {
   float opacity = 0;
   float t0, t1;
   if (!pv.span(ray, t0, t1, 0, t_surface)) return opacity;
@@ -156,10 +162,12 @@ float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, 
       }
     }
     const Rgba s = pv.lut.lookup(vol.sample_cell_as<T>(tc));
+    ++counts.classified;
     if (s.a <= 0) continue;
     const float w = (1 - opacity) * s.a;
     opacity += w;
     if (opacity >= 0.5f && half == kInfinity) half = t;
+    ++counts.shaded;
     shader.add(batch, color, pv, p, tc, s.rgb, w);
     if (opacity >= kEarlyTermination) break;
   }
@@ -179,7 +187,7 @@ struct OverlapSamples {
 // Several volumes on one lattice: every volume that holds a sample classifies it; space is skipped
 // only where every volume is empty (or absent).
 float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& shader, const Ray& ray, float jitter,
-                 float t_surface, SampleBatch& batch, OverlapSamples& overlap, Rgb& color, float& half) {
+                 float t_surface, SampleBatch& batch, OverlapSamples& overlap, Rgb& color, float& half, SampleCounts& counts) {
   float opacity = 0;
   float t0 = kInfinity, t1 = -kInfinity;
   for (const PreparedVolume* pv : volumes) {
@@ -219,6 +227,7 @@ float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& s
       occupied = true;
       const TrilinearCell tc = pv->volume->trilinear_cell(v);
       const Rgba s = pv->lut.lookup(pv->volume->sample_cell(tc));
+      ++counts.classified;
       if (s.a <= 0) continue;
       sample[n] = s;
       cells[n] = tc;
@@ -239,6 +248,7 @@ float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& s
     const float w = (1 - opacity) * (1 - clear);
     opacity += w;
     if (opacity >= 0.5f && half == kInfinity) half = t;
+    counts.shaded += n;
     for (std::size_t i = 0; i < n; ++i) shader.add(batch, color, *holder[i], p, cells[i], sample[i].rgb, w * sample[i].a / alpha_sum);
     if (opacity >= kEarlyTermination) break;
   }
@@ -258,8 +268,10 @@ VolumeFrame render_volume_frame(const RayCastInputs& in) {
   const float specular_cutoff = std::pow(1e-4f, 1.0f / in.scene->shading.shininess);
   const PrimaryRays rays(cam);
   const std::uint64_t jitter_key = 0x6a177e5 + static_cast<std::uint64_t>(in.sample) * 0x9e3779b97f4a7c15ull;
+  std::atomic<std::size_t> classified{0}, shaded{0};
   parallel_for_tiles(cam.width, cam.height, kTileSize, [&](const Tile& tile) {
     SampleBatch batch;
+    SampleCounts counts;
     OverlapSamples overlap(in.volumes.size() > 1 ? in.volumes.size() : 0);  // one volume: trace_one, no overlap
     for (int y = tile.y0; y < tile.y1; ++y) {
       if (cancel_requested()) return;  // a row can take long (ray-traced shadows): stop between rows
@@ -274,17 +286,21 @@ VolumeFrame render_volume_frame(const RayCastInputs& in) {
         float& half = out.half_depth[pixel];
         if (in.volumes.size() == 1)
           opacity = in.volumes.front()->volume->with_voxel_type([&](auto type) {
-            return in.owned ? trace_one<decltype(type), true>(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color, half)
-                            : trace_one<decltype(type), false>(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color, half);
+            return in.owned ? trace_one<decltype(type), true>(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color, half, counts)
+                            : trace_one<decltype(type), false>(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color, half, counts);
           });
-        else if (!in.volumes.empty()) opacity = trace_many(in.volumes, shader, ray, jitter, t_surface, batch, overlap, color, half);
+        else if (!in.volumes.empty()) opacity = trace_many(in.volumes, shader, ray, jitter, t_surface, batch, overlap, color, half, counts);
         const Rgb behind = in.opaque ? in.opaque->color->at(x, y) : in.scene->background;
         out.image.at(x, y) = color + behind * (1 - opacity);
         out.opacity[pixel] = opacity;
       }
     }
+    classified.fetch_add(counts.classified, std::memory_order_relaxed);
+    shaded.fetch_add(counts.shaded, std::memory_order_relaxed);
     if (tile.x1 == cam.width) progress.advance(static_cast<std::size_t>(tile.y1 - tile.y0));
   });
+  out.samples = classified.load();
+  out.shaded_samples = shaded.load();
   return out;
 }
 

@@ -61,6 +61,8 @@ struct VolumeFrame {
   Image image;                     // the volumes composited over the opaque layer (or the background)
   std::vector<float> opacity;      // per pixel: the volumes' accumulated opacity in front of the opaque layer
   std::vector<float> half_depth;   // per pixel: where that opacity first reaches 1/2; infinity: never
+  std::size_t samples = 0;         // lattice samples classified (a value fetched and looked up), over every ray
+  std::size_t shaded_samples = 0;  // of which visible, so shaded (normal, lights, ambient)
 };
 
 VolumeFrame render_volume_frame(const RayCastInputs& in);
