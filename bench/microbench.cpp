@@ -1,10 +1,16 @@
 // Micro-benchmarks of the hot paths (Google Benchmark): trilinear sampling, the transfer-function
-// table, a light-ray march, and one transmittance query of each shadow map. The paper-table
-// reproductions are `penumbra bench`.
+// table, a light-ray march, and one transmittance query of each shadow map; and this machine's
+// ceilings for the eye pass (every core): bytes a second read in one pass over a volume, and
+// trilinear samples a second along coherent rays, to hold `--stats` throughput against
+// (docs/BENCHMARKS.md). The paper-table reproductions are `penumbra bench`.
 #include <benchmark/benchmark.h>
 
+#include <atomic>
+#include <cstdint>
 #include <memory>
+#include <vector>
 
+#include "penumbra/core/parallel.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene_io/demo_scenes.h"
@@ -79,5 +85,49 @@ void BM_ShadowQuery(benchmark::State& state, const char* technique) {
 BENCHMARK_CAPTURE(BM_ShadowQuery, shadow_map, "shadow_map");
 BENCHMARK_CAPTURE(BM_ShadowQuery, deep_shadow_map, "deep_shadow_map");
 BENCHMARK_CAPTURE(BM_ShadowQuery, cssm, "cssm");
+
+// Ceiling 1: one pass over 256 MiB of uint16 voxels on every core (a sum, so nothing is skipped).
+void BM_CeilingVolumeReadBandwidth(benchmark::State& state) {
+  static const std::vector<std::uint16_t> voxels(std::size_t{128} << 20, 7);
+  constexpr std::size_t kChunk = std::size_t{1} << 20;
+  for (auto _ : state) {
+    std::atomic<std::uint64_t> total{0};
+    parallel_for(voxels.size() / kChunk, [&](std::size_t c0, std::size_t c1) {
+      std::uint64_t sum = 0;
+      for (std::size_t i = c0 * kChunk; i < c1 * kChunk; ++i) sum += voxels[i];
+      total.fetch_add(sum, std::memory_order_relaxed);
+    });
+    benchmark::DoNotOptimize(total.load());
+  }
+  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations()) * static_cast<std::int64_t>(voxels.size() * sizeof(std::uint16_t)));
+}
+BENCHMARK(BM_CeilingVolumeReadBandwidth)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+// Ceiling 2: trilinear samples along 64k coherent rays through the 128³ test volume, half a voxel
+// apart, on every core: what the eye pass could classify a second with nothing else to do.
+void BM_CeilingTrilinearAlongRays(benchmark::State& state) {
+  const Fixture& f = fixture();
+  const Volume& vol = *f.prepared->volume;
+  constexpr int kSide = 256, kSteps = 256;
+  for (auto _ : state) {
+    std::atomic<double> total{0};
+    parallel_for(kSide, [&](std::size_t y0, std::size_t y1) {
+      float sum = 0;
+      for (std::size_t y = y0; y < y1; ++y)
+        for (int x = 0; x < kSide; ++x) {
+          const Vec3 origin{(static_cast<float>(x) + 0.5f) / kSide - 0.5f, (static_cast<float>(y) + 0.5f) / kSide - 0.5f, -0.5f};
+          for (int k = 0; k < kSteps; ++k) {
+            const Vec3 v = vol.to_voxel(origin + Vec3{0, 0, static_cast<float>(k) / kSteps});
+            sum += vol.sample_cell_as<float>(vol.trilinear_cell(v));
+          }
+        }
+      double seen = total.load();
+      while (!total.compare_exchange_weak(seen, seen + sum)) {}
+    });
+    benchmark::DoNotOptimize(total.load());
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations()) * kSide * kSide * kSteps);
+}
+BENCHMARK(BM_CeilingTrilinearAlongRays)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -8,7 +8,8 @@ and the -dev packages of scripts/install-deps.sh must be installed; pip download
 The wheel holds penumbra/ (__init__.py, the compiled _penumbra module, __init__.pyi, py.typed) and the
 `penumbra` executable as a script (penumbra-VERSION.data/scripts/), which pip puts in the environment's
 bin/. The CMake build lives in build/wheel-<interpreter> (config setting "build-dir" to change it),
-so that a second install only rebuilds what changed. Config setting "jobs" sets the build's -j.
+so that a second install only rebuilds what changed. Config setting "jobs" sets the build's -j;
+"prebuilt" (with "build-dir") packs a build tree as it is, without building.
 """
 import base64
 import hashlib
@@ -62,6 +63,10 @@ def _run(command, where):
 def _build(config_settings):
     settings = config_settings or {}
     build_dir = settings.get("build-dir") or os.path.join(ROOT, "build", f"wheel-cp{sys.version_info.major}{sys.version_info.minor}")
+    if settings.get("prebuilt"):  # pack what the build tree holds, building nothing (the tests, beside running binaries)
+        if not os.path.exists(os.path.join(build_dir, "penumbra")):
+            raise RuntimeError(f"penumbra_build: prebuilt: {build_dir} holds no built penumbra (build it first)")
+        return build_dir
     jobs = str(settings.get("jobs") or os.cpu_count() or 2)
     configure = ["cmake", "-S", ROOT, "-B", build_dir, "-DCMAKE_BUILD_TYPE=Release", f"-DPython3_EXECUTABLE={sys.executable}",
                  "-DPENUMBRA_BUILD_TESTS=OFF", "-DPENUMBRA_BUILD_BENCH=OFF"]

@@ -2,8 +2,9 @@
 fresh virtual environment puts the module, its stubs and the `penumbra` command there, importable from
 any folder with no PYTHONPATH; the stubs pass `mypy --strict` on examples/python; the examples run.
 
-The wheel is built by the in-tree backend (python/build_backend/penumbra_build.py) from the build tree
-the suite already built (config setting build-dir), so this checks the packaging, not a second compile.
+The wheel is packed by the in-tree backend (python/build_backend/penumbra_build.py) from the build tree
+the suite already built (config settings build-dir and prebuilt: nothing is rebuilt under the other
+tests' feet), so this checks the packaging, not a second compile.
 """
 import os
 import shutil
@@ -37,7 +38,7 @@ def venv(tmp_path_factory):
     run([sys.executable, "-m", "venv", "--system-site-packages", str(env_dir)])
     wheels = tmp_path_factory.mktemp("wheels")
     run([str(env_dir / "bin" / "pip"), "wheel", "--no-build-isolation", "--no-index", "--no-deps", "-w", str(wheels),
-         "--config-settings", f"build-dir={BUILD_DIR}", ROOT], cwd=str(wheels))
+         "--config-settings", f"build-dir={BUILD_DIR}", "--config-settings", "prebuilt=1", ROOT], cwd=str(wheels))
     wheel = next(wheels.glob("penumbra-*.whl"))
     run([str(env_dir / "bin" / "pip"), "install", "--no-index", "--no-deps", str(wheel)])
     return env_dir, wheel
