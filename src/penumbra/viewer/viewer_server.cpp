@@ -446,7 +446,7 @@ void ViewerServer::Impl::render_frame(Quality quality, bool accumulate) {
                          {"view_width", engine.scene().camera.width}, {"view_height", engine.scene().camera.height},
                          {"divisor", f.divisor},  {"rebuilt", rebuilt},
                          {"edits", f.edits},      {"memory_mb", resident_mb()},
-                         {"time", engine.scene().time}};
+                         {"time", engine.scene().time}, {"max_samples", options.max_samples}};
   Text meta_text;
   {
     std::lock_guard lock(mutex);
