@@ -51,7 +51,7 @@ function buildPanel(state) {
   const tfList = $("tf-list");
   tfList.replaceChildren();
   for (const tf of state.transfer_functions || []) {
-    const editor = createTfEditor(tf.volume, doc);
+    const editor = createTfEditor(tf.volume, doc, state.transfer_function_presets || []);
     tfList.append(editor.root);
     panelControls.push(editor);
   }
