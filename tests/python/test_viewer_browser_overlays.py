@@ -3,6 +3,7 @@ standard views and reset, the orientation triad, the data's box, the colour lege
 value axis (in HU for a CT), transfer-function presets, the refinement's progress, undo and redo, the
 keyboard shortcuts and their list, a refused value put back in its field, and the banner while the
 connection is down. Each test checks what the page draws or sends, so that a broken feature fails it."""
+import json
 import math
 import struct
 
@@ -243,3 +244,69 @@ def test_a_ct_has_its_legend_and_axis_in_hounsfield_units(tmp_path):
         if driver:
             driver.quit()
         assert server.close() == 0
+
+
+def test_the_probe_gives_the_value_where_the_pixels_ray_first_meets_the_visible_data(session):
+    """The pointer resting over the data shows the value of the first visible sample along its pixel's
+    ray; the position answered lies on that ray (it projects back to the pixel) and inside the data's box."""
+    server, driver = session
+    driver.find_element(By.CSS_SELECTOR, "#views [data-view='iso']").click()
+    wait_direction(driver, norm([1, 1, 1]), "the iso view did not reach the camera")
+    view = driver.find_element(By.ID, "view")
+    readout = driver.find_element(By.ID, "probe")
+    ActionChains(driver).move_to_element(view).move_by_offset(3, 2).perform()
+    wait(driver, lambda d: readout.is_displayed() and readout.text.startswith("probe: "), "no probe readout")
+    wait(driver, lambda d: " · volume 0 at (" in readout.text, f"the probe met nothing: {readout.text!r}")
+    value = float(readout.text.split()[1])
+    hist = js(driver, STATE + ".histograms[0]")
+    points = js(driver, STATE + ".transfer_functions[0].points")
+    assert hist["lo"] <= value <= hist["hi"]
+    # the same request over the protocol: the position projects back to the pixel and lies in the box
+    ws = server.connect()
+    try:
+        state = None
+        while state is None:
+            m = ws.recv()
+            if isinstance(m, str) and json.loads(m)["type"] == "state":
+                state = json.loads(m)
+        cam = state["camera"]
+        px, py = cam["width"] / 2 + 3, cam["height"] / 2 + 2
+        ws.send(json.dumps({"type": "probe", "pixel": [px, py]}))
+        answer = None
+        while answer is None:
+            m = ws.recv()
+            if isinstance(m, str) and json.loads(m)["type"] == "probe":
+                answer = json.loads(m)
+        assert answer["hit"] and answer["volume"] == 0
+        lo, hi = state["bounds"]["lo"], state["bounds"]["hi"]
+        assert all(a - 1e-3 <= p <= b + 1e-3 for a, p, b in zip(lo, answer["position"], hi))
+        forward = norm(sub(cam["target"], cam["eye"]))
+        right = norm([forward[1] * cam["up"][2] - forward[2] * cam["up"][1], forward[2] * cam["up"][0] - forward[0] * cam["up"][2],
+                      forward[0] * cam["up"][1] - forward[1] * cam["up"][0]])
+        up = [right[1] * forward[2] - right[2] * forward[1], right[2] * forward[0] - right[0] * forward[2], right[0] * forward[1] - right[1] * forward[0]]
+        d = sub(answer["position"], cam["eye"])
+        z = sum(a * b for a, b in zip(d, forward))
+        t = math.tan(math.radians(cam["fov_deg"]) / 2)
+        x = (sum(a * b for a, b in zip(d, right)) / (z * t * cam["width"] / cam["height"]) + 1) / 2 * cam["width"]
+        y = (1 - sum(a * b for a, b in zip(d, up)) / (z * t)) / 2 * cam["height"]
+        assert (x, y) == (pytest.approx(px, abs=0.05), pytest.approx(py, abs=0.05))
+        # and the sample is visible: the transfer function's opacity there is above the probe's 0.01
+        alpha = next((a[4] + (b[4] - a[4]) * (answer["value"] - a[0]) / (b[0] - a[0])
+                      for a, b in zip(points, points[1:]) if a[0] <= answer["value"] <= b[0] and b[0] > a[0]), None)
+        assert alpha is None or alpha > 0.01
+        # a corner pixel sees only the floor and the sky: nothing of the volume
+        ws.send(json.dumps({"type": "probe", "pixel": [0.5, 0.5]}))
+        while True:
+            m = ws.recv()
+            if isinstance(m, str) and json.loads(m)["type"] == "probe":
+                assert json.loads(m)["hit"] is False
+                break
+        ws.send(json.dumps({"type": "probe", "pixel": ["a", 1]}))
+        while True:
+            m = ws.recv()
+            if isinstance(m, str) and json.loads(m)["type"] == "error":
+                assert "probe: expected" in json.loads(m)["message"]
+                break
+    finally:
+        ws.close()
+    assert console_errors(driver) == []

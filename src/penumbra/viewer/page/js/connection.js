@@ -7,7 +7,7 @@ export const TOKEN_QUERY = "?token=" + encodeURIComponent(TOKEN);
 
 let ws = null;
 let connection = "connecting";
-let handlers = null;          // { onStatus, onOpen, onState, onFrameMeta, onFrameBytes, onError }
+let handlers = null;          // { onStatus, onOpen, onState, onFrameMeta, onFrameBytes, onError, onProbe }
 
 let attempts = 0;             // connections tried since the last one opened (0 while connected)
 let editObserver = null;      // sees each edit queued from the user's input (history.js)
@@ -68,6 +68,7 @@ function onMessage(event) {
   if (msg.type === "state") handlers.onState(msg);
   else if (msg.type === "frame") handlers.onFrameMeta(msg);
   else if (msg.type === "error") handlers.onError(msg.message);
+  else if (msg.type === "probe") handlers.onProbe(msg);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,9 +1,9 @@
 // penumbra view's page: wires the server's messages to the modules and the page's controls to theirs.
 // The modules: connection.js (WebSocket, protocol, edits), view.js (the image, camera and light
 // drags), standard_views.js (reset and the axis views), overlay.js (stats, banners, progress),
-// legend.js (colour legend), axes.js (orientation triad), outline.js (the data's box), history.js
-// (undo, redo), shortcuts.js (keys, their help), panels.js, transfer_function.js and cuts.js (the side
-// panel), time.js (the time slider), util.js (helpers).
+// legend.js (colour legend), axes.js (orientation triad), outline.js (the data's box), probe.js (the
+// value under the pointer), history.js (undo, redo), shortcuts.js (keys, their help), panels.js,
+// transfer_function.js and cuts.js (the side panel), time.js (the time slider), util.js (helpers).
 
 import { $ } from "./util.js";
 import { TOKEN_QUERY, viewer, start, observeEdits, connectionStatus, reconnectAttempts } from "./connection.js";
@@ -18,6 +18,7 @@ import { drawAxes } from "./axes.js";
 import { drawOutline, toggleOutline } from "./outline.js";
 import { recordEdit, undo, redo, forgetRefused } from "./history.js";
 import { installShortcuts, toggleHelp } from "./shortcuts.js";
+import { installProbe, showProbe } from "./probe.js";
 
 function onState(state) {
   viewer.state = state;
@@ -108,9 +109,10 @@ function init() {
   installViewInput();
   installTimeControls();
   installShortcuts(SHORTCUTS);
+  installProbe();
   observeEdits(recordEdit);
   renderStats();
-  start({ onStatus: onConnection, onOpen: () => sendResize(true), onState, onFrameMeta, onFrameBytes: showFrame, onError });
+  start({ onStatus: onConnection, onOpen: () => sendResize(true), onState, onFrameMeta, onFrameBytes: showFrame, onError, onProbe: showProbe });
 }
 
 init();
