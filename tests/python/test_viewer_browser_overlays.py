@@ -310,3 +310,27 @@ def test_the_probe_gives_the_value_where_the_pixels_ray_first_meets_the_visible_
     finally:
         ws.close()
     assert console_errors(driver) == []
+
+
+def test_a_particle_sets_colour_by_choice_reaches_the_scene_and_the_image(tmp_path):
+    (tmp_path / "atoms.xyz").write_text("4\natoms\nC 0 0 0\nO 0.5 0 0\nN 0 0.5 0\nC 0 0 0.5\n")
+    server = Viewer(tmp_path, {"particles": [{"file": "atoms.xyz", "radius": 0.2}], "camera": {"width": 64, "height": 48}})
+    driver = None
+    try:
+        driver = chrome()
+        driver.get(server.url)
+        wait_loaded(driver)
+        from selenium.webdriver.support.ui import Select
+        select = Select(driver.find_element(By.CSS_SELECTOR, "select.color-by"))
+        assert [o.get_attribute("value") for o in select.options] == ["element", "chain", "residue", "scalar", "uniform"]
+        assert select.first_selected_option.get_attribute("value") == "element"
+        frames = js(driver, "window.penumbraViewer.frames")
+        select.select_by_value("uniform")
+        wait(driver, lambda d: js(d, STATE + ".document.particles[0].color_by") == "uniform", "color_by did not reach the scene")
+        wait(driver, lambda d: js(d, "window.penumbraViewer.frames") > frames, "no frame after the change")
+        assert Select(driver.find_element(By.CSS_SELECTOR, "select.color-by")).first_selected_option.get_attribute("value") == "uniform"
+        assert console_errors(driver) == []
+    finally:
+        if driver:
+            driver.quit()
+        assert server.close() == 0
