@@ -2,9 +2,11 @@
 standard views and reset, the orientation triad, the data's box, the colour legend and the histogram's
 value axis (in HU for a CT), transfer-function presets, the refinement's progress, undo and redo, the
 keyboard shortcuts and their list, a refused value put back in its field, and the banner while the
-connection is down. Each test checks what the page draws or sends, so that a broken feature fails it."""
+connection is down; the probe; a particle set's colour-by choice. Each test checks what the page draws
+or sends, so that a broken feature fails it. With PENUMBRA_FIGURES set, it saves viewer_tools.png there."""
 import json
 import math
+import os
 import struct
 
 import pytest
@@ -151,8 +153,11 @@ def test_a_preset_replaces_the_transfer_function(session):
     assert "ct-bone" in presets and "grayscale" in presets
     select = driver.find_element(By.CSS_SELECTOR, "#tf-list select.preset")
     from selenium.webdriver.support.ui import Select
+    before = js(driver, STATE + ".document.volumes[0].transfer_function")
     Select(select).select_by_value("grayscale")
     wait(driver, lambda d: js(d, STATE + ".document.volumes[0].transfer_function") == "grayscale", "the preset was not applied")
+    press(driver, Keys.CONTROL, "z")
+    wait(driver, lambda d: js(d, STATE + ".document.volumes[0].transfer_function") == before, "undo did not bring the points back")
 
 
 def test_refining_shows_its_progress_and_hides_when_done(session):
@@ -261,6 +266,15 @@ def test_the_probe_gives_the_value_where_the_pixels_ray_first_meets_the_visible_
     hist = js(driver, STATE + ".histograms[0]")
     points = js(driver, STATE + ".transfer_functions[0].points")
     assert hist["lo"] <= value <= hist["hi"]
+    figures = os.environ.get("PENUMBRA_FIGURES")
+    if figures:  # docs/viewer.md's picture of the reading aids: the box on, the probe's readout
+        driver.execute_script("document.getElementById('error').hidden = true;"  # an earlier test's refusal
+                              " document.getElementById('outline-toggle').click()")  # the pointer stays on the view
+        wait(driver, lambda d: painted(d, "outline") > 100, "the box was not drawn")
+        os.makedirs(figures, exist_ok=True)
+        with open(os.path.join(figures, "viewer_tools.png"), "wb") as f:
+            f.write(driver.get_screenshot_as_png())
+        driver.execute_script("document.getElementById('outline-toggle').click()")
     # the same request over the protocol: the position projects back to the pixel and lies in the box
     ws = server.connect()
     try:
