@@ -215,6 +215,9 @@ def test_the_question_mark_lists_the_shortcuts(session):
     press(driver, Keys.ESCAPE)
     wait(driver, lambda d: not help.is_displayed(), "Escape did not close the list")
     assert driver.find_element(By.ID, "hint").text.startswith("left drag: orbit")
+    # the icon is inline: the browser asks the server for no /favicon.ico (which would be refused)
+    assert js(driver, "document.querySelector('link[rel=icon]').href").startswith("data:image/svg+xml,")
+    assert not any("favicon" in r for r in js(driver, "performance.getEntriesByType('resource').map((r) => r.name)"))
 
 
 def test_a_dropped_connection_shows_a_banner_and_reconnects(session):
