@@ -11,11 +11,6 @@ namespace {
 
 constexpr double kBackgroundShare = 0.2;
 
-bool is_hounsfield_ct(ScalarType type, float lo, float hi) {
-  const bool signed_type = type == ScalarType::Int16 || type == ScalarType::Float32;
-  return signed_type && lo <= -900.0f && hi >= 300.0f;
-}
-
 // The value below which `share` of the counted voxels lie (bins [first, last) of the histogram).
 double percentile(const VolumeHistogram& h, std::size_t first, std::size_t last, double share) {
   std::uint64_t total = 0;
@@ -33,6 +28,11 @@ double percentile(const VolumeHistogram& h, std::size_t first, std::size_t last,
 }
 
 }  // namespace
+
+bool is_hounsfield_ct(ScalarType type, float lo, float hi) {
+  const bool signed_type = type == ScalarType::Int16 || type == ScalarType::Float32;
+  return signed_type && lo <= -900.0f && hi >= 300.0f;
+}
 
 nlohmann::json choose_transfer_function(const Volume& volume) {
   if (is_hounsfield_ct(volume.type(), volume.min_value(), volume.max_value())) return {{"preset", "ct-bone"}};

@@ -23,6 +23,9 @@
 
 namespace penumbra {
 
+// Whether data of this type spanning [lo, hi] reads as a CT in Hounsfield units (the table's first row).
+bool is_hounsfield_ct(ScalarType type, float lo, float hi);
+
 nlohmann::json choose_transfer_function(const Volume& volume);
 
 // The same choice from the data's histogram (1024 bins over its range; kTransferChoiceBins), for data

@@ -75,4 +75,39 @@ VolumeHistogram compute_histogram_part(const Volume& volume, int bins, float lo,
   return h;
 }
 
+Box3 box_above(const Volume& volume, float threshold, double trim) {
+  if (volume.is_window()) return volume.bounds();
+  const auto& d = volume.dims();
+  // voxels above the threshold per index along each axis
+  std::array<std::vector<std::uint64_t>, 3> counts{std::vector<std::uint64_t>(d[0]), std::vector<std::uint64_t>(d[1]),
+                                                  std::vector<std::uint64_t>(d[2])};
+  std::uint64_t total = 0;
+  for (int k = 0; k < d[2]; ++k)
+    for (int j = 0; j < d[1]; ++j)
+      for (int i = 0; i < d[0]; ++i)
+        if (volume.value(i, j, k) > threshold) {
+          ++counts[0][i];
+          ++counts[1][j];
+          ++counts[2][k];
+          ++total;
+        }
+  Box3 box;
+  if (total == 0) return box;
+  const auto cut = static_cast<std::uint64_t>(trim * static_cast<double>(total));
+  std::array<int, 3> lo{}, hi{};
+  for (int a = 0; a < 3; ++a) {
+    std::uint64_t seen = 0;
+    lo[a] = 0;
+    while ((seen += counts[a][lo[a]]) <= cut) ++lo[a];
+    seen = 0;
+    hi[a] = d[a] - 1;
+    while ((seen += counts[a][hi[a]]) <= cut) --hi[a];
+  }
+  const Vec3& o = volume.origin();
+  const Vec3& s = volume.spacing();
+  box.extend(o + Vec3{static_cast<float>(lo[0]) * s.x, static_cast<float>(lo[1]) * s.y, static_cast<float>(lo[2]) * s.z});
+  box.extend(o + Vec3{static_cast<float>(hi[0]) * s.x, static_cast<float>(hi[1]) * s.y, static_cast<float>(hi[2]) * s.z});
+  return box;
+}
+
 }  // namespace penumbra

@@ -24,4 +24,10 @@ VolumeHistogram compute_histogram(const Volume& volume, int bins);
 // whole grid's histogram (a distributed volume's, distributed/brick_reading.h). `mean` is theirs alone.
 VolumeHistogram compute_histogram_part(const Volume& volume, int bins, float lo, float hi, int z_first, int z_end);
 
+// The world box of the voxel centres whose value exceeds `threshold` (empty when none does), less
+// the `trim` share of those voxels at each end of each axis, so that stray voxels (noise, specks) do
+// not widen it: where the visible material lies, for framing. A window (one rank's slices) gives its
+// whole grid's bounds().
+Box3 box_above(const Volume& volume, float threshold, double trim);
+
 }  // namespace penumbra

@@ -1,13 +1,18 @@
 #include "penumbra/scene_io/data_scene.h"
 
+#include <algorithm>
 #include <cctype>
+#include <cmath>
+#include <limits>
 #include <filesystem>
 #include <functional>
 #include <string_view>
 
 #include "penumbra/core/error.h"
 #include "penumbra/data/io/particle_io.h"
+#include "penumbra/data/transfer_function.h"
 #include "penumbra/data/transfer_function_choice.h"
+#include "penumbra/data/volume_stats.h"
 
 namespace penumbra {
 namespace {
@@ -30,6 +35,37 @@ nlohmann::json raw_json(const RawVolumeOptions& o) {
 }
 
 // A volume whose file places it in a patient frame (NIfTI, a DICOM series: LPS, superior along +z).
+// How far back from the box's centre, along `direction`, a camera looking at that centre must stand
+// for the box's eight corners to fit a view of `fov_deg` (vertical) and `aspect`, with a 5% margin.
+// A flat or long box (a CT series: 550 x 550 x 150 mm) fits much closer than its bounding sphere,
+// which is what the scene file's framing fits and which left such data a third of the view.
+constexpr float kShownAlpha = 0.01f;   // a transfer function's opacity below this is taken as transparent
+constexpr double kFramingTrim = 0.005;  // share of the shown voxels left out of the framed box at each end
+
+// The value of the last point below the transfer function's first point of opacity > kShownAlpha: the
+// voxels at or below it are transparent (the lowest value when the first point already shows).
+float shown_threshold(const TransferFunction& tf) {
+  float threshold = -std::numeric_limits<float>::infinity();
+  for (const TransferPoint& p : tf.points()) {
+    if (p.alpha > kShownAlpha) break;
+    threshold = p.value;
+  }
+  return threshold;
+}
+
+float box_fit_distance(const Box3& box, const Vec3& direction, const Vec3& up, float fov_deg, float aspect) {
+  const Frame f = Frame::from_w(direction, up);
+  const float tan_half = std::tan(radians(fov_deg) * 0.5f);
+  const Vec3 centre = box.center();
+  float distance = 0;
+  for (int k = 0; k < 8; ++k) {
+    const Vec3 corner{(k & 1) ? box.hi.x : box.lo.x, (k & 2) ? box.hi.y : box.lo.y, (k & 4) ? box.hi.z : box.lo.z};
+    const Vec3 c = f.to_local(corner - centre);  // x right, y up, z towards the eye
+    distance = std::max({distance, c.z + std::abs(c.x) / (tan_half * aspect), c.z + std::abs(c.y) / tan_half});
+  }
+  return 1.05f * distance;
+}
+
 bool in_patient_frame(const nlohmann::json& file) {
   if (file.is_array()) return true;  // DICOM slices
   const std::string path = file.get<std::string>();
@@ -150,6 +186,32 @@ void complete_data_scene(nlohmann::json& doc, const Scene& loaded, const std::fu
   } else {
     doc["camera"] = {{"direction", {0.45, 0.4, 1.0}}};
     doc["lights"] = nlohmann::json::array({{{"type", "directional"}, {"direction", {-0.4, -1.0, -0.45}}}});
+  }
+  // Framed by the box's corners (box_fit_distance), not the bounding sphere, at the default view,
+  // looking at that box's centre. A DICOM series is framed to what its transfer function shows
+  // (shown_box: a CT's field of view is mostly air and couch, which left the body a third of the view);
+  // every rank of a distributed render reads a series whole, so all of them frame it alike. Other
+  // volumes, which a distributed render reads as bricks, are framed by their whole grid's box.
+  Box3 shown;
+  for (std::size_t i = 0; i < loaded.volumes.size(); ++i) {
+    const Volume& v = *loaded.volumes[i].volume;
+    const nlohmann::json& file = doc["volumes"][i]["file"];
+    std::error_code ec;
+    const bool series = (file.is_array() || (file.is_string() && std::filesystem::is_directory(file.get<std::string>(), ec))) &&
+                        !v.level_set() && !v.is_window();
+    const Box3 b = series ? box_above(v, shown_threshold(parse_transfer_function(doc["volumes"][i]["transfer_function"],
+                                                                                 v.min_value(), v.max_value(), "")),
+                                      kFramingTrim)
+                          : Box3{};
+    shown.extend(b.empty() ? v.bounds() : b);
+  }
+  for (const auto& p : loaded.particles) shown.extend(p.set->bounds());
+  if (!shown.empty() && length(shown.hi - shown.lo) > 0) {
+    const Camera camera;
+    const auto& d = doc["camera"]["direction"];
+    doc["camera"]["target"] = vec3(shown.center());
+    doc["camera"]["distance"] = box_fit_distance(shown, Vec3{d[0].get<float>(), d[1].get<float>(), d[2].get<float>()}, up, camera.fov_deg,
+                                                 static_cast<float>(camera.width) / static_cast<float>(camera.height));
   }
   if (loaded.particles.empty()) {
     doc["background"] = {0.08, 0.08, 0.1};

@@ -26,6 +26,7 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/scene_io/json_reader.h"
 #include "penumbra/viewer/jpeg.h"
+#include "penumbra/viewer/probe.h"
 #include "penumbra/viewer/viewer_page.h"
 #include "penumbra/viewer/viewer_state.h"
 
@@ -110,6 +111,7 @@ struct ViewerServer::Impl {
     std::weak_ptr<WsSession> from;
     std::vector<std::pair<std::string, nlohmann::json>> edits;
     std::function<void()> task;  // a request that needs the engine (screenshot, saved scene)
+    bool keeps_frame = false;    // a task that changes nothing drawn (a probe): refining goes on
   };
 
   Engine engine;
@@ -136,11 +138,12 @@ struct ViewerServer::Impl {
   void render_frame(Quality quality, bool accumulate);
   void broadcast_state();
   void queue(Job job) {
+    const bool job_keeps_frame = job.keeps_frame;
     {
       std::lock_guard lock(mutex);
       jobs.push_back(std::move(job));
     }
-    cancel = true;  // a full frame in progress is stale now
+    if (!job_keeps_frame) cancel = true;  // a full frame in progress is stale now
     wake.notify_one();
   }
   // Refuses an edit that names a file outside the data root (an Error naming the path and the file).
@@ -409,7 +412,12 @@ void ViewerServer::Impl::on_message(const std::shared_ptr<WsSession>& from, cons
           throw Error(std::string("resize: \"") + k + "\" must be an integer in [16, 4096]");
       job.edits = {{"camera.width", m["width"]}, {"camera.height", m["height"]}};
     } else {
-      throw Error("message: unknown type \"" + type + "\" (expected edit or resize)");
+      if (type != "probe") throw Error("message: unknown type \"" + type + "\" (expected edit, resize or probe)");
+      const auto [x, y] = probe_pixel(m);
+      job.keeps_frame = true;
+      job.task = [this, weak = std::weak_ptr<WsSession>(from), x, y] {
+        if (auto s = weak.lock()) s->send_text(std::make_shared<const std::string>(probe_message(engine.scene(), x, y).dump()));
+      };
     }
     queue(std::move(job));
   } catch (const std::exception& e) {
@@ -446,7 +454,7 @@ void ViewerServer::Impl::render_frame(Quality quality, bool accumulate) {
                          {"view_width", engine.scene().camera.width}, {"view_height", engine.scene().camera.height},
                          {"divisor", f.divisor},  {"rebuilt", rebuilt},
                          {"edits", f.edits},      {"memory_mb", resident_mb()},
-                         {"time", engine.scene().time}};
+                         {"time", engine.scene().time}, {"max_samples", options.max_samples}};
   Text meta_text;
   {
     std::lock_guard lock(mutex);
@@ -475,8 +483,10 @@ void ViewerServer::Impl::render_loop() {
     for (Job& job : batch) {
       if (job.task) {
         job.task();
-        need_full = true;  // a screenshot renders sample 0 again
-        samples = 0;
+        if (!job.keeps_frame) {
+          need_full = true;  // a screenshot renders sample 0 again
+          samples = 0;
+        }
         continue;
       }
       try {

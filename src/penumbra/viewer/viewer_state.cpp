@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "penumbra/data/transfer_function.h"
+#include "penumbra/data/transfer_function_choice.h"
 #include "penumbra/data/volume_stats.h"
 #include "penumbra/registry/technique_catalog.h"
 
@@ -65,6 +67,7 @@ nlohmann::json ViewerState::message(const Engine& engine) {
   m["light_target"] = vec3(box.empty() ? scene.camera.target : box.center());
   m["radius"] = box.empty() ? 1.0f : 0.5f * length(box.hi - box.lo);
   if (!box.empty()) m["bounds"] = {{"lo", vec3(box.lo)}, {"hi", vec3(box.hi)}};  // where cuts and slices are placed
+  m["transfer_function_presets"] = transfer_function_preset_names();  // names volumes.I.transfer_function takes
   m["histograms"] = nlohmann::json::array();
   m["transfer_functions"] = nlohmann::json::array();
   for (std::size_t i = 0; i < scene.volumes.size(); ++i) {
@@ -73,6 +76,8 @@ nlohmann::json ViewerState::message(const Engine& engine) {
     if (h.is_null()) {
       const VolumeHistogram hist = compute_histogram(*v.volume, kHistogramBins);
       h = {{"lo", hist.lo}, {"hi", hist.hi}, {"counts", hist.counts}};
+      // the values' unit, for the page's legend and axis: Hounsfield units for a CT, none known otherwise
+      if (is_hounsfield_ct(v.volume->type(), hist.lo, hist.hi)) h["unit"] = "HU";
     }
     nlohmann::json entry = h;
     entry["volume"] = i;

@@ -7,14 +7,21 @@ export const TOKEN_QUERY = "?token=" + encodeURIComponent(TOKEN);
 
 let ws = null;
 let connection = "connecting";
-let handlers = null;          // { onStatus, onOpen, onState, onFrameMeta, onFrameBytes, onError }
+let handlers = null;          // { onStatus, onOpen, onState, onFrameMeta, onFrameBytes, onError, onProbe }
 
-/** What the page shows, for automated tests: window.penumbraViewer = { state, frames, lastFrame, send }. */
+let attempts = 0;             // connections tried since the last one opened (0 while connected)
+let editObserver = null;      // sees each edit queued from the user's input (history.js)
+
+/**
+ * What the page shows, for automated tests: window.penumbraViewer = { state, frames, lastFrame, send,
+ * dropConnection } (the last closes the socket as a dropped network would).
+ */
 export const viewer = window.penumbraViewer = {
   state: null,
   frames: 0,
   lastFrame: null,
   send: (obj) => ws.send(JSON.stringify(obj)),
+  dropConnection: () => ws && ws.close(),
 };
 
 /** Opens the connection; `on` receives its status, its opening and each message by type. */
@@ -30,17 +37,19 @@ function connect() {
     ws = new WebSocket(scheme + location.host + "/ws" + TOKEN_QUERY);
   } catch (e) {
     ws = null;
+    attempts += 1;
     setConnection("disconnected");
     setTimeout(connect, 2000);
     return;
   }
   ws.binaryType = "arraybuffer";
-  ws.onopen = () => { setConnection("connected"); handlers.onOpen(); };
+  ws.onopen = () => { attempts = 0; setConnection("connected"); handlers.onOpen(); };
   ws.onmessage = onMessage;
-  ws.onclose = () => { setConnection("disconnected"); setTimeout(connect, 2000); };
+  ws.onclose = () => { attempts += 1; setConnection("disconnected"); setTimeout(connect, 2000); };
 }
 
 export const connectionStatus = () => connection;
+export const reconnectAttempts = () => attempts;
 export const isOpen = () => ws !== null && ws.readyState === WebSocket.OPEN;
 
 function setConnection(status) {
@@ -59,6 +68,7 @@ function onMessage(event) {
   if (msg.type === "state") handlers.onState(msg);
   else if (msg.type === "frame") handlers.onFrameMeta(msg);
   else if (msg.type === "error") handlers.onError(msg.message);
+  else if (msg.type === "probe") handlers.onProbe(msg);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -69,11 +79,17 @@ let pendingSet = null;
 let editFrame = 0;
 let editTimer = 0;
 
+/** `observer(set)` sees every edit queued with `observed` (the user's, not undo's and redo's). */
+export function observeEdits(observer) {
+  editObserver = observer;
+}
+
 /**
  * Merges `set` into the pending edit, sent at the next animation frame. A timer backs the frame up
  * where none come (a hidden tab, a headless browser); whichever fires first sends.
  */
-export function queueEdit(set) {
+export function queueEdit(set, observed = true) {
+  if (observed && editObserver) editObserver(set);
   pendingSet = Object.assign(pendingSet || {}, set);
   if (editFrame) return;
   editFrame = requestAnimationFrame(flushEdits);

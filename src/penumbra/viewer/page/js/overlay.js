@@ -1,5 +1,6 @@
-// What lies over the view: the stats (frame time, quality, size, what was rebuilt, the connection)
-// and the error banner.
+// What lies over the view: the stats (frame time, quality, size, what was rebuilt, the connection),
+// the refinement's progress ("refining k/16" and a bar), the banner while the connection is down, and
+// the error banner.
 
 import { $, el } from "./util.js";
 import { connectionStatus, viewer } from "./connection.js";
@@ -29,6 +30,23 @@ export function renderStats() {
   const stats = $("stats");
   stats.textContent = lines.join("\n") + (lines.length ? "\n" : "");
   stats.append(el("span", { class: connection === "connected" ? "" : "bad" }, connection));
+}
+
+/** The progress of the accumulation: shown while a full frame has fewer samples than the server takes. */
+export function renderProgress(meta) {
+  const max = meta.max_samples || 1, samples = meta.samples || 0;
+  const refining = meta.quality === "full" && samples < max;
+  $("progress").hidden = !refining;
+  if (!refining) return;
+  $("progress-text").textContent = "refining " + samples + "/" + max;
+  $("progress-bar").style.width = (100 * samples) / max + "%";
+}
+
+/** The banner while the connection is down (connection.js opens it again every 2 s). */
+export function renderConnectionBanner(status, attempts) {
+  const banner = $("connection-banner");
+  banner.hidden = status === "connected" || attempts === 0;
+  if (!banner.hidden) banner.textContent = "Connection to the server lost · reconnecting (attempt " + attempts + ")…";
 }
 
 export function showError(message) {

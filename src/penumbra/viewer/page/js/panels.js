@@ -1,12 +1,15 @@
 // The side panel: rebuilt when the document's structure changes (which objects, which techniques),
 // its values synced with every state otherwise. Transfer functions (transfer_function.js),
-// isovalues, the shadow and ambient techniques with the keys each reads, each object's flags.
+// isovalues, the shadow and ambient techniques with the keys each reads, each object's flags and, for
+// particle sets, what colours them.
 
 import { $, el, clone, round6, getPath, findHistogram, objectName } from "./util.js";
 import { viewer, queueEdit } from "./connection.js";
 import { createTfEditor } from "./transfer_function.js";
 
 const OBJECT_KINDS = ["volumes", "particles", "isosurfaces", "planes"];
+// particles[].color_by (docs/scene-file.md): a file's atoms, generated spheres
+const COLOR_BY = { file: ["element", "chain", "residue", "scalar", "uniform"], procedural: ["hue", "uniform"] };
 
 let panelBusy = false;        // a pointer is down in the panel (a slider or a TF point is dragged)
 let deferredState = null;     // the latest state that arrived while the panel was busy
@@ -51,7 +54,7 @@ function buildPanel(state) {
   const tfList = $("tf-list");
   tfList.replaceChildren();
   for (const tf of state.transfer_functions || []) {
-    const editor = createTfEditor(tf.volume, doc);
+    const editor = createTfEditor(tf.volume, doc, state.transfer_function_presets || []);
     tfList.append(editor.root);
     panelControls.push(editor);
   }
@@ -203,14 +206,16 @@ function createObjectRow(kind, i, obj) {
   const casts = checkbox("casts", (on) => queueEdit({ [prefix + "casts_shadows"]: on }));
   const receives = checkbox("receives", (on) => queueEdit({ [prefix + "receives_shadows"]: on }));
   const selection = kind === "particles" && obj && obj.file ? createSelectionField(prefix, i) : null;
+  const colorBy = kind === "particles" && obj && (obj.file || obj.procedural) ? createColorByField(prefix, i, obj) : null;
   const root = el("div", { class: "object" },
     el("div", { class: "name", title: (obj && obj.file) || "" }, objectName(kind, i, obj)),
     el("div", { class: "flags" }, visible && visible.label, casts.label, receives.label),
-    selection && selection.root);
+    colorBy && colorBy.root, selection && selection.root);
   return {
     root,
     sync(s) {
       if (selection) selection.sync(s);
+      if (colorBy) colorBy.sync(s);
       const o = ((s.document || {})[kind] || [])[i] || {};
       const shown = o.visible !== false;
       if (visible) visible.input.checked = shown;
@@ -260,6 +265,22 @@ function createSelectionField(prefix, i) {
       readout.textContent = info.selected === null || info.selected === undefined
         ? (info.spheres || 0) + " atoms" : info.selected + " selected";
       if (o.select === sent) error.hidden = true;
+    },
+  };
+}
+
+/** particles.i.color_by: a list of the ways the set's spheres may be coloured. */
+function createColorByField(prefix, i, obj) {
+  const choices = COLOR_BY[obj.file ? "file" : "procedural"];
+  const fallback = choices[0];
+  const select = el("select", { class: "color-by", title: "what colours the spheres (particles[].color_by)" },
+    ...choices.map((c) => el("option", { value: c }, c)));
+  select.addEventListener("change", () => queueEdit({ [prefix + "color_by"]: select.value }));
+  return {
+    root: el("div", { class: "row" }, el("label", { class: "key" }, "colour by"), select),
+    sync(s) {
+      const o = ((s.document || {}).particles || [])[i] || {};
+      if (document.activeElement !== select) select.value = o.color_by || fallback;
     },
   };
 }

@@ -1,15 +1,16 @@
 // The transfer-function editor of a volume: its points over the volume's histogram (opacity on a √
-// scale), with the colour strip below and the selected point's colour, opacity and value. Click adds
-// a point, drag moves one, right-click deletes one; every change is sent as the volume's points.
+// scale), with the colour strip and the value axis (round values, the unit where the state gives one)
+// below, the selected point's colour, opacity and value, and the engine's presets. Click adds a point,
+// drag moves one, right-click deletes one; every change is sent as the volume's points, a preset by name.
 
 import { clamp, round6, el, capturePointer, findHistogram, objectName, linearRgbToHex, hexToLinearRgb,
-         linearRgbToCss } from "./util.js";
+         linearRgbToCss, niceTicks, formatValue } from "./util.js";
 import { queueEdit } from "./connection.js";
 
-const TF_W = 270, TF_H = 140, TF_PAD = 6, STRIP_H = 10, HIT_RADIUS = 7;   // CSS pixels
+const TF_W = 270, TF_H = 140, TF_PAD = 6, STRIP_H = 10, AXIS_H = 18, HIT_RADIUS = 7;   // CSS pixels
 
 /** The TF's RGBA at `value`: piecewise linear between points, constant beyond the ends. */
-function tfColorAt(points, value) {
+export function tfColorAt(points, value) {
   if (!points.length) return [0, 0, 0, 0];
   if (value <= points[0][0]) return points[0].slice(1);
   const last = points[points.length - 1];
@@ -21,14 +22,22 @@ function tfColorAt(points, value) {
   return [1, 2, 3, 4].map((c) => a[c] + (b[c] - a[c]) * t);
 }
 
-export function createTfEditor(volume, doc) {
+export function createTfEditor(volume, doc, presets) {
   const vol = (doc.volumes || [])[volume];
   const dpr = window.devicePixelRatio || 1;
   const plot = el("canvas", { class: "plot", width: TF_W * dpr, height: TF_H * dpr });
   const strip = el("canvas", { class: "strip", width: TF_W * dpr, height: STRIP_H * dpr });
-  plot.style.width = strip.style.width = TF_W + "px";
+  const axis = el("canvas", { class: "axis", width: TF_W * dpr, height: AXIS_H * dpr });
+  plot.style.width = strip.style.width = axis.style.width = TF_W + "px";
   plot.style.height = TF_H + "px";
   strip.style.height = STRIP_H + "px";
+  axis.style.height = AXIS_H + "px";
+  const preset = el("select", { class: "preset", title: "replace the points by one of the engine's presets" },
+    el("option", { value: "" }, "preset…"), ...presets.map((name) => el("option", { value: name }, name)));
+  preset.addEventListener("change", () => {
+    if (preset.value) queueEdit({ ["volumes." + volume + ".transfer_function"]: preset.value });
+    preset.value = "";
+  });
 
   const color = el("input", { type: "color", title: "colour of the selected point (sRGB; sent as linear RGB)" });
   const alphaRange = el("input", { type: "range", min: 0, max: 1, step: 0.001 });
@@ -41,8 +50,8 @@ export function createTfEditor(volume, doc) {
 
   const editor = {
     root: el("div", { class: "tf" },
-      el("div", { class: "sub" }, objectName("volumes", volume, vol)),
-      plot, strip,
+      el("div", { class: "row" }, el("div", { class: "sub" }, objectName("volumes", volume, vol)), preset),
+      plot, strip, axis,
       el("div", { class: "caption" }, "opacity on a √ scale · click: add · drag: move · right-click: delete"),
       selectedBox),
     volumeIndex: volume, points: [], hist: null, lo: 0, hi: 1, selected: -1, dragging: -1,
@@ -58,6 +67,7 @@ export function createTfEditor(volume, doc) {
   function draw() {
     drawTfPlot(plot, editor, px, yOf);
     drawTfStrip(strip, editor, valueAt);
+    drawTfAxis(axis, editor, xOf);
   }
 
   function commit() {
@@ -169,6 +179,7 @@ function syncTf(editor, state) {
   const editing = editor.dragging >= 0 || editor.root.contains(document.activeElement);
   if (!editing) editor.points = (tf.points || []).map((p) => p.slice());
   editor.hist = findHistogram(state, tf.volume) || null;
+  editor.unit = (editor.hist && editor.hist.unit) || "";
   let lo, hi;
   if (editor.hist) { lo = editor.hist.lo; hi = editor.hist.hi; }
   else {
@@ -227,6 +238,25 @@ function drawTfPlot(canvas, editor, xOf, yOf) {
     g.lineWidth = i === editor.selected ? 2 : 1;
     g.strokeStyle = i === editor.selected ? "#7aa7f0" : "#000";
     g.stroke();
+  });
+}
+
+/** Ticks at round values of the histogram's range, labelled, the unit after the last. */
+function drawTfAxis(canvas, editor, xOf) {
+  const dpr = canvas.width / TF_W;
+  const g = canvas.getContext("2d");
+  g.setTransform(dpr, 0, 0, dpr, 0, 0);
+  g.clearRect(0, 0, TF_W, AXIS_H);
+  g.strokeStyle = g.fillStyle = "#8b8b94";
+  g.font = "10px ui-monospace, monospace";
+  g.textBaseline = "top";
+  const ticks = niceTicks(editor.lo, editor.hi, 5);
+  ticks.forEach((v, i) => {
+    const x = Math.round(xOf(v)) + 0.5;
+    g.beginPath(); g.moveTo(x, 0); g.lineTo(x, 4); g.stroke();
+    const label = formatValue(v) + (i === ticks.length - 1 && editor.unit ? " " + editor.unit : "");
+    const w = g.measureText(label).width;
+    g.fillText(label, clamp(x - w / 2, 0, TF_W - w), 5);
   });
 }
 

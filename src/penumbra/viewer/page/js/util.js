@@ -76,3 +76,43 @@ export function objectName(kind, i, obj) {
   else if (obj && obj.procedural && obj.procedural.name) name += " · " + obj.procedural.name;
   return name;
 }
+
+/** About `count` round values (1, 2 or 5 × 10^k apart) inside [lo, hi], for axis labels. */
+export function niceTicks(lo, hi, count) {
+  if (!(hi > lo)) return [lo];
+  const raw = (hi - lo) / Math.max(1, count);
+  const power = Math.pow(10, Math.floor(Math.log10(raw)));
+  const step = [1, 2, 5, 10].map((m) => m * power).find((s) => s >= raw);
+  const ticks = [];
+  for (let v = Math.ceil(lo / step) * step; v <= hi + step * 1e-9; v += step) ticks.push(round6(v));
+  return ticks;
+}
+
+/** A value for a label: at most 4 significant digits, exponent form for very large or small ones. */
+export function formatValue(v) {
+  const a = Math.abs(v);
+  if (a !== 0 && (a >= 1e5 || a < 1e-3)) return v.toExponential(1);
+  return String(Number(v.toPrecision(4)));
+}
+
+/** The camera's frame: forward, right, the world up it keeps, the screen up, and the distance. */
+export function cameraBasis(cam) {
+  const toTarget = V.sub(cam.target, cam.eye);
+  const forward = V.norm(toTarget);
+  const up = V.norm(cam.up || [0, 1, 0]);
+  let right = V.cross(forward, up);
+  right = V.len(right) < 1e-6 ? V.perpendicular(up) : V.norm(right);
+  return { forward, up, right, screenUp: V.cross(right, forward), distance: V.len(toTarget) };
+}
+
+/** A canvas's 2D context drawn in CSS pixels, its backing store sized to the element and the screen. */
+export function sizedContext(canvas) {
+  const dpr = window.devicePixelRatio || 1;
+  const r = canvas.getBoundingClientRect();
+  const w = Math.max(1, Math.round(r.width * dpr)), h = Math.max(1, Math.round(r.height * dpr));
+  if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
+  const g = canvas.getContext("2d");
+  g.setTransform(dpr, 0, 0, dpr, 0, 0);
+  g.clearRect(0, 0, r.width, r.height);
+  return { g, width: r.width, height: r.height };
+}

@@ -1,7 +1,7 @@
 // The view: the frame's image, its size sent to the server, and the camera and light that drags on it
 // change (left drag orbits, right or middle drag pans, the wheel zooms, shift-drag turns the light).
 
-import { $, V, clamp, clone, capturePointer } from "./util.js";
+import { $, V, clamp, clone, capturePointer, cameraBasis } from "./util.js";
 import { viewer, isOpen, queueEdit, sendMessage } from "./connection.js";
 
 const DEFAULT_LIGHT_DIRECTION = [-0.4, -1, -0.3];   // the scene's light when the document has no "lights"
@@ -64,16 +64,6 @@ export function sendResize(force) {
 const cameraHeld = () => drag !== null || performance.now() < cameraHoldUntil;
 const viewHeight = () => Math.max(1, view.getBoundingClientRect().height);
 
-/** The camera's frame: forward, right, the world up it keeps, the screen up, and the distance. */
-function cameraBasis(cam) {
-  const toTarget = V.sub(cam.target, cam.eye);
-  const forward = V.norm(toTarget);
-  const up = V.norm(cam.up || [0, 1, 0]);
-  let right = V.cross(forward, up);
-  right = V.len(right) < 1e-6 ? V.perpendicular(up) : V.norm(right);
-  return { forward, up, right, screenUp: V.cross(right, forward), distance: V.len(toTarget) };
-}
-
 /**
  * A turntable rotation fitted to `v`: `azimuth` about `up`, then `elevation` about `right` (turned
  * with the azimuth), the elevation shortened so that v never comes within MIN_POLAR of the up
@@ -91,6 +81,13 @@ function turntable(v, up, right, azimuth, elevation) {
     if (i === 15) el = 0;
   }
   return (u) => V.rotate(V.rotate(u, up, azimuth), rightAxis, el);
+}
+
+/** Moves the camera to `cam` ({eye, target, up}) at once, as a drag would. */
+export function setCamera(cam) {
+  if (!camera) return;
+  camera = Object.assign(clone(camera), clone(cam));
+  queueCameraEdit();
 }
 
 function queueCameraEdit() {
