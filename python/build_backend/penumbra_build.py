@@ -51,6 +51,10 @@ def _metadata(version):
             "Description-Content-Type: text/markdown\n\n" + readme)
 
 
+def _wheel_file():
+    return f"Wheel-Version: 1.0\nGenerator: penumbra_build\nRoot-Is-Purelib: false\nTag: {_tag()}\n"
+
+
 def _run(command, where):
     print("penumbra_build:", " ".join(command), flush=True)
     try:
@@ -100,7 +104,7 @@ def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
         files[f"penumbra-{version}.data/scripts/penumbra"] = (f.read(), True)
     info = f"penumbra-{version}.dist-info"
     files[f"{info}/METADATA"] = (_metadata(version).encode(), False)
-    files[f"{info}/WHEEL"] = (f"Wheel-Version: 1.0\nGenerator: penumbra_build\nRoot-Is-Purelib: false\nTag: {_tag()}\n".encode(), False)
+    files[f"{info}/WHEEL"] = (_wheel_file().encode(), False)
     record = [_record_line(p, data) for p, (data, _) in files.items()] + [f"{info}/RECORD,,"]
     files[f"{info}/RECORD"] = ("\n".join(record).encode() + b"\n", False)
     name = f"penumbra-{version}-{_tag()}.whl"
@@ -111,6 +115,18 @@ def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
             entry.compress_type = zipfile.ZIP_DEFLATED
             z.writestr(entry, data)
     return name
+
+
+def prepare_metadata_for_build_wheel(metadata_directory, config_settings=None):
+    """The wheel's .dist-info without building: what pip reads before it builds."""
+    version = _version()
+    info = f"penumbra-{version}.dist-info"
+    os.makedirs(os.path.join(metadata_directory, info), exist_ok=True)
+    with open(os.path.join(metadata_directory, info, "METADATA"), "w", encoding="utf-8") as f:
+        f.write(_metadata(version))
+    with open(os.path.join(metadata_directory, info, "WHEEL"), "w", encoding="utf-8") as f:
+        f.write(_wheel_file())
+    return info
 
 
 def build_sdist(sdist_directory, config_settings=None):
