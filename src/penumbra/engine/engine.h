@@ -89,6 +89,10 @@ public:
   // transfer functions chosen from the data (for volumes that came without one) written out, so that
   // `penumbra render` of the saved file gives this engine's image.
   nlohmann::json saved_document(const std::string& folder) const;
+  // Every file that the data files read from now on name (an NRRD header's data file, a DICOM folder's
+  // slices) must lie inside `folder`, given canonical: the viewer's data root. The files the document
+  // names are the caller's to check.
+  void confine_files_to(std::string folder) { confine_to_ = std::move(folder); }
   // The document's value at a path (Error when there is none).
   nlohmann::json get(const std::string& path) const;
 
@@ -104,13 +108,14 @@ private:
   // Reads the edited document and makes stale what the edited paths invalidate.
   void apply(nlohmann::json edited, const std::vector<std::string>& paths);
   void replace_array(const std::string& name, const char* kind);
-  SceneReadOptions read_options() { return SceneReadOptions{strict_, &cache_, arrays_ ? &*arrays_ : nullptr}; }
+  SceneReadOptions read_options() { return SceneReadOptions{strict_, &cache_, arrays_ ? &*arrays_ : nullptr, nullptr, confine_to_}; }
 
   nlohmann::json document_;
   std::string base_dir_;
   bool strict_ = false;
   SceneDataCache cache_;
   std::optional<SceneArrays> arrays_;  // what "array" names, when the caller gave any
+  std::string confine_to_;             // confine_files_to's folder ("" none)
   std::unique_ptr<Renderer> renderer_;
   std::map<std::string, std::string> causes_;  // stale structure → the path that made it stale
   std::vector<std::string> edits_;             // paths edited since the last frame
