@@ -31,11 +31,13 @@ SCENE = {
 
 
 class Viewer:
-    def __init__(self, folder, scene=SCENE, *args):
+    def __init__(self, folder, scene=SCENE, *args, prefix=(), env=None):
+        """`prefix` runs the server under another command (prlimit); `env` is its environment."""
         self.folder = folder
         path = folder / "scene.json"
         path.write_text(json.dumps(scene))
-        self.process = subprocess.Popen([CLI, "view", str(path), "--port", "0", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self.process = subprocess.Popen([*prefix, CLI, "view", str(path), "--port", "0", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                        text=True, env=env)
         self.url = self.process.stdout.readline().strip()
         assert self.url.startswith("http://127.0.0.1:"), self.url
         self.base, _, query = self.url.partition("/?")

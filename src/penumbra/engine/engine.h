@@ -89,6 +89,10 @@ public:
   // transfer functions chosen from the data (for volumes that came without one) written out, so that
   // `penumbra render` of the saved file gives this engine's image.
   nlohmann::json saved_document(const std::string& folder) const;
+  // Every file that the data files read from now on name (an NRRD header's data file, a DICOM folder's
+  // slices) must lie inside `folder`, given canonical: the viewer's data root. The files the document
+  // names are the caller's to check.
+  void confine_files_to(std::string folder) { confine_to_ = std::move(folder); }
   // The value at a path: the document's, else the default the scene's read took (null where the default
   // is worked out from the data or the scene and has no fixed value). Error for a path that is
   // neither, naming the keys its object has.
@@ -112,6 +116,7 @@ private:
   SceneReadOptions read_options(ReadDefaults* defaults = nullptr) {
     SceneReadOptions o{strict_, &cache_, arrays_ ? &*arrays_ : nullptr};
     o.defaults = defaults;
+    o.confine_to = confine_to_;
     return o;
   }
   const nlohmann::json* document_value(const std::string& path) const;  // null when the document lacks it
@@ -121,6 +126,7 @@ private:
   bool strict_ = false;
   SceneDataCache cache_;
   std::optional<SceneArrays> arrays_;  // what "array" names, when the caller gave any
+  std::string confine_to_;             // confine_files_to's folder ("" none)
   std::unique_ptr<Renderer> renderer_;
   std::map<std::string, std::string> causes_;  // stale structure → the path that made it stale
   std::vector<std::string> edits_;             // paths edited since the last frame

@@ -164,6 +164,7 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
     // one file (or folder of DICOM slices), or a list of DICOM slices that make one volume
     std::vector<std::string> paths = file.empty() ? volume_file_list(r, base_dir) : std::vector<std::string>{file};
     VolumeLoadOptions lo = read_volume_load_options(r);
+    lo.confine_to = options.confine_to;
     const std::string key = r.has("files") ? "files" : "file";
     const auto* reader = options.volume_reader;
     load = [&r, paths, lo, key, reader] {

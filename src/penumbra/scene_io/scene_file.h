@@ -108,6 +108,8 @@ struct SceneReadOptions {
   // Reads the volumes named by "file" or "files" (null: load_volume); a rank of a distributed render
   // reads only its brick (distributed/brick_reading.h).
   const std::function<Volume(const std::vector<std::string>& paths, const VolumeLoadOptions& options)>* volume_reader = nullptr;
+  // The folder every file that a data file names must lie inside (VolumeLoadOptions::confine_to).
+  std::string confine_to{};
   // Where the defaults the read took are noted, by dotted path (null: not noted; json_reader.h).
   ReadDefaults* defaults = nullptr;
 };

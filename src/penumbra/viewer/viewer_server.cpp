@@ -18,6 +18,7 @@
 #include <random>
 #include <sstream>
 #include <thread>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include "penumbra/core/cancel.h"
@@ -25,9 +26,11 @@
 #include "penumbra/core/image_io.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/scene_io/json_reader.h"
+#include "penumbra/viewer/client_queue.h"
 #include "penumbra/viewer/jpeg.h"
 #include "penumbra/viewer/probe.h"
 #include "penumbra/viewer/viewer_page.h"
+#include "penumbra/viewer/viewer_security.h"
 #include "penumbra/viewer/viewer_state.h"
 
 namespace penumbra {
@@ -43,6 +46,16 @@ using Text = std::shared_ptr<const std::string>;
 
 constexpr int kPreviewJpegQuality = 75;
 constexpr int kFullJpegQuality = 92;
+// File descriptors kept free of connections: the render thread's files (volumes, /proc/self/statm),
+// the event loop's own, and a margin, so that a flood of connections never starves them.
+constexpr std::size_t kReservedDescriptors = 32;
+// How long the accept loop waits after accept() failed (out of descriptors: EMFILE, ENFILE) before it
+// tries again, rather than spinning on a failure that repeats until a descriptor is freed.
+constexpr auto kAcceptRetryDelay = std::chrono::milliseconds(100);
+// A client's messages waiting for the render thread at most: past it, its next message is not read
+// until one is applied, so a client sending faster than the engine edits fills its own socket, not
+// the server's memory.
+constexpr int kMaxQueuedMessages = 8;
 
 std::string random_token() {
   std::random_device device;
@@ -102,9 +115,19 @@ std::string owning_key(std::string path) {
   }
 }
 
+// The connections the descriptor limit leaves room for (RLIMIT_NOFILE less kReservedDescriptors),
+// at most `wanted`.
+std::size_t connection_cap(std::size_t wanted) {
+  rlimit limit{};
+  if (::getrlimit(RLIMIT_NOFILE, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return wanted;
+  const std::size_t room = limit.rlim_cur > kReservedDescriptors + 4 ? static_cast<std::size_t>(limit.rlim_cur) - kReservedDescriptors : 4;
+  return std::min(wanted, room);
+}
+
 }  // namespace
 
 class WsSession;
+class HttpSession;
 
 struct ViewerServer::Impl {
   struct Job {
@@ -117,8 +140,16 @@ struct ViewerServer::Impl {
   Engine engine;
   ViewerOptions options;
   std::filesystem::path data_root;
+  viewer_security::Listener listener;
   net::io_context ioc{1};
   tcp::acceptor acceptor{ioc};
+  net::steady_timer accept_retry{ioc};
+  // Open connections (HTTP and WebSocket), counted by the sessions themselves, which may end on the
+  // render thread; and HTTP sessions by age, the network thread's only, to close the one idle longest
+  // when a new connection needs its place.
+  std::atomic<std::size_t> open_connections{0};
+  std::size_t max_connections = 0;
+  std::deque<std::weak_ptr<HttpSession>> http_sessions;
   ViewerState state;
   std::string page;  // index.html as served, but its nonce (page_html)
 
@@ -134,6 +165,11 @@ struct ViewerServer::Impl {
   Impl(Engine e, ViewerOptions o) : engine(std::move(e)), options(std::move(o)) {}
 
   void accept();
+  void on_accepted(tcp::socket socket);
+  // Closes the HTTP connection that has waited longest for a request; false when none waits.
+  bool close_idle_http();
+  // An error reply's text: the data root never shown (viewer_security::without_root).
+  Text client_error(const std::string& message) const { return error_message(viewer_security::without_root(message, data_root)); }
   void render_loop();
   void render_frame(Quality quality, bool accumulate);
   void broadcast_state();
@@ -155,7 +191,10 @@ struct ViewerServer::Impl {
 // ----------------------------------------------------------------------------------- WebSocket
 class WsSession : public std::enable_shared_from_this<WsSession> {
 public:
-  WsSession(tcp::socket&& socket, ViewerServer::Impl& server) : ws_(std::move(socket)), server_(server) {}
+  WsSession(tcp::socket&& socket, ViewerServer::Impl& server) : ws_(std::move(socket)), stall_timer_(ws_.get_executor()), server_(server) {
+    ++server_.open_connections;
+  }
+  ~WsSession() { --server_.open_connections; }
 
   void start(http::request<http::string_body> request) {
     ws_.read_message_max(server_.options.max_message_bytes);
@@ -163,80 +202,100 @@ public:
     ws_.async_accept(request, beast::bind_front_handler(&WsSession::on_accept, shared_from_this()));
   }
 
-  // From any thread: posted onto the event loop.
-  void send_text(Text text) { post_message({std::move(text), false, false}); }
+  // From any thread: posted onto the event loop. The client's queue keeps only the latest state and
+  // frame (client_queue.h), so a client that reads slowly costs no more memory than a fast one.
+  void send_state(Text text) {
+    net::post(ws_.get_executor(), [self = shared_from_this(), text] {
+      self->queue_.push_state(text);
+      self->write_next();
+    });
+  }
+  void send_error(Text text) {
+    net::post(ws_.get_executor(), [self = shared_from_this(), text] {
+      self->queue_.push_error(text);
+      self->write_next();
+    });
+  }
+  // A message of this client's went to the render thread (network thread) / was applied (any thread).
+  void message_queued() { ++queued_messages_; }
+  void message_applied() {
+    net::post(ws_.get_executor(), [self = shared_from_this()] {
+      --self->queued_messages_;
+      if (self->read_paused_ && self->queued_messages_ < kMaxQueuedMessages) {
+        self->read_paused_ = false;
+        self->read();
+      }
+    });
+  }
   void send_frame(Text meta, Text jpeg) {
     net::post(ws_.get_executor(), [self = shared_from_this(), meta, jpeg] {
-      // a frame not yet being written is stale: drop it. The first message is in flight, and when it
-      // is a frame's header its image (the second) goes with it.
-      auto& q = self->queue_;
-      std::size_t i = q.empty() ? 0 : (q.front().frame && !q.front().binary ? 2 : 1);
-      while (i < q.size()) {
-        if (q[i].frame) q.erase(q.begin() + static_cast<std::ptrdiff_t>(i));
-        else ++i;
-      }
-      self->push({meta, false, true});
-      self->push({jpeg, true, true});
+      self->queue_.push_frame(meta, jpeg);
+      self->write_next();
     });
   }
 
 private:
-  struct Message {
-    Text data;
-    bool binary, frame;
-  };
-
   void on_accept(beast::error_code ec) {
     if (ec) return;
     {
       std::lock_guard lock(server_.mutex);
       server_.sessions.push_back(weak_from_this());
-      if (server_.last_state) queue_.push_back({server_.last_state, false, false});
-      if (server_.last_frame_meta) {
-        queue_.push_back({server_.last_frame_meta, false, true});
-        queue_.push_back({server_.last_frame_jpeg, true, true});
-      }
+      if (server_.last_state) queue_.push_state(server_.last_state);
+      if (server_.last_frame_meta) queue_.push_frame(server_.last_frame_meta, server_.last_frame_jpeg);
     }
-    if (!queue_.empty()) write_next();
+    write_next();
     read();
   }
 
   void read() { ws_.async_read(buffer_, beast::bind_front_handler(&WsSession::on_read, shared_from_this())); }
 
   void on_read(beast::error_code ec, std::size_t) {
-    if (ec) return;  // closed, too large (message_too_big) or broken: the session ends; others go on
+    // closed, too large (message_too_big), text that is not UTF-8 (RFC 6455 requires failing the
+    // connection: close code 1007) or broken: the session ends; others go on
+    if (ec) return;
     if (!ws_.got_text()) {
-      send_text(error_message("expected a text message (JSON)"));
+      send_error(error_message("expected a text message (JSON)"));
     } else {
       server_.on_message(shared_from_this(), beast::buffers_to_string(buffer_.data()));
     }
     buffer_.consume(buffer_.size());
-    read();
+    if (queued_messages_ >= kMaxQueuedMessages) read_paused_ = true;  // message_applied() reads on
+    else read();
   }
 
-  void post_message(Message m) {
-    net::post(ws_.get_executor(), [self = shared_from_this(), m = std::move(m)] { self->push(m); });
-  }
-  void push(const Message& m) {
-    queue_.push_back(m);
-    if (queue_.size() == 1) write_next();
-  }
   void write_next() {
-    ws_.binary(queue_.front().binary);
-    ws_.async_write(net::buffer(*queue_.front().data), beast::bind_front_handler(&WsSession::on_write, shared_from_this()));
+    const ClientQueue::Message* m = queue_.start_next();
+    if (!m) return;
+    ws_.binary(m->binary);
+    // a client that stops reading stalls this write once its socket's buffers are full: past the limit
+    // it is closed, and its place and queue freed
+    const std::uint64_t write = ++writes_;
+    stall_timer_.expires_after(server_.options.stall_limit);
+    stall_timer_.async_wait([weak = weak_from_this(), write](beast::error_code ec) {
+      auto self = weak.lock();
+      if (ec || !self || self->writes_ != write || self->queue_.idle()) return;
+      beast::error_code ignored;
+      beast::get_lowest_layer(self->ws_).socket().close(ignored);
+    });
+    ws_.async_write(net::buffer(*m->data), beast::bind_front_handler(&WsSession::on_write, shared_from_this()));
   }
   void on_write(beast::error_code ec, std::size_t) {
-    if (ec) {  // the client went away: forget what was queued for it
+    stall_timer_.cancel();
+    if (ec) {  // the client went away (or stalled and was closed): forget what was queued for it
       queue_.clear();
       return;
     }
-    queue_.pop_front();
-    if (!queue_.empty()) write_next();
+    queue_.written();
+    write_next();
   }
 
   websocket::stream<beast::tcp_stream> ws_;
   beast::flat_buffer buffer_;
-  std::deque<Message> queue_;
+  ClientQueue queue_;
+  net::steady_timer stall_timer_;
+  std::uint64_t writes_ = 0;  // which write the stall timer watches
+  int queued_messages_ = 0;   // the network thread's, as read_paused_
+  bool read_paused_ = false;
   ViewerServer::Impl& server_;
 };
 
@@ -245,9 +304,19 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   using Job = ViewerServer::Impl::Job;
 
 public:
-  HttpSession(tcp::socket&& socket, ViewerServer::Impl& server) : stream_(std::move(socket)), server_(server) {}
+  HttpSession(tcp::socket&& socket, ViewerServer::Impl& server) : stream_(std::move(socket)), server_(server) { ++server_.open_connections; }
+  ~HttpSession() { --server_.open_connections; }
 
   void start() { net::dispatch(stream_.get_executor(), beast::bind_front_handler(&HttpSession::read, shared_from_this())); }
+
+  // Since when the connection has waited for a request (nullopt while one is being answered). The
+  // network thread's only, as close_idle().
+  std::optional<std::chrono::steady_clock::time_point> waiting_since() const { return waiting_since_; }
+  void close_idle() {
+    waiting_since_.reset();  // not chosen again before its read handler sees the close
+    beast::error_code ec;
+    stream_.socket().close(ec);
+  }
 
   // From the render thread: the answer to a request that needed the engine.
   void answer(http::status status, std::string body, std::string type, std::string filename) {
@@ -262,10 +331,12 @@ private:
     parser_->body_limit(server_.options.max_message_bytes);
     parser_->header_limit(16 * 1024);
     stream_.expires_after(std::chrono::seconds(30));
+    waiting_since_ = std::chrono::steady_clock::now();
     http::async_read(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpSession::on_read, shared_from_this()));
   }
 
   void on_read(beast::error_code ec, std::size_t) {
+    waiting_since_.reset();
     if (ec == http::error::end_of_stream) return close();
     if (ec) {
       if (ec == http::error::body_limit || ec == http::error::header_limit) respond(http::status::payload_too_large, "request too large\n", "text/plain", "", false);
@@ -274,9 +345,18 @@ private:
     http::request<http::string_body> req = parser_->release();
     keep_alive_ = req.keep_alive();
     const auto [path, token] = split_target(std::string_view(req.target().data(), req.target().size()));
+    // a page of another site reaching us through its own DNS name (DNS rebinding) names that in Host
+    const std::string_view host(req[http::field::host].data(), req[http::field::host].size());
+    if (!viewer_security::host_allowed(host, server_.listener))
+      return respond(http::status::forbidden, "forbidden: Host " + viewer_security::json_quoted(host) + " is not this server's address (allowed: localhost, an IP address, with port " +
+                                                  std::to_string(server_.listener.port) + ", or an --allow-origin)\n", "text/plain", "");
     if (!same_secret(token, server_.options.token)) return respond(http::status::forbidden, "forbidden: a valid token is required\n", "text/plain", "");
     if (websocket::is_upgrade(req)) {
       if (path != "/ws") return respond(http::status::not_found, "not found\n", "text/plain", "");
+      // a browser tells which page opens the socket: only our own page (or an --allow-origin) may
+      const std::string_view origin(req[http::field::origin].data(), req[http::field::origin].size());
+      if (!viewer_security::origin_allowed(origin, host, server_.listener))
+        return respond(http::status::forbidden, "forbidden: Origin " + viewer_security::json_quoted(origin) + " is not this server's page (add it with --allow-origin)\n", "text/plain", "");
       stream_.expires_never();
       std::make_shared<WsSession>(stream_.release_socket(), server_)->start(std::move(req));
       return;
@@ -301,7 +381,7 @@ private:
             self->answer(http::status::ok, server.engine.saved_document(server.data_root.string()).dump(2) + "\n", "application/json", "scene.json");
           }
         } catch (const std::exception& e) {
-          self->answer(http::status::internal_server_error, std::string(e.what()) + "\n", "text/plain", "");
+          self->answer(http::status::internal_server_error, viewer_security::without_root(e.what(), server.data_root) + "\n", "text/plain", "");
         }
       };
       server_.queue(std::move(job));
@@ -317,9 +397,12 @@ private:
     res->set(http::field::content_type, type);
     res->set(http::field::cache_control, "no-store");
     res->set("X-Content-Type-Options", "nosniff");
-    // scripts and style only from the page's own files (and the page's import map, by its nonce)
+    // scripts and style only from the page's own files (and the page's import map, by its nonce); no
+    // other site may frame the page (clickjacking): frame-ancestors, and X-Frame-Options for browsers
+    // without it
     res->set("Content-Security-Policy", "default-src 'none'; script-src 'self'" + (nonce.empty() ? std::string() : " 'nonce-" + nonce + "'") +
-                                            "; style-src 'self'; img-src 'self' blob: data:; connect-src 'self'");
+                                            "; style-src 'self'; img-src 'self' blob: data:; connect-src 'self'; frame-ancestors 'none'");
+    res->set("X-Frame-Options", "DENY");
     if (!filename.empty()) res->set(http::field::content_disposition, "attachment; filename=\"" + filename + "\"");
     res->body() = body;
     res->keep_alive(keep && keep_alive_);
@@ -339,6 +422,7 @@ private:
   beast::flat_buffer buffer_;
   std::optional<http::request_parser<http::string_body>> parser_;
   bool keep_alive_ = false;
+  std::optional<std::chrono::steady_clock::time_point> waiting_since_;
   ViewerServer::Impl& server_;
 };
 
@@ -346,9 +430,44 @@ private:
 void ViewerServer::Impl::accept() {
   acceptor.async_accept(net::make_strand(ioc), [this](beast::error_code ec, tcp::socket socket) {
     if (ec == net::error::operation_aborted) return;
-    if (!ec) std::make_shared<HttpSession>(std::move(socket), *this)->start();
-    accept();
+    if (!ec) {
+      on_accepted(std::move(socket));
+      return accept();
+    }
+    // Out of descriptors (EMFILE, ENFILE) or another failure that the next try would repeat at once:
+    // free a descriptor held by an idle connection and wait before trying again, instead of spinning.
+    close_idle_http();
+    accept_retry.expires_after(kAcceptRetryDelay);
+    accept_retry.async_wait([this](beast::error_code wait_ec) {
+      if (!wait_ec) accept();
+    });
   });
+}
+
+void ViewerServer::Impl::on_accepted(tcp::socket socket) {
+  // At the cap, the connection that has waited longest without sending a request makes room (idle
+  // connections must not keep a real request out); when every place holds a live request or a
+  // WebSocket, the new connection is closed.
+  if (open_connections >= max_connections && !close_idle_http()) {
+    beast::error_code ec;
+    socket.close(ec);
+    return;
+  }
+  auto session = std::make_shared<HttpSession>(std::move(socket), *this);
+  std::erase_if(http_sessions, [](const std::weak_ptr<HttpSession>& w) { return w.expired(); });
+  http_sessions.push_back(session);
+  session->start();
+}
+
+bool ViewerServer::Impl::close_idle_http() {
+  std::shared_ptr<HttpSession> idlest;
+  for (const auto& w : http_sessions) {
+    auto s = w.lock();
+    if (s && s->waiting_since() && (!idlest || *s->waiting_since() < *idlest->waiting_since())) idlest = std::move(s);
+  }
+  if (!idlest) return false;
+  idlest->close_idle();
+  return true;
 }
 
 std::vector<std::shared_ptr<WsSession>> ViewerServer::Impl::live_sessions() {
@@ -374,7 +493,7 @@ void ViewerServer::Impl::check_files(const std::string& path, const nlohmann::js
       const auto file = std::filesystem::weakly_canonical(base / name.get<std::string>());
       const auto rel = file.lexically_relative(root);
       if (rel.empty() || *rel.begin() == "..")
-        throw Error(path + ": " + name.get<std::string>() + " lies outside the data root " + root.string() + " (the viewer opens files only there)");
+        throw Error(path + ": " + viewer_security::json_quoted(name.get<std::string>()) + " lies outside the data root (the viewer opens files only there)");
     };
     if (value.is_array())
       for (const auto& name : value) check(name);
@@ -389,9 +508,7 @@ void ViewerServer::Impl::check_files(const std::string& path, const nlohmann::js
 }
 
 void ViewerServer::Impl::on_message(const std::shared_ptr<WsSession>& from, const std::string& text) {
-  auto reply_error = [&](const std::string& message) {
-    from->send_text(error_message(message));
-  };
+  auto reply_error = [&](const std::string& message) { from->send_error(client_error(message)); };
   try {
     const nlohmann::json m = parse_json_text(text, "message");
     if (!m.is_object() || !m.contains("type") || !m["type"].is_string())
@@ -403,6 +520,8 @@ void ViewerServer::Impl::on_message(const std::shared_ptr<WsSession>& from, cons
       if (!m.contains("set") || !m["set"].is_object() || m["set"].empty())
         throw Error("edit: expected \"set\": {\"PATH\": VALUE, ...} with at least one path");
       for (const auto& [path, value] : m["set"].items()) {
+        viewer_security::check_no_control_characters(path, value);
+        viewer_security::check_edit_limits(path, value);
         check_files(path, value);
         job.edits.emplace_back(path, value);
       }
@@ -419,6 +538,7 @@ void ViewerServer::Impl::on_message(const std::shared_ptr<WsSession>& from, cons
         if (auto s = weak.lock()) s->send_text(std::make_shared<const std::string>(probe_message(engine.scene(), x, y).dump()));
       };
     }
+    from->message_queued();
     queue(std::move(job));
   } catch (const std::exception& e) {
     reply_error(e.what());
@@ -437,7 +557,7 @@ void ViewerServer::Impl::broadcast_state() {
     std::lock_guard lock(mutex);
     last_state = text;
   }
-  for (const auto& s : live_sessions()) s->send_text(text);
+  for (const auto& s : live_sessions()) s->send_state(text);
 }
 
 void ViewerServer::Impl::render_frame(Quality quality, bool accumulate) {
@@ -489,13 +609,14 @@ void ViewerServer::Impl::render_loop() {
         }
         continue;
       }
+      auto from = job.from.lock();
       try {
         engine.edit(job.edits);
         edited = true;
       } catch (const std::exception& e) {
-        if (auto from = job.from.lock())
-          from->send_text(error_message(e.what()));
+        if (from) from->send_error(client_error(e.what()));
       }
+      if (from) from->message_applied();
     }
     if (edited) {
       broadcast_state();
@@ -531,8 +652,7 @@ void ViewerServer::Impl::render_loop() {
 ViewerServer::ViewerServer(Engine engine, ViewerOptions options) : impl_(std::make_unique<Impl>(std::move(engine), std::move(options))) {
   Impl& s = *impl_;
   if (s.options.token.empty()) s.options.token = random_token();
-  for (char c : s.options.token)
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') throw Error("--token: letters, digits, '-' and '_' only");
+  viewer_security::check_token(s.options.token);
   s.page = page_html(s.options.token);
   s.data_root = std::filesystem::absolute(s.options.data_root.empty() ? "." : s.options.data_root);
   if (!std::filesystem::is_directory(s.data_root)) throw Error("--data-root " + s.data_root.string() + ": not a directory");
@@ -545,6 +665,13 @@ ViewerServer::ViewerServer(Engine engine, ViewerOptions options) : impl_(std::ma
   if (!ec) s.acceptor.bind(endpoint, ec);
   if (!ec) s.acceptor.listen(net::socket_base::max_listen_connections, ec);
   if (ec) throw Error("cannot listen on " + s.options.host + ":" + std::to_string(s.options.port) + ": " + ec.message());
+  s.listener.host = s.options.host;
+  s.listener.port = s.acceptor.local_endpoint().port();
+  for (const std::string& origin : s.options.allow_origins) s.listener.allowed_origins.push_back(viewer_security::checked_origin_option(origin));
+  s.max_connections = connection_cap(s.options.max_connections);
+  // what edits may name is checked before they reach the engine (check_files); the files those files
+  // name (an NRRD header's data file, a DICOM folder's slices) are checked by the loaders
+  s.engine.confine_files_to(std::filesystem::weakly_canonical(s.data_root).string());
 }
 
 ViewerServer::~ViewerServer() { stop(); }
@@ -552,8 +679,13 @@ ViewerServer::~ViewerServer() { stop(); }
 std::uint16_t ViewerServer::port() const { return impl_->acceptor.local_endpoint().port(); }
 const std::string& ViewerServer::token() const { return impl_->options.token; }
 
+bool ViewerServer::listens_on_all_interfaces() const { return impl_->acceptor.local_endpoint().address().is_unspecified(); }
+
 std::string ViewerServer::url() const {
-  const std::string host = impl_->options.host.find(':') != std::string::npos ? "[" + impl_->options.host + "]" : impl_->options.host;
+  // 0.0.0.0 and :: are no address to open: this machine's loopback of the same family is
+  const auto address = impl_->acceptor.local_endpoint().address();
+  std::string host = address.is_unspecified() ? (address.is_v4() ? "127.0.0.1" : "::1") : impl_->options.host;
+  if (host.find(':') != std::string::npos) host = "[" + host + "]";
   return "http://" + host + ":" + std::to_string(port()) + "/?token=" + token();
 }
 

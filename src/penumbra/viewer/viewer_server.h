@@ -6,14 +6,19 @@
 // One network thread runs the event loop; one render thread owns the engine. Client messages are
 // queued for the render thread. A new edit cancels a full frame in progress. Frames go to every
 // connected page, and a frame still waiting to be sent is replaced by a newer one, never queued behind
-// it. Every request must carry the token. No request names a file: edits that name files (a volume's
-// "file", a ParaView colour map) are refused unless the file lies inside the data root.
+// it. Every request must carry the token and a Host header naming this server; a WebSocket must come
+// from the server's own page (Origin). No request names a file: edits that name files (a volume's
+// "file", a ParaView colour map) are refused unless the file lies inside the data root, and so are the
+// files those files name. Each client's queue is bounded (client_queue.h), connections are capped
+// below the descriptor limit. The checks themselves are viewer_security.h's.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "penumbra/engine/engine.h"
 
@@ -22,9 +27,12 @@ namespace penumbra {
 struct ViewerOptions {
   std::string host = "127.0.0.1";
   std::uint16_t port = 0;          // 0: a free port
-  std::string token;               // empty: a random 128-bit token
+  std::string token;               // empty: a random 128-bit token; else at least 16 characters
   std::string data_root;           // the only folder edits may name files in
+  std::vector<std::string> allow_origins;  // other pages (http(s)://HOST:PORT) that may open the WebSocket
   std::size_t max_message_bytes = 64 * 1024;
+  std::size_t max_connections = 64;  // less where the descriptor limit (RLIMIT_NOFILE) leaves less room
+  std::chrono::seconds stall_limit{30};  // a client whose socket takes no data this long is closed
   int max_samples = 16;            // accumulated full-quality samples while idle
   bool stop_on_signals = true;     // SIGINT / SIGTERM stop run() (not inside a host like Python)
 };
@@ -37,8 +45,9 @@ public:
   ViewerServer(const ViewerServer&) = delete;
   ViewerServer& operator=(const ViewerServer&) = delete;
 
-  // http://HOST:PORT/?token=TOKEN
+  // http://HOST:PORT/?token=TOKEN; bound to all interfaces (0.0.0.0, ::), the loopback address
   std::string url() const;
+  bool listens_on_all_interfaces() const;
   std::uint16_t port() const;
   const std::string& token() const;
 

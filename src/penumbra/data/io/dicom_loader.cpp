@@ -24,6 +24,7 @@
 #include "penumbra/core/error.h"
 #include "penumbra/data/io/dicom_pixels.h"
 #include "penumbra/data/io/dicom_series.h"
+#include "penumbra/data/io/file_checks.h"
 #include "penumbra/data/io/dicom_slice.h"
 #include "penumbra/data/io/file_checks.h"
 #include "penumbra/data/io/volume_io.h"
@@ -49,7 +50,8 @@ void quiet_gdcm() {
 
 }  // namespace
 
-Volume load_dicom_volume(const std::vector<std::string>& paths, const std::string& series, VolumeFileInfo* info_out) {
+Volume load_dicom_volume(const std::vector<std::string>& paths, const std::string& series, VolumeFileInfo* info_out,
+                         const std::string& confine_to) {
   quiet_gdcm();
   VolumeFileInfo local;
   VolumeFileInfo& info = info_out ? *info_out : local;
@@ -77,6 +79,7 @@ Volume load_dicom_volume(const std::vector<std::string>& paths, const std::strin
       throw Error("cannot list the folder (" + e.code().message() + ")");
     }
     std::sort(files.begin(), files.end());
+    for (const auto& file : files) io_detail::check_inside(file, confine_to, "slice");  // a link in the folder to a file elsewhere
     for (const auto& file : files)
       if (auto s = dicom::read_slice(file.string(), file.lexically_relative(paths[0]).generic_string(), true)) slices.push_back(std::move(*s));
     if (slices.empty())

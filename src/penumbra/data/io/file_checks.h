@@ -33,6 +33,18 @@ inline std::uint64_t regular_file_size(const std::string& path) {
   return static_cast<std::uint64_t>(size);
 }
 
+// Error unless `path`, with its links resolved, lies inside the folder `root` (given canonical); an empty
+// root confines nothing. A file that names another (an NRRD header's data file, a slice found in a
+// DICOM folder) must not reach outside the folder its reader was confined to (the viewer's data root).
+inline void check_inside(const std::filesystem::path& path, const std::string& root, const std::string& what) {
+  if (root.empty()) return;
+  std::error_code ec;
+  const std::filesystem::path resolved = std::filesystem::weakly_canonical(std::filesystem::absolute(path), ec);
+  const std::filesystem::path rel = ec ? std::filesystem::path() : resolved.lexically_relative(root);
+  if (rel.empty() || *rel.begin() == "..")
+    throw Error(what + " " + path.string() + " lies outside the data root (files may name files only inside it)");
+}
+
 inline std::string bytes_str(std::uint64_t n) { return std::to_string(n) + " bytes"; }
 
 }  // namespace penumbra::io_detail

@@ -259,8 +259,8 @@ struct Checked {
   std::uint64_t data_start = 0;
 };
 
-// Rejects every header teem should not be allowed to act on.
-Checked check_header(const NrrdHeader& h, const std::filesystem::path& header_path, std::uint64_t file_bytes) {
+// Rejects every header teem should not be allowed to act on, and a data file outside `confine_to`.
+Checked check_header(const NrrdHeader& h, const std::filesystem::path& header_path, std::uint64_t file_bytes, const std::string& confine_to) {
   if (!h.dimension) throw Error("NRRD header has no 'dimension' field");
   if (*h.dimension != 3)
     throw Error("NRRD dimension is " + std::to_string(*h.dimension) + " (expected 3: a scalar volume)");
@@ -295,6 +295,7 @@ Checked check_header(const NrrdHeader& h, const std::filesystem::path& header_pa
       throw Error("NRRD 'data file: " + printable(name) + "' is not supported (expected one plain file name)");
     c.data_path = name;
     if (c.data_path.is_relative()) c.data_path = header_path.parent_path() / c.data_path;
+    io_detail::check_inside(c.data_path, confine_to, "data file");  // before anything about the file is said
     available = with_context("data file " + c.data_path.string(), [&] { return io_detail::regular_file_size(c.data_path); });
   } else {
     if (!h.complete) throw Error("NRRD header has neither a blank line followed by data nor a 'data file' field");
@@ -553,14 +554,17 @@ Affine nrrd_affine(const Nrrd& nrrd, VolumeFileInfo& info) {
 
 }  // namespace
 
-Volume load_nrrd_volume(const std::string& path, VolumeFileInfo& info) { return load_nrrd_volume(path, nullptr, nullptr, info); }
+Volume load_nrrd_volume(const std::string& path, VolumeFileInfo& info, const std::string& confine_to) {
+  return load_nrrd_volume(path, nullptr, nullptr, info, confine_to);
+}
 
-Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, WindowRead* read, VolumeFileInfo& info) {
+Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, WindowRead* read, VolumeFileInfo& info,
+                        const std::string& confine_to) {
   const std::uint64_t file_bytes = io_detail::regular_file_size(path);
   const NrrdHeader header = parse_header(path, file_bytes);
   // teem resolves a relative data file against the header's directory, which it needs spelled out.
   const std::filesystem::path abs_path = std::filesystem::absolute(path);
-  const Checked checked = check_header(header, abs_path, file_bytes);
+  const Checked checked = check_header(header, abs_path, file_bytes, confine_to);
   // Raw and gzip data are read here, once, into the volume: teem parses the header and finds the data.
   // teem reads the rest itself into a buffer of its own (ascii, hex, and gzip data placed by a negative
   // byte skip, which only decompressing all of it finds), a gzip stream verified first.

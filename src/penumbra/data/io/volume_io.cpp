@@ -61,7 +61,7 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
     if (paths.size() > 1 && !dicom)
       throw Error("several files make one volume only as DICOM slices (.dcm); give other volumes one at a time");
     check_options_fit(paths, dicom, options);
-    if (dicom) return load_dicom_volume(paths, options.series, &out);
+    if (dicom) return load_dicom_volume(paths, options.series, &out, options.confine_to);
     const std::string& path = paths[0];
     // Each loader already ran recompute_range(), which rejects NaN/inf voxels and sets the range,
     // so the volume is returned as is rather than scanned twice.
@@ -72,7 +72,7 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
     }
     if (ends_with_ci(path, ".nrrd") || ends_with_ci(path, ".nhdr")) {
       out.format = "nrrd";
-      return load_nrrd_volume(path, out);
+      return load_nrrd_volume(path, out, options.confine_to);
     }
     if (ends_with_ci(path, ".nii") || ends_with_ci(path, ".nii.gz")) {
       out.format = "nifti";
@@ -105,7 +105,7 @@ Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoa
   if (paths.size() == 1 && (ends_with_ci(paths[0], ".nrrd") || ends_with_ci(paths[0], ".nhdr")))
     return with_context(paths[0], [&] {
       VolumeFileInfo info;
-      return load_nrrd_volume(paths[0], &choose, &read, info);
+      return load_nrrd_volume(paths[0], &choose, &read, info, options.confine_to);
     });
   Volume whole = load_volume(paths, options);
   read.whole = true;

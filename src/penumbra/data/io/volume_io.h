@@ -54,6 +54,9 @@ struct VolumeLoadOptions {
   std::string series;                   // DICOM: SeriesInstanceUID or index ("" = the series with the most slices)
   int channel = -1;                     // multi-channel TIFF: channel from 0 (-1 = channel 0)
   std::string grid;                     // OpenVDB: grid name or index ("" = "density", else the first scalar grid)
+  // A canonical folder that every file the volume's files name must lie inside: an NRRD header's data
+  // file, a DICOM folder's slices (links resolved). "" confines nothing; the viewer sets its data root.
+  std::string confine_to;
 };
 
 // Reading part of a volume (one rank's brick, distributed/brick_reading.h): slices [first, first +
@@ -75,7 +78,7 @@ SliceRange checked_slices(const SliceChooser& choose, const std::array<int, 3>& 
 // Readers of formats with a world frame place their voxels by it (volume_placement.h) and record the
 // affine in `info`.
 Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options);
-Volume load_nrrd_volume(const std::string& path, VolumeFileInfo& info);  // .nrrd or .nhdr
+Volume load_nrrd_volume(const std::string& path, VolumeFileInfo& info, const std::string& confine_to = "");  // .nrrd or .nhdr
 // Only the chosen slices of a raw file or of NRRD raw data (seeking past the others), or of NRRD gzip
 // data (decompressing and dropping the slices before them, stopping after the last); other NRRD
 // encodings are read whole and cut. The result is a window of the whole grid (Volume::is_window) unless
@@ -83,12 +86,14 @@ Volume load_nrrd_volume(const std::string& path, VolumeFileInfo& info);  // .nrr
 Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options, const SliceChooser* choose, WindowRead* read);
 // A window of a file whose z is reversed reads the matching slices from the other end; one whose z comes
 // from another file axis is read whole and cut.
-Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, WindowRead* read, VolumeFileInfo& info);
+Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, WindowRead* read, VolumeFileInfo& info,
+                        const std::string& confine_to = "");
 Volume load_nifti_volume(const std::string& path, VolumeFileInfo& info);  // .nii or .nii.gz
 
 // DICOM (dicom_loader.cpp): `paths` is one folder (every DICOM file in it and its subfolders) or a list
 // of slice files. Slices are grouped by SeriesInstanceUID; `series` picks one (see VolumeLoadOptions).
-Volume load_dicom_volume(const std::vector<std::string>& paths, const std::string& series, VolumeFileInfo* info);
+Volume load_dicom_volume(const std::vector<std::string>& paths, const std::string& series, VolumeFileInfo* info,
+                         const std::string& confine_to = "");
 // Multi-page TIFF (tiff_loader.cpp): 8/16/32-bit integer or float pages of one size; ImageJ hyperstacks
 // are de-interleaved and `channel` (-1 = 0) chosen.
 Volume load_tiff_volume(const std::string& path, int channel, VolumeFileInfo* info);
