@@ -292,8 +292,10 @@ private:
 class PyViewer {
 public:
   PyViewer(const std::string& document, const std::string& base_dir, const py::dict& volumes, const py::dict& particles,
-           const std::string& host, int port, const std::string& data_root, const std::string& token) {
+           const std::string& host, int port, const std::string& data_root, const std::string& token,
+           const std::vector<std::string>& frame_ancestors) {
     ViewerOptions options;
+    options.frame_ancestors = frame_ancestors;
     options.host = host;
     if (port < 0 || port > 65535) throw Error("view: port " + std::to_string(port) + " (expected 0-65535)");
     options.port = static_cast<std::uint16_t>(port);
@@ -496,9 +498,9 @@ PYBIND11_MODULE(_penumbra, m) {
 
   py::class_<PyViewer>(m, "Viewer")
       .def(py::init<const std::string&, const std::string&, const py::dict&, const py::dict&, const std::string&, int, const std::string&,
-                    const std::string&>(),
+                    const std::string&, const std::vector<std::string>&>(),
            py::arg("document"), py::arg("base_dir"), py::arg("volumes"), py::arg("particles"), py::arg("host"), py::arg("port"),
-           py::arg("data_root"), py::arg("token"))
+           py::arg("data_root"), py::arg("token"), py::arg("frame_ancestors"))
       .def_property_readonly("url", &PyViewer::url)
       .def("stop", &PyViewer::stop);
 

@@ -72,7 +72,7 @@ def _build(config_settings):
             raise RuntimeError(f"penumbra_build: prebuilt: {build_dir} holds no built penumbra (build it first)")
         return build_dir
     jobs = str(settings.get("jobs") or os.cpu_count() or 2)
-    configure = ["cmake", "-S", ROOT, "-B", build_dir, "-DCMAKE_BUILD_TYPE=Release", f"-DPython3_EXECUTABLE={sys.executable}",
+    configure = ["cmake", "-S", ROOT, "-B", build_dir, "-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_UNITY_BUILD=ON", f"-DPython3_EXECUTABLE={sys.executable}",
                  "-DPENUMBRA_BUILD_TESTS=OFF", "-DPENUMBRA_BUILD_BENCH=OFF"]
     if shutil.which("ninja"):
         configure += ["-G", "Ninja"]

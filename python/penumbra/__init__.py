@@ -488,10 +488,16 @@ class Viewer:
         return f"penumbra.Viewer({self.url})"
 
 
-def view(scene, host="127.0.0.1", port=0, data_root=None, token="", width=960, height=640):
+_LOCAL_NOTEBOOKS = ("http://localhost:*", "http://127.0.0.1:*", "https://localhost:*", "https://127.0.0.1:*")
+
+
+def view(scene, host="127.0.0.1", port=0, data_root=None, token="", width=960, height=640, frame_ancestors=_LOCAL_NOTEBOOKS):
     """Starts the viewer on a scene (a Scene, a dict, or a Renderer's current scene) and returns it; in
     Jupyter the returned Viewer shows the page inline. It binds 127.0.0.1 unless `host` says otherwise;
-    `data_root` (default: the scene's folder) is the only folder edits may name files in."""
+    `data_root` (default: the scene's folder) is the only folder edits may name files in.
+    `frame_ancestors`: the pages that may show the viewer in a frame (CSP sources such as
+    "http://localhost:*"; default: notebook servers on this machine, so the inline frame shows; () for
+    none). The page still needs its token, which only the URL this returns holds."""
     if isinstance(scene, Renderer):
         scene = scene.scene
     if isinstance(scene, dict):
@@ -500,7 +506,7 @@ def view(scene, host="127.0.0.1", port=0, data_root=None, token="", width=960, h
         raise Error(f"view: expected a penumbra.Scene, a dict or a Renderer, got {type(scene).__name__}")
     root = os.fspath(data_root) if data_root is not None else os.path.abspath(scene.base_dir)
     server = _penumbra.Viewer(_dumps(scene.document, "scene"), scene.base_dir, scene._volumes, scene._particles,
-                              host, int(port), root, token)
+                              host, int(port), root, token, [str(a) for a in frame_ancestors])
     return Viewer(server, width, height)
 
 

@@ -325,6 +325,9 @@ def test_penumbra_view_from_python_serves_the_scene_and_stops():
     assert f'src="{viewer.url}"' in viewer._repr_html_() and 'width="500"' in viewer._repr_html_()
     with urllib.request.urlopen(viewer.url, timeout=30) as r:
         assert r.status == 200 and b'id="view"' in r.read()
+        # the notebook's inline frame may show it (a local Jupyter server), other sites may not
+        assert "frame-ancestors http://localhost:* http://127.0.0.1:*" in r.headers["Content-Security-Policy"]
+        assert r.headers["X-Frame-Options"] is None
     base, _, query = viewer.url.partition("/?")
     ws = websocket.create_connection(base.replace("http://", "ws://") + "/ws?" + query, timeout=30)
     state = receive(ws, "state")
@@ -336,6 +339,20 @@ def test_penumbra_view_from_python_serves_the_scene_and_stops():
     with pytest.raises(OSError):
         urllib.request.urlopen(viewer.url, timeout=5)
     viewer.stop()  # twice is fine
+
+
+def test_penumbra_view_frames_only_where_asked():
+    import penumbra
+
+    scene = {"volumes": [{"procedural": {"name": "test-spheres", "size": 8}}], "camera": {"width": 16, "height": 16}}
+    viewer = penumbra.view(scene, frame_ancestors=())
+    try:
+        with urllib.request.urlopen(viewer.url, timeout=30) as r:
+            assert "frame-ancestors 'none'" in r.headers["Content-Security-Policy"] and r.headers["X-Frame-Options"] == "DENY"
+    finally:
+        viewer.stop()
+    with pytest.raises(penumbra.Error, match=r"frame ancestor \"http://evil; script-src \*\": expected http\(s\)://HOST"):
+        penumbra.view(scene, frame_ancestors=["http://evil; script-src *"])
 
 
 def test_penumbra_view_of_a_renderer_keeps_its_scene_folder(tmp_path, monkeypatch):

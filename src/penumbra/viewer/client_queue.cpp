@@ -18,6 +18,9 @@ const ClientQueue::Message* ClientQueue::start_next() {
   } else if (state_) {  // before the frame: a frame after an edit shows the state the page should show
     in_flight_ = std::move(state_);
     state_.reset();
+  } else if (probe_) {
+    in_flight_ = std::move(probe_);
+    probe_.reset();
   } else if (frame_) {
     in_flight_ = Message{std::move(frame_->meta), false};
     jpeg_after_header_ = std::move(frame_->jpeg);
@@ -33,6 +36,7 @@ void ClientQueue::clear() {
   jpeg_after_header_.reset();
   errors_.clear();
   state_.reset();
+  probe_.reset();
   frame_.reset();
 }
 

@@ -1,8 +1,9 @@
 // What waits to be sent to one WebSocket client of the viewer, bounded whatever the client's pace.
 // A client that reads slowly, or not at all, must not make the server's memory grow: of the state and
 // of the frame only the latest waits (a newer one replaces the older, which nobody needs any more),
-// and of error replies at most kMaxErrors (the oldest are dropped). So at most one message in flight,
-// one state, one frame (header and JPEG) and kMaxErrors errors are held per client.
+// as of the answers to probes (the value under the pointer: only the latest pointer matters), and of
+// error replies at most kMaxErrors (the oldest are dropped). So at most one message in flight, one
+// state, one frame (header and JPEG), one probe answer and kMaxErrors errors are held per client.
 #pragma once
 
 #include <cstddef>
@@ -25,6 +26,7 @@ public:
   void push_state(Text state) { state_ = Message{std::move(state), false}; }
   void push_frame(Text meta, Text jpeg) { frame_ = Frame{std::move(meta), std::move(jpeg)}; }
   void push_error(Text error);
+  void push_probe(Text answer) { probe_ = Message{std::move(answer), false}; }
 
   // The message to write now, which stays in flight until written(); null when one is already in
   // flight or nothing waits. A frame's JPEG follows its header before anything else.
@@ -42,6 +44,7 @@ private:
   Text jpeg_after_header_;  // the JPEG of the frame whose header is in flight (or just went)
   std::deque<Message> errors_;
   std::optional<Message> state_;
+  std::optional<Message> probe_;
   std::optional<Frame> frame_;
 };
 

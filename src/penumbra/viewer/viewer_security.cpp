@@ -85,6 +85,19 @@ std::string checked_origin_option(const std::string& origin) {
   return o;
 }
 
+std::string checked_frame_ancestor(const std::string& source) {
+  const std::string o = lower(source);
+  const auto scheme_end = o.find("://");
+  const bool scheme_ok = scheme_end != std::string::npos && (o.compare(0, scheme_end, "http") == 0 || o.compare(0, scheme_end, "https") == 0);
+  const std::string authority = scheme_ok ? o.substr(scheme_end + 3) : "";
+  const bool chars_ok = !authority.empty() && std::all_of(authority.begin(), authority.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == ':' || c == '*' || c == '[' || c == ']';
+  });
+  if (!scheme_ok || !chars_ok)
+    throw Error("frame ancestor " + json_quoted(source) + ": expected http(s)://HOST[:PORT] or http(s)://HOST:* (e.g. http://localhost:*)");
+  return o;
+}
+
 bool host_allowed(std::string_view host_header, const Listener& listener) {
   const std::string authority = lower(host_header);
   for (const std::string& origin : listener.allowed_origins)

@@ -29,6 +29,9 @@ struct Listener {
 
 // Error unless `origin` is scheme://host[:port] with nothing after it; returns it lower-cased.
 std::string checked_origin_option(const std::string& origin);
+// Error unless `source` is a CSP frame-ancestors source of the form http(s)://HOST[:PORT|:*] (no
+// path, no separators that would end the policy); returns it lower-cased.
+std::string checked_frame_ancestor(const std::string& source);
 
 // A Host header names this server: an IP literal or "localhost" with our port (a name an attacker's
 // DNS can point at us, DNS rebinding, is neither), the machine's own name when bound to all

@@ -141,6 +141,7 @@ struct ViewerServer::Impl {
   ViewerOptions options;
   std::filesystem::path data_root;
   viewer_security::Listener listener;
+  std::string frame_ancestors;  // the CSP frame-ancestors value: the sources of options.frame_ancestors, or 'none'
   net::io_context ioc{1};
   tcp::acceptor acceptor{ioc};
   net::steady_timer accept_retry{ioc};
@@ -225,6 +226,12 @@ public:
         self->read_paused_ = false;
         self->read();
       }
+    });
+  }
+  void send_probe(Text text) {
+    net::post(ws_.get_executor(), [self = shared_from_this(), text] {
+      self->queue_.push_probe(text);
+      self->write_next();
     });
   }
   void send_frame(Text meta, Text jpeg) {
@@ -401,8 +408,9 @@ private:
     // other site may frame the page (clickjacking): frame-ancestors, and X-Frame-Options for browsers
     // without it
     res->set("Content-Security-Policy", "default-src 'none'; script-src 'self'" + (nonce.empty() ? std::string() : " 'nonce-" + nonce + "'") +
-                                            "; style-src 'self'; img-src 'self' blob: data:; connect-src 'self'; frame-ancestors 'none'");
-    res->set("X-Frame-Options", "DENY");
+                                            "; style-src 'self'; img-src 'self' blob: data:; connect-src 'self'; frame-ancestors " +
+                                            server_.frame_ancestors);
+    if (server_.options.frame_ancestors.empty()) res->set("X-Frame-Options", "DENY");  // it would overrule the sources
     if (!filename.empty()) res->set(http::field::content_disposition, "attachment; filename=\"" + filename + "\"");
     res->body() = body;
     res->keep_alive(keep && keep_alive_);
@@ -535,7 +543,7 @@ void ViewerServer::Impl::on_message(const std::shared_ptr<WsSession>& from, cons
       const auto [x, y] = probe_pixel(m);
       job.keeps_frame = true;
       job.task = [this, weak = std::weak_ptr<WsSession>(from), x, y] {
-        if (auto s = weak.lock()) s->send_text(std::make_shared<const std::string>(probe_message(engine.scene(), x, y).dump()));
+        if (auto s = weak.lock()) s->send_probe(std::make_shared<const std::string>(probe_message(engine.scene(), x, y).dump()));
       };
     }
     from->message_queued();
@@ -668,6 +676,9 @@ ViewerServer::ViewerServer(Engine engine, ViewerOptions options) : impl_(std::ma
   s.listener.host = s.options.host;
   s.listener.port = s.acceptor.local_endpoint().port();
   for (const std::string& origin : s.options.allow_origins) s.listener.allowed_origins.push_back(viewer_security::checked_origin_option(origin));
+  for (const std::string& source : s.options.frame_ancestors)
+    s.frame_ancestors += (s.frame_ancestors.empty() ? "" : " ") + viewer_security::checked_frame_ancestor(source);
+  if (s.frame_ancestors.empty()) s.frame_ancestors = "'none'";
   s.max_connections = connection_cap(s.options.max_connections);
   // what edits may name is checked before they reach the engine (check_files); the files those files
   // name (an NRRD header's data file, a DICOM folder's slices) are checked by the loaders

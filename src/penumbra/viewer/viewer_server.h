@@ -30,6 +30,9 @@ struct ViewerOptions {
   std::string token;               // empty: a random 128-bit token; else at least 16 characters
   std::string data_root;           // the only folder edits may name files in
   std::vector<std::string> allow_origins;  // other pages (http(s)://HOST:PORT) that may open the WebSocket
+  // The pages that may show the viewer in a frame, as CSP frame-ancestors sources (http://localhost:*);
+  // empty: none (X-Frame-Options DENY). Python's penumbra.view sets the local notebook servers.
+  std::vector<std::string> frame_ancestors;
   std::size_t max_message_bytes = 64 * 1024;
   std::size_t max_connections = 64;  // less where the descriptor limit (RLIMIT_NOFILE) leaves less room
   std::chrono::seconds stall_limit{30};  // a client whose socket takes no data this long is closed
