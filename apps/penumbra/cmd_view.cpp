@@ -1,5 +1,5 @@
 // `penumbra view (SCENE.json | DATA_FILE...) [--port P] [--host H] [--token T | --token-file PATH]
-//  [--allow-origin ORIGIN ...] [--data-root DIR] [--set key=value ...] [--raw-* ...]`: the viewer's
+//  [--allow-origin ORIGIN ...] [--stall-limit S] [--data-root DIR] [--set key=value ...] [--raw-* ...]`: the viewer's
 // server (viewer/viewer_server.h, docs/viewer.md). The first line on stdout is the URL to open, token
 // included.
 #include <cstdio>
@@ -21,6 +21,7 @@ struct ViewOptions {
   InputOptions in;
   ViewerOptions server;
   int port = 0;
+  int stall_limit_s = 30;
   std::string token_file;
 };
 
@@ -43,6 +44,7 @@ std::string chosen_token(const ViewOptions& o) {
 void run_view(const ViewOptions& o) {
   ViewerOptions options = o.server;
   options.port = static_cast<std::uint16_t>(o.port);
+  options.stall_limit = std::chrono::seconds(o.stall_limit_s);
   options.token = chosen_token(o);
   if (options.data_root.empty())  // the scene's or the first data file's folder
     options.data_root = std::filesystem::absolute(o.in.inputs.front()).parent_path().string();
@@ -69,6 +71,8 @@ void add_view_command(CLI::App& app) {
   cmd->add_option("--token-file", o->token_file, "File whose first line is the token (keeps it out of ps)")->excludes(token);
   cmd->add_option("--allow-origin", o->server.allow_origins, "Another page's origin (http(s)://HOST:PORT) that may open the viewer's WebSocket and name it in Host; repeatable")
       ->allow_extra_args(false);  // one origin an occurrence: the inputs that follow stay inputs
+  cmd->add_option("--stall-limit", o->stall_limit_s, "Seconds a client may leave the server's messages unread (its socket full) before it is closed")
+      ->check(CLI::Range(1, 3600));
   cmd->add_option("--data-root", o->server.data_root, "The only folder edits may name files in (default: the scene's or first data file's folder)");
   cmd->callback([o] { run_view(*o); });
 }

@@ -165,6 +165,62 @@ def test_a_client_that_stops_reading_costs_bounded_memory(viewer):
     assert serves_a_good_client(viewer)
 
 
+def open_sockets(pid):
+    return sum(1 for fd in pathlib.Path(f"/proc/{pid}/fd").iterdir() if os.readlink(fd).startswith("socket:"))
+
+
+def test_a_client_that_stops_reading_is_closed_after_the_stall_limit(tmp_path):
+    v = Viewer(tmp_path, SCENE, "--stall-limit", "2")
+    try:
+        stalled = v.connect()  # connected, and never reads
+        stalled.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        editor = v.connect()
+        receive(editor, "state")
+        with_both = open_sockets(v.process.pid)
+        for step in range(300):  # states of ~50 KB fill the stalled socket's buffers
+            editor.send(json.dumps({"type": "edit", "set": {"volumes.0.transfer_function": large_transfer_function(step)}}))
+        editor.send(json.dumps({"type": "edit", "set": {"camera.fov_deg": 41}}))
+        while receive(editor, "state")["document"]["camera"].get("fov_deg") != 41:
+            pass
+        # the server lets the stalled client go 2 s after its write stalled (a 20 s guard: the default is 30)
+        end = time.time() + 20
+        while open_sockets(v.process.pid) != with_both - 1 and time.time() < end:
+            time.sleep(0.1)
+        assert open_sockets(v.process.pid) == with_both - 1, "the server kept a client that read nothing for longer than --stall-limit"
+        # the editor and new clients are served on
+        editor.send(json.dumps({"type": "edit", "set": {"camera.fov_deg": 33}}))
+        while receive(editor, "state")["document"]["camera"].get("fov_deg") != 33:
+            pass
+        editor.close()
+        stalled.sock.close()
+        assert serves_a_good_client(v)
+    finally:
+        assert v.close() == 0
+
+
+def test_a_client_whose_reading_is_paused_is_kept_until_its_messages_are_applied(viewer):
+    # A client that sends faster than the render thread applies has its reading paused (at most a few
+    # of its messages wait) and nothing in flight once it has read what came: it must be kept, and read
+    # on, not dropped. Bursts of edits and of probes (a probe is a message as an edit is), each ended
+    # by a marker that must come back.
+    ws = viewer.connect()
+    receive(ws, "state")
+    for burst in range(6):
+        for step in range(40):
+            if burst % 2:
+                ws.send(json.dumps({"type": "probe", "pixel": [1 + step, 2 + step]}))
+            else:
+                ws.send(json.dumps({"type": "edit", "set": {"camera.fov_deg": 30 + step / 10}}))
+        marker = 50 + burst
+        ws.send(json.dumps({"type": "edit", "set": {"camera.fov_deg": marker}}))
+        while receive(ws, "state")["document"]["camera"].get("fov_deg") != marker:
+            pass
+    ws.send(json.dumps({"type": "probe", "pixel": [3, 4]}))
+    assert "hit" in receive(ws, "probe")
+    ws.close()
+    assert serves_a_good_client(viewer)
+
+
 def cpu_seconds(pid):
     fields = pathlib.Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime + stime

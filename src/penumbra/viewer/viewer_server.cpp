@@ -131,7 +131,10 @@ class HttpSession;
 
 struct ViewerServer::Impl {
   struct Job {
-    std::weak_ptr<WsSession> from;
+    // The client whose message this is. Held, not watched: a client whose reading is paused (it has
+    // kMaxQueuedMessages waiting here) and that has nothing in flight is kept alive by its jobs alone,
+    // until message_applied() lets it read on.
+    std::shared_ptr<WsSession> from;
     std::vector<std::pair<std::string, nlohmann::json>> edits;
     std::function<void()> task;  // a request that needs the engine (screenshot, saved scene)
     bool keeps_frame = false;    // a task that changes nothing drawn (a probe): refining goes on
@@ -615,16 +618,15 @@ void ViewerServer::Impl::render_loop() {
           need_full = true;  // a screenshot renders sample 0 again
           samples = 0;
         }
-        continue;
+      } else {
+        try {
+          engine.edit(job.edits);
+          edited = true;
+        } catch (const std::exception& e) {
+          if (job.from) job.from->send_error(client_error(e.what()));
+        }
       }
-      auto from = job.from.lock();
-      try {
-        engine.edit(job.edits);
-        edited = true;
-      } catch (const std::exception& e) {
-        if (from) from->send_error(client_error(e.what()));
-      }
-      if (from) from->message_applied();
+      if (job.from) job.from->message_applied();  // a probe counts as a message as an edit does
     }
     if (edited) {
       broadcast_state();
@@ -727,6 +729,7 @@ void ViewerServer::run() {
   s.cancel = true;
   s.wake.notify_all();
   renderer.join();
+  s.jobs.clear();  // the clients they hold go while the event loop they belong to still exists
 }
 
 void ViewerServer::stop() {
