@@ -177,16 +177,18 @@ def test_a_client_that_stops_reading_is_closed_after_the_stall_limit(tmp_path):
         editor = v.connect()
         receive(editor, "state")
         with_both = open_sockets(v.process.pid)
-        for step in range(300):  # states of ~50 KB fill the stalled socket's buffers
-            editor.send(json.dumps({"type": "edit", "set": {"volumes.0.transfer_function": large_transfer_function(step)}}))
-        editor.send(json.dumps({"type": "edit", "set": {"camera.fov_deg": 41}}))
-        while receive(editor, "state")["document"]["camera"].get("fov_deg") != 41:
-            pass
-        # the server lets the stalled client go 2 s after its write stalled (a 20 s guard: the default is 30)
-        end = time.time() + 20
-        while open_sockets(v.process.pid) != with_both - 1 and time.time() < end:
-            time.sleep(0.1)
-        assert open_sockets(v.process.pid) == with_both - 1, "the server kept a client that read nothing for longer than --stall-limit"
+        # states of ~50 KB fill the stalled socket's buffers, and 2 s after its write stalled the server
+        # lets it go; the editor reads each answer before it edits again (an editor that left its own
+        # answers unread for 2 s would be closed as well). Guards: 2000 edits, 20 s (the default limit is 30).
+        began = time.time()
+        step = 0
+        while open_sockets(v.process.pid) == with_both and step < 2000 and time.time() - began < 20:
+            marker = 30 + step / 1000
+            editor.send(json.dumps({"type": "edit", "set": {"volumes.0.transfer_function": large_transfer_function(step), "camera.fov_deg": marker}}))
+            while receive(editor, "state")["document"]["camera"].get("fov_deg") != marker:
+                pass
+            step += 1
+        assert open_sockets(v.process.pid) == with_both - 1, f"the server kept a client that read nothing for {time.time() - began:.0f} s (--stall-limit 2)"
         # the editor and new clients are served on
         editor.send(json.dumps({"type": "edit", "set": {"camera.fov_deg": 33}}))
         while receive(editor, "state")["document"]["camera"].get("fov_deg") != 33:
