@@ -78,6 +78,16 @@ private:
 
 // True when the image is not blank: at least two clearly different pixel colours (max channel
 // difference > 0.02, five 8-bit steps) and some pixel brighter than 0.02.
+// The largest difference of any channel of any pixel.
+inline double max_difference(const Image& a, const Image& b) {
+  double d = 0;
+  for (std::size_t i = 0; i < a.pixels().size(); ++i) {
+    const Rgb e = a.pixels()[i] - b.pixels()[i];
+    d = std::max({d, double(std::abs(e.r)), double(std::abs(e.g)), double(std::abs(e.b))});
+  }
+  return d;
+}
+
 inline bool non_trivial(const Image& img) {
   if (img.pixels().empty()) return false;
   const Rgb first = img.pixels().front();

@@ -106,15 +106,6 @@ Image render_with(const json& j, std::shared_ptr<Volume> volume) {
   return Renderer(build_scene(j, "", options)).render().image;
 }
 
-double max_difference(const Image& a, const Image& b) {
-  double d = 0;
-  for (std::size_t i = 0; i < a.pixels().size(); ++i) {
-    const Rgb e = a.pixels()[i] - b.pixels()[i];
-    d = std::max({d, double(std::abs(e.r)), double(std::abs(e.g)), double(std::abs(e.b))});
-  }
-  return d;
-}
-
 struct Technique {
   const char* name;
   json shadows, ambient;

@@ -674,3 +674,117 @@ TEST(ParticleIoData, BFactorColoringOf1tii) {
   EXPECT_TRUE(blue);
   EXPECT_TRUE(red);
 }
+
+// The colour key: per colour, the names it stands for and the spheres that have it, most first.
+const ColorKey::Entry* key_entry(const ColorKey& key, const std::string& label) {
+  for (const auto& e : key.entries)
+    if (e.label == label) return &e;
+  return nullptr;
+}
+
+TEST(ParticleColorKey, NamesAndCountsOfEveryColouring) {
+  TempDir dir;
+  const std::string gro = dir.file("small.gro");
+  write_file(gro, small_gro());
+  const ParticleSet by_element = load_particle_file(gro);
+  EXPECT_EQ(by_element.color_key.by, "element");
+  std::size_t total = 0;
+  for (const auto& e : by_element.color_key.entries) total += e.count;
+  EXPECT_EQ(total, by_element.size());
+  const ColorKey::Entry* sodium = key_entry(by_element.color_key, "Na");
+  ASSERT_NE(sodium, nullptr);
+  EXPECT_EQ(sodium->count, 1u);
+  EXPECT_EQ(sodium->color, pack_rgba8(element_color(11)));
+  // every entry's colour is the colour of the spheres it counts
+  for (const auto& e : by_element.color_key.entries)
+    EXPECT_EQ(static_cast<std::size_t>(std::count(by_element.colors.begin(), by_element.colors.end(), e.color)), e.count) << e.label;
+  for (std::size_t i = 1; i < by_element.color_key.entries.size(); ++i)
+    EXPECT_GE(by_element.color_key.entries[i - 1].count, by_element.color_key.entries[i].count);
+
+  // residues: ALA has its colour; SOL, NA and CL share the grey of every other residue
+  ParticleLoadOptions o;
+  o.coloring = ParticleColoring::Residue;
+  const ParticleSet by_residue = load_particle_file(gro, o);
+  ASSERT_EQ(by_residue.color_key.entries.size(), 2u);
+  EXPECT_EQ(by_residue.color_key.entries[0].label, "SOL, CL, NA");  // 4 spheres: names by count, then by name
+  EXPECT_EQ(by_residue.color_key.entries[0].count, 4u);
+  EXPECT_EQ(by_residue.color_key.entries[0].color, pack_rgba8(residue_color(kOtherResidue)));
+  EXPECT_EQ(by_residue.color_key.entries[1].label, "ALA");
+  EXPECT_EQ(by_residue.color_key.entries[1].count, 3u);
+
+  // chains, and an assembly's copies counted as often as they are drawn
+  const std::string pdb = dir.file("small.pdb");
+  write_file(pdb, small_pdb());
+  o.coloring = ParticleColoring::Chain;
+  const ParticleSet by_chain = load_particle_file(pdb, o);
+  ASSERT_NE(key_entry(by_chain.color_key, "A"), nullptr);
+  EXPECT_EQ(key_entry(by_chain.color_key, "A")->count, 4u);
+  EXPECT_EQ(key_entry(by_chain.color_key, "B")->count, 1u);
+  o.assembly = 1;  // chain A twice
+  const ParticleSet assembly = load_particle_file(pdb, o);
+  ASSERT_EQ(assembly.color_key.entries.size(), 1u);
+  EXPECT_EQ(assembly.color_key.entries[0].count, 8u);
+
+  // one colour; and a scalar colouring: its quantity, range and the map sampled from lo to hi
+  o = {};
+  o.coloring = ParticleColoring::Uniform;
+  const ParticleSet uniform = load_particle_file(pdb, o);
+  ASSERT_EQ(uniform.color_key.entries.size(), 1u);
+  EXPECT_EQ(uniform.color_key.entries[0].count, 5u);
+  o.coloring = ParticleColoring::Scalar;
+  o.scalar = ParticleScalar::Index;
+  o.color_map = [](float lo, float hi) { return TransferFunction({{lo, Rgb(0.0f), 1}, {hi, Rgb(1.0f), 1}}); };
+  const ParticleSet scalar = load_particle_file(pdb, o);
+  EXPECT_EQ(scalar.color_key.quantity, "index");
+  EXPECT_EQ(scalar.color_key.lo, 0.0f);
+  EXPECT_EQ(scalar.color_key.hi, 4.0f);
+  ASSERT_EQ(scalar.color_key.ramp.size(), ColorKey::kRampSize);
+  EXPECT_EQ(scalar.color_key.ramp.front(), pack_rgba8(Rgb(0.0f)));
+  EXPECT_EQ(scalar.color_key.ramp.back(), pack_rgba8(Rgb(1.0f)));
+  EXPECT_TRUE(scalar.color_key.entries.empty());
+}
+
+TEST(ParticleColorKey, RecountKeepsTheColoursPickedAndDropsTheOthers) {
+  ColorKey key = categorical_color_key("chain", {1, 1, 2, 3, 3, 3}, [](std::size_t k) { return k < 2 ? 0u : k < 3 ? 1u : 2u; },
+                                       [](std::uint32_t id) { return std::string(1, static_cast<char>('A' + id)); });
+  ASSERT_EQ(key.entries.size(), 3u);
+  EXPECT_EQ(key.entries[0].label, "C");
+  recount(key, {1, 2, 2, 7});  // 7: a colour the key does not know, not counted
+  ASSERT_EQ(key.entries.size(), 2u);
+  EXPECT_EQ(key.entries[0].label, "B");
+  EXPECT_EQ(key.entries[0].count, 2u);
+  EXPECT_EQ(key.entries[1].label, "A");
+  // names beyond four are counted, not listed
+  const ColorKey many = categorical_color_key("residue", {5, 5, 5, 5, 5, 5}, [](std::size_t k) { return static_cast<std::uint32_t>(k); },
+                                              [](std::uint32_t id) { return "R" + std::to_string(id); });
+  ASSERT_EQ(many.entries.size(), 1u);
+  EXPECT_EQ(many.entries[0].label, "R0, R1, R2, R3, +2 more");
+}
+
+// The periodic cell a file stores, as cell vectors (MDAnalysis's triclinic_vectors): the GRO box line
+// (nm → Å), a PDB CRYST1; none for a placeholder 1 Å cell or a file without one; an assembly has none.
+TEST(ParticleColorKey, PeriodicCellOfTheFile) {
+  TempDir dir;
+  const std::string gro = dir.file("small.gro");
+  write_file(gro, small_gro());
+  const ParticleSet set = load_particle_file(gro);
+  ASSERT_TRUE(set.box.has_value());
+  EXPECT_NEAR(set.box->a.x, 30.0f, 1e-4f);
+  EXPECT_NEAR(set.box->b.y, 30.0f, 1e-4f);
+  EXPECT_NEAR(set.box->c.z, 30.0f, 1e-4f);
+  EXPECT_NEAR(length(set.box->a - Vec3{30, 0, 0}) + length(set.box->origin), 0.0f, 1e-4f);
+
+  const std::string pdb = dir.file("cell.pdb");
+  write_file(pdb, "CRYST1   40.000   50.000   60.000  90.00 120.00  90.00 P 1           1\n" + small_pdb());
+  const ParticleSet crystal = load_particle_file(pdb);
+  ASSERT_TRUE(crystal.box.has_value());
+  EXPECT_NEAR(length(crystal.box->a), 40.0f, 1e-3f);
+  EXPECT_NEAR(length(crystal.box->b), 50.0f, 1e-3f);
+  EXPECT_NEAR(length(crystal.box->c), 60.0f, 1e-3f);
+  EXPECT_NEAR(dot(crystal.box->a, crystal.box->c) / (40.0f * 60.0f), std::cos(120.0f * 3.14159265f / 180.0f), 1e-4f);  // beta
+  EXPECT_FALSE(load_particle_file(pdb, with_assembly(1)).box.has_value());
+  write_file(pdb, "CRYST1    1.000    1.000    1.000  90.00  90.00  90.00 P 1           1\n" + small_pdb());
+  EXPECT_FALSE(load_particle_file(pdb).box.has_value());
+  write_file(pdb, small_pdb());
+  EXPECT_FALSE(load_particle_file(pdb).box.has_value());
+}

@@ -10,13 +10,16 @@
 #include "penumbra/data/selection/atom_topology.h"
 #include "penumbra/data/selection/name_pattern.h"
 #include "penumbra/data/selection/selection.h"
+#include "penumbra/render/renderer.h"
 #include "penumbra/scene_io/scene_file.h"
+#include "image_check.h"
 #include "shared_data.h"
 
 namespace penumbra {
 namespace {
 
 using test::error_message;
+using test::max_difference;
 using Indices = std::vector<std::uint32_t>;
 
 // Six atoms on the x axis, 1 Å apart: residue 1 ALA (N CA C), residue 2 SOL (OW HW1), residue 3 NA (NA).
@@ -241,6 +244,44 @@ TEST(Selection, ProceduralSpheresTakeAUniformColour) {
   for (const std::uint32_t c : s.particles[0].set->colors) EXPECT_EQ(c, pack_rgba8(Rgb{1, 0, 0}));
   j["particles"][0]["color_by"] = "hue";
   EXPECT_EQ(error_message([&] { build_scene(j, ""); }), "particles.0.color: is used only with \"color_by\": \"uniform\"");
+}
+
+// particles[].visible: a hidden set is neither drawn nor a caster of shadows or occlusion: the frame is
+// the frame without it, in every sphere technique; shown, it changes the frame.
+TEST(ParticleVisibility, AHiddenSetIsNeitherDrawnNorACaster) {
+  auto scene = [](bool with_upper, const nlohmann::json& upper_extra, const nlohmann::json& shadows, const std::string& ambient) {
+    nlohmann::json j;
+    j["camera"] = {{"eye", {0, 1.2, 2.6}}, {"target", {0, 0, 0}}, {"width", 64}, {"height", 48}};
+    j["lights"] = {{{"type", "directional"}, {"direction", {-0.2, -1, -0.1}}}};
+    j["planes"] = {{{"point", {0, -0.6, 0}}, {"normal", {0, 1, 0}}, {"size", 4}}};
+    j["particles"] = {{{"procedural", {{"name", "random-spheres"}, {"count", 40}, {"radius", 0.06}, {"seed", 1}}},
+                       {"color_by", "uniform"}, {"color", {0.9, 0.2, 0.2}}}};
+    if (with_upper) {
+      nlohmann::json upper = {{"procedural", {{"name", "random-spheres"}, {"count", 40}, {"radius", 0.08}, {"seed", 2}}},
+                              {"color_by", "uniform"}, {"color", {0.2, 0.3, 0.9}}, {"origin", {0, 0.7, 0}}};
+      upper.update(upper_extra);
+      j["particles"].push_back(upper);
+    }
+    j["shadows"] = shadows;
+    j["ambient"] = {{"technique", ambient}};
+    return Renderer(build_scene(j, "")).render().image;
+  };
+  for (const std::string shadows : {"issm", "ray_traced"})
+    for (const std::string ambient : {"none", "particle_ao"}) {
+      SCOPED_TRACE(shadows + " + " + ambient);
+      const nlohmann::json technique = {{"technique", shadows}};
+      const Image without = scene(false, {}, technique, ambient);
+      EXPECT_EQ(max_difference(scene(true, {{"visible", false}}, technique, ambient), without), 0.0);
+      EXPECT_GT(max_difference(scene(true, {{"visible", true}}, technique, ambient), without), 0.05);
+    }
+  nlohmann::json j;
+  j["particles"] = {{{"procedural", {{"name", "random-spheres"}, {"count", 4}}}, {"visible", false}, {"casts_shadows", true}}};
+  EXPECT_EQ(error_message([&] { build_scene(j, ""); }),
+            "particles.0.casts_shadows: the particle set is not visible ('visible': false): it neither casts nor receives shadows");
+  j["particles"][0].erase("casts_shadows");
+  const Scene hidden = build_scene(j, "");
+  EXPECT_FALSE(hidden.has_particles());
+  EXPECT_EQ(hidden.particles.at(0).set->size(), 4u);  // read, kept, not drawn
 }
 
 }  // namespace

@@ -79,10 +79,11 @@ nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const 
     if (mesh_bytes) j["memory_bytes"]["mesh"] = mesh_bytes;
   }
   if (scene.has_particles()) {
-    // per particle set: the spheres drawn, and the atoms its `select` kept (null without one)
+    // per particle set: the spheres drawn (none for a hidden set), and the atoms its `select` kept (null
+    // without one)
     j["particles"] = nlohmann::json::array();
     for (const ParticleObject& p : scene.particles)
-      j["particles"].push_back({{"source", p.source}, {"spheres", p.set->size()},
+      j["particles"].push_back({{"source", p.source}, {"spheres", p.visible ? p.set->size() : 0}, {"visible", p.visible},
                                 {"selected", p.selected_atoms ? nlohmann::json(*p.selected_atoms) : nlohmann::json(nullptr)}});
     j["sphere_renderer"] = to_string(scene.sphere_rasterizer);
     j["issm_rings"] = first.issm_rings;

@@ -351,3 +351,57 @@ def test_a_particle_sets_colour_by_choice_reaches_the_scene_and_the_image(tmp_pa
         if driver:
             driver.quit()
         assert server.close() == 0
+
+
+def test_a_molecules_legend_its_periodic_cell_and_its_visibility_box(tmp_path):
+    # a GRO file: 3 atoms of ALA, 2 of water, one sodium; a 2 nm cubic box
+    (tmp_path / "small.gro").write_text(
+        "small\n6\n    1ALA      N    1   0.500   0.500   0.500\n    1ALA     CA    2   0.650   0.500   0.500\n"
+        "    1ALA      C    3   0.800   0.500   0.500\n    2SOL     OW    4   1.200   1.200   1.200\n"
+        "    3SOL     OW    5   1.400   1.200   1.200\n    4NA      NA    6   1.500   0.600   1.500\n   2.00000   2.00000   2.00000\n")
+    server = Viewer(tmp_path, {"particles": [{"file": "small.gro"}], "camera": {"width": 96, "height": 72}})
+    driver = None
+    try:
+        driver = chrome()
+        driver.get(server.url)
+        wait_loaded(driver)
+        legend = driver.find_element(By.ID, "legend")
+        wait(driver, lambda d: legend.is_displayed() and "by element" in legend.text, "no legend for the molecule")
+        entries = {e.find_element(By.CSS_SELECTOR, ".label").text: int(e.find_element(By.CSS_SELECTOR, ".count").text)
+                   for e in legend.find_elements(By.CSS_SELECTOR, ".particle-key .entry")}
+        assert entries == {"O": 2, "C": 2, "N": 1, "Na": 1}, entries
+        # the swatch is the colour the spheres are drawn in: oxygen red (Jmol CPK)
+        oxygen = next(e for e in legend.find_elements(By.CSS_SELECTOR, ".particle-key .entry") if e.text.startswith("O"))
+        rgb = driver.execute_script("return getComputedStyle(arguments[0]).backgroundColor", oxygen.find_element(By.CSS_SELECTOR, ".swatch"))
+        channels = [int(c) for c in rgb[rgb.index("(") + 1:rgb.index(")")].split(",")]
+        assert all(abs(c - e) <= 2 for c, e in zip(channels, (255, 13, 13))), rgb
+        # by residue: every non-standard residue shares the grey, and says which
+        from selenium.webdriver.support.ui import Select
+        Select(driver.find_element(By.CSS_SELECTOR, "select.color-by")).select_by_value("residue")
+        wait(driver, lambda d: "by residue" in legend.text, "the legend did not follow color_by")
+        labels = [e.find_element(By.CSS_SELECTOR, ".label").text for e in legend.find_elements(By.CSS_SELECTOR, ".particle-key .entry")]
+        assert labels == ["ALA", "SOL, NA"], labels
+        # the periodic cell: 20 Å along each axis from the origin, drawn with the data's box
+        box = js(driver, STATE + ".particles[0].box")
+        for key, expected in (("a", [20, 0, 0]), ("b", [0, 20, 0]), ("c", [0, 0, 20]), ("origin", [0, 0, 0])):
+            assert box[key] == pytest.approx(expected, abs=1e-5), box
+        assert painted(driver, "outline") == 0
+        driver.find_element(By.ID, "outline-toggle").click()
+        wait(driver, lambda d: painted(d, "outline") > 100, "neither the box nor the cell was drawn")
+        cell_blue = driver.execute_script(
+            "const c = document.getElementById('outline'); const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;"
+            "let n = 0; for (let i = 0; i < d.length; i += 4) n += d[i + 3] > 0 && d[i + 2] > d[i] + 60; return n")
+        assert cell_blue > 50, "the periodic cell is not drawn"
+        # the set's visibility box: hidden, nothing is drawn of it and its legend goes
+        frames = js(driver, "window.penumbraViewer.frames")
+        visible = next(l for l in driver.find_elements(By.CSS_SELECTOR, "#objects label") if l.text == "visible")
+        visible.click()
+        wait(driver, lambda d: js(d, STATE + ".document.particles[0].visible") is False, "visible did not reach the scene")
+        wait(driver, lambda d: js(d, STATE + ".particles[0].spheres") == 0, "a hidden set still has spheres drawn")
+        wait(driver, lambda d: js(d, "window.penumbraViewer.frames") > frames, "no frame after hiding")
+        assert legend.find_elements(By.CSS_SELECTOR, ".particle-key") == []
+        assert console_errors(driver) == []
+    finally:
+        if driver:
+            driver.quit()
+        assert server.close() == 0

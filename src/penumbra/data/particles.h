@@ -5,12 +5,14 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "penumbra/core/clip_planes.h"
 #include "penumbra/core/color.h"
 #include "penumbra/core/math.h"
+#include "penumbra/data/color_key.h"
 
 namespace penumbra {
 
@@ -43,6 +45,8 @@ struct ParticleSet {
   // removed, or the mask of `clip_planes` that cut it (geometry/cut_sphere.h intersects it).
   std::vector<SphereClip> clip_state;
   ClipPlanes clip_planes;
+  ColorKey color_key;               // what the colours mean (loaders fill it; empty for arrays)
+  std::optional<PeriodicBox> box;   // the periodic cell the file stores (a trajectory: this frame's)
   SphereClip clip_of(std::size_t i) const { return clip_state.empty() ? kSphereWhole : clip_state[i]; }
 
   std::size_t size() const { return spheres.size(); }

@@ -55,7 +55,7 @@ Scene with_spheres(const Scene& scene, Keep&& keep, std::size_t& count) {
 void check_spheres_split(const Scene& scene, int ranks) {
   if (const std::string problem = technique_problem(scene); !problem.empty()) throw Error(problem);
   std::size_t count = 0;
-  for (const ParticleObject& p : scene.particles) count += p.set ? p.set->size() : 0;
+  for (const ParticleObject& p : scene.particles) count += p.visible && p.set ? p.set->size() : 0;
   if (static_cast<std::size_t>(ranks) > count)
     throw Error(std::to_string(ranks) + " ranks for " + std::to_string(count) + " spheres (expected 1 to " + std::to_string(count) +
                 " ranks: each holds at least one sphere)");
@@ -64,7 +64,7 @@ void check_spheres_split(const Scene& scene, int ranks) {
 std::string why_spheres_whole(const Scene& scene) {
   if (const std::string problem = technique_problem(scene); !problem.empty()) return problem;
   bool casting = false;
-  for (const ParticleObject& p : scene.particles) casting = casting || p.casts_shadows;
+  for (const ParticleObject& p : scene.particles) casting = casting || (p.visible && p.casts_shadows);
   if (casting && needs_extinction_sat(scene)) return "the extinction SAT takes the casting spheres whole";
   return "";
 }

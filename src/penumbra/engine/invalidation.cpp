@@ -98,6 +98,7 @@ const std::vector<InvalidationRule>& invalidation_table() {
       {"particles.#.scalar", {"spheres.colors"}, "colours only"},
       {"particles.#.color_map", {"spheres.colors"}, "colours only"},
       {"particles.#.casts_shadows", {"spheres"}, "the casting spheres come first in the set"},
+      {"particles.#.visible", {"spheres"}, "the set joins or leaves the drawn spheres (the file stays read)"},
       {"particles.#.clip", {"spheres.clip"}, "which spheres are cut or removed, and what hangs off them"},
       {"particles.#.receives_shadows", {}, "which surfaces ask for shadows"},
       {"isosurfaces", {kScene}, "isosurfaces added or removed: a new scene"},

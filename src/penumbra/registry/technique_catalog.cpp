@@ -85,7 +85,7 @@ KindMask casting_kinds(const Scene& s) {
   for (const auto& v : s.volumes)
     if (v.visible && v.casts_shadows) k |= kVolumes;
   for (const auto& p : s.particles)
-    if (p.casts_shadows) k |= kSpheres;
+    if (p.visible && p.casts_shadows) k |= kSpheres;
   for (const auto& i : s.isosurfaces)
     if (i.casts_shadows) k |= kIsosurfaces;
   for (const auto& p : s.planes)
@@ -98,7 +98,7 @@ KindMask receiving_kinds(const Scene& s) {
   for (const auto& v : s.volumes)
     if (v.visible && v.receives_shadows) k |= kVolumes;
   for (const auto& p : s.particles)
-    if (p.receives_shadows) k |= kSpheres;
+    if (p.visible && p.receives_shadows) k |= kSpheres;
   for (const auto& i : s.isosurfaces)
     if (i.receives_shadows) k |= kIsosurfaces;
   for (const auto& p : s.planes)
@@ -143,7 +143,7 @@ KindMask ambient_occluders(const Scene& s) {
   KindMask present = 0;
   for (const auto& v : s.volumes)
     if (v.visible) present |= kVolumes;
-  if (!s.particles.empty()) present |= kSpheres;
+  if (s.has_particles()) present |= kSpheres;
   if (!s.isosurfaces.empty()) present |= kIsosurfaces;
   if (!s.planes.empty()) present |= kind_bit(ObjectKind::Plane);
   return t->casters & present;
@@ -166,7 +166,7 @@ bool needs_extinction_colour(const Scene& scene) {
 }
 
 bool needs_sphere_bvh(const Scene& scene) {
-  if (scene.particles.empty()) return false;
+  if (!scene.has_particles()) return false;
   if (scene.sphere_rasterizer == SphereRasterizer::Embree) return true;
   for (const auto& a : shadow_assignments(scene)) {
     const TechniqueInfo* t = find_technique(TechniqueFamily::Shadow, a.technique);

@@ -183,15 +183,16 @@ void Renderer::prepare_particles(FrameResult& frame) {
     for (const char* what : {"spheres", "spheres.colors", "spheres.clip", "bvh"}) stale_.erase(what);
     return;
   }
-  // casting objects first, so that the casting spheres are a prefix with the same indices
+  // casting objects first, so that the casting spheres are a prefix with the same indices; hidden
+  // sets (particles[].visible) are left out
   std::vector<std::uint32_t> order;
   for (int pass = 0; pass < 2; ++pass)
     for (std::size_t i = 0; i < scene_.particles.size(); ++i)
-      if (scene_.particles[i].casts_shadows == (pass == 0)) order.push_back(static_cast<std::uint32_t>(i));
+      if (scene_.particles[i].visible && scene_.particles[i].casts_shadows == (pass == 0)) order.push_back(static_cast<std::uint32_t>(i));
   if (stale("spheres") || !particles_) {
     std::size_t casting = 0;
     for (const auto& p : scene_.particles)
-      if (p.casts_shadows) casting += p.set->size();
+      if (p.visible && p.casts_shadows) casting += p.set->size();
     auto merged = std::make_shared<ParticleSet>();  // one set, so that every sphere shadows every other
     for (std::uint32_t i : order) {
       const ParticleSet& s = *scene_.particles[i].set;

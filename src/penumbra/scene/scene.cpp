@@ -68,7 +68,8 @@ Box3 Scene::caster_bounds() const {
   for (const auto& v : volumes)
     if (v.visible) b.extend(v.volume->bounds());
   for (const auto& i : isosurfaces) b.extend(volumes[i.volume].volume->bounds());
-  for (const auto& p : particles) b.extend(p.topology_bounds.empty() ? p.set->bounds() : p.topology_bounds);
+  for (const auto& p : particles)
+    if (p.visible) b.extend(p.topology_bounds.empty() ? p.set->bounds() : p.topology_bounds);
   // Planes join only when there is no volume: a light frustum fitted to the volumes already covers
   // every receiver the volumes can shadow (their shadow lies inside the frustum), and a large floor
   // would spread the shadow map's texels thin.

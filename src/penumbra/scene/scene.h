@@ -84,6 +84,9 @@ struct ParticleObject : ShadowFlags {
   // particles[].select: the atoms of the file it kept (at this frame for a trajectory), before
   // hydrogens are dropped and an assembly is built; none without a selection.
   std::optional<std::size_t> selected_atoms;
+  // particles[].visible: a hidden set is read (its counts, colour key and cell stay known) but neither
+  // drawn nor a caster or receiver of shadows or occlusion, as a hidden volume.
+  bool visible = true;
 };
 
 // How an isosurface is drawn (paper 002): view-dependent points, the exact ray-cast reference, or the
@@ -222,7 +225,11 @@ struct Scene {
   const VolumeObject* visible_volume() const;
   // The clip planes that cut an object with this `clip` flag (none when false).
   const ClipPlanes& clip_planes_for(bool clip) const;
-  bool has_particles() const { return !particles.empty(); }
+  bool has_particles() const {  // a visible particle set
+    for (const auto& p : particles)
+      if (p.visible) return true;
+    return false;
+  }
   bool has_isosurfaces() const { return !isosurfaces.empty(); }
 };
 

@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "penumbra/data/io/particle_io.h"
+#include "penumbra/data/selection/periodic_cell.h"
 
 namespace penumbra::scene_sections {
 namespace {
@@ -15,6 +16,15 @@ std::shared_ptr<const AtomSelection> read_selection(JsonReader& r) {
   if (!r.has("select")) return nullptr;
   const std::string text = r.required_string("select");
   return with_context(r.key_path("select"), [&] { return parse_selection(text); });
+}
+
+// particles[].visible and the shadow flags: a hidden set takes no shadow flags, as a hidden volume.
+void read_particle_flags(JsonReader& r, ParticleObject& p) {
+  p.visible = r.boolean("visible", true);
+  if (!p.visible)
+    for (const char* key : {"casts_shadows", "receives_shadows"})
+      if (r.has(key)) r.fail(key, "the particle set is not visible ('visible': false): it neither casts nor receives shadows");
+  read_shadow_flags(r, p);
 }
 
 // The file read once per cache (every particle set naming it shares the reading).
@@ -33,14 +43,14 @@ ParticleObject read_static_particles(const nlohmann::json& j, const std::string&
     p.source = "array:" + r.required_string("array");
     const auto framing = options.arrays->particle_framing.find(r.required_string("array"));
     if (framing != options.arrays->particle_framing.end()) p.topology_bounds = framing->second;
-    read_shadow_flags(r, p);
+    read_particle_flags(r, p);
     r.finish();
     return p;
   }
   if (options.cache && j.is_object()) {  // everything but the shadow flags defines the spheres and their colours
     JsonReader r(j, path);
     ParticleObject p;
-    const std::string key = data_key(j, base_dir, {"casts_shadows", "receives_shadows", "clip"}, true);
+    const std::string key = data_key(j, base_dir, {"casts_shadows", "receives_shadows", "clip", "visible"}, true);
     std::optional<std::size_t>& selected = options.cache->selected_atoms(key);
     p.set = options.cache->particles(key, [&] {
       ParticleObject built = read_static_particles(j, path, base_dir, SceneReadOptions{}, files);
@@ -49,7 +59,7 @@ ParticleObject read_static_particles(const nlohmann::json& j, const std::string&
     });
     p.selected_atoms = selected;
     p.source = r.has("file") ? resolve(base_dir, r.required_string("file")) : "procedural:random-spheres";
-    read_shadow_flags(r, p);
+    read_particle_flags(r, p);
     return p;
   }
   JsonReader r(j, path);
@@ -114,7 +124,11 @@ ParticleObject read_static_particles(const nlohmann::json& j, const std::string&
     const auto seed = static_cast<std::uint64_t>(g.integer("seed", 1, 0, INT64_MAX));
     g.finish();
     ParticleSet set = random_spheres(count, radius, seed);
-    if (color_by == "uniform") std::fill(set.colors.begin(), set.colors.end(), pack_rgba8(color));
+    set.color_key.by = color_by;  // a hue per sphere: no key
+    if (color_by == "uniform") {
+      std::fill(set.colors.begin(), set.colors.end(), pack_rgba8(color));
+      set.color_key.entries = {{"all spheres", pack_rgba8(color), set.size()}};
+    }
     p.set = std::make_shared<ParticleSet>(std::move(set));
     p.source = "procedural:random-spheres";
   }
@@ -123,10 +137,11 @@ ParticleObject read_static_particles(const nlohmann::json& j, const std::string&
     auto moved = std::make_shared<ParticleSet>(*p.set);
     const Vec3 shift = o - p.set->bounds().center();
     for (auto& sp : moved->spheres) sp.center = sp.center + shift;
+    if (moved->box) moved->box->origin = moved->box->origin + shift;
     p.set = std::move(moved);
   }
   if (p.set->size() == 0) r.fail(has_file ? "file" : "procedural", "holds no particles");
-  read_shadow_flags(r, p);
+  read_particle_flags(r, p);
   r.finish();
   return p;
 }
@@ -155,6 +170,9 @@ ParticleSet pick_spheres(const ParticleSet& set, const std::vector<std::uint32_t
     out.spheres.push_back(set.spheres[i]);
     out.colors.push_back(set.colors[i]);
   }
+  out.color_key = set.color_key;
+  recount(out.color_key, out.colors);
+  out.box = set.box;
   return out;
 }
 
@@ -214,6 +232,9 @@ ParticleObject read_trajectory_particles(const nlohmann::json& j, const std::str
     time_ps = frame.time_ps;
     ParticleSet moved = topology;
     for (std::size_t i = 0; i < moved.spheres.size(); ++i) moved.spheres[i].center = frame.positions[i] + shift;
+    moved.box.reset();  // the frame's cell, as MDAnalysis's ts.dimensions (none where the frame stores none)
+    if (const std::optional<PeriodicCell> cell = periodic_cell(frame.has_box ? std::optional<CellDimensions>(frame.box) : std::nullopt))
+      moved.box = PeriodicBox{shift, cell->a, cell->b, cell->c};
     if (!selection) return moved;
     const std::vector<std::uint32_t> indices =
         selection->depends_on_positions()
@@ -225,7 +246,7 @@ ParticleObject read_trajectory_particles(const nlohmann::json& j, const std::str
   };
   // a frame read once per time: edits of anything else keep the same spheres
   if (options.cache) {
-    std::string key = data_key(j, base_dir, {"casts_shadows", "receives_shadows", "clip"}, true) + "@time=" + std::to_string(time);
+    std::string key = data_key(j, base_dir, {"casts_shadows", "receives_shadows", "clip", "visible"}, true) + "@time=" + std::to_string(time);
     bool loaded = false;
     p.set = options.cache->particles(key, [&] {
       loaded = true;

@@ -14,6 +14,28 @@ constexpr int kHistogramBins = 64;
 
 nlohmann::json vec3(const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
+nlohmann::json rgb(std::uint32_t packed) {
+  const Rgb c = unpack_rgb8(packed);
+  return nlohmann::json::array({c.r, c.g, c.b});
+}
+
+// A particle set's colour key (data/color_key.h), colours as linear RGB as the transfer functions'.
+nlohmann::json color_key_message(const ColorKey& key) {
+  nlohmann::json m = {{"by", key.by}};
+  nlohmann::json entries = nlohmann::json::array();
+  for (const auto& e : key.entries) entries.push_back({{"label", e.label}, {"color", rgb(e.color)}, {"count", e.count}});
+  m["entries"] = entries;
+  if (!key.ramp.empty()) {
+    nlohmann::json ramp = nlohmann::json::array();
+    for (const std::uint32_t c : key.ramp) ramp.push_back(rgb(c));
+    m["quantity"] = key.quantity;
+    m["lo"] = key.lo;
+    m["hi"] = key.hi;
+    m["ramp"] = ramp;
+  }
+  return m;
+}
+
 // The techniques, the keys each reads, and every key's declaration (type, default, range or choices,
 // unit, meaning: lighting/technique_info.h), so that the page can offer fields for them.
 nlohmann::json technique_lists() {
@@ -60,9 +82,18 @@ nlohmann::json ViewerState::message(const Engine& engine) {
     if (p.frames > 0) m["time"]["time_ps"] = p.time_ps;
   // per particle set: the spheres drawn and, with particles[].select, the atoms the selection kept
   m["particles"] = nlohmann::json::array();
-  for (const auto& p : scene.particles)
-    m["particles"].push_back({{"spheres", p.set ? p.set->size() : 0},
-                              {"selected", p.selected_atoms ? nlohmann::json(*p.selected_atoms) : nlohmann::json(nullptr)}});
+  // and what its colours mean (the legend), and its periodic cell where the file stores one
+  for (const auto& p : scene.particles) {
+    nlohmann::json entry = {{"spheres", p.set && p.visible ? p.set->size() : 0},
+                            {"selected", p.selected_atoms ? nlohmann::json(*p.selected_atoms) : nlohmann::json(nullptr)},
+                            {"visible", p.visible}};
+    if (p.set) {
+      entry["color_key"] = color_key_message(p.set->color_key);
+      if (p.set->box)
+        entry["box"] = {{"origin", vec3(p.set->box->origin)}, {"a", vec3(p.set->box->a)}, {"b", vec3(p.set->box->b)}, {"c", vec3(p.set->box->c)}};
+    }
+    m["particles"].push_back(entry);
+  }
   const Box3 box = scene.caster_bounds();
   m["light_target"] = vec3(box.empty() ? scene.camera.target : box.center());
   m["radius"] = box.empty() ? 1.0f : 0.5f * length(box.hi - box.lo);

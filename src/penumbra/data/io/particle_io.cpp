@@ -44,6 +44,7 @@
 #include "penumbra/data/io/file_checks.h"
 #include "penumbra/data/io/molecule_gemmi.h"
 #include "penumbra/data/io/text_fields.h"
+#include "penumbra/data/selection/periodic_cell.h"
 
 namespace penumbra {
 
@@ -419,7 +420,30 @@ ParticleSet expand_assembly(const PackedMolecule& m, const std::vector<std::uint
   });
   if (std::find(overflow.begin(), overflow.end(), 1) != overflow.end())
     throw Error("assembly " + std::to_string(n) + ": an operator moves atoms beyond the float range");
+  out.color_key = base.color_key;  // an assembly's copies count as often as they are drawn; the crystal's cell is not the assembly's
+  recount(out.color_key, out.colors);
   return out;
+}
+
+// What the colours of the kept atoms `kept` (colours `colors`) stand for, by the names of `coloring`.
+ColorKey color_key_of(const PackedMolecule& m, const std::vector<std::uint32_t>& kept, const std::vector<std::uint32_t>& colors,
+                      ParticleColoring coloring) {
+  const std::string by = to_string(coloring);
+  switch (coloring) {
+    case ParticleColoring::Element:
+      return categorical_color_key(by, colors, [&](std::size_t k) { return m.elements[kept[k]]; },
+                                   [](std::uint32_t z) { return std::string(element_symbol(static_cast<int>(z))); });
+    case ParticleColoring::Chain:
+      return categorical_color_key(by, colors, [&](std::size_t k) { return m.chains[kept[k]]; },
+                                   [&](std::uint32_t c) { return m.chain_names[c]; });
+    case ParticleColoring::Residue:  // by the residue names (every non-standard one shares the grey)
+      return categorical_color_key(by, colors, [&](std::size_t k) { return m.topology.resnames[kept[k]]; },
+                                   [&](std::uint32_t r) { return m.topology.strings[r]; });
+    case ParticleColoring::Uniform:
+    case ParticleColoring::Scalar:
+      break;
+  }
+  return categorical_color_key(by, colors, [](std::size_t) { return 0u; }, [](std::uint32_t) { return std::string("all atoms"); });
 }
 
 ParticleSet build_from_molecule(const PackedMolecule& m, const ParticleLoadOptions& o, ParticleFileInfo& info) {
@@ -464,7 +488,11 @@ ParticleSet build_from_molecule(const PackedMolecule& m, const ParticleLoadOptio
     info.scalar_max = hi;
     const TransferFunction map = o.color_map ? o.color_map(lo, hi) : cool_to_warm(lo, hi);
     for (std::size_t k = 0; k < kept.size(); ++k) base.colors[k] = pack_rgba8(map.evaluate(v[kept[k]]).rgb);
+    base.color_key = scalar_color_key(to_string(o.scalar), lo, hi, map);
+  } else {
+    base.color_key = color_key_of(m, kept, base.colors, o.coloring);
   }
+  if (const std::optional<PeriodicCell> cell = periodic_cell(m.topology.unit_cell)) base.box = PeriodicBox{{}, cell->a, cell->b, cell->c};
   if (o.selection) base.atoms = kept;
   if (o.assembly == 0 || kept.empty()) return base;
   return expand_assembly(m, kept, base, o.assembly, std::min(o.max_spheres, kMaxSpheres), info.operators);
@@ -545,6 +573,15 @@ ParticleColoring particle_coloring_from_string(const std::string& s) {
                              ParticleColoring::Uniform, ParticleColoring::Scalar})
     if (s == to_string(c)) return c;
   throw Error("unknown particle coloring '" + s + "' (expected element, chain, residue, uniform or scalar)");
+}
+
+std::string to_string(ParticleScalar s) {
+  switch (s) {
+    case ParticleScalar::BFactor: return "b_factor";
+    case ParticleScalar::Occupancy: return "occupancy";
+    case ParticleScalar::Index: return "index";
+  }
+  return "";
 }
 
 ParticleScalar particle_scalar_from_string(const std::string& s) {

@@ -70,6 +70,7 @@ ParticleSet load_particles(const std::string& path, const ParticleLoadOptions& o
 std::string particle_file_format(const std::string& path);
 
 std::string to_string(ParticleColoring c);
+std::string to_string(ParticleScalar s);  // "b_factor", "occupancy", "index"
 ParticleScalar particle_scalar_from_string(const std::string& s);  // Error listing the names
 ParticleColoring particle_coloring_from_string(const std::string& s);  // Error listing the names
 

@@ -75,7 +75,7 @@ const SHORTCUTS = [
   ...Object.entries(VIEW_KEYS).map(([name, key]) => ({
     keys: [key], label: name === "reset" ? "reset the camera" : name === "iso" ? "isometric view" : "look from " + name.toUpperCase(),
     run: () => showView(name) })),
-  { keys: ["b"], label: "show or hide the data's box", run: toggleOutline },
+  { keys: ["b"], label: "show or hide the data's box and periodic cells", run: toggleOutline },
   { keys: ["f"], label: "fullscreen", run: toggleFullscreen },
   { keys: ["p"], label: "show or hide the panel", run: togglePanel },
   { keys: ["Ctrl+Z"], label: "undo", run: undo },

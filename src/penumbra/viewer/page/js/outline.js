@@ -1,6 +1,8 @@
-// The data's bounding box (the state's "bounds") drawn over the image on a 2D canvas, projected with
-// the state's camera as the renderer projects (vertical fov_deg, the image stretched over the view).
-// Drawn when a state arrives or the view changes size, never per frame; the toolbar's Box shows it.
+// The data's bounding box (the state's "bounds") and the periodic cell of every visible particle set
+// whose file stores one (the state's particles[i].box, VMD's `pbc box`) drawn over the image on a 2D
+// canvas, projected with the state's camera as the renderer projects (vertical fov_deg, the image
+// stretched over the view). Drawn when a state arrives or the view changes size, never per frame; the
+// toolbar's Box shows them.
 
 import { $, V, cameraBasis, sizedContext } from "./util.js";
 
@@ -34,15 +36,10 @@ export function projector(cam, width, height) {
 
 const EDGES = [[0, 1], [2, 3], [4, 5], [6, 7], [0, 2], [1, 3], [4, 6], [5, 7], [0, 4], [1, 5], [2, 6], [3, 7]];
 
-export function drawOutline(state) {
-  lastState = state;
-  const { g, width, height } = sizedContext(canvas);
-  if (!shown || !state || !state.bounds || !state.camera) return;
-  const { lo, hi } = state.bounds;
-  const project = projector(state.camera, width, height);
-  const corners = [0, 1, 2, 3, 4, 5, 6, 7].map((k) =>
-    project([(k & 1) ? hi[0] : lo[0], (k & 2) ? hi[1] : lo[1], (k & 4) ? hi[2] : lo[2]]));
-  g.strokeStyle = "rgba(255, 214, 102, 0.85)";
+/** The 12 edges of the parallelepiped with corner k at corner(k) (k's bits: along a, b, c). */
+function strokeBox(g, project, corner, style) {
+  const corners = [0, 1, 2, 3, 4, 5, 6, 7].map((k) => project(corner(k)));
+  g.strokeStyle = style;
   g.lineWidth = 1.25;
   g.beginPath();
   for (const [a, b] of EDGES) {
@@ -51,4 +48,21 @@ export function drawOutline(state) {
     g.lineTo(corners[b][0], corners[b][1]);
   }
   g.stroke();
+}
+
+export function drawOutline(state) {
+  lastState = state;
+  const { g, width, height } = sizedContext(canvas);
+  if (!shown || !state || !state.camera) return;
+  const project = projector(state.camera, width, height);
+  if (state.bounds) {
+    const { lo, hi } = state.bounds;
+    strokeBox(g, project, (k) => [(k & 1) ? hi[0] : lo[0], (k & 2) ? hi[1] : lo[1], (k & 4) ? hi[2] : lo[2]], "rgba(255, 214, 102, 0.85)");
+  }
+  for (const p of state.particles || []) {
+    if (!p.visible || !p.box) continue;
+    const { origin, a, b, c } = p.box;
+    strokeBox(g, project, (k) => V.add(V.add(V.add(origin, V.scale(a, k & 1)), V.scale(b, (k >> 1) & 1)), V.scale(c, (k >> 2) & 1)),
+              "rgba(110, 205, 255, 0.85)");
+  }
 }

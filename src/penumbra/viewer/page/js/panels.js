@@ -202,7 +202,7 @@ function createObjectRow(kind, i, obj) {
     input.addEventListener("change", () => onChange(input.checked));
     return { input, label: el("label", {}, input, label) };
   };
-  const visible = kind === "volumes" ? checkbox("visible", (on) => setVolumeVisible(i, on)) : null;
+  const visible = kind === "volumes" || kind === "particles" ? checkbox("visible", (on) => setVisible(kind, i, on)) : null;
   const casts = checkbox("casts", (on) => queueEdit({ [prefix + "casts_shadows"]: on }));
   const receives = checkbox("receives", (on) => queueEdit({ [prefix + "receives_shadows"]: on }));
   const selection = kind === "particles" && obj && obj.file ? createSelectionField(prefix, i) : null;
@@ -221,8 +221,8 @@ function createObjectRow(kind, i, obj) {
       if (visible) visible.input.checked = shown;
       casts.input.checked = o.casts_shadows !== false;
       receives.input.checked = o.receives_shadows !== false;
-      // An invisible volume takes no shadow flags (the scene reader refuses them).
-      const flagsOff = kind === "volumes" && !shown;
+      // A hidden volume or particle set takes no shadow flags (the scene reader refuses them).
+      const flagsOff = !!visible && !shown;
       for (const c of [casts, receives]) {
         c.input.disabled = flagsOff;
         c.label.classList.toggle("disabled", flagsOff);
@@ -296,17 +296,17 @@ export function showSelectionError(message) {
 }
 
 /**
- * volumes.i.visible. Hiding a volume whose document entry carries shadow flags would be refused
- * (an invisible volume takes neither), so then the whole entry is sent without them.
+ * volumes.i.visible, particles.i.visible. Hiding an object whose document entry carries shadow flags
+ * would be refused (a hidden object takes neither), so then the whole entry is sent without them.
  */
-function setVolumeVisible(i, on) {
-  const vol = clone((((viewer.state || {}).document || {}).volumes || [])[i]);
-  if (!on && vol && ("casts_shadows" in vol || "receives_shadows" in vol)) {
-    delete vol.casts_shadows;
-    delete vol.receives_shadows;
-    vol.visible = false;
-    queueEdit({ ["volumes." + i]: vol });
+function setVisible(kind, i, on) {
+  const obj = clone((((viewer.state || {}).document || {})[kind] || [])[i]);
+  if (!on && obj && ("casts_shadows" in obj || "receives_shadows" in obj)) {
+    delete obj.casts_shadows;
+    delete obj.receives_shadows;
+    obj.visible = false;
+    queueEdit({ [kind + "." + i]: obj });
   } else {
-    queueEdit({ ["volumes." + i + ".visible"]: on });
+    queueEdit({ [kind + "." + i + ".visible"]: on });
   }
 }
