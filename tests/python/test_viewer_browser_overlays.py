@@ -8,6 +8,7 @@ import json
 import math
 import os
 import struct
+import time
 
 import pytest
 
@@ -400,6 +401,43 @@ def test_a_molecules_legend_its_periodic_cell_and_its_visibility_box(tmp_path):
         wait(driver, lambda d: js(d, STATE + ".particles[0].spheres") == 0, "a hidden set still has spheres drawn")
         wait(driver, lambda d: js(d, "window.penumbraViewer.frames") > frames, "no frame after hiding")
         assert legend.find_elements(By.CSS_SELECTOR, ".particle-key") == []
+        assert console_errors(driver) == []
+    finally:
+        if driver:
+            driver.quit()
+        assert server.close() == 0
+
+
+def test_playback_keeps_the_wall_clock_and_skips_steps_rather_than_queueing_them(tmp_path):
+    # a 40-frame XYZ trajectory of 30 atoms drifting along x
+    atoms = 30
+    frames = []
+    for f in range(40):
+        lines = [str(atoms), f"frame {f}"] + [f"C {0.3 * (i % 6) + 0.02 * f:.3f} {0.3 * (i // 6):.3f} 0.000" for i in range(atoms)]
+        frames.append("\n".join(lines) + "\n")
+    (tmp_path / "top.xyz").write_text(frames[0])
+    (tmp_path / "run.xyz").write_text("".join(frames))
+    server = Viewer(tmp_path, {"particles": [{"file": "top.xyz", "trajectory": "run.xyz", "radius": 0.12}],
+                               "shadows": {"technique": "issm"}, "camera": {"width": 96, "height": 72}})
+    driver = None
+    try:
+        driver = chrome()
+        driver.get(server.url)
+        wait_loaded(driver)
+        wait(driver, lambda d: not driver.find_element(By.ID, "time-section").get_attribute("hidden"), "no time controls for a trajectory")
+        # far faster than any frame can be rendered, sent and shown: rendering falls behind
+        driver.execute_script("window.penumbraViewer.playback.fps = 400")
+        driver.find_element(By.ID, "play").click()
+        time.sleep(3)
+        driver.find_element(By.ID, "play").click()  # pause
+        p = js(driver, "window.penumbraViewer.playback")
+        assert p["shown"] >= 3, p
+        assert p["skipped"] > 0, f"steps were not skipped although rendering fell behind: {p}"
+        # the steps asked for kept the wall clock: the last is the one due when it was asked (~3 s × 400)
+        assert p["step"] >= 0.5 * 3 * 400, p
+        assert p["shown"] + p["skipped"] <= p["step"] + 1, p  # each step shown or skipped, none twice
+        # the last step asked for is the frame the scene ends on
+        wait(driver, lambda d: js(d, STATE + ".time.frame") == (p["first"] + p["step"]) % 40, "the last step asked for was not applied")
         assert console_errors(driver) == []
     finally:
         if driver:

@@ -200,6 +200,24 @@ def test_edits_come_back_as_state_and_frames_to_every_client(viewer):
     b.close()
 
 
+def test_an_edit_without_preview_is_answered_by_its_full_frame_alone(viewer):
+    ws = viewer.connect()
+    receive(ws, "state")
+    frame, _ = receive(ws, "frame")
+    while not (frame["quality"] == "full" and frame["samples"] >= 2):  # the first frames are done
+        frame, _ = receive(ws, "frame")
+    for fov in (31, 32, 33):  # a playback step: the page waits for its full frame anyway
+        ws.send(json.dumps({"type": "edit", "set": {"camera.fov_deg": fov}, "preview": False}))
+        while True:
+            frame, _ = receive(ws, "frame")
+            if "camera.fov_deg" in frame["edits"]:
+                assert frame["quality"] == "full" and frame["samples"] == 1, frame
+                break
+    ws.send(json.dumps({"type": "edit", "set": {"camera.fov_deg": 34}, "preview": "no"}))
+    assert receive(ws, "error")["message"] == 'edit: "preview" must be true or false'
+    ws.close()
+
+
 def test_refused_edits_and_files_outside_the_data_root_get_errors(viewer):
     ws = viewer.connect()
     receive(ws, "state")

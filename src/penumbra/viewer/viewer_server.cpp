@@ -138,6 +138,7 @@ struct ViewerServer::Impl {
     std::vector<std::pair<std::string, nlohmann::json>> edits;
     std::function<void()> task;  // a request that needs the engine (screenshot, saved scene)
     bool keeps_frame = false;    // a task that changes nothing drawn (a probe): refining goes on
+    bool preview = true;         // an edit's frames start with a preview ("preview": false: the full frame only)
   };
 
   Engine engine;
@@ -530,6 +531,10 @@ void ViewerServer::Impl::on_message(const std::shared_ptr<WsSession>& from, cons
     if (type == "edit") {
       if (!m.contains("set") || !m["set"].is_object() || m["set"].empty())
         throw Error("edit: expected \"set\": {\"PATH\": VALUE, ...} with at least one path");
+      if (m.contains("preview")) {
+        if (!m["preview"].is_boolean()) throw Error("edit: \"preview\" must be true or false");
+        job.preview = m["preview"].get<bool>();
+      }
       for (const auto& [path, value] : m["set"].items()) {
         viewer_security::check_no_control_characters(path, value);
         viewer_security::check_edit_limits(path, value);
@@ -610,7 +615,7 @@ void ViewerServer::Impl::render_loop() {
       batch.swap(jobs);
       cancel = false;
     }
-    bool edited = false;
+    bool edited = false, preview = false;
     for (Job& job : batch) {
       if (job.task) {
         job.task();
@@ -622,6 +627,7 @@ void ViewerServer::Impl::render_loop() {
         try {
           engine.edit(job.edits);
           edited = true;
+          preview = preview || job.preview;
         } catch (const std::exception& e) {
           if (job.from) job.from->send_error(client_error(e.what()));
         }
@@ -630,7 +636,8 @@ void ViewerServer::Impl::render_loop() {
     }
     if (edited) {
       broadcast_state();
-      need_preview = need_full = true;
+      need_preview = need_preview || preview;  // a playback step waits for its full frame: no preview for it
+      need_full = true;
       samples = 0;
     }
     {

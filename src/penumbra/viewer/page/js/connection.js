@@ -96,6 +96,15 @@ export function queueEdit(set, observed = true) {
   editTimer = setTimeout(flushEdits, 100);
 }
 
+/**
+ * Sends `set` now, after any pending edit, as an edit whose frames start with the full frame (no
+ * preview): a playback step, which waits for its full frame anyway.
+ */
+export function sendFullFrameEdit(set) {
+  flushEdits();
+  sendMessage({ type: "edit", set, preview: false });
+}
+
 function flushEdits() {
   cancelAnimationFrame(editFrame);
   clearTimeout(editTimer);

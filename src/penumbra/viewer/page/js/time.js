@@ -1,11 +1,19 @@
 // Time: the slider and Play / Pause of a scene with frames (trajectories, volume series).
 
 import { $, round6 } from "./util.js";
-import { viewer, queueEdit } from "./connection.js";
+import { viewer, queueEdit, sendFullFrameEdit } from "./connection.js";
 import { isPanelBusy } from "./panels.js";
 
-/** Playing steps `time` once the full frame of the previous step is shown, at most `fps` a second. */
-const playback = { playing: false, requested: null, last: 0, fps: 10, timer: 0 };
+/**
+ * Playing keeps the wall clock: step k of the play is due k / fps seconds after Play, and the page asks
+ * for the step due now once the full frame of the step it asked for before is shown. One step waits
+ * at a time, never a queue of them: when rendering falls behind, the steps in between are skipped
+ * (counted in `skipped`), so a slow scene plays at its true pace with fewer frames. `shown` counts the
+ * steps whose full frame arrived; both are exposed as window.penumbraViewer.playback for tests and
+ * benchmarks.
+ */
+const playback = { playing: false, requested: null, fps: 10, timer: 0, started: 0, first: 0, step: 0, shown: 0, skipped: 0 };
+viewer.playback = playback;
 
 function timeInfo() {
   return (viewer.state && viewer.state.time) || { frame: 0, frames: 0 };
@@ -28,24 +36,28 @@ export function syncTime(state) {
 
 function setTime(frame) {
   playback.requested = frame;
-  playback.last = performance.now();
   showTime(frame);
-  queueEdit({ time: frame });
+  if (playback.playing) sendFullFrameEdit({ time: frame });
+  else queueEdit({ time: frame });
 }
 
 function setPlaying(on) {
   playback.playing = on;
   $("play").textContent = on ? "Pause" : "Play";
   clearInterval(playback.timer);
-  playback.timer = on ? setInterval(stepPlayback, 1000 / playback.fps / 2) : 0;
+  playback.timer = on ? setInterval(stepPlayback, 1000 / playback.fps / 4) : 0;
   playback.requested = null;
+  if (on) Object.assign(playback, { started: performance.now(), first: Number($("time").value), step: 0, shown: 0, skipped: 0 });
 }
 
 function stepPlayback() {
   const t = timeInfo();
   if (!playback.playing || playback.requested !== null || t.frames <= 1) return;
-  if (performance.now() - playback.last < 1000 / playback.fps) return;
-  setTime((Number($("time").value) + 1) % t.frames);
+  const due = Math.floor(((performance.now() - playback.started) * playback.fps) / 1000);
+  if (due <= playback.step) return;  // the next step is not due yet
+  playback.skipped += due - playback.step - 1;
+  playback.step = due;
+  setTime((playback.first + due) % t.frames);
 }
 
 export function installTimeControls() {
@@ -55,5 +67,8 @@ export function installTimeControls() {
 
 /** A frame arrived: the step Play asked for is shown once its full frame is. */
 export function frameShown(meta) {
-  if (meta.quality === "full" && meta.time === playback.requested) playback.requested = null;
+  if (meta.quality === "full" && meta.time === playback.requested) {
+    playback.requested = null;
+    if (playback.playing) playback.shown += 1;
+  }
 }
