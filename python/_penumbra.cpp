@@ -50,10 +50,12 @@ nlohmann::json frame_stats(const EngineFrame& f, const Renderer& renderer) {
   const FrameResult& r = f.frame;
   nlohmann::json rebuilt = nlohmann::json::array();
   for (const auto& s : f.rebuilt) rebuilt.push_back({{"structure", s.structure}, {"cause", s.cause}});
-  // per particle set: the spheres drawn, and the atoms its `select` kept (None without one)
+  // per particle set: the spheres drawn (none for a hidden set), whether it is shown, and the atoms its
+  // `select` kept (None without one)
   nlohmann::json particles = nlohmann::json::array();
   for (const ParticleObject& p : scene.particles)
-    particles.push_back({{"spheres", p.set->size()}, {"selected", p.selected_atoms ? nlohmann::json(*p.selected_atoms) : nlohmann::json(nullptr)}});
+    particles.push_back({{"spheres", p.visible ? p.set->size() : 0}, {"visible", p.visible},
+                         {"selected", p.selected_atoms ? nlohmann::json(*p.selected_atoms) : nlohmann::json(nullptr)}});
   std::size_t volume_bytes = 0;
   for (const auto& v : scene.volumes) volume_bytes += v.volume->memory_bytes();
   nlohmann::json gradients = nlohmann::json::array();

@@ -272,12 +272,19 @@ def test_a_selection_edit_draws_only_the_selected_atoms(tmp_path):
              "shadows": {"technique": "ray_traced"}}
     r = penumbra.Renderer(penumbra.Scene(scene, base_dir=str(tmp_path)))
     everything = r.render()
-    assert r.stats["particles"] == [{"spheres": 4, "selected": None}]
+    assert r.stats["particles"] == [{"spheres": 4, "visible": True, "selected": None}]
     r.set("particles.0.select", "name C")
     carbons = r.render()
-    assert r.stats["particles"] == [{"spheres": 2, "selected": 2}]
+    assert r.stats["particles"] == [{"spheres": 2, "visible": True, "selected": 2}]
     assert {"structure": "spheres", "cause": "particles.0.select"} in r.stats["rebuilt"]
     assert not np.array_equal(everything, carbons)
+    # hidden: read, counted, not drawn; shown again: the same frame, the file not read again
+    r.set("particles.0.visible", False)
+    hidden = r.render()
+    assert r.stats["particles"] == [{"spheres": 0, "visible": False, "selected": 2}]
+    assert not np.array_equal(hidden, carbons)
+    r.set("particles.0.visible", True)
+    assert np.array_equal(r.render(), carbons)
     with pytest.raises(penumbra.Error, match=r"particles\.0\.select: at character 11: expected a selection"):
         r.set("particles.0.select", "name C and")
     assert r.get("particles.0.select") == "name C"

@@ -443,3 +443,57 @@ def test_playback_keeps_the_wall_clock_and_skips_steps_rather_than_queueing_them
         if driver:
             driver.quit()
         assert server.close() == 0
+
+
+def drag_from(driver, at, by, steps=8):
+    """A left-button drag on the view from `at` (CSS pixels of the view) by `by`, in steps."""
+    view = driver.find_element(By.ID, "view")
+    w, h = js(driver, "[document.getElementById('view').getBoundingClientRect().width,"
+                      " document.getElementById('view').getBoundingClientRect().height]")
+    chain = ActionChains(driver).move_to_element_with_offset(view, round(at[0] - w / 2), round(at[1] - h / 2)).click_and_hold()
+    for _ in range(steps):
+        chain.move_by_offset(round(by[0] / steps), round(by[1] / steps)).pause(0.03)
+    chain.release().perform()
+
+
+def test_handles_move_and_turn_a_clip_plane_and_turn_the_light(tmp_path):
+    scene = dict(SCENE, clip_planes=[{"point": [0, 0, 0], "normal": [1, 0, 0]}], camera={"width": 320, "height": 240})
+    server = Viewer(tmp_path, scene)
+    driver = None
+    try:
+        driver = chrome()
+        driver.get(server.url)
+        wait_loaded(driver)
+        wait(driver, lambda d: {h["kind"] for h in js(d, "window.penumbraViewer.handles")} == {"light", "move", "turn"},
+             "the light's and the plane's handles are not drawn")
+        assert painted(driver, "handles") > 100
+        handles = {h["kind"]: h for h in js(driver, "window.penumbraViewer.handles")}
+        # the knob dragged along the arrow moves the plane along its normal, the normal kept
+        move = handles["move"]
+        arrow = [move["tip"][0] - move["at"][0], move["tip"][1] - move["at"][1]]
+        length = math.hypot(*arrow)
+        drag_from(driver, move["at"], [40 * arrow[0] / length, 40 * arrow[1] / length])
+        wait(driver, lambda d: js(d, STATE + ".document.clip_planes[0].point")[0] > 0.05, "dragging the knob did not move the plane")
+        plane = js(driver, STATE + ".document.clip_planes[0]")
+        assert plane["normal"] == [1, 0, 0] and abs(plane["point"][1]) < 1e-6 and abs(plane["point"][2]) < 1e-6, plane
+        # the tip dragged across the arrow turns the normal; it stays a unit vector
+        wait(driver, lambda d: js(d, "window.penumbraViewer.handles.length") == 3, "the handles were not drawn again")
+        handles = {h["kind"]: h for h in js(driver, "window.penumbraViewer.handles")}
+        turn = handles["turn"]
+        drag_from(driver, turn["at"], [0, 40])
+        wait(driver, lambda d: js(d, STATE + ".document.clip_planes[0].normal")[0] < 0.99, "dragging the tip did not turn the plane")
+        normal = js(driver, STATE + ".document.clip_planes[0].normal")
+        assert abs(math.hypot(*normal) - 1) < 1e-4, normal
+        # the sun turns the light
+        before = js(driver, STATE + ".document.lights[0].direction")
+        handles = {h["kind"]: h for h in js(driver, "window.penumbraViewer.handles")}
+        drag_from(driver, handles["light"]["at"], [50, 0])
+        wait(driver, lambda d: js(d, STATE + ".document.lights[0].direction") != before, "dragging the sun did not turn the light")
+        # H hides them; a drag where the knob was orbits the camera instead
+        press(driver, "h")
+        wait(driver, lambda d: painted(d, "handles") == 0 and js(d, "window.penumbraViewer.handles.length") == 0, "H did not hide the handles")
+        assert console_errors(driver) == []
+    finally:
+        if driver:
+            driver.quit()
+        assert server.close() == 0

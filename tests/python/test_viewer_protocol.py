@@ -408,18 +408,18 @@ def test_a_selection_edit_comes_back_with_its_count_and_a_bad_one_with_its_posit
     try:
         ws = v.connect()
         state = receive(ws, "state")
-        assert state["particles"] == [{"spheres": 4, "selected": None}]
+        assert [{k: p[k] for k in ("spheres", "selected", "visible")} for p in state["particles"]] == [{"spheres": 4, "selected": None, "visible": True}]
         ws.send(json.dumps({"type": "edit", "set": {"particles.0.select": "name C"}}))
         while state["document"]["particles"][0].get("select") != "name C":
             state = receive(ws, "state")
-        assert state["particles"] == [{"spheres": 2, "selected": 2}]
+        assert [{k: p[k] for k in ("spheres", "selected", "visible")} for p in state["particles"]] == [{"spheres": 2, "selected": 2, "visible": True}]
         ws.send(json.dumps({"type": "edit", "set": {"particles.0.select": "name C and"}}))
         error = receive(ws, "error")
         assert "particles.0.select: at character 11: expected a selection" in error["message"], error
         ws.send(json.dumps({"type": "edit", "set": {"particles.0.select": "not name C"}}))
         while state["document"]["particles"][0].get("select") != "not name C":
             state = receive(ws, "state")
-        assert state["particles"] == [{"spheres": 2, "selected": 2}]
+        assert [{k: p[k] for k in ("spheres", "selected", "visible")} for p in state["particles"]] == [{"spheres": 2, "selected": 2, "visible": True}]
         ws.close()
     finally:
         assert v.close() == 0

@@ -16,6 +16,7 @@ import { noteOpeningCamera, standardCamera } from "./standard_views.js";
 import { updateLegend } from "./legend.js";
 import { drawAxes } from "./axes.js";
 import { drawOutline, toggleOutline } from "./outline.js";
+import { drawHandles, toggleHandles } from "./handles.js";
 import { recordEdit, undo, redo, forgetRefused } from "./history.js";
 import { installShortcuts, toggleHelp } from "./shortcuts.js";
 import { installProbe, showProbe } from "./probe.js";
@@ -30,6 +31,7 @@ function onState(state) {
   updateLegend(state);
   drawAxes(state);
   drawOutline(state);
+  drawHandles(state);
 }
 
 function onFrameMeta(meta) {
@@ -76,6 +78,7 @@ const SHORTCUTS = [
     keys: [key], label: name === "reset" ? "reset the camera" : name === "iso" ? "isometric view" : "look from " + name.toUpperCase(),
     run: () => showView(name) })),
   { keys: ["b"], label: "show or hide the data's box and periodic cells", run: toggleOutline },
+  { keys: ["h"], label: "show or hide the handles (drag the sun: turn the light; a clip plane's knob: move it, its arrow's tip: turn it)", run: toggleHandles },
   { keys: ["f"], label: "fullscreen", run: toggleFullscreen },
   { keys: ["p"], label: "show or hide the panel", run: togglePanel },
   { keys: ["Ctrl+Z"], label: "undo", run: undo },
@@ -91,6 +94,7 @@ function init() {
   $("help-toggle").addEventListener("click", () => toggleHelp());
   $("fullscreen").addEventListener("click", toggleFullscreen);
   $("outline-toggle").addEventListener("click", toggleOutline);
+  $("handles-toggle").addEventListener("click", toggleHandles);
   $("undo").addEventListener("click", undo);
   $("redo").addEventListener("click", redo);
   for (const button of document.querySelectorAll("#views [data-view]")) {
@@ -105,6 +109,7 @@ function init() {
   new ResizeObserver(() => {   // also the panel being shown or hidden
     scheduleResize();
     drawOutline(viewer.state);
+    drawHandles(viewer.state);
   }).observe(view);
   installViewInput();
   installTimeControls();

@@ -1,8 +1,10 @@
 // The view: the frame's image, its size sent to the server, and the camera and light that drags on it
-// change (left drag orbits, right or middle drag pans, the wheel zooms, shift-drag turns the light).
+// change (left drag orbits, right or middle drag pans, the wheel zooms, shift-drag turns the light; a
+// left drag that starts on a handle (handles.js) drags that handle instead).
 
 import { $, V, clamp, clone, capturePointer, cameraBasis } from "./util.js";
 import { viewer, isOpen, queueEdit, sendMessage } from "./connection.js";
+import { handleAt, dragHandle } from "./handles.js";
 
 const DEFAULT_LIGHT_DIRECTION = [-0.4, -1, -0.3];   // the scene's light when the document has no "lights"
 const ROTATE_PER_VIEW_HEIGHT = Math.PI;   // a drag over the view's height turns half a turn
@@ -13,7 +15,7 @@ export const view = $("view");
 
 let camera = null;            // local copy of state.camera, changed by the mouse
 let cameraHoldUntil = 0;
-let drag = null;              // { mode: "orbit" | "pan" | "light", x, y, id }
+let drag = null;              // { mode: "orbit" | "pan" | "light" | "handle", x, y, id, handle }
 let lightDrag = null;         // { light, asArray } while shift-dragging
 let frameUrl = null;
 
@@ -166,7 +168,10 @@ function moveLight(dx, dy) {
 function onViewPointerDown(e) {
   if (drag || !camera) return;
   let mode = null;
-  if (e.button === 0) mode = e.shiftKey ? "light" : "orbit";
+  const r = view.getBoundingClientRect();
+  const handle = e.button === 0 && !e.shiftKey ? handleAt(e.clientX - r.left, e.clientY - r.top) : null;
+  if (handle) mode = handle.kind === "light" ? "light" : "handle";  // the sun turns the light as shift-drag does
+  else if (e.button === 0) mode = e.shiftKey ? "light" : "orbit";
   else if (e.button === 1 || e.button === 2) mode = "pan";
   if (!mode) return;
   e.preventDefault();
@@ -176,7 +181,7 @@ function onViewPointerDown(e) {
   }
   capturePointer(view, e.pointerId);
   view.classList.add("dragging");
-  drag = { mode, x: e.clientX, y: e.clientY, id: e.pointerId };
+  drag = { mode, x: e.clientX, y: e.clientY, id: e.pointerId, handle };
 }
 
 function onViewPointerMove(e) {
@@ -187,6 +192,7 @@ function onViewPointerMove(e) {
   if (dx === 0 && dy === 0) return;
   if (drag.mode === "orbit") orbit(dx, dy);
   else if (drag.mode === "pan") pan(dx, dy);
+  else if (drag.mode === "handle") dragHandle(drag.handle, dx, dy, camera);
   else moveLight(dx, dy);
 }
 
