@@ -10,6 +10,7 @@
 
 #include "penumbra/registry/technique_catalog.h"
 #include "penumbra/core/parallel.h"
+#include "penumbra/geometry/cut_sphere.h"
 #include "penumbra/particles/implicit_sphere_shadow_map.h"
 #include "penumbra/particles/particle_ambient_occlusion.h"
 #include "penumbra/shadows/ray_traced.h"
@@ -350,6 +351,75 @@ TEST(IssmSoft, RingsGrowToReachTheWholePenumbra) {
   ASSERT_EQ(asked_none.size(), plenty.size());
   for (std::size_t i = 0; i < plenty.size(); ++i) EXPECT_EQ(asked_none[i], plenty[i]) << i;
   EXPECT_GT(penumbra_samples(asked_none), 0);
+}
+
+// The point of a cut sphere's kept part nearest to x, against brute force: the nearest of a fine
+// lattice of kept points (the ball's inside and its surface, less the removed half-spaces) is never
+// nearer than the exact point and is within the lattice's spacing of it.
+TEST(CutSphere, NearestPointOfTheKeptPartAgreesWithBruteForce) {
+  const Sphere s{{0.1f, -0.2f, 0.3f}, 1.0f};
+  const std::vector<std::vector<ClipPlane>> cuts = {
+      {{{0.3f, -0.2f, 0.3f}, normalize(Vec3{1, 0, 0})}},
+      {{{0.1f, 0.2f, 0.3f}, normalize(Vec3{0.3f, 1, -0.2f})}},
+      {{{0.3f, -0.2f, 0.3f}, normalize(Vec3{1, 0, 0})}, {{0.1f, -0.1f, 0.3f}, normalize(Vec3{0, 1, 0.4f})}}};
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-2.5f, 2.5f);
+  for (const auto& planes_list : cuts) {
+    const ClipPlanes planes(planes_list);
+    const SphereClip mask = planes.classify(s.center, s.radius);
+    ASSERT_NE(mask, kSphereWhole);
+    ASSERT_NE(mask, kSphereRemoved);
+    std::vector<Vec3> kept;
+    const int n = 60;
+    for (int i = 0; i <= n; ++i)
+      for (int j = 0; j <= n; ++j)
+        for (int k = 0; k <= n; ++k) {
+          const Vec3 d{-1 + 2.0f * i / n, -1 + 2.0f * j / n, -1 + 2.0f * k / n};
+          for (const Vec3& p : {s.center + d, s.center + normalize(d) * s.radius})  // inside and on the surface
+            if (length(p - s.center) <= s.radius * 1.0001f && !planes.removes(p)) kept.push_back(p);
+        }
+    for (int trial = 0; trial < 60; ++trial) {
+      const Vec3 x = s.center + Vec3{u(rng), u(rng), u(rng)};
+      const Vec3 nearest = nearest_on_cut_sphere(x, s, planes, mask);
+      EXPECT_LE(length(nearest - s.center), s.radius * 1.001f);
+      for (const ClipPlane& c : planes_list) EXPECT_LE(c.distance(nearest), 2e-3f);
+      float brute = kInfinity;
+      for (const Vec3& p : kept) brute = std::min(brute, length(x - p));
+      const float exact = length(x - nearest);
+      EXPECT_LE(exact, brute + 2e-3f) << "trial " << trial;
+      EXPECT_GE(exact, brute - 2.0f / n * 1.8f) << "trial " << trial;
+    }
+  }
+}
+
+// A sphere cut in half casts the soft fringe of its kept half: around the kept half as the whole
+// sphere does, none where the removed half was, and one beside the cut face.
+TEST(IssmSoft, ACutSphereCastsTheFringeOfItsKeptPart) {
+  auto profile = [](bool cut) {
+    ParticleSet set = spheres({{{0, 1.0f, 0}, 0.2f}, {{3, -0.01f, 3}, 0.01f}, {{-3, -0.01f, -3}, 0.01f}});
+    if (cut) {
+      set.clip_planes = ClipPlanes({{{0, 1.0f, 0}, {1, 0, 0}}});  // removes x > 0
+      for (const Sphere& sp : set.spheres) set.clip_state.push_back(set.clip_planes.classify(sp.center, sp.radius));
+    }
+    const SphereWorld w(std::move(set));
+    ImplicitSphereShadowMap map(IssmParams{512, 16, 0.15f, 1, 1.0f});
+    map.build(w.view, directional({0, -1, 0}));
+    std::vector<SurfacePoint> pts;
+    for (int i = 0; i <= 400; ++i) pts.push_back({{-0.5f + static_cast<float>(i) / 400.0f, 0, 0}, {0, 1, 0}, kNoSphere});
+    return fractions(map, pts);
+  };
+  const auto whole = profile(false), half = profile(true);
+  auto at = [](const std::vector<float>& f, float x) { return f[static_cast<std::size_t>(std::lround((x + 0.5f) * 400))]; };
+  EXPECT_EQ(at(half, -0.1f), 0.0f);                           // under the kept half: the umbra
+  EXPECT_NEAR(at(half, -0.3f), at(whole, -0.3f), 1e-4f);      // the kept side's fringe is the whole sphere's
+  EXPECT_GT(at(half, -0.3f), 0.0f);
+  EXPECT_LT(at(half, -0.3f), 1.0f);
+  EXPECT_GT(at(half, 0.05f), 0.0f);                           // beside the cut face: a fringe
+  EXPECT_LT(at(half, 0.05f), 1.0f);
+  EXPECT_EQ(at(whole, 0.1f), 0.0f);
+  EXPECT_EQ(at(half, 0.25f), 1.0f);                           // where the removed half's shadow and fringe were
+  EXPECT_LT(at(whole, 0.25f), 1.0f);
+  for (std::size_t i = 1; i + 1 < half.size(); ++i) EXPECT_GE(half[i], whole[i] - 1e-4f) << i;  // less casts less
 }
 
 TEST(IssmSoft, VanishingVirtualRadiusGivesTheHardShadow) {

@@ -145,16 +145,23 @@ float ImplicitSphereShadowMap::light_at(const Vec3& position, std::uint32_t self
       if (k <= 0 || k >= light_distance) continue;  // behind the receiver or beyond the light
       const float d = std::sqrt(std::max(dot(oc, oc) - k * k, 0.0f));
       const float clearance = d - s.radius;
-      if (id != kOtherBrickSphere && particles_->clip_of(id) != kSphereWhole) {  // a cut sphere: exactly
+      const SphereClip clip = id == kOtherBrickSphere ? kSphereWhole : particles_->clip_of(id);
+      float fringe_clearance = clearance;
+      if (clip != kSphereWhole) {  // a cut sphere: its kept part, hit exactly
         if (clearance <= 0 && intersect_particle(*particles_, id, Ray{position, to_light}, 0, light_distance) < kInfinity) return 0.0f;
-        continue;  // its kept part casts no soft fringe (documented)
+        if (!soft) continue;
+        // the fringe grows from the kept part: the clearance of the ray's point nearest the centre
+        // (which gives d − r for a whole sphere) measured to the kept part instead of the ball
+        const Vec3 x = position + to_light * k;
+        fringe_clearance = length(x - nearest_on_cut_sphere(x, s, particles_->clip_planes, clip));
+      } else {
+        if (clearance <= 0) return 0.0f;  // the shadow ray hits the sphere
+        if (!soft) continue;
       }
-      if (clearance <= 0) return 0.0f;  // the shadow ray hits the sphere
-      if (!soft) continue;
       const float kb = k / params_.soft_distance;
       const float grown = params_.soft_radius * (1.0f - std::exp(-4.5f * kb * kb));
-      if (clearance >= grown) continue;
-      const float strength = std::pow(1.0f - clearance / grown, params_.soft_exponent);
+      if (fringe_clearance >= grown) continue;
+      const float strength = std::pow(1.0f - fringe_clearance / grown, params_.soft_exponent);
       light = std::min(light, 1.0f - strength);
     }
   }
