@@ -93,10 +93,46 @@ TEST(Slice, ReceivesShadowsAndCastsOnlyWhenAsked) {
 
 TEST(Slice, BadSlicesAreErrorsNamingTheKey) {
   EXPECT_NE(error_message([&] { build_scene(slice_scene({{"window", {0.6, 0.2}}}), ""); }).find("slices.0.window"), std::string::npos);
-  EXPECT_NE(error_message([&] { build_scene(slice_scene({{"opacity", 0.5}}), ""); }).find("slices.0.opacity"), std::string::npos);
+  EXPECT_NE(error_message([&] { build_scene(slice_scene({{"opacity", 1.5}}), ""); }).find("slices.0.opacity"), std::string::npos);
+  EXPECT_EQ(error_message([&] { build_scene(slice_scene({{"opacity", 0.5}, {"casts_shadows", true}}), ""); }),
+            "slices.0.casts_shadows: a translucent slice ('opacity' below 1) casts no shadow: give 'opacity': 1 for a slice that casts");
   EXPECT_NE(error_message([&] { build_scene(slice_scene({{"volume", 3}}), ""); }).find("slices.0.volume"), std::string::npos);
   EXPECT_NE(error_message([&] { build_scene(slice_scene({{"window", {0, 1}}, {"color_map", {{"preset", "mri-head"}}}}), ""); }).find("slices.0.window"),
             std::string::npos);
+}
+
+// A translucent slice (opacity a) is the opaque slice over what lies behind it: the volume in front of
+// it, the slice, and the volume and floor behind it composite to a·(the frame with the slice opaque) +
+// (1 − a)·(the frame without it), whether the volume is visible or hidden. The light's shadows fall on
+// it (exact ray-traced shadows: no fit to the receivers, which differ between the three frames).
+TEST(Slice, ATranslucentSliceIsTheOpaqueOneBlendedOverWhatIsBehindIt) {
+  for (const bool volume_visible : {false, true}) {
+    SCOPED_TRACE(volume_visible ? "visible volume" : "hidden volume");
+    auto frame = [&](double opacity, bool with_slice) {
+      json j = volume_scene({{"name", "marschner-lobb"}, {"size", 24}}, step_tf(0.5));
+      j["volumes"][0]["visible"] = volume_visible;
+      if (volume_visible)  // faint, so that no ray reaches the early-termination opacity
+        j["volumes"][0]["transfer_function"] = {{"points", {{0.0, 0.9, 0.6, 0.3, 0.0}, {1.0, 0.9, 0.6, 0.3, 0.08}}}, {"domain", "normalized"}};
+      else
+        j["volumes"][0].erase("transfer_function");
+      j["volumes"][0]["jitter"] = false;
+      if (with_slice) j["slices"] = json::array({{{"normal", {0.2, 0.1, 1.0}}, {"window", {0, 1}}, {"opacity", opacity}}});
+      j["planes"] = json::array({{{"point", {0, -0.6, 0}}, {"normal", {0, 1, 0}}, {"size", 3}}});
+      j["lights"] = json::array({{{"type", "directional"}, {"direction", {0.3, -1.0, -0.4}}}});
+      j["shadows"] = {{"technique", "ray_traced"}};
+      j["camera"] = {{"width", 48}, {"height", 40}, {"direction", {0.3, 0.4, 1.0}}, {"target", {0, 0, 0}}, {"distance", 3}};
+      return Renderer(build_scene(j, "")).render().image;
+    };
+    const Image without = frame(1, false), opaque = frame(1, true);
+    ASSERT_GT(compare_images(without, opaque).max_abs, 0.1) << "the slice is not in view";
+    for (const double a : {0.25, 0.6}) {
+      const Image glass = frame(a, true);
+      Image expected = opaque;
+      for (std::size_t i = 0; i < expected.pixels().size(); ++i)
+        expected.pixels()[i] = opaque.pixels()[i] * static_cast<float>(a) + without.pixels()[i] * static_cast<float>(1 - a);
+      EXPECT_LT(compare_images(glass, expected).max_abs, 2e-5) << "opacity " << a << ": " << write_failure_images("translucent_slice", glass, expected);
+    }
+  }
 }
 
 // Moving a slice that does not cast rebuilds nothing; one that casts rebuilds what casts.

@@ -372,6 +372,14 @@ def test_cuts_add_move_flip_and_remove_clip_planes_and_slices(session):
     wait(driver, lambda d: doc("clip_planes")[0]["normal"] == [-1, 0, 0], "flip did not turn the plane")
     driver.find_element(By.XPATH, "//div[@id='cut-list']//button[text()='slice z']").click()
     wait(driver, lambda d: len(doc("slices")) == 1, "the slice did not reach the scene")
+    # its opacity slider: translucent, the slice is drawn over what lies behind it
+    opaque_slice = settled_view(driver)
+    opacity = driver.find_element(By.CSS_SELECTOR, "[data-cut='slices.0'] input.opacity")
+    assert float(opacity.get_attribute("value")) == 1
+    frames = js(driver, "window.penumbraViewer.frames")
+    driver.execute_script("arguments[0].value = 0.4; arguments[0].dispatchEvent(new Event('input'))", opacity)
+    wait(driver, lambda d: doc("slices")[0].get("opacity") == 0.4, "the opacity did not reach the scene")
+    assert settled_view(driver, frames) != opaque_slice, "a translucent slice looks the same"
     for kind in ("clip_planes", "slices"):
         driver.find_element(By.CSS_SELECTOR, f"[data-cut='{kind}.0'] button[title^='remove']").click()
         wait(driver, lambda d: len(doc(kind)) == 0, f"the {kind} entry was not removed")

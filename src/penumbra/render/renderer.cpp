@@ -516,6 +516,13 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
                                  particles_ ? &hits_ : nullptr, eye};
   visible_surfaces(surface_in, surfaces_);
   const VisibleSurfaces& surfaces = surfaces_;
+  // Translucent planes (slices with opacity below 1) in front of them: receivers too, drawn over what
+  // lies behind them. A brick of a data-parallel frame cannot order them with the other bricks' volumes.
+  VisibleSurfaces glass;
+  std::vector<float> glass_opacity;
+  if (has_translucent_planes(scene_) && request.slab)
+    throw Error("slices: a translucent slice ('opacity' below 1) cannot be drawn in a data-parallel (mpirun) frame; give 'opacity': 1");
+  translucent_surfaces(scene_, camera, surfaces.distance, glass, glass_opacity);
   frame.isosurface.shade_ms += shade.elapsed_ms();
 
   // View-dependent shadow work for this frame's receivers.
@@ -528,7 +535,13 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   // bricks of an isosurface, when a fit reads the receivers: see receivers_shown
   const bool shown_only = frame.refit && brick && request.slab && !isosurfaces_.empty();
   const std::vector<SurfacePoint> shown = shown_only ? receivers_shown(*brick, camera, surfaces) : std::vector<SurfacePoint>{};
-  const std::span<const SurfacePoint> receivers = shown_only ? std::span<const SurfacePoint>(shown) : surfaces.points;
+  std::span<const SurfacePoint> receivers = shown_only ? std::span<const SurfacePoint>(shown) : surfaces.points;
+  std::vector<SurfacePoint> with_glass;
+  if (!glass.points.empty()) {
+    with_glass.assign(receivers.begin(), receivers.end());
+    with_glass.insert(with_glass.end(), glass.points.begin(), glass.points.end());
+    receivers = with_glass;
+  }
   for (auto& s : shadows_) {
     s->fit_to_receivers(receivers, volume_samples);
     s->add_stats(stats);
@@ -543,6 +556,7 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   for (const auto& s : shadows_) shadow_ptrs.push_back(s.get());
   shade.reset();
   Image opaque = shade_surfaces(scene_, camera, surfaces, lights, shadow_ptrs, ambient_.get());
+  const Image glass_color = glass.points.empty() ? Image() : shade_surfaces(scene_, camera, glass, lights, shadow_ptrs, ambient_.get());
   frame.isosurface.shade_ms += shade.elapsed_ms();
   check_cancelled();
 
@@ -554,13 +568,21 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   if (request.slab) drop_surfaces_outside(*request.slab, camera, surfaces.distance, opaque, frame.alpha);
   if (volumes_.empty()) {
     frame.image = std::move(opaque);
+    for (const std::uint32_t p : glass.pixel) {  // a translucent plane over the surface behind it
+      const float a = glass_opacity[p];
+      const int x = static_cast<int>(p % static_cast<std::uint32_t>(camera.width)), y = static_cast<int>(p / static_cast<std::uint32_t>(camera.width));
+      frame.image.at(x, y) = glass_color.at(x, y) * a + frame.image.at(x, y) * (1 - a);
+      frame.alpha[p] = a + (1 - a) * frame.alpha[p];
+      if (a >= 0.5f) frame.depth[p] = glass.distance[p];
+    }
   } else {
     std::vector<const PreparedVolume*> volume_ptrs;
     for (const auto& v : volumes_) volume_ptrs.push_back(v.get());
     const OpaqueLayer layer{&surfaces.distance, &opaque};
+    const TranslucentLayer glass_layer{&glass.distance, &glass_color, &glass_opacity};
     VolumeFrame vf = render_volume_frame(
         RayCastInputs{&scene_, &camera, volume_ptrs, lights, shadow_ptrs, ambient_.get(), light_cache_.get(), light_slot_,
-                      &layer, request.sample, request.slab ? &*request.slab : nullptr});
+                      &layer, glass.points.empty() ? nullptr : &glass_layer, request.sample, request.slab ? &*request.slab : nullptr});
     frame.image = std::move(vf.image);
     frame.volume_samples = vf.samples;
     frame.volume_shaded_samples = vf.shaded_samples;

@@ -138,6 +138,66 @@ void visible_surfaces(const SurfaceInputs& in, VisibleSurfaces& vs) {
   });
 }
 
+bool has_translucent_planes(const Scene& scene) {
+  return std::any_of(scene.planes.begin(), scene.planes.end(), [](const Plane& p) { return p.opacity < 1; });
+}
+
+void translucent_surfaces(const Scene& scene, const Camera& cam, const std::vector<float>& opaque_distance, VisibleSurfaces& vs,
+                          std::vector<float>& opacity) {
+  const int w = cam.width, h = cam.height;
+  const auto pixels = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+  vs.points.clear();
+  vs.pixel.clear();
+  vs.albedo.clear();
+  vs.receives.clear();
+  vs.distance.assign(pixels, kInfinity);
+  vs.what.assign(pixels, 0);
+  opacity.assign(pixels, 0.0f);
+  if (!has_translucent_planes(scene)) return;
+  const PrimaryRays rays(cam);
+  std::vector<std::size_t> row_start(static_cast<std::size_t>(h) + 1, 0);
+  parallel_for(static_cast<std::size_t>(h), [&](std::size_t y0, std::size_t y1) {
+    for (std::size_t y = y0; y < y1; ++y)
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = y * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
+        float t = opaque_distance[i];
+        const Plane* plane = nearest_plane(scene.planes, rays.ray(x, static_cast<int>(y)), t, true);
+        if (!plane) continue;
+        vs.distance[i] = t;
+        vs.what[i] = static_cast<std::uint32_t>(plane - scene.planes.data());
+        opacity[i] = plane->opacity;
+        ++row_start[y + 1];
+      }
+  });
+  for (std::size_t y = 0; y < static_cast<std::size_t>(h); ++y) row_start[y + 1] += row_start[y];
+  const std::size_t n = row_start.back();
+  vs.points.resize(n);
+  vs.pixel.resize(n);
+  vs.albedo.resize(n);
+  vs.receives.resize(n);
+  parallel_for(static_cast<std::size_t>(h), [&](std::size_t y0, std::size_t y1) {
+    for (std::size_t y = y0; y < y1; ++y) {
+      std::size_t k = row_start[y];
+      for (int x = 0; x < w; ++x) {
+        const std::size_t i = y * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
+        if (vs.distance[i] == kInfinity) continue;
+        const Plane& plane = scene.planes[vs.what[i]];
+        const Ray ray = rays.ray(x, static_cast<int>(y));
+        SurfacePoint sp;
+        sp.position = ray.at(vs.distance[i]);
+        sp.normal = plane.facing_normal(ray.direction);
+        sp.kind = ObjectKind::Plane;
+        sp.object = vs.what[i];
+        vs.points[k] = sp;
+        vs.pixel[k] = static_cast<std::uint32_t>(i);
+        vs.albedo[k] = plane.color_at(sp.position);
+        vs.receives[k] = plane.receives_shadows ? 1 : 0;
+        ++k;
+      }
+    }
+  });
+}
+
 Image shade_surfaces(const Scene& scene, const Camera& cam, const VisibleSurfaces& vs, std::span<const Light> lights,
                      std::span<const LightShadows* const> shadows, const AmbientTechnique* ambient) {
   const ShadingParams& k = scene.shading;

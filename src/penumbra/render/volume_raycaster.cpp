@@ -128,11 +128,11 @@ struct SampleCounts {
 // carries no ownership test.
 // `half` becomes the ray parameter where the opacity first reaches 1/2 (left as it is when it never does).
 template <class T, bool kSlab>
-float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, float jitter, float t_surface,
+float trace_one(const PreparedVolume& pv, const Shader& shader, const Ray& ray, float jitter, float t_start, float t_surface,
                 SampleBatch& batch, Rgb& color, float& half, SampleCounts& counts) {
   float opacity = 0;
   float t0, t1;
-  if (!pv.span(ray, t0, t1, 0, t_surface)) return opacity;
+  if (!pv.span(ray, t0, t1, t_start, t_surface)) return opacity;
   const SampleSlab* owned = shader.in.owned;
   if constexpr (kSlab) {
     if (!owned->clip(ray, pv.step, t0, t1)) return opacity;
@@ -187,12 +187,12 @@ struct OverlapSamples {
 // Several volumes on one lattice: every volume that holds a sample classifies it; space is skipped
 // only where every volume is empty (or absent).
 float trace_many(std::span<const PreparedVolume* const> volumes, const Shader& shader, const Ray& ray, float jitter,
-                 float t_surface, SampleBatch& batch, OverlapSamples& overlap, Rgb& color, float& half, SampleCounts& counts) {
+                 float t_start, float t_surface, SampleBatch& batch, OverlapSamples& overlap, Rgb& color, float& half, SampleCounts& counts) {
   float opacity = 0;
   float t0 = kInfinity, t1 = -kInfinity;
   for (const PreparedVolume* pv : volumes) {
     float a, b;
-    if (pv->span(ray, a, b, 0, t_surface)) {
+    if (pv->span(ray, a, b, t_start, t_surface)) {
       t0 = std::min(t0, a);
       t1 = std::max(t1, b);
     }
@@ -281,18 +281,35 @@ VolumeFrame render_volume_frame(const RayCastInputs& in) {
         const float jitter = jittered ? uniform_float(jitter_key, static_cast<std::uint64_t>(x), static_cast<std::uint64_t>(y)) : 0.0f;
         const std::size_t pixel = static_cast<std::size_t>(y) * static_cast<std::size_t>(cam.width) + static_cast<std::size_t>(x);
         const float t_surface = in.opaque ? (*in.opaque->distance)[pixel] : kInfinity;
-        Rgb color(0.0f);
-        float opacity = 0;
         float& half = out.half_depth[pixel];
-        if (in.volumes.size() == 1)
-          opacity = in.volumes.front()->volume->with_voxel_type([&](auto type) {
-            return in.owned ? trace_one<decltype(type), true>(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color, half, counts)
-                            : trace_one<decltype(type), false>(*in.volumes.front(), shader, ray, jitter, t_surface, batch, color, half, counts);
-          });
-        else if (!in.volumes.empty()) opacity = trace_many(in.volumes, shader, ray, jitter, t_surface, batch, overlap, color, half, counts);
+        // the volumes' colour (premultiplied) and opacity over [t_start, t_end]
+        auto trace = [&](float t_start, float t_end, Rgb& color) {
+          if (in.volumes.size() == 1)
+            return in.volumes.front()->volume->with_voxel_type([&](auto type) {
+              return in.owned ? trace_one<decltype(type), true>(*in.volumes.front(), shader, ray, jitter, t_start, t_end, batch, color, half, counts)
+                              : trace_one<decltype(type), false>(*in.volumes.front(), shader, ray, jitter, t_start, t_end, batch, color, half, counts);
+            });
+          if (in.volumes.empty()) return 0.0f;
+          return trace_many(in.volumes, shader, ray, jitter, t_start, t_end, batch, overlap, color, half, counts);
+        };
         const Rgb behind = in.opaque ? in.opaque->color->at(x, y) : in.scene->background;
-        out.image.at(x, y) = color + behind * (1 - opacity);
-        out.opacity[pixel] = opacity;
+        const float t_glass = in.translucent ? (*in.translucent->distance)[pixel] : kInfinity;
+        Rgb color(0.0f);
+        if (t_glass < t_surface) {
+          // in front of the plane, the plane over what lies behind it, and behind it up to the surface;
+          // the lattice is the same, split at the plane (a sample on it counts in front)
+          const float front = trace(0, t_glass, color);
+          Rgb back_color(0.0f);
+          const float back = trace(std::nextafter(t_glass, kInfinity), t_surface, back_color);
+          const float a = (*in.translucent->opacity)[pixel];
+          const Rgb glass = in.translucent->color->at(x, y);
+          out.image.at(x, y) = color + (glass * a + (back_color + behind * (1 - back)) * (1 - a)) * (1 - front);
+          out.opacity[pixel] = 1 - (1 - front) * (1 - a) * (1 - back);
+        } else {
+          const float opacity = trace(0, t_surface, color);
+          out.image.at(x, y) = color + behind * (1 - opacity);
+          out.opacity[pixel] = opacity;
+        }
       }
     }
     classified.fetch_add(counts.classified, std::memory_order_relaxed);

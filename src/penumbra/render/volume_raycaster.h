@@ -41,6 +41,15 @@ struct OpaqueLayer {
   const Image* color;
 };
 
+// Translucent planes (slices with opacity below 1) in front of the opaque layer: per pixel the distance
+// (infinity: none), the shaded colour and the opacity. A ray composites the volumes up to the plane, the
+// plane over what lies behind it, and the volumes from the plane to the opaque layer.
+struct TranslucentLayer {
+  const std::vector<float>* distance;
+  const Image* color;
+  const std::vector<float>* opacity;
+};
+
 struct RayCastInputs {
   const Scene* scene;
   const Camera* camera;
@@ -53,6 +62,7 @@ struct RayCastInputs {
   const LightCache* light_cache = nullptr;
   std::span<const int> cached_light_slot;
   const OpaqueLayer* opaque = nullptr;
+  const TranslucentLayer* translucent = nullptr;
   std::uint32_t sample = 0;  // accumulation sample: 0 the batch frame; others move every pixel's jitter
   const SampleSlab* owned = nullptr;  // a brick's samples only; null: every sample
 };

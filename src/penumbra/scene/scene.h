@@ -126,6 +126,9 @@ struct Plane : ShadowFlags {
   Vec3 normal{0, 1, 0};
   Rgb color{0.8f, 0.8f, 0.8f};
   float size = 0;
+  // slices[].opacity: below 1 the plane is drawn translucent over what lies behind it (the volumes
+  // behind it composited on through it); a translucent plane casts no shadow
+  float opacity = 1;
   ClipPlanes clip_planes;   // the scene's clip planes when `clip`, else none (set by the scene reader)
   std::shared_ptr<const SliceColors> slice;  // a slice's colours; null for a plain plane
 
@@ -152,10 +155,12 @@ struct Plane : ShadowFlags {
   Vec3 facing_normal(const Vec3& direction) const { return dot(normal, direction) <= 0 ? normal : -normal; }
 };
 
-// The nearest of `planes` that r hits in (0, t), or nullptr; t becomes that hit's distance.
-inline const Plane* nearest_plane(const std::vector<Plane>& planes, const Ray& r, float& t) {
+// The nearest of the opaque (or, with `translucent`, the translucent) `planes` that r hits in (0, t),
+// or nullptr; t becomes that hit's distance.
+inline const Plane* nearest_plane(const std::vector<Plane>& planes, const Ray& r, float& t, bool translucent = false) {
   const Plane* nearest = nullptr;
   for (const auto& p : planes) {
+    if ((p.opacity < 1) != translucent) continue;
     const float tp = p.intersect(r, 0, t);
     if (tp < t) {
       t = tp;

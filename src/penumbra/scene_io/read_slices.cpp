@@ -1,6 +1,7 @@
 // The scene file's slices (docs/scene-file.md): a plane through a volume, cut to its box and coloured by
 // the volume's trilinear values through a colour map; it receives the shadows of everything and casts
-// none unless asked. A slice is drawn as a plane (Scene::planes from first_slice on).
+// none unless asked (an opaque one). A slice is drawn as a plane (Scene::planes from first_slice on); a
+// translucent one (opacity below 1) over what lies behind it.
 #include "penumbra/scene_io/scene_sections.h"
 
 namespace penumbra::scene_sections {
@@ -28,9 +29,10 @@ Plane read_slice(const nlohmann::json& j, const std::string& path, const std::ve
     const float a = w[0].get<float>(), b = w[1].get<float>();
     colors->color_map = TransferFunction(std::vector<TransferPoint>{{a, {0, 0, 0}, 1}, {b, {1, 1, 1}, 1}});
   }
-  const float opacity = r.number("opacity", 1, 0, 1);
-  if (opacity < 1) r.fail("opacity", "translucent slices are not drawn yet: give 1 (opaque), or leave it out");
   Plane p;
+  p.opacity = r.number("opacity", 1, 0, 1);
+  if (p.opacity < 1 && r.has("casts_shadows") && r.boolean("casts_shadows", false))
+    r.fail("casts_shadows", "a translucent slice ('opacity' below 1) casts no shadow: give 'opacity': 1 for a slice that casts");
   p.point = r.vec3("point", v.volume->bounds().center());
   p.normal = normalize(r.vec3("normal", {0, 0, 1}));
   if (length(p.normal) == 0) r.fail("normal", "must not be the zero vector");

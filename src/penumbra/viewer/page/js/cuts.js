@@ -2,7 +2,7 @@
 // ("slices[]"). Buttons add a plane or a slice across the x, y or z axis through the data's centre; each
 // one then has a slider that moves it along its normal over the data's box (edits of
 // clip_planes.N.point / slices.N.point, which rebuild only what they cut), a button that turns a clip
-// plane round (its normal negated) and one that removes it.
+// plane round (its normal negated) and one that removes it; a slice also has an opacity slider.
 
 import { $, el, clone, round6, V } from "./util.js";
 import { viewer, queueEdit } from "./connection.js";
@@ -101,13 +101,18 @@ function track(state, kind, i, item, name) {
     flip.addEventListener("click", () => queueEdit({ [kind + "." + i + ".normal"]: V.scale(n, -1).map(round6) }));
     buttons.unshift(flip);
   }
+  // a slice's opacity: below 1 it is drawn over what lies behind it (and casts no shadow)
+  const opacity = kind === "slices" ? el("input", { type: "range", class: "opacity", min: 0, max: 1, step: 0.01, title: name + ": opacity" }) : null;
+  if (opacity) opacity.addEventListener("input", () => queueEdit({ [kind + "." + i + ".opacity"]: Number(opacity.value) }));
   const root = el("div", {}, el("div", { class: "sub" }, name),
-                  el("div", { class: "row" }, slider, readout, ...buttons));
+                  el("div", { class: "row" }, slider, readout, ...buttons),
+                  opacity && el("div", { class: "row" }, el("label", { class: "key" }, "opacity"), opacity));
   root.dataset.cut = kind + "." + i;
   return {
     root,
     sync(s) {
       const current = ((s.document || {})[kind] || [])[i];
+      if (current && opacity && document.activeElement !== opacity) opacity.value = current.opacity === undefined ? 1 : current.opacity;
       if (!current || document.activeElement === slider) return;
       const d = V.dot(current.point || centre(s), n);
       slider.value = d;
