@@ -548,10 +548,10 @@ void ViewerServer::Impl::on_message(const std::shared_ptr<WsSession>& from, cons
       job.edits = {{"camera.width", m["width"]}, {"camera.height", m["height"]}};
     } else {
       if (type != "probe") throw Error("message: unknown type \"" + type + "\" (expected edit, resize or probe)");
-      const auto [x, y] = probe_pixel(m);
+      const std::pair<float, float> pixel = probe_pixel(m);
       job.keeps_frame = true;
-      job.task = [this, weak = std::weak_ptr<WsSession>(from), x, y] {
-        if (auto s = weak.lock()) s->send_probe(std::make_shared<const std::string>(probe_message(engine.scene(), x, y).dump()));
+      job.task = [this, weak = std::weak_ptr<WsSession>(from), pixel] {
+        if (auto s = weak.lock()) s->send_probe(std::make_shared<const std::string>(probe_message(engine.scene(), pixel.first, pixel.second).dump()));
       };
     }
     from->message_queued();
