@@ -374,7 +374,8 @@ TEST(CutSphere, NearestPointOfTheKeptPartAgreesWithBruteForce) {
     for (int i = 0; i <= n; ++i)
       for (int j = 0; j <= n; ++j)
         for (int k = 0; k <= n; ++k) {
-          const Vec3 d{-1 + 2.0f * i / n, -1 + 2.0f * j / n, -1 + 2.0f * k / n};
+          const float step = 2.0f / static_cast<float>(n);
+          const Vec3 d{-1 + step * static_cast<float>(i), -1 + step * static_cast<float>(j), -1 + step * static_cast<float>(k)};
           for (const Vec3& p : {s.center + d, s.center + normalize(d) * s.radius})  // inside and on the surface
             if (length(p - s.center) <= s.radius * 1.0001f && !planes.removes(p)) kept.push_back(p);
         }
@@ -387,7 +388,7 @@ TEST(CutSphere, NearestPointOfTheKeptPartAgreesWithBruteForce) {
       for (const Vec3& p : kept) brute = std::min(brute, length(x - p));
       const float exact = length(x - nearest);
       EXPECT_LE(exact, brute + 2e-3f) << "trial " << trial;
-      EXPECT_GE(exact, brute - 2.0f / n * 1.8f) << "trial " << trial;
+      EXPECT_GE(exact, brute - 2.0f / static_cast<float>(n) * 1.8f) << "trial " << trial;
     }
   }
 }

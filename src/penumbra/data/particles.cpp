@@ -8,15 +8,15 @@
 namespace penumbra {
 
 Box3 ParticleSet::bounds() const {
-  Box3 box;
+  Box3 b;
   for (std::size_t i = 0; i < spheres.size(); ++i) {
     if (clip_of(i) == kSphereRemoved) continue;  // clipped away: nothing of it is drawn or casts
     const Sphere& s = spheres[i];
     const Vec3 r{s.radius, s.radius, s.radius};
-    box.lo = min(box.lo, s.center - r);
-    box.hi = max(box.hi, s.center + r);
+    b.lo = min(b.lo, s.center - r);
+    b.hi = max(b.hi, s.center + r);
   }
-  return box;
+  return b;
 }
 
 namespace {
