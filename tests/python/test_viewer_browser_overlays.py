@@ -4,6 +4,7 @@ value axis (in HU for a CT), transfer-function presets, the refinement's progres
 keyboard shortcuts and their list, a refused value put back in its field, and the banner while the
 connection is down; the probe; a particle set's colour-by choice. Each test checks what the page draws
 or sends, so that a broken feature fails it. With PENUMBRA_FIGURES set, it saves viewer_tools.png there."""
+import contextlib
 import json
 import math
 import os
@@ -32,6 +33,23 @@ def session(tmp_path_factory):
     finally:
         driver.quit()
         assert server.close() == 0, "Ctrl-C must stop the server cleanly"
+
+
+@contextlib.contextmanager
+def opened_page(folder, scene):
+    """A server on `scene` and chromium showing its page, loaded; both closed after (the server by Ctrl-C,
+    which must stop it cleanly)."""
+    server = Viewer(folder, scene)
+    driver = None
+    try:
+        driver = chrome()
+        driver.get(server.url)
+        wait_loaded(driver)
+        yield driver
+    finally:
+        if driver:
+            driver.quit()
+        assert server.close() == 0
 
 
 def sub(a, b):
@@ -238,21 +256,12 @@ def test_a_ct_has_its_legend_and_axis_in_hounsfield_units(tmp_path):
     voxels = [int(-1000 + 2000 * i / (n ** 3 - 1)) for i in range(n ** 3)]
     header = f"NRRD0004\ntype: short\ndimension: 3\nsizes: {n} {n} {n}\nencoding: raw\nendian: little\n\n"
     (tmp_path / "ct.nrrd").write_bytes(header.encode() + struct.pack(f"<{n ** 3}h", *voxels))
-    server = Viewer(tmp_path, {"volumes": [{"file": "ct.nrrd"}], "camera": {"width": 64, "height": 48}})
-    driver = None
-    try:
-        driver = chrome()
-        driver.get(server.url)
-        wait_loaded(driver)
+    with opened_page(tmp_path, {"volumes": [{"file": "ct.nrrd"}], "camera": {"width": 64, "height": 48}}) as driver:
         assert js(driver, STATE + ".histograms[0].unit") == "HU"
         legend = driver.find_element(By.ID, "legend")
         wait(driver, lambda d: "HU" in legend.text, "the legend does not say HU")
         assert any(s.text == "-1000" for s in legend.find_elements(By.CSS_SELECTOR, ".ticks span"))
         assert console_errors(driver) == []
-    finally:
-        if driver:
-            driver.quit()
-        assert server.close() == 0
 
 
 def test_the_probe_gives_the_value_where_the_pixels_ray_first_meets_the_visible_data(session):
@@ -332,12 +341,7 @@ def test_the_probe_gives_the_value_where_the_pixels_ray_first_meets_the_visible_
 
 def test_a_particle_sets_colour_by_choice_reaches_the_scene_and_the_image(tmp_path):
     (tmp_path / "atoms.xyz").write_text("4\natoms\nC 0 0 0\nO 0.5 0 0\nN 0 0.5 0\nC 0 0 0.5\n")
-    server = Viewer(tmp_path, {"particles": [{"file": "atoms.xyz", "radius": 0.2}], "camera": {"width": 64, "height": 48}})
-    driver = None
-    try:
-        driver = chrome()
-        driver.get(server.url)
-        wait_loaded(driver)
+    with opened_page(tmp_path, {"particles": [{"file": "atoms.xyz", "radius": 0.2}], "camera": {"width": 64, "height": 48}}) as driver:
         from selenium.webdriver.support.ui import Select
         select = Select(driver.find_element(By.CSS_SELECTOR, "select.color-by"))
         assert [o.get_attribute("value") for o in select.options] == ["element", "chain", "residue", "scalar", "uniform"]
@@ -348,10 +352,6 @@ def test_a_particle_sets_colour_by_choice_reaches_the_scene_and_the_image(tmp_pa
         wait(driver, lambda d: js(d, "window.penumbraViewer.frames") > frames, "no frame after the change")
         assert Select(driver.find_element(By.CSS_SELECTOR, "select.color-by")).first_selected_option.get_attribute("value") == "uniform"
         assert console_errors(driver) == []
-    finally:
-        if driver:
-            driver.quit()
-        assert server.close() == 0
 
 
 def test_a_molecules_legend_its_periodic_cell_and_its_visibility_box(tmp_path):
@@ -360,12 +360,7 @@ def test_a_molecules_legend_its_periodic_cell_and_its_visibility_box(tmp_path):
         "small\n6\n    1ALA      N    1   0.500   0.500   0.500\n    1ALA     CA    2   0.650   0.500   0.500\n"
         "    1ALA      C    3   0.800   0.500   0.500\n    2SOL     OW    4   1.200   1.200   1.200\n"
         "    3SOL     OW    5   1.400   1.200   1.200\n    4NA      NA    6   1.500   0.600   1.500\n   2.00000   2.00000   2.00000\n")
-    server = Viewer(tmp_path, {"particles": [{"file": "small.gro"}], "camera": {"width": 96, "height": 72}})
-    driver = None
-    try:
-        driver = chrome()
-        driver.get(server.url)
-        wait_loaded(driver)
+    with opened_page(tmp_path, {"particles": [{"file": "small.gro"}], "camera": {"width": 96, "height": 72}}) as driver:
         legend = driver.find_element(By.ID, "legend")
         wait(driver, lambda d: legend.is_displayed() and "by element" in legend.text, "no legend for the molecule")
         entries = {e.find_element(By.CSS_SELECTOR, ".label").text: int(e.find_element(By.CSS_SELECTOR, ".count").text)
@@ -402,10 +397,6 @@ def test_a_molecules_legend_its_periodic_cell_and_its_visibility_box(tmp_path):
         wait(driver, lambda d: js(d, "window.penumbraViewer.frames") > frames, "no frame after hiding")
         assert legend.find_elements(By.CSS_SELECTOR, ".particle-key") == []
         assert console_errors(driver) == []
-    finally:
-        if driver:
-            driver.quit()
-        assert server.close() == 0
 
 
 def test_playback_keeps_the_wall_clock_and_skips_steps_rather_than_queueing_them(tmp_path):
@@ -417,13 +408,8 @@ def test_playback_keeps_the_wall_clock_and_skips_steps_rather_than_queueing_them
         frames.append("\n".join(lines) + "\n")
     (tmp_path / "top.xyz").write_text(frames[0])
     (tmp_path / "run.xyz").write_text("".join(frames))
-    server = Viewer(tmp_path, {"particles": [{"file": "top.xyz", "trajectory": "run.xyz", "radius": 0.12}],
-                               "shadows": {"technique": "issm"}, "camera": {"width": 96, "height": 72}})
-    driver = None
-    try:
-        driver = chrome()
-        driver.get(server.url)
-        wait_loaded(driver)
+    with opened_page(tmp_path, {"particles": [{"file": "top.xyz", "trajectory": "run.xyz", "radius": 0.12}],
+                                "shadows": {"technique": "issm"}, "camera": {"width": 96, "height": 72}}) as driver:
         wait(driver, lambda d: not driver.find_element(By.ID, "time-section").get_attribute("hidden"), "no time controls for a trajectory")
         # far faster than any frame can be rendered, sent and shown: rendering falls behind
         driver.execute_script("window.penumbraViewer.playback.fps = 400")
@@ -439,10 +425,6 @@ def test_playback_keeps_the_wall_clock_and_skips_steps_rather_than_queueing_them
         # the last step asked for is the frame the scene ends on
         wait(driver, lambda d: js(d, STATE + ".time.frame") == (p["first"] + p["step"]) % 40, "the last step asked for was not applied")
         assert console_errors(driver) == []
-    finally:
-        if driver:
-            driver.quit()
-        assert server.close() == 0
 
 
 def drag_from(driver, at, by, steps=8):
@@ -458,12 +440,7 @@ def drag_from(driver, at, by, steps=8):
 
 def test_handles_move_and_turn_a_clip_plane_and_turn_the_light(tmp_path):
     scene = dict(SCENE, clip_planes=[{"point": [0, 0, 0], "normal": [1, 0, 0]}], camera={"width": 320, "height": 240})
-    server = Viewer(tmp_path, scene)
-    driver = None
-    try:
-        driver = chrome()
-        driver.get(server.url)
-        wait_loaded(driver)
+    with opened_page(tmp_path, scene) as driver:
         wait(driver, lambda d: {h["kind"] for h in js(d, "window.penumbraViewer.handles")} == {"light", "move", "turn"},
              "the light's and the plane's handles are not drawn")
         assert painted(driver, "handles") > 100
@@ -493,7 +470,3 @@ def test_handles_move_and_turn_a_clip_plane_and_turn_the_light(tmp_path):
         press(driver, "h")
         wait(driver, lambda d: painted(d, "handles") == 0 and js(d, "window.penumbraViewer.handles.length") == 0, "H did not hide the handles")
         assert console_errors(driver) == []
-    finally:
-        if driver:
-            driver.quit()
-        assert server.close() == 0

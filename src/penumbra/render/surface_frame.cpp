@@ -14,6 +14,18 @@ namespace {
 constexpr std::size_t kPointBatch = 64;  // points whose shadow and ambient queries are issued together
 constexpr std::uint32_t kNoPoint = 0xffffffffu;
 
+// The point where `ray` meets plane `index` of the scene at distance t, with its colour and flag, as
+// both the opaque and the translucent layer list it.
+void plane_point(const Scene& scene, std::uint32_t index, const Ray& ray, float t, SurfacePoint& sp, Rgb& albedo, bool& receives) {
+  const Plane& plane = scene.planes[index];
+  sp.position = ray.at(t);
+  sp.normal = plane.facing_normal(ray.direction);
+  sp.kind = ObjectKind::Plane;
+  sp.object = index;
+  albedo = plane.color_at(sp.position);
+  receives = plane.receives_shadows;
+}
+
 }  // namespace
 
 void visible_surfaces(const SurfaceInputs& in, VisibleSurfaces& vs) {
@@ -89,17 +101,9 @@ void visible_surfaces(const SurfaceInputs& in, VisibleSurfaces& vs) {
         Rgb albedo;
         bool receives = true;
         switch (what[i] & kKind) {
-          case kPlane: {
-            const Plane& plane = scene.planes[what[i] & ~kKind];
-            const Ray ray = rays.ray(x, static_cast<int>(y));
-            sp.position = ray.at(t);
-            sp.normal = plane.facing_normal(ray.direction);
-            sp.kind = ObjectKind::Plane;
-            sp.object = what[i] & ~kKind;
-            albedo = plane.color_at(sp.position);
-            receives = plane.receives_shadows;
+          case kPlane:
+            plane_point(scene, what[i] & ~kKind, rays.ray(x, static_cast<int>(y)), t, sp, albedo, receives);
             break;
-          }
           case kIso: {
             const Nearest iso = iso_at[i];
             const IsoPoint& p = in.isosurface_points[iso.surface][iso.point];
@@ -181,17 +185,14 @@ void translucent_surfaces(const Scene& scene, const Camera& cam, const std::vect
       for (int x = 0; x < w; ++x) {
         const std::size_t i = y * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
         if (vs.distance[i] == kInfinity) continue;
-        const Plane& plane = scene.planes[vs.what[i]];
-        const Ray ray = rays.ray(x, static_cast<int>(y));
         SurfacePoint sp;
-        sp.position = ray.at(vs.distance[i]);
-        sp.normal = plane.facing_normal(ray.direction);
-        sp.kind = ObjectKind::Plane;
-        sp.object = vs.what[i];
+        Rgb albedo;
+        bool receives = true;
+        plane_point(scene, vs.what[i], rays.ray(x, static_cast<int>(y)), vs.distance[i], sp, albedo, receives);
         vs.points[k] = sp;
         vs.pixel[k] = static_cast<std::uint32_t>(i);
-        vs.albedo[k] = plane.color_at(sp.position);
-        vs.receives[k] = plane.receives_shadows ? 1 : 0;
+        vs.albedo[k] = albedo;
+        vs.receives[k] = receives ? 1 : 0;
         ++k;
       }
     }
