@@ -154,10 +154,13 @@ void translucent_surfaces(const Scene& scene, const Camera& cam, const std::vect
   vs.pixel.clear();
   vs.albedo.clear();
   vs.receives.clear();
+  vs.distance.clear();
+  vs.what.clear();
+  opacity.clear();
+  if (!has_translucent_planes(scene)) return;  // no per-pixel buffers: nothing is read of them
   vs.distance.assign(pixels, kInfinity);
   vs.what.assign(pixels, 0);
   opacity.assign(pixels, 0.0f);
-  if (!has_translucent_planes(scene)) return;
   const PrimaryRays rays(cam);
   std::vector<std::size_t> row_start(static_cast<std::size_t>(h) + 1, 0);
   parallel_for(static_cast<std::size_t>(h), [&](std::size_t y0, std::size_t y1) {

@@ -50,7 +50,8 @@ inline VisibleSurfaces visible_surfaces(const SurfaceInputs& in) {
 
 // Per pixel the nearest translucent plane (a slice with opacity below 1) in front of the opaque surface
 // at `opaque_distance`: its points for shade_surfaces (what: the plane's index), its distance (infinity
-// where none) and `opacity` per pixel (0 where none). Empty when the scene has no translucent plane.
+// where none) and `opacity` per pixel (0 where none). Everything empty, per-pixel buffers included,
+// when the scene has no translucent plane.
 void translucent_surfaces(const Scene& scene, const Camera& camera, const std::vector<float>& opaque_distance, VisibleSurfaces& out,
                           std::vector<float>& opacity);
 bool has_translucent_planes(const Scene& scene);
