@@ -119,6 +119,9 @@ TEST(FuzzFindings, NrrdHeadersTeemLeaksOnAreRefused) {
       {kNrrdFields + "kinds: domain domain domain\rlabels: \"x\n", "carriage return"},
       // Found by fuzz_nrrd (CI, 2026-12-02): teem refuses a block size for a non-block type and leaks
       {kNrrdFields + "block size: 40625\n", "'block size' belongs to type 'block'"},
+      // Found by fuzz_nrrd (CI, 2026-12-05): teem's check after reading refuses a kind of fixed size on an
+      // axis of another size, and leaks
+      {kNrrdFields + "kinds: domain HSV-color domain\n", "axis 1 is of kind 'HSV-color', which has 3 samples, but its size is 2"},
   };
   for (const Case& c : cases) {
     const std::string path = dir.file("leak.nrrd");
@@ -412,4 +415,17 @@ TEST(FuzzFindings, NiftiAffinesTooLargeToResampleAreRefused) {
   m = error_message([&] { (void)load_volume(path); });
   EXPECT_HAS(m, "4x3001x3001 voxels at its finest spacing, 0.01 mm");
   EXPECT_HAS(m, "times its own 4x3x2 (at most 64 times");
+}
+
+// Found by fuzz_nrrd (2026-12-05, a timeout): a 1x2x2 NRRD whose second space direction is 4.3 million mm
+// long was resampled onto 2 million x 2 x 3 voxels, under the old floor of 2^24 voxels, which took over
+// 10 s in the sanitised build. A grid over 64 times the file's is refused above 2^21 voxels.
+TEST(FuzzFindings, NrrdOneAbsurdSpacingIsNotResampled) {
+  TempDir dir;
+  const std::string path = dir.file("far.nrrd");
+  write_file(path, "NRRD0005\ntype: float\ndimension: 3\nspace: left-posterior-superior\nsizes: 1 2 2\n"
+                   "space directions: (1,0,5) (0,4294995,0) (0,0,2)\nendian: big\nencoding: raw\n\n" + std::string(16, '\0'));
+  const std::string m = error_message([&] { (void)load_volume(path); });
+  EXPECT_HAS(m, path);
+  EXPECT_HAS(m, "times its own 1x2x2 (at most 64 times");
 }

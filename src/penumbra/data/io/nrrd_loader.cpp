@@ -60,6 +60,7 @@ struct NrrdHeader {
   int encoding = nrrdEncodingTypeUnknown;
   std::string encoding_name;
   std::optional<std::string> data_file;
+  std::vector<std::string> kinds;  // as written, one per axis
   std::int64_t byte_skip = 0;
   std::int64_t line_skip = 0;
   std::uint64_t header_end = 0;  // offset of the first data byte when the data is attached
@@ -227,6 +228,9 @@ NrrdHeader parse_header(const std::string& path, std::uint64_t file_bytes) {
         h.encoding = airEnumVal(nrrdEncodingType, h.encoding_name.c_str());
         break;
       case nrrdField_data_file: h.data_file = std::string(value); break;
+      case nrrdField_kinds:
+        for (const auto token : split_fields(value)) h.kinds.emplace_back(token);
+        break;
       case nrrdField_block_size:  // teem leaks when it refuses a block size for another type
         throw Error(where + " 'block size' belongs to type 'block', which penumbra does not read (a volume of "
                     "uint8, int16, uint16 or float expected)");
@@ -271,6 +275,15 @@ Checked check_header(const NrrdHeader& h, const std::filesystem::path& header_pa
   const std::size_t count = with_context("NRRD sizes", [&] { return checked_voxel_count(c.dims); });
   for (const auto s : c.dims)
     if (s > std::numeric_limits<int>::max()) throw Error("NRRD size " + std::to_string(s) + " is too large");
+  // teem leaks when its check after reading refuses a kind of fixed size (an RGB or HSV colour, a
+  // vector, a tensor) on an axis of another size (found by fuzz_nrrd in CI, 2026-12-05).
+  for (std::size_t axis = 0; axis < h.kinds.size() && axis < 3; ++axis) {
+    const int kind = airEnumVal(nrrdKind, h.kinds[axis].c_str());
+    const unsigned fixed = kind == nrrdKindUnknown ? 0u : nrrdKindSize(kind);
+    if (fixed != 0 && static_cast<std::int64_t>(fixed) != c.dims[axis])
+      throw Error("NRRD axis " + std::to_string(axis) + " is of kind '" + printable(h.kinds[axis]) + "', which has " +
+                  std::to_string(fixed) + " samples, but its size is " + std::to_string(c.dims[axis]));
+  }
 
   switch (h.type) {
     case nrrdTypeChar: case nrrdTypeUChar: case nrrdTypeShort: case nrrdTypeUShort:
