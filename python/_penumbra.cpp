@@ -18,6 +18,7 @@
 #include <cstring>
 #include <exception>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <mutex>
 #include <string>
@@ -35,7 +36,12 @@
 #include "penumbra/engine/engine.h"
 #include "penumbra/scene_io/json_reader.h"
 #include "penumbra/scene_io/scene_file.h"
+#include "penumbra/core/timer.h"
+#include "penumbra/viewer/frame_message.h"
+#include "penumbra/viewer/probe.h"
+#include "penumbra/viewer/viewer_page.h"
 #include "penumbra/viewer/viewer_server.h"
+#include "penumbra/viewer/viewer_state.h"
 
 namespace py = pybind11;
 using namespace penumbra;
@@ -194,6 +200,11 @@ public:
     const auto lock = locked();
     return engine_.document().dump();
   }
+  // The scene as a file saved in `folder` would say it (Engine::saved_document), as indented JSON text.
+  std::string saved_document(const std::string& folder) const {
+    const auto lock = locked();
+    return engine_.saved_document(folder).dump(2) + "\n";
+  }
   int width() const {
     const auto lock = locked();
     return engine_.scene().camera.width;
@@ -229,13 +240,57 @@ public:
     return frame_stats(f, engine_.renderer()).dump();
   }
 
+  // For the notebook widget (python/penumbra/widget.py), which speaks the viewer's protocol
+  // (docs/viewer.md) over the kernel's comm. The "state" message for the scene as it is now, as text.
+  std::string viewer_state() {
+    const auto lock = locked();
+    return viewer_state_.message(engine_).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  }
+  // A frame as the page takes it: (the "frame" message as text, the JPEG), a preview at its reduced size.
+  // `generation` is cancel_generation() as the caller read it before deciding to render: a cancel_frame()
+  // since then (from any thread) stops the frame, which returns None (before it starts, or within a
+  // chunk's time), so that an edit never waits behind a frame made stale by it.
+  py::object frame_message(bool preview, bool accumulate, int max_samples, std::uint64_t generation) {
+    std::string meta;
+    py::bytes jpeg;
+    {
+      const auto lock = locked();
+      if (cancel_generation_ != generation) return py::none();
+      FrameOptions options;
+      options.quality = preview ? Quality::Preview : Quality::Full;
+      options.accumulate = accumulate;
+      options.enlarge_preview = false;
+      Timer timer;
+      EngineFrame f;
+      try {
+        f = render_interruptibly(options, [&] { return cancel_generation_ != generation; });
+      } catch (const Cancelled&) {
+        return py::none();
+      }
+      FrameMessage m = penumbra::frame_message(f, options.quality, engine_.scene(), timer.elapsed_ms(), max_samples);
+      meta = m.meta.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+      jpeg = py::bytes(m.jpeg);
+    }
+    return py::make_tuple(meta, jpeg);
+  }
+  // Stops the frame_message() in progress, and any that a caller decided on before this call; without a lock.
+  void cancel_frame() { ++cancel_generation_; }
+  std::uint64_t cancel_generation() const { return cancel_generation_; }
+  // The answer to the page's "probe" message (its JSON text): the value under the pointer.
+  std::string probe(const std::string& message) {
+    const std::pair<float, float> pixel = probe_pixel(parse(message, "probe"));
+    const auto lock = locked();
+    return probe_message(engine_.scene(), pixel.first, pixel.second).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  }
+
 private:
   // Renders on a worker thread while this one, with the GIL released but for a moment every 20 ms,
   // lets Python run its signal handlers: Ctrl-C (or any handler that raises) cancels the frame, which
   // stops within a chunk's time (core/cancel.h), and the handler's exception (KeyboardInterrupt) is
   // raised here once the worker has let go of the engine. The engine is left as after a cancelled
   // viewer frame: the next render starts afresh.
-  EngineFrame render_interruptibly(FrameOptions options) {
+  // `stale`, when given, cancels the frame too once it says so (asked as often as the signals are checked).
+  EngineFrame render_interruptibly(FrameOptions options, const std::function<bool()>& stale = {}) {
     std::atomic<bool> cancel{false};
     options.cancel = &cancel;
     EngineFrame frame;
@@ -258,6 +313,7 @@ private:
       });
       std::unique_lock<std::mutex> lock(m);
       while (!finished.wait_for(lock, std::chrono::milliseconds(20), [&] { return done; })) {
+        if (stale && stale()) cancel = true;
         if (interrupted) continue;
         lock.unlock();
         {
@@ -286,6 +342,8 @@ private:
   }
 
   Engine engine_;
+  ViewerState viewer_state_;  // keeps each volume's histogram between state messages
+  std::atomic<std::uint64_t> cancel_generation_{0};
   mutable std::mutex mutex_;
 };
 
@@ -492,11 +550,25 @@ PYBIND11_MODULE(_penumbra, m) {
       .def("is_set", &PyEngine::is_set)
       .def("volume_address", &PyEngine::volume_address)
       .def("document", &PyEngine::document)
+      .def("saved_document", &PyEngine::saved_document, py::arg("folder"))
       .def_property_readonly("width", &PyEngine::width)
       .def_property_readonly("height", &PyEngine::height)
       .def_property_readonly("frames", &PyEngine::frames)
       .def("render_into", &PyEngine::render_into, py::arg("out"), py::arg("preview") = false, py::arg("accumulate") = false,
-           py::arg("transparent") = false);
+           py::arg("transparent") = false)
+      .def("viewer_state", &PyEngine::viewer_state, "The viewer's state message (docs/viewer.md) as JSON text")
+      .def("frame_message", &PyEngine::frame_message, py::arg("preview"), py::arg("accumulate"), py::arg("max_samples"),
+           py::arg("generation"), "(frame message JSON text, JPEG bytes), or None when cancel_frame() stopped it")
+      .def("cancel_frame", &PyEngine::cancel_frame)
+      .def("cancel_generation", &PyEngine::cancel_generation)
+      .def("probe", &PyEngine::probe, py::arg("message"));
+
+  // The viewer's page as compiled in: {path: text} ("/" is index.html; "/style.css", "/js/main.js", ...).
+  m.def("viewer_page_files", [] {
+    py::dict files;
+    for (const PageFile& f : viewer_page_files()) files[py::str(std::string(f.path))] = py::str(std::string(f.body));
+    return files;
+  });
 
   py::class_<PyViewer>(m, "Viewer")
       .def(py::init<const std::string&, const std::string&, const py::dict&, const py::dict&, const std::string&, int, const std::string&,

@@ -12,6 +12,7 @@ packages=(build-essential cmake ninja-build g++ pkg-config
           python3-pip python3-venv mypy  # `pip install .` into a fresh environment, and the stubs under mypy --strict
           python3-dev pybind11-dev python3-numpy python3-pytest  # the Python package (python/)
           python3-mdanalysis jupyter-nbconvert python3-ipykernel  # trajectories, the example notebook
+          python3-ipywidgets jupyter-notebook  # penumbra.Widget (ipywidgets 6), and the notebook server its browser test starts
           python3-matplotlib  # the bench's error-against-time charts (scripts/bench_charts.py)
           libopenmpi-dev openmpi-bin  # data-parallel rendering under mpirun (src/penumbra/distributed/)
           libboost-dev libjpeg62-turbo-dev  # the viewer's server (Beast) and its JPEG frames

@@ -5,8 +5,8 @@ In-tree (pyproject.toml: backend-path = ["python/build_backend"]) and standard l
 builds offline with Debian's tools: `pip install --no-build-isolation .` (CMake, Ninja, a C++ compiler
 and the -dev packages of scripts/install-deps.sh must be installed; pip downloads nothing).
 
-The wheel holds penumbra/ (__init__.py, the compiled _penumbra module, __init__.pyi, py.typed) and the
-`penumbra` executable as a script (penumbra-VERSION.data/scripts/), which pip puts in the environment's
+The wheel holds penumbra/ (__init__.py, widget.py and widget.js, the compiled _penumbra module,
+__init__.pyi, py.typed) and the `penumbra` executable as a script (penumbra-VERSION.data/scripts/), which pip puts in the environment's
 bin/. The CMake build lives in build/wheel-<interpreter> (config setting "build-dir" to change it),
 so that a second install only rebuilds what changed. Config setting "jobs" sets the build's -j;
 "prebuilt" (with "build-dir") packs a build tree as it is, without building.
@@ -47,7 +47,8 @@ def _metadata(version):
     return (f"Metadata-Version: 2.1\nName: penumbra\nVersion: {version}\n"
             "Summary: Direct volume rendering and molecule rendering with shadows and ambient occlusion, "
             "each technique measured against the exact reference\n"
-            "Requires-Python: >=3.9\nRequires-Dist: numpy\nLicense: see the repository\n"
+            "Requires-Python: >=3.9\nRequires-Dist: numpy\nProvides-Extra: widget\n"
+            "Requires-Dist: ipywidgets>=6; extra == \"widget\"\nLicense: see the repository\n"
             "Description-Content-Type: text/markdown\n\n" + readme)
 
 
@@ -95,7 +96,7 @@ def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
     package = os.path.join(build_dir, "python", "penumbra")
     files = {}  # path in the wheel -> (bytes, executable)
     for name in sorted(os.listdir(package)):
-        if name == "_build_info.py" or name.endswith((".py", ".pyi", ".so")) or name == "py.typed":
+        if name == "_build_info.py" or name.endswith((".py", ".pyi", ".so", ".js")) or name == "py.typed":
             with open(os.path.join(package, name), "rb") as f:
                 files[f"penumbra/{name}"] = (f.read(), False)
     if not any(p.endswith(".so") for p in files):

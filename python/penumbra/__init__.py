@@ -12,7 +12,8 @@
 A scene is exactly the scene file's schema (docs/scene-file.md); it is checked when a renderer is made
 from it or on scene.validate(), and errors raise penumbra.Error (a ValueError) with the CLI's message.
 In Jupyter, a rendered frame (a penumbra.Image, an ndarray) shows itself; anything computed from it
-(img[..., :3], img.mean(), img.astype(np.float32)) is a plain ndarray.
+(img[..., :3], img.mean(), img.astype(np.float32)) is a plain ndarray. penumbra.Widget(r) is the
+viewer in the notebook, its state shared with r both ways (penumbra/widget.py; needs ipywidgets).
 """
 import copy
 import html
@@ -22,6 +23,7 @@ import struct
 import sys
 import threading
 import warnings
+import weakref
 import zlib
 
 
@@ -57,7 +59,16 @@ except ImportError as e:  # an interpreter of another Python version cannot load
 
 Error = _penumbra.Error
 
-__all__ = ["Error", "Renderer", "Scene", "Viewer", "VolumeData", "compare", "read_volume", "set_threads", "techniques", "threads", "view"]
+__all__ = ["Error", "Renderer", "Scene", "Viewer", "VolumeData", "Widget", "compare", "read_volume", "set_threads", "techniques", "threads",
+           "view"]
+
+
+def __getattr__(name):
+    """penumbra.Widget is imported on first use: it needs ipywidgets, which the rest does not."""
+    if name == "Widget":
+        from .widget import Widget
+        return Widget
+    raise AttributeError(f"module 'penumbra' has no attribute {name!r}")
 
 _VOLUME_DTYPES = (np.uint8, np.int16, np.uint16, np.float32)
 
@@ -268,6 +279,23 @@ def _serialised(method):
     return locked
 
 
+def _edits_scene(method):
+    """An edit of the renderer's scene, serialised as _serialised does. The widgets watching the renderer
+    (penumbra.Widget) stop a frame in progress first, so the edit need not wait for it, and redraw after."""
+    def edited(self, *args, **kwargs):
+        watchers = list(self._watchers)
+        for w in watchers:
+            w._interrupt()
+        try:
+            with self._lock:
+                return method(self, *args, **kwargs)
+        finally:
+            for w in watchers:
+                w._scene_changed()
+    edited.__name__, edited.__qualname__, edited.__doc__ = method.__name__, method.__qualname__, method.__doc__
+    return edited
+
+
 class Renderer:
     """The interactive engine over a scene: edits by path, frames as arrays, stats of what was rebuilt.
     A Renderer may be shared by threads: its calls are serialised (one frame or edit at a time, each
@@ -285,6 +313,7 @@ class Renderer:
         self._digests = {name: _penumbra.digest(a) for name, a in self._volumes.items()}  # see _refresh_changed_volumes
         self._engine = _penumbra.Engine(_dumps(scene.document, "scene"), self._base_dir, self._volumes, self._particles)
         self._lock = threading.RLock()
+        self._watchers = weakref.WeakSet()  # the penumbra.Widgets showing this renderer
         self.stats = {}
 
     @_serialised
@@ -292,14 +321,14 @@ class Renderer:
         """One edit: `path` as in --set ("lights.0.direction"), `value` anything JSON can hold."""
         self.edit({path: value})
 
-    @_serialised
+    @_edits_scene
     def edit(self, edits):
         """Several edits at once ({path: value}); all are refused together when one is invalid."""
         if not isinstance(edits, dict):
             raise Error(f"edit: expected a dict {{path: value}}, got {type(edits).__name__}")
         self._engine.edit([(str(p), _dumps(v, p)) for p, v in edits.items()])
 
-    @_serialised
+    @_edits_scene
     def update_particles(self, path, positions=None, radii=None, colors=None):
         """New positions (N, 3), radii or colours for the spheres added at `path` ("particles.N"); the
         sphere shadows and ambient occlusion are rebuilt for the next frame (a trajectory frame)."""
@@ -319,7 +348,7 @@ class Renderer:
         self._engine.replace_particles(name, new_spheres, packed)
         self._particles[name] = (new_spheres, packed)
 
-    @_serialised
+    @_edits_scene
     def set_frame(self, frame):
         """Moves the trajectories of the AtomGroups Scene.add_atoms tied to this renderer to `frame` (an
         index, or an MDAnalysis Timestep) and redraws each group there: `for ts in u.trajectory:
@@ -343,7 +372,7 @@ class Renderer:
             self._engine.replace_particles(name, spheres, packed)
             self._particles[name] = (spheres, packed)
 
-    @_serialised
+    @_edits_scene
     def update_volume(self, path, array=None):
         """The volume at `path` ("volumes.N") after its array changed in place, or a new array for it
         (same rules as Scene.add_volume); what depends on the data is rebuilt for the next frame."""

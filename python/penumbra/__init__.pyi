@@ -6,7 +6,10 @@ from typing import Any, Iterable, Literal, Mapping, Optional, Sequence, Tuple, U
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Error", "Renderer", "Scene", "Viewer", "VolumeData", "compare", "read_volume", "set_threads", "techniques", "threads", "view"]
+__all__ = ["Error", "Renderer", "Scene", "Viewer", "VolumeData", "Widget", "compare", "read_volume", "set_threads", "techniques", "threads",
+           "view"]
+
+from .widget import Widget as Widget
 
 _Path = Union[str, "os.PathLike[str]"]
 _Vec3 = Union[Sequence[float], npt.NDArray[Any]]

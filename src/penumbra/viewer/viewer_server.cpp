@@ -27,7 +27,7 @@
 #include "penumbra/core/timer.h"
 #include "penumbra/scene_io/json_reader.h"
 #include "penumbra/viewer/client_queue.h"
-#include "penumbra/viewer/jpeg.h"
+#include "penumbra/viewer/frame_message.h"
 #include "penumbra/viewer/probe.h"
 #include "penumbra/viewer/viewer_page.h"
 #include "penumbra/viewer/viewer_security.h"
@@ -44,8 +44,6 @@ namespace net = boost::asio;
 using tcp = net::ip::tcp;
 using Text = std::shared_ptr<const std::string>;
 
-constexpr int kPreviewJpegQuality = 75;
-constexpr int kFullJpegQuality = 92;
 // File descriptors kept free of connections: the render thread's files (volumes, /proc/self/statm),
 // the event loop's own, and a margin, so that a flood of connections never starves them.
 constexpr std::size_t kReservedDescriptors = 32;
@@ -93,13 +91,6 @@ std::pair<std::string, std::string> split_target(std::string_view target) {
 Text error_message(const std::string& message) {
   return std::make_shared<const std::string>(
       nlohmann::json{{"type", "error"}, {"message", message}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
-}
-
-double resident_mb() {
-  std::ifstream statm("/proc/self/statm");
-  double pages_total = 0, pages_resident = 0;
-  statm >> pages_total >> pages_resident;
-  return pages_resident * static_cast<double>(::sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
 }
 
 // The key a value at `path` belongs to: the path's last part that is not a list index
@@ -581,16 +572,9 @@ void ViewerServer::Impl::render_frame(Quality quality, bool accumulate) {
   FrameOptions frame_options{quality, accumulate, quality == Quality::Full ? &cancel : nullptr};
   frame_options.enlarge_preview = false;  // a preview travels at its reduced size; the page scales it
   const EngineFrame f = engine.render(frame_options);
-  const auto jpeg = std::make_shared<const std::string>(encode_jpeg(f.image, quality == Quality::Preview ? kPreviewJpegQuality : kFullJpegQuality));
-  nlohmann::json rebuilt = nlohmann::json::array();
-  for (const auto& r : f.rebuilt) rebuilt.push_back({{"structure", r.structure}, {"cause", r.cause}});
-  nlohmann::json meta = {{"type", "frame"},       {"quality", quality == Quality::Preview ? "preview" : "full"},
-                         {"samples", f.samples},  {"width", f.image.width()},
-                         {"height", f.image.height()}, {"ms", timer.elapsed_ms()},
-                         {"view_width", engine.scene().camera.width}, {"view_height", engine.scene().camera.height},
-                         {"divisor", f.divisor},  {"rebuilt", rebuilt},
-                         {"edits", f.edits},      {"memory_mb", resident_mb()},
-                         {"time", engine.scene().time}, {"max_samples", options.max_samples}};
+  FrameMessage message = frame_message(f, quality, engine.scene(), timer.elapsed_ms(), options.max_samples);
+  const auto jpeg = std::make_shared<const std::string>(std::move(message.jpeg));
+  nlohmann::json& meta = message.meta;
   Text meta_text;
   {
     std::lock_guard lock(mutex);

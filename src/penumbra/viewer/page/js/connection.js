@@ -1,13 +1,21 @@
 // The connection to the server: the WebSocket (opened again 2 s after it closes), the protocol's
 // messages in (handed to the handlers main.js passes to start) and out, and the edits, coalesced to
 // one message per animation frame. The protocol is docs/viewer.md.
+//
+// Inside a Jupyter notebook (python/penumbra/widget.py) the page lives in an iframe whose element
+// carries a channel to the kernel, frameElement.penumbraChannel = { send(text), listen(onData) }: the
+// same messages travel over the widget's comm instead of a WebSocket, and the kernel renders them.
 
 export const TOKEN = new URLSearchParams(location.search).get("token") || "";
 export const TOKEN_QUERY = "?token=" + encodeURIComponent(TOKEN);
+const channel = window.frameElement ? window.frameElement.penumbraChannel : null;
+/** Whether the page is the notebook widget's (its messages go over the kernel's comm). */
+export const inNotebook = () => channel != null;
 
 let ws = null;
 let connection = "connecting";
-let handlers = null;          // { onStatus, onOpen, onState, onFrameMeta, onFrameBytes, onError, onProbe }
+let handlers = null;          // { onStatus, onOpen, onState, onFrameMeta, onFrameBytes, onError, onProbe, onDownload }
+let pendingDownload = null;   // a "download" message whose bytes come next (the notebook's downloads)
 
 let attempts = 0;             // connections tried since the last one opened (0 while connected)
 let editObserver = null;      // sees each edit queued from the user's input (history.js)
@@ -32,6 +40,14 @@ export function start(on) {
 
 function connect() {
   setConnection("connecting");
+  if (channel) {
+    // the notebook's comm: open while the kernel lives (a restarted kernel needs the cell run again)
+    ws = { readyState: WebSocket.OPEN, send: (text) => channel.send(text), close: () => {} };
+    channel.listen((data) => onMessage({ data }));
+    setConnection("connected");
+    handlers.onOpen();
+    return;
+  }
   const scheme = location.protocol === "https:" ? "wss://" : "ws://";
   try {
     ws = new WebSocket(scheme + location.host + "/ws" + TOKEN_QUERY);
@@ -62,10 +78,16 @@ export function sendMessage(obj) {
 }
 
 function onMessage(event) {
-  if (typeof event.data !== "string") { handlers.onFrameBytes(event.data); return; }
+  if (typeof event.data !== "string") {
+    if (pendingDownload) handlers.onDownload(pendingDownload, event.data);
+    else handlers.onFrameBytes(event.data);
+    pendingDownload = null;
+    return;
+  }
   let msg;
   try { msg = JSON.parse(event.data); } catch (e) { return; }
-  if (msg.type === "state") handlers.onState(msg);
+  if (msg.type === "download") pendingDownload = msg;
+  else if (msg.type === "state") handlers.onState(msg);
   else if (msg.type === "frame") handlers.onFrameMeta(msg);
   else if (msg.type === "error") handlers.onError(msg.message);
   else if (msg.type === "probe") handlers.onProbe(msg);

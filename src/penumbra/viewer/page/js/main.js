@@ -6,7 +6,7 @@
 // transfer_function.js and cuts.js (the side panel), time.js (the time slider), util.js (helpers).
 
 import { $ } from "./util.js";
-import { TOKEN_QUERY, viewer, start, observeEdits, connectionStatus, reconnectAttempts } from "./connection.js";
+import { TOKEN_QUERY, viewer, start, observeEdits, connectionStatus, reconnectAttempts, inNotebook, sendMessage } from "./connection.js";
 import { view, showFrame, followCamera, setCamera, installViewInput, scheduleResize, sendResize } from "./view.js";
 import { renderStats, renderProgress, renderConnectionBanner, noteRebuilt, showError, hideError } from "./overlay.js";
 import { updatePanel, syncPanel, isPanelBusy, onPanelPointerDown, onWindowPointerUp, showSelectionError } from "./panels.js";
@@ -87,9 +87,41 @@ const SHORTCUTS = [
   { keys: ["Escape"], label: "close this list", run: () => toggleHelp(false) },
 ];
 
+// The notebook's downloads come over the comm (the kernel has no URL of its own): a "download" message
+// ({name, mime}) and its bytes, saved as the browser saves a link's file.
+function onDownload(meta, bytes) {
+  const link = document.createElement("a");
+  link.href = URL.createObjectURL(new Blob([bytes], { type: meta.mime }));
+  link.download = meta.name;
+  document.body.appendChild(link);
+  link.click();
+  link.remove();
+  setTimeout(() => URL.revokeObjectURL(link.href), 60000);
+  viewer.downloads = (viewer.downloads || 0) + 1;
+}
+
+// In the notebook a click on the view must take the keyboard into this page: the view's drags cancel the
+// pointer's default, which leaves the focus in the notebook, whose command-mode keys ("1", "r", "y")
+// would then edit its cells instead of turning the view.
+function installNotebookFocus() {
+  if (inNotebook()) window.addEventListener("pointerdown", () => window.focus(), { capture: true });
+}
+
+function installDownloads() {
+  if (!inNotebook()) {
+    $("screenshot").href = "/screenshot.png" + TOKEN_QUERY;
+    $("save-scene").href = "/scene.json" + TOKEN_QUERY;
+    return;
+  }
+  for (const [id, what] of [["screenshot", "screenshot"], ["save-scene", "scene"]]) {
+    $(id).href = "#";
+    $(id).addEventListener("click", (event) => { event.preventDefault(); sendMessage({ type: "download", what }); });
+  }
+}
+
 function init() {
-  $("screenshot").href = "/screenshot.png" + TOKEN_QUERY;
-  $("save-scene").href = "/scene.json" + TOKEN_QUERY;
+  installDownloads();
+  installNotebookFocus();
   $("panel-toggle").addEventListener("click", togglePanel);
   $("help-toggle").addEventListener("click", () => toggleHelp());
   $("fullscreen").addEventListener("click", toggleFullscreen);
@@ -117,7 +149,7 @@ function init() {
   installProbe();
   observeEdits(recordEdit);
   renderStats();
-  start({ onStatus: onConnection, onOpen: () => sendResize(true), onState, onFrameMeta, onFrameBytes: showFrame, onError, onProbe: showProbe });
+  start({ onStatus: onConnection, onOpen: () => sendResize(true), onState, onFrameMeta, onFrameBytes: showFrame, onError, onProbe: showProbe, onDownload });
 }
 
 init();
