@@ -266,3 +266,36 @@ def test_bad_arguments():
         penumbra.Widget(r, height=10)
     with pytest.raises(penumbra.Error, match="max_samples 0"):
         penumbra.Widget(r, max_samples=0)
+
+
+def test_a_trajectory_played_from_mdanalysis_plays_in_the_page():
+    """The issue's case: a scene driven by MDAnalysis showed one frame in the notebook. Each set_frame(ts)
+    now sends the page the moved atoms: a state, then a preview and the refined frames of that frame."""
+    mda = pytest.importorskip("MDAnalysis")
+    from MDAnalysis.coordinates.memory import MemoryReader
+    rng = np.random.default_rng(7)
+    frames = np.cumsum(rng.normal(0, 0.4, (3, 40, 3)), axis=0).astype(np.float32) + rng.uniform(0, 12, (1, 40, 3)).astype(np.float32)
+    u = mda.Universe.empty(40, trajectory=True)
+    u.add_TopologyAttr("elements", ["C", "N", "O", "S"] * 10)
+    u.load_new(frames, format=MemoryReader)
+    scene = penumbra.Scene({"camera": {"width": 64, "height": 48}, "shadows": {"technique": "issm"}})
+    scene.add_atoms(u.atoms)
+    r = penumbra.Renderer(scene)
+    w = penumbra.Widget(r, max_samples=2)
+    sent = []
+    w.send = lambda content, buffers=None: sent.append((json.loads(content["message"]), buffers[0] if buffers else None))
+    try:
+        w._on_page_message(w, {"message": json.dumps({"type": "hello"})}, [])
+        deadline = time.monotonic() + TIMEOUT
+        jpegs = []
+        for ts in u.trajectory:
+            r.set_frame(ts)
+            while not any(m.get("quality") == "full" and m.get("samples") == 2 for m, _ in sent):
+                assert time.monotonic() < deadline, [m.get("type") for m, _ in sent]
+                time.sleep(0.01)
+            assert [m["type"] for m, _ in sent][:2] == ["state", "frame"] or ts.frame == 0
+            jpegs.append([b for m, b in sent if m.get("quality") == "full"][-1])
+            sent.clear()
+        assert len(jpegs) == 3 and len({bytes(j) for j in jpegs}) == 3, "each frame of the trajectory shows different atoms"
+    finally:
+        w.close()
