@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (fuzz/, clang-14, ASan + UBSan) and runs each for a bounded time, two at a
 # time (PENUMBRA_FUZZ_JOBS):
-#   scripts/fuzz.sh [seconds-per-target] [target...]     (default 60 s; targets: raw nrrd nifti dicom tiff vti vtk vdb pdb mmcif gro xyz xtc dcd scene)
+#   scripts/fuzz.sh [seconds-per-target] [target...]     (default 60 s; targets: raw nrrd nifti dicom tiff vti vtk vdb zarr pdb mmcif gro xyz xtc dcd scene)
 # Each target starts from its committed seeds (fuzz/seeds/<target>) plus the corpus earlier runs grew
 # (build/fuzz-out/corpus/<target>), with its dictionary (fuzz/dict/<target>.dict). A crash, a leak, a
 # sanitizer report, a timeout (> 10 s for one input) or an out-of-memory (> 2 GB) fails the run: the
@@ -13,7 +13,7 @@ cd "$(dirname "$0")/.."
 seconds="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(raw nrrd nifti dicom tiff vti vtk vdb pdb mmcif gro xyz xtc dcd scene)
+[ ${#targets[@]} -eq 0 ] && targets=(raw nrrd nifti dicom tiff vti vtk vdb zarr pdb mmcif gro xyz xtc dcd scene)
 build="${PENUMBRA_FUZZ_BUILD:-build/fuzz}"
 out="${PENUMBRA_FUZZ_OUT:-build/fuzz-out}"
 

@@ -24,11 +24,12 @@ struct InputOptions {
   std::vector<float> raw_spacing;
   std::uint64_t raw_header_bytes = 0;
   std::string series;  // the DICOM series to open (UID or index)
-  int channel = -1;    // the channel of multi-channel TIFF stacks
+  int channel = -1;    // the channel of multi-channel TIFF stacks and OME-Zarr images
+  int level = -1;      // the level of OME-Zarr pyramids (-1: the finest that fits)
   std::string grid;    // the OpenVDB grid to open (name or index)
 };
 
-// Adds the positional inputs, the --raw-* options, --series, --channel and --grid to a subcommand.
+// Adds the positional inputs, the --raw-* options, --series, --channel, --level and --grid to a subcommand.
 void add_input_options(CLI::App& cmd, InputOptions& o);
 
 // The engine over the inputs; `extra_sets` go before the user's --set (e.g. --width). Errors name the

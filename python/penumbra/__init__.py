@@ -555,19 +555,23 @@ class VolumeData:
                 f"spacing {self.spacing}, origin {self.origin})")
 
 
-def read_volume(path, series=None, channel=None, grid=None):
-    """Reads a volume as penumbra does: .nrrd, .nhdr, .nii(.gz), .tif(f), .vti, .vtk, .vdb, a folder of
-    DICOM slices or a list of .dcm files. ``series`` picks a DICOM series (SeriesInstanceUID or index;
-    default the one with the most slices), ``channel`` a TIFF channel, ``grid`` an OpenVDB grid (name or
-    index; default 'density', else the first float grid; the array is dense: NumPy has no sparse
-    layout). Returns a VolumeData, whose array goes to
+def read_volume(path, series=None, channel=None, grid=None, level=None):
+    """Reads a volume as penumbra does: .nrrd, .nhdr, .nii(.gz), .tif(f), .vti, .vtk, .vdb, a Zarr v2
+    store (an array or an OME-Zarr 0.4 image), a folder of DICOM slices or a list of .dcm files.
+    ``series`` picks a DICOM series (SeriesInstanceUID or index; default the one with the most slices),
+    ``channel`` a TIFF or OME-Zarr channel, ``level`` an OME-Zarr pyramid level (0 the finest; default
+    the finest that fits a quarter of the memory), ``grid`` an OpenVDB grid (name or index; default
+    'density', else the first float grid; the array is dense: NumPy has no sparse layout). Returns a
+    VolumeData, whose array goes to
     Scene.add_volume(v.array, spacing=v.spacing, origin=v.origin)."""
     paths = [os.fspath(p) for p in path] if isinstance(path, (list, tuple)) else [os.fspath(path)]
     if channel is not None and (not isinstance(channel, int) or channel < 0):
         raise Error(f"read_volume: channel {channel!r} (expected an integer from 0)")
+    if level is not None and (isinstance(level, bool) or not isinstance(level, int) or level < 0):
+        raise Error(f"read_volume: level {level!r} (expected an integer from 0)")
     array, spacing, origin, info = _penumbra.read_volume(paths, "" if series is None else str(series),
                                                          -1 if channel is None else channel,
-                                                         "" if grid is None else str(grid))
+                                                         "" if grid is None else str(grid), -1 if level is None else level)
     return VolumeData(array, tuple(reversed(spacing)), tuple(reversed(origin)), json.loads(info))
 
 

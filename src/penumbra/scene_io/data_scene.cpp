@@ -83,7 +83,7 @@ InputKind input_kind(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw Error(path + ": no such file or folder");
   throw Error(path + ": unknown kind of file (expected a scene .json; a volume .nrrd, .nhdr, .nii, .nii.gz, .raw, .tif, .tiff, "
-                     ".vti, .vtk, .dcm or a folder of DICOM slices; or a molecule .pdb, .ent, .cif, .mmcif, .gro or .xyz, "
+                     ".vti, .vtk, .dcm, a folder of DICOM slices or a Zarr store; or a molecule .pdb, .ent, .cif, .mmcif, .gro or .xyz, "
                      "each of those optionally .gz)");
 }
 
@@ -93,7 +93,7 @@ nlohmann::json data_scene_inputs(const std::vector<std::string>& files, const Vo
   doc["volumes"] = nlohmann::json::array();
   doc["particles"] = nlohmann::json::array();
   nlohmann::json dicom_slices = nlohmann::json::array();  // .dcm files given one by one: one volume
-  bool has_dicom = false, has_tiff = false, has_vdb = false;
+  bool has_dicom = false, has_tiff = false, has_vdb = false, has_zarr = false;
   for (const std::string& file : files) {
     const std::string path = std::filesystem::absolute(file).lexically_normal().string();
     switch (input_kind(file)) {
@@ -114,9 +114,16 @@ nlohmann::json data_scene_inputs(const std::vector<std::string>& files, const Vo
             throw Error(file + ": a .raw file needs its layout: --raw-dims X Y Z and --raw-type (uint8, int16, uint16, float32)");
           v["raw"] = raw_json(*volume_options.raw);
         }
-        if (folder) {
+        const bool zarr = folder && is_zarr_store(path);
+        if (folder && !zarr) {
           has_dicom = true;
           if (!volume_options.series.empty()) v["series"] = volume_options.series;
+        }
+        if (zarr) {
+          has_tiff = true;  // a channel applies to it as to a TIFF stack
+          has_zarr = true;
+          if (volume_options.channel >= 0) v["channel"] = volume_options.channel;
+          if (volume_options.level >= 0) v["level"] = volume_options.level;
         }
         if (has_extension(path, ".tif") || has_extension(path, ".tiff")) {
           has_tiff = true;
@@ -143,7 +150,8 @@ nlohmann::json data_scene_inputs(const std::vector<std::string>& files, const Vo
       if (!volume_options.series.empty()) v["series"] = volume_options.series;
     }
   if (!volume_options.series.empty() && !has_dicom) throw Error("--series: no DICOM series (a folder or .dcm files) among the inputs");
-  if (volume_options.channel >= 0 && !has_tiff) throw Error("--channel: no TIFF stack (.tif, .tiff) among the inputs");
+  if (volume_options.channel >= 0 && !has_tiff) throw Error("--channel: no TIFF stack (.tif, .tiff) or OME-Zarr image among the inputs");
+  if (volume_options.level >= 0 && !has_zarr) throw Error("--level: no OME-Zarr pyramid (a Zarr store's folder) among the inputs");
   if (!volume_options.grid.empty() && !has_vdb) throw Error("--grid: no OpenVDB file (.vdb) among the inputs");
   return doc;
 }

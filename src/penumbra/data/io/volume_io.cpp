@@ -20,11 +20,12 @@ bool has_single_file_extension(const std::string& path) {
   return false;
 }
 
-// A DICOM slice by its extension, or a folder (of DICOM slices) unless named like another volume file.
+// A DICOM slice by its extension, or a folder (of DICOM slices) unless named like another volume file
+// or holding a Zarr store.
 bool is_dicom_path(const std::string& path) {
   if (ends_with_ci(path, ".dcm") || ends_with_ci(path, ".dicom")) return true;
   std::error_code ec;
-  return !has_single_file_extension(path) && std::filesystem::is_directory(path, ec);
+  return !has_single_file_extension(path) && std::filesystem::is_directory(path, ec) && !is_zarr_store(path);
 }
 
 std::string joined(const std::vector<std::string>& paths) {
@@ -39,8 +40,10 @@ bool all_dicom(const std::vector<std::string>& paths) {
 // An option of another format than the files' is an error, not ignored.
 void check_options_fit(const std::vector<std::string>& paths, bool dicom, const VolumeLoadOptions& options) {
   const std::string& path = paths[0];
-  if (options.channel >= 0 && (dicom || !(ends_with_ci(path, ".tif") || ends_with_ci(path, ".tiff"))))
-    throw Error("'channel' is for multi-channel TIFF stacks (.tif, .tiff)");
+  const bool zarr = !dicom && is_zarr_store(path);
+  if (options.channel >= 0 && (dicom || !(zarr || ends_with_ci(path, ".tif") || ends_with_ci(path, ".tiff"))))
+    throw Error("'channel' is for multi-channel TIFF stacks (.tif, .tiff) and OME-Zarr images");
+  if (options.level >= 0 && !zarr) throw Error("'level' is for OME-Zarr pyramids (a Zarr store's folder)");
   if (!options.grid.empty() && (dicom || !ends_with_ci(path, ".vdb"))) throw Error("'grid' is for OpenVDB files (.vdb)");
   if (options.raw && (dicom || !ends_with_ci(path, ".raw")))
     throw Error("'raw' (dims, type, endian) is for .raw files; this file's header gives its layout");
@@ -49,7 +52,7 @@ void check_options_fit(const std::vector<std::string>& paths, bool dicom, const 
 
 }  // namespace
 
-bool is_volume_file(const std::string& path) { return has_single_file_extension(path) || is_dicom_path(path); }
+bool is_volume_file(const std::string& path) { return has_single_file_extension(path) || is_zarr_store(path) || is_dicom_path(path); }
 
 Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOptions& options, VolumeFileInfo* info) {
   if (paths.empty()) throw Error("no volume file given");
@@ -63,6 +66,7 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
     check_options_fit(paths, dicom, options);
     if (dicom) return load_dicom_volume(paths, options.series, &out, options.confine_to);
     const std::string& path = paths[0];
+    if (is_zarr_store(path)) return load_zarr_volume(path, options.level, options.channel, &out);
     // Each loader already ran recompute_range(), which rejects NaN/inf voxels and sets the range,
     // so the volume is returned as is rather than scanned twice.
     if (ends_with_ci(path, ".raw")) {
@@ -83,7 +87,7 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
     if (ends_with_ci(path, ".vtk")) return load_legacy_vtk_volume(path, &out);
     if (ends_with_ci(path, ".vdb")) return load_vdb_volume(path, options.grid, &out);
     throw Error("unknown volume file extension (supported: .raw, .nrrd, .nhdr, .nii, .nii.gz, .tif, .tiff, .vti, .vtk, .vdb, "
-                ".dcm or a folder of DICOM slices)");
+                ".dcm, a folder of DICOM slices or a Zarr store)");
   });
 }
 

@@ -52,7 +52,8 @@ struct VolumeFileInfo {
 struct VolumeLoadOptions {
   std::optional<RawVolumeOptions> raw;  // .raw files: their layout
   std::string series;                   // DICOM: SeriesInstanceUID or index ("" = the series with the most slices)
-  int channel = -1;                     // multi-channel TIFF: channel from 0 (-1 = channel 0)
+  int channel = -1;                     // multi-channel TIFF or OME-Zarr image: channel from 0 (-1 = channel 0)
+  int level = -1;                       // OME-Zarr pyramid: level from 0, the finest (-1 = the finest that fits, zarr_loader.cpp)
   std::string grid;                     // OpenVDB: grid name or index ("" = "density", else the first scalar grid)
   // A canonical folder that every file the volume's files name must lie inside: an NRRD header's data
   // file, a DICOM folder's slices (links resolved). "" confines nothing; the viewer sets its data root.
@@ -104,8 +105,13 @@ Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info);
 // OpenVDB (vdb_loader.cpp): one float or double grid, kept sparse as a bricked volume.
 Volume load_vdb_volume(const std::string& path, const std::string& grid, VolumeFileInfo* info);
 
+// Zarr v2 (zarr_loader.cpp): a folder holding one array (.zarray) or an OME-Zarr 0.4 image (.zattrs with
+// "multiscales"), of which one level (`level`, -1: the finest that fits a quarter of the machine's memory)
+// and one channel (-1: 0) are read, chunk by chunk; missing chunks hold the fill value.
+bool is_zarr_store(const std::string& path);
+Volume load_zarr_volume(const std::string& path, int level, int channel, VolumeFileInfo* info);
 // Whether the path names a volume: a volume extension (.raw, .nrrd, .nhdr, .nii, .nii.gz, .dcm, .tif,
-// .tiff, .vti, .vtk, .vdb; any case) or a folder (a DICOM series).
+// .tiff, .vti, .vtk, .vdb; any case) or a folder (a Zarr store, else a DICOM series).
 bool is_volume_file(const std::string& path);
 
 // Chooses the loader by extension (.raw needs `raw`; a folder or .dcm files are a DICOM series). The
