@@ -444,6 +444,8 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
   volume.with_voxel_type([&](auto t) {
     using T = decltype(t);
     T* dst = volume.data_as<T>();
+    const bool direct = !a.fortran && !a.dtype.big_endian && a.dtype.size == static_cast<int>(sizeof(T)) &&
+                        (std::is_same_v<T, float> ? a.dtype.kind == 'f' : std::is_same_v<T, std::int16_t> ? a.dtype.kind == 'i' : a.dtype.kind == 'u');
     const auto store = [&](std::size_t index, double v) {
       if constexpr (std::is_same_v<T, float>) dst[index] = static_cast<float>(v);
       else dst[index] = static_cast<T>(v);
@@ -460,18 +462,22 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
           const bool present = fs::is_regular_file(file, fec);
           if (present) bytes = decode_chunk(a, read_file(file), chunk_bytes);
           else ++missing;
+          const std::int64_t x0 = ci[0] * chunk[0], x1 = std::min(sel.dims[0], (ci[0] + 1) * chunk[0]);
           for (std::int64_t z = ci[2] * chunk[2]; z < std::min(sel.dims[2], (ci[2] + 1) * chunk[2]); ++z)
             for (std::int64_t y = ci[1] * chunk[1]; y < std::min(sel.dims[1], (ci[1] + 1) * chunk[1]); ++y) {
               const std::size_t row = static_cast<std::size_t>((z * sel.dims[1] + y) * sel.dims[0]);
-              for (std::int64_t x = ci[0] * chunk[0]; x < std::min(sel.dims[0], (ci[0] + 1) * chunk[0]); ++x) {
-                if (!present) {
-                  store(row + static_cast<std::size_t>(x), a.fill);
-                  continue;
-                }
-                const std::int64_t e = lead_offset + (z - ci[2] * chunk[2]) * stride[rank - 3] + (y - ci[1] * chunk[1]) * stride[rank - 2] +
-                                       (x - ci[0] * chunk[0]) * stride[rank - 1];
-                store(row + static_cast<std::size_t>(x), element(bytes.data() + e * a.dtype.size, a.dtype));
+              if (!present) {
+                for (std::int64_t x = x0; x < x1; ++x) store(row + static_cast<std::size_t>(x), a.fill);
+                continue;
               }
+              const std::int64_t first = lead_offset + (z - ci[2] * chunk[2]) * stride[rank - 3] + (y - ci[1] * chunk[1]) * stride[rank - 2];
+              if (direct) {  // the stored type, little-endian, C order: the row's voxels lie side by side
+                std::memcpy(dst + row + static_cast<std::size_t>(x0), bytes.data() + first * a.dtype.size,
+                            static_cast<std::size_t>(x1 - x0) * sizeof(T));
+                continue;
+              }
+              for (std::int64_t x = x0; x < x1; ++x)
+                store(row + static_cast<std::size_t>(x), element(bytes.data() + (first + (x - x0) * stride[rank - 1]) * a.dtype.size, a.dtype));
             }
         } catch (const std::exception& e) {
           const std::lock_guard lock(failure_mutex);
