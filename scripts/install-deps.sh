@@ -8,6 +8,7 @@ packages=(build-essential cmake ninja-build g++ pkg-config
           libgdcm-dev libopenjp2-7-dev libtiff-dev libopenexr-dev  # DICOM series (JPEG 2000: OpenJPEG), TIFF stacks, EXR images
           libopenvdb-dev python3-openvdb  # OpenVDB grids (sparse volumes); pyopenvdb writes the test grids
           libblosc-dev libzstd-dev python3-zarr  # Zarr stores and OME-Zarr pyramids; python3-zarr writes the test stores
+          libhdf5-dev python3-h5py  # HDF5 volumes; h5py writes the test files
           python3-pydicom python3-tifffile  # independent readers the loader tests compare against
           python3-nibabel  # writes NIfTI with flipped, rotated and qform-only affines, read as nibabel reads them
           python3-pip python3-venv mypy  # `pip install .` into a fresh environment, and the stubs under mypy --strict

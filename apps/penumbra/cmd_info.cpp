@@ -22,6 +22,7 @@ void add_info_command(CLI::App& app) {
     std::string series, grid;
     int channel = -1;
     int level = -1;
+    std::string dataset;
     int bins = 16;
     int assembly = 0;
     bool trajectory = false;
@@ -37,6 +38,7 @@ void add_info_command(CLI::App& app) {
   cmd->add_option("--series", o->series, "DICOM: the series to describe (SeriesInstanceUID or index; default: the one with the most slices)");
   cmd->add_option("--channel", o->channel, "Multi-channel TIFF or OME-Zarr: the channel to describe (from 0)")->check(CLI::Range(0, 1 << 20));
   cmd->add_option("--level", o->level, "OME-Zarr pyramid: the level to describe (0 the finest)")->check(CLI::Range(0, 64));
+  cmd->add_option("--dataset", o->dataset, "HDF5: the dataset to describe (its path in the file)");
   cmd->add_option("--grid", o->grid, "OpenVDB: the grid to describe (name or index; default: 'density', else the first float grid)");
   cmd->add_option("--bins", o->bins, "Histogram bins (volumes)")->check(CLI::Range(1, 1024));
   cmd->add_option("--assembly", o->assembly, "Biological assembly to build (particle files; 0 = as deposited)")->check(CLI::Range(0, 1000000));
@@ -50,8 +52,8 @@ void add_info_command(CLI::App& app) {
       throw penumbra::Error("several files are described together only as the slices of one DICOM series (.dcm)");
     const std::string traj_format = trajectory_file_format(o->file);
     const bool particles = o->trajectory || traj_format == "xtc" || traj_format == "dcd" || !particle_file_format(o->file).empty();
-    if (particles && (!o->series.empty() || o->channel >= 0 || o->level >= 0 || !o->grid.empty()))
-      throw penumbra::Error("--series, --channel, --level and --grid are for volumes: " + o->file + " is not one");
+    if (particles && (!o->series.empty() || o->channel >= 0 || o->level >= 0 || !o->dataset.empty() || !o->grid.empty()))
+      throw penumbra::Error("--series, --channel, --level, --dataset and --grid are for volumes: " + o->file + " is not one");
     if (o->trajectory || traj_format == "xtc" || traj_format == "dcd") {
       if (o->assembly != 0) throw penumbra::Error("--assembly: not for trajectories");
       info_trajectory({o->file, o->frame, o->positions, o->read_all});
@@ -79,6 +81,7 @@ void add_info_command(CLI::App& app) {
     lo.series = o->series;
     lo.channel = o->channel;
     lo.level = o->level;
+    lo.dataset = o->dataset;
     lo.grid = o->grid;
     VolumeFileInfo info;
     Timer read;

@@ -39,6 +39,7 @@ VolumeLoadOptions volume_load_options(const InputOptions& o) {
   volume_options.series = o.series;
   volume_options.channel = o.channel;
   volume_options.level = o.level;
+  volume_options.dataset = o.dataset;
   volume_options.grid = o.grid;
   return volume_options;
 }
@@ -67,7 +68,8 @@ void add_input_options(CLI::App& cmd, InputOptions& o) {
   cmd.add_option("--raw-header-bytes", o.raw_header_bytes, "Bytes to skip at the start of the .raw volumes");
   cmd.add_option("--series", o.series, "DICOM input holding several series: the one to open (SeriesInstanceUID, or its index in "
                                        "`penumbra info`; default: the series with the most slices)");
-  cmd.add_option("--channel", o.channel, "Multi-channel TIFF stacks and OME-Zarr images: the channel to open (from 0; default 0)")->check(CLI::Range(0, 1 << 20));
+  cmd.add_option("--dataset", o.dataset, "HDF5 files: the dataset to open, its path in the file (default: the only dataset of three or more axes)");
+  cmd.add_option("--channel", o.channel, "Multi-channel TIFF stacks, OME-Zarr images and HDF5 datasets (c z y x): the channel to open (from 0; default 0)")->check(CLI::Range(0, 1 << 20));
   cmd.add_option("--level", o.level, "OME-Zarr pyramids: the level to open (0 the finest; default: the finest that fits a quarter of "
                                      "the memory)")->check(CLI::Range(0, 64));
   cmd.add_option("--grid", o.grid, "OpenVDB files: the grid to open (its name, or its index in `penumbra info`; default: "
@@ -77,8 +79,8 @@ void add_input_options(CLI::App& cmd, InputOptions& o) {
 std::optional<SceneDocument> scene_file_document(const InputOptions& o, const std::vector<std::string>& extra_sets) {
   if (o.inputs.size() != 1 || input_kind(o.inputs.front()) != InputKind::SceneFile) return std::nullopt;
   if (raw_options(o)) throw Error("--raw-dims, --raw-type: the layout of .raw volumes opened directly (a scene file gives 'raw' per volume)");
-  if (!o.series.empty() || o.channel >= 0 || o.level >= 0 || !o.grid.empty())
-    throw Error("--series, --channel, --level, --grid: for volumes opened directly (a scene file gives 'series', 'channel', 'level' and "
+  if (!o.series.empty() || o.channel >= 0 || o.level >= 0 || !o.dataset.empty() || !o.grid.empty())
+    throw Error("--series, --channel, --level, --dataset, --grid: for volumes opened directly (a scene file gives 'series', 'channel', 'level', 'dataset' and "
                 "'grid' per volume)");
   const std::string& path = o.inputs.front();
   SceneDocument d{read_json_file(path), std::filesystem::path(path).parent_path().string()};

@@ -26,10 +26,11 @@ struct InputOptions {
   std::string series;  // the DICOM series to open (UID or index)
   int channel = -1;    // the channel of multi-channel TIFF stacks and OME-Zarr images
   int level = -1;      // the level of OME-Zarr pyramids (-1: the finest that fits)
+  std::string dataset; // the dataset of HDF5 files ("": the only volume-shaped one)
   std::string grid;    // the OpenVDB grid to open (name or index)
 };
 
-// Adds the positional inputs, the --raw-* options, --series, --channel, --level and --grid to a subcommand.
+// Adds the positional inputs, the --raw-* options, --series, --channel, --level, --dataset and --grid to a subcommand.
 void add_input_options(CLI::App& cmd, InputOptions& o);
 
 // The engine over the inputs; `extra_sets` go before the user's --set (e.g. --width). Errors name the

@@ -83,7 +83,7 @@ InputKind input_kind(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw Error(path + ": no such file or folder");
   throw Error(path + ": unknown kind of file (expected a scene .json; a volume .nrrd, .nhdr, .nii, .nii.gz, .raw, .tif, .tiff, "
-                     ".vti, .vtk, .dcm, a folder of DICOM slices or a Zarr store; or a molecule .pdb, .ent, .cif, .mmcif, .gro or .xyz, "
+                     ".vti, .vtk, .h5, .hdf5, .dcm, a folder of DICOM slices or a Zarr store; or a molecule .pdb, .ent, .cif, .mmcif, .gro or .xyz, "
                      "each of those optionally .gz)");
 }
 
@@ -93,7 +93,7 @@ nlohmann::json data_scene_inputs(const std::vector<std::string>& files, const Vo
   doc["volumes"] = nlohmann::json::array();
   doc["particles"] = nlohmann::json::array();
   nlohmann::json dicom_slices = nlohmann::json::array();  // .dcm files given one by one: one volume
-  bool has_dicom = false, has_tiff = false, has_vdb = false, has_zarr = false;
+  bool has_dicom = false, has_tiff = false, has_vdb = false, has_zarr = false, has_hdf5 = false;
   for (const std::string& file : files) {
     const std::string path = std::filesystem::absolute(file).lexically_normal().string();
     switch (input_kind(file)) {
@@ -129,6 +129,11 @@ nlohmann::json data_scene_inputs(const std::vector<std::string>& files, const Vo
           has_tiff = true;
           if (volume_options.channel >= 0) v["channel"] = volume_options.channel;
         }
+        if (is_hdf5_path(path)) {
+          has_tiff = has_hdf5 = true;  // a channel applies to it as to a TIFF stack
+          if (volume_options.channel >= 0) v["channel"] = volume_options.channel;
+          if (!volume_options.dataset.empty()) v["dataset"] = volume_options.dataset;
+        }
         if (has_extension(path, ".vdb")) {
           has_vdb = true;
           if (!volume_options.grid.empty()) v["grid"] = volume_options.grid;
@@ -150,8 +155,9 @@ nlohmann::json data_scene_inputs(const std::vector<std::string>& files, const Vo
       if (!volume_options.series.empty()) v["series"] = volume_options.series;
     }
   if (!volume_options.series.empty() && !has_dicom) throw Error("--series: no DICOM series (a folder or .dcm files) among the inputs");
-  if (volume_options.channel >= 0 && !has_tiff) throw Error("--channel: no TIFF stack (.tif, .tiff) or OME-Zarr image among the inputs");
+  if (volume_options.channel >= 0 && !has_tiff) throw Error("--channel: no TIFF stack (.tif, .tiff), OME-Zarr image or HDF5 file among the inputs");
   if (volume_options.level >= 0 && !has_zarr) throw Error("--level: no OME-Zarr pyramid (a Zarr store's folder) among the inputs");
+  if (!volume_options.dataset.empty() && !has_hdf5) throw Error("--dataset: no HDF5 file (.h5, .hdf5) among the inputs");
   if (!volume_options.grid.empty() && !has_vdb) throw Error("--grid: no OpenVDB file (.vdb) among the inputs");
   return doc;
 }

@@ -47,7 +47,8 @@ std::vector<std::string> volume_file_list(JsonReader& r, const std::string& base
 
 // What a volume file needs beyond its name: "raw" (a .raw file's layout), "series" (which DICOM series:
 // a SeriesInstanceUID or the index `penumbra info` lists), "channel" (of a multi-channel TIFF or an
-// OME-Zarr image), "level" (of an OME-Zarr pyramid: 0 the finest) and "grid" (of an OpenVDB file: its
+// OME-Zarr image or HDF5 dataset), "level" (of an OME-Zarr pyramid: 0 the finest), "dataset" (an HDF5
+// file's dataset) and "grid" (of an OpenVDB file: its
 // name or index).
 VolumeLoadOptions read_volume_load_options(JsonReader& r) {
   VolumeLoadOptions lo;
@@ -60,6 +61,11 @@ VolumeLoadOptions read_volume_load_options(JsonReader& r) {
   }
   if (r.has("channel")) lo.channel = static_cast<int>(r.integer("channel", 0, 0, 1 << 20));
   if (r.has("level")) lo.level = static_cast<int>(r.integer("level", 0, 0, 64));
+  if (r.has("dataset")) {
+    const nlohmann::json& d = r.raw("dataset");
+    if (!d.is_string() || d.get<std::string>().empty()) r.fail("dataset", json_brief(d) + " (expected the dataset's path in the HDF5 file, e.g. \"/volume/data\")");
+    lo.dataset = d.get<std::string>();
+  }
   if (r.has("grid")) {
     const nlohmann::json& g = r.raw("grid");
     if (g.is_number_integer() && g.get<std::int64_t>() >= 0) lo.grid = std::to_string(g.get<std::int64_t>());
@@ -149,7 +155,7 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   if (r.has("spacing") && !r.has("array"))
     r.fail("spacing", "is given with 'array' only (a file's spacing is in its header, or in 'raw')");
   std::function<Volume()> load;
-  std::string data_id = data_key(j, base_dir, {"file", "files", "raw", "series", "channel", "level", "grid", "procedural", "array", "spacing", "origin"});
+  std::string data_id = data_key(j, base_dir, {"file", "files", "raw", "series", "channel", "level", "dataset", "grid", "procedural", "array", "spacing", "origin"});
   std::string series_id;  // a series: what its first loaded step is cached under (the reference grid and range)
   if (r.has("file") || r.has("files")) {
     std::string file;

@@ -15,7 +15,7 @@ using io_detail::ends_with_ci;
 namespace {
 
 bool has_single_file_extension(const std::string& path) {
-  for (const char* ext : {".raw", ".nrrd", ".nhdr", ".nii", ".nii.gz", ".tif", ".tiff", ".vti", ".vtk", ".vdb"})
+  for (const char* ext : {".raw", ".nrrd", ".nhdr", ".nii", ".nii.gz", ".tif", ".tiff", ".vti", ".vtk", ".vdb", ".h5", ".hdf5", ".he5"})
     if (ends_with_ci(path, ext)) return true;
   return false;
 }
@@ -41,8 +41,10 @@ bool all_dicom(const std::vector<std::string>& paths) {
 void check_options_fit(const std::vector<std::string>& paths, bool dicom, const VolumeLoadOptions& options) {
   const std::string& path = paths[0];
   const bool zarr = !dicom && is_zarr_store(path);
-  if (options.channel >= 0 && (dicom || !(zarr || ends_with_ci(path, ".tif") || ends_with_ci(path, ".tiff"))))
-    throw Error("'channel' is for multi-channel TIFF stacks (.tif, .tiff) and OME-Zarr images");
+  const bool hdf5 = !dicom && is_hdf5_path(path);
+  if (options.channel >= 0 && (dicom || !(zarr || hdf5 || ends_with_ci(path, ".tif") || ends_with_ci(path, ".tiff"))))
+    throw Error("'channel' is for multi-channel TIFF stacks (.tif, .tiff), OME-Zarr images and HDF5 datasets");
+  if (!options.dataset.empty() && !hdf5) throw Error("'dataset' is for HDF5 files (.h5, .hdf5)");
   if (options.level >= 0 && !zarr) throw Error("'level' is for OME-Zarr pyramids (a Zarr store's folder)");
   if (!options.grid.empty() && (dicom || !ends_with_ci(path, ".vdb"))) throw Error("'grid' is for OpenVDB files (.vdb)");
   if (options.raw && (dicom || !ends_with_ci(path, ".raw")))
@@ -67,6 +69,7 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
     if (dicom) return load_dicom_volume(paths, options.series, &out, options.confine_to);
     const std::string& path = paths[0];
     if (is_zarr_store(path)) return load_zarr_volume(path, options.level, options.channel, &out);
+    if (is_hdf5_path(path)) return load_hdf5_volume(path, options.dataset, options.channel, &out);
     // Each loader already ran recompute_range(), which rejects NaN/inf voxels and sets the range,
     // so the volume is returned as is rather than scanned twice.
     if (ends_with_ci(path, ".raw")) {
@@ -87,7 +90,7 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
     if (ends_with_ci(path, ".vtk")) return load_legacy_vtk_volume(path, &out);
     if (ends_with_ci(path, ".vdb")) return load_vdb_volume(path, options.grid, &out);
     throw Error("unknown volume file extension (supported: .raw, .nrrd, .nhdr, .nii, .nii.gz, .tif, .tiff, .vti, .vtk, .vdb, "
-                ".dcm, a folder of DICOM slices or a Zarr store)");
+                ".h5, .hdf5, .dcm, a folder of DICOM slices or a Zarr store)");
   });
 }
 

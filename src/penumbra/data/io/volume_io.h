@@ -55,6 +55,7 @@ struct VolumeLoadOptions {
   int channel = -1;                     // multi-channel TIFF or OME-Zarr image: channel from 0 (-1 = channel 0)
   int level = -1;                       // OME-Zarr pyramid: level from 0, the finest (-1 = the finest that fits, zarr_loader.cpp)
   std::string grid;                     // OpenVDB: grid name or index ("" = "density", else the first scalar grid)
+  std::string dataset;                  // HDF5: the dataset's path in the file ("" = its only dataset of 3+ axes)
   // A canonical folder that every file the volume's files name must lie inside: an NRRD header's data
   // file, a DICOM folder's slices (links resolved). "" confines nothing; the viewer sets its data root.
   std::string confine_to;
@@ -110,8 +111,12 @@ Volume load_vdb_volume(const std::string& path, const std::string& grid, VolumeF
 // and one channel (-1: 0) are read, chunk by chunk; missing chunks hold the fill value.
 bool is_zarr_store(const std::string& path);
 Volume load_zarr_volume(const std::string& path, int level, int channel, VolumeFileInfo* info);
+// HDF5 (hdf5_loader.cpp; .h5, .hdf5, .he5): one numeric dataset (`dataset`, "" = the only one of three or
+// more axes), z y x last, a leading channel axis chosen by `channel`; the filters libhdf5 decodes.
+bool is_hdf5_path(const std::string& path);
+Volume load_hdf5_volume(const std::string& path, const std::string& dataset, int channel, VolumeFileInfo* info);
 // Whether the path names a volume: a volume extension (.raw, .nrrd, .nhdr, .nii, .nii.gz, .dcm, .tif,
-// .tiff, .vti, .vtk, .vdb; any case) or a folder (a Zarr store, else a DICOM series).
+// .tiff, .vti, .vtk, .vdb, .h5, .hdf5, .he5; any case) or a folder (a Zarr store, else a DICOM series).
 bool is_volume_file(const std::string& path);
 
 // Chooses the loader by extension (.raw needs `raw`; a folder or .dcm files are a DICOM series). The

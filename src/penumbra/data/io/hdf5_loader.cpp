@@ -1,0 +1,251 @@
+// HDF5 volumes (.h5, .hdf5) through Debian's libhdf5: one numeric dataset of three axes (z, y, x) or
+// more (a leading c axis chosen by `channel`, any other read at 0), contiguous or chunked, with the
+// filters libhdf5 decodes itself (deflate, shuffle, fletcher32, scale-offset, n-bit, szip where built);
+// a filter it lacks (h5py's lzf, a Blosc plugin) is refused by name and number. `dataset` names the path
+// inside the file; without it the file must hold exactly one dataset of three or more axes (else the
+// message lists them). The voxel size comes from the attribute `element_size_um` (z, y, x: Fiji's and
+// ilastik's convention) when present. libhdf5 converts the stored type and byte order to the volume's:
+// uint8, uint16, int16 and float32 kept; int8 widened to int16; wider integers and float64 as float32.
+// libhdf5 built without its thread-safe option keeps global state, so calls are serialised.
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "penumbra/core/error.h"
+#include "penumbra/data/io/text_fields.h"
+#include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/io/volume_placement.h"
+
+namespace penumbra {
+
+namespace {
+
+using io_detail::printable;
+
+std::mutex hdf5_mutex;
+
+// Closes an HDF5 identifier when it goes out of scope.
+class Handle {
+public:
+  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  ~Handle() {
+    if (id_ >= 0) close_(id_);
+  }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  hid_t get() const { return id_; }
+  bool ok() const { return id_ >= 0; }
+
+private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+// libhdf5's error stack, innermost first, as one line (its own printing is switched off).
+std::string hdf5_errors() {
+  std::string text;
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, [](unsigned, const H5E_error2_t* e, void* out) -> herr_t {
+    auto& s = *static_cast<std::string*>(out);
+    if (e->desc && *e->desc) s += (s.empty() ? "" : "; ") + std::string(e->desc);
+    return 0;
+  }, &text);
+  H5Eclear2(H5E_DEFAULT);
+  return text.empty() ? "no detail from libhdf5" : printable(text, 400);
+}
+
+struct Candidate {
+  std::string path, description;
+};
+
+std::string shape_text(const std::vector<hsize_t>& dims) {
+  std::string s;
+  for (const hsize_t d : dims) s += (s.empty() ? "" : "x") + std::to_string(d);
+  return s;
+}
+
+// Every numeric dataset of the file with its shape, for choosing one or listing them.
+std::vector<Candidate> numeric_datasets(hid_t file, bool volumes_only) {
+  struct Walk {
+    std::vector<Candidate> found;
+    bool volumes_only;
+  } walk{{}, volumes_only};
+  H5Ovisit2(file, H5_INDEX_NAME, H5_ITER_NATIVE, [](hid_t root, const char* name, const H5O_info_t* info, void* data) -> herr_t {
+    if (info->type != H5O_TYPE_DATASET) return 0;
+    auto& w = *static_cast<Walk*>(data);
+    const Handle d(H5Dopen2(root, name, H5P_DEFAULT), H5Dclose);
+    if (!d.ok()) return 0;
+    const Handle type(H5Dget_type(d.get()), H5Tclose);
+    const H5T_class_t cls = H5Tget_class(type.get());
+    if (cls != H5T_INTEGER && cls != H5T_FLOAT) return 0;
+    const Handle space(H5Dget_space(d.get()), H5Sclose);
+    const int rank = H5Sget_simple_extent_ndims(space.get());
+    if (rank < 0 || (w.volumes_only && rank < 3)) return 0;
+    std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+    H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr);
+    w.found.push_back({std::string("/") + name, shape_text(dims) + " " + (cls == H5T_FLOAT ? "float" : "integer") + std::to_string(8 * H5Tget_size(type.get()))});
+    return 0;
+  }, &walk, H5O_INFO_BASIC);
+  H5Eclear2(H5E_DEFAULT);
+  return walk.found;
+}
+
+std::string listing(const std::vector<Candidate>& c) {
+  std::string s;
+  for (std::size_t i = 0; i < c.size() && i < 20; ++i) s += (i ? ", " : "") + c[i].path + " (" + c[i].description + ")";
+  if (c.size() > 20) s += ", and " + std::to_string(c.size() - 20) + " more";
+  return s;
+}
+
+// The filters of a chunked dataset that this libhdf5 cannot decode, by name and number.
+void check_filters(hid_t dataset) {
+  const Handle dcpl(H5Dget_create_plist(dataset), H5Pclose);
+  const int n = H5Pget_nfilters(dcpl.get());
+  for (int i = 0; i < n; ++i) {
+    unsigned flags = 0, config = 0;
+    std::size_t n_values = 0;
+    char name[128] = {};
+    const H5Z_filter_t id = H5Pget_filter2(dcpl.get(), static_cast<unsigned>(i), &flags, &n_values, nullptr, sizeof name, name, &config);
+    if (id < 0) continue;
+    if (H5Zfilter_avail(id) <= 0) {
+      const std::string known = id == 32000 ? "lzf (h5py's)" : id == 32001 ? "blosc" : id == 32004 ? "lz4" : id == 32015 ? "zstd" : id == 307 ? "bzip2" : "";
+      throw Error("the dataset is compressed with filter " + std::to_string(id) + (known.empty() ? "" : " = " + known) +
+                  (name[0] ? " (\"" + printable(name, 60) + "\")" : "") +
+                  ", which Debian's libhdf5 cannot decode (deflate/gzip, shuffle, fletcher32, scale-offset and n-bit can be read)");
+    }
+  }
+}
+
+ScalarType storage_type(hid_t type) {
+  const H5T_class_t cls = H5Tget_class(type);
+  const std::size_t size = H5Tget_size(type);
+  if (cls == H5T_INTEGER) {
+    const bool is_signed = H5Tget_sign(type) == H5T_SGN_2;
+    if (!is_signed && size == 1) return ScalarType::UInt8;
+    if (!is_signed && size == 2) return ScalarType::UInt16;
+    if (is_signed && size <= 2) return ScalarType::Int16;
+    return ScalarType::Float32;
+  }
+  return ScalarType::Float32;
+}
+
+hid_t memory_type(ScalarType t) {
+  switch (t) {
+    case ScalarType::UInt8: return H5T_NATIVE_UINT8;
+    case ScalarType::UInt16: return H5T_NATIVE_UINT16;
+    case ScalarType::Int16: return H5T_NATIVE_INT16;
+    case ScalarType::Float32: return H5T_NATIVE_FLOAT;
+  }
+  return H5T_NATIVE_FLOAT;
+}
+
+// The voxel size (x, y, z) from `element_size_um` (z, y, x), when the dataset carries it.
+std::optional<std::array<double, 3>> element_size(hid_t dataset, std::vector<std::string>& notes) {
+  if (H5Aexists(dataset, "element_size_um") <= 0) return std::nullopt;
+  const Handle attr(H5Aopen(dataset, "element_size_um", H5P_DEFAULT), H5Aclose);
+  const Handle space(H5Aget_space(attr.get()), H5Sclose);
+  if (!attr.ok() || H5Sget_simple_extent_npoints(space.get()) != 3) {
+    notes.push_back("attribute element_size_um is not 3 numbers: spacing 1 1 1");
+    return std::nullopt;
+  }
+  double zyx[3] = {1, 1, 1};
+  if (H5Aread(attr.get(), H5T_NATIVE_DOUBLE, zyx) < 0 || !(zyx[0] > 0 && zyx[1] > 0 && zyx[2] > 0) ||
+      !std::isfinite(zyx[0] + zyx[1] + zyx[2])) {
+    H5Eclear2(H5E_DEFAULT);
+    notes.push_back("attribute element_size_um holds no positive sizes: spacing 1 1 1");
+    return std::nullopt;
+  }
+  notes.push_back("spacing from element_size_um (micrometers)");
+  return std::array<double, 3>{zyx[2], zyx[1], zyx[0]};
+}
+
+}  // namespace
+
+bool is_hdf5_path(const std::string& path) {
+  return io_detail::ends_with_ci(path, ".h5") || io_detail::ends_with_ci(path, ".hdf5") || io_detail::ends_with_ci(path, ".he5");
+}
+
+Volume load_hdf5_volume(const std::string& path, const std::string& dataset_name, int channel, VolumeFileInfo* info) {
+  VolumeFileInfo local;
+  VolumeFileInfo& out = info ? *info : local;
+  out.format = "hdf5";
+  const std::lock_guard lock(hdf5_mutex);
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors come back as messages, not printed
+  if (H5Fis_hdf5(path.c_str()) <= 0) {
+    H5Eclear2(H5E_DEFAULT);
+    throw Error("not an HDF5 file (no HDF5 signature)");
+  }
+  const Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!file.ok()) throw Error("libhdf5 could not open it: " + hdf5_errors());
+
+  std::string name = dataset_name;
+  if (name.empty()) {
+    const auto volumes = numeric_datasets(file.get(), true);
+    if (volumes.empty()) {
+      const auto all = numeric_datasets(file.get(), false);
+      throw Error("no numeric dataset of three or more axes" + (all.empty() ? std::string() : " (found: " + listing(all) + ")"));
+    }
+    if (volumes.size() > 1) throw Error(std::to_string(volumes.size()) + " datasets could be volumes; 'dataset' chooses one: " + listing(volumes));
+    name = volumes[0].path;
+  }
+  if (H5Lexists(file.get(), name.c_str(), H5P_DEFAULT) <= 0) {
+    H5Eclear2(H5E_DEFAULT);
+    throw Error("no dataset '" + printable(name, 200) + "' (datasets: " + listing(numeric_datasets(file.get(), false)) + ")");
+  }
+  const Handle dataset(H5Dopen2(file.get(), name.c_str(), H5P_DEFAULT), H5Dclose);
+  if (!dataset.ok()) throw Error("'" + printable(name, 200) + "' is not a dataset: " + hdf5_errors());
+  return with_context("dataset " + name, [&] {
+    const Handle type(H5Dget_type(dataset.get()), H5Tclose);
+    const H5T_class_t cls = H5Tget_class(type.get());
+    if (cls != H5T_INTEGER && cls != H5T_FLOAT) throw Error("not numeric (expected integers or floats)");
+    const Handle space(H5Dget_space(dataset.get()), H5Sclose);
+    const int rank = H5Sget_simple_extent_ndims(space.get());
+    if (rank < 3) throw Error("a " + std::to_string(rank) + "-D dataset (expected three axes, z y x, last)");
+    std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+    H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr);
+    check_filters(dataset.get());
+
+    // the hyperslab: the leading axes fixed (a 4-D dataset's first axis is its channels), z y x whole
+    std::vector<hsize_t> start(dims.size(), 0), count = dims;
+    for (std::size_t k = 0; k + 3 < dims.size(); ++k) {
+      count[k] = 1;
+      if (k + 4 == dims.size() && dims[k] > 1) {  // the axis just before z: channels
+        const hsize_t c = channel < 0 ? 0 : static_cast<hsize_t>(channel);
+        if (c >= dims[k]) throw Error("'channel' " + std::to_string(c) + ": the dataset has " + std::to_string(dims[k]) + " channels");
+        start[k] = c;
+        out.channels = static_cast<int>(dims[k]);
+        out.channel = static_cast<int>(c);
+      } else if (dims[k] > 1) {
+        out.notes.push_back("axis " + std::to_string(k) + " has " + std::to_string(dims[k]) + " entries: the first is loaded");
+      }
+    }
+    if (channel >= 0 && out.channels == 1) throw Error("'channel' " + std::to_string(channel) + ": the dataset has no channel axis (4 axes, c z y x)");
+    const std::array<std::int64_t, 3> xyz{static_cast<std::int64_t>(dims[dims.size() - 1]), static_cast<std::int64_t>(dims[dims.size() - 2]),
+                                          static_cast<std::int64_t>(dims[dims.size() - 3])};
+    (void)with_context("shape " + shape_text(dims), [&] { return checked_voxel_count(xyz); });
+    const ScalarType stored = storage_type(type.get());
+    Volume volume(stored, {static_cast<int>(xyz[0]), static_cast<int>(xyz[1]), static_cast<int>(xyz[2])}, {1, 1, 1}, {0, 0, 0},
+                  VoxelFill::Uninitialized);
+    if (H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr) < 0)
+      throw Error("could not select the voxels: " + hdf5_errors());
+    const hsize_t memory_dims[3] = {dims[dims.size() - 3], dims[dims.size() - 2], dims[dims.size() - 1]};
+    const Handle memory(H5Screate_simple(3, memory_dims, nullptr), H5Sclose);
+    if (H5Dread(dataset.get(), memory_type(stored), memory.get(), space.get(), H5P_DEFAULT, volume.data()) < 0)
+      throw Error("libhdf5 could not read the voxels (a corrupt or truncated file?): " + hdf5_errors());
+    const std::size_t size = H5Tget_size(type.get());
+    const bool kept = (cls == H5T_INTEGER && size <= 2 && !(size == 1 && H5Tget_sign(type.get()) == H5T_SGN_2)) || (cls == H5T_FLOAT && size == 4);
+    if (!kept)
+      out.notes.push_back("stored as " + to_string(stored) + " (the file's " + (cls == H5T_FLOAT ? "float" : "integer") + std::to_string(8 * size) + ")");
+    const auto spacing = element_size(dataset.get(), out.notes);
+    const Affine affine = Affine::diagonal(spacing.value_or(std::array<double, 3>{1, 1, 1}), {0, 0, 0});
+    volume = place_volume(std::move(volume), affine, out);
+    volume.recompute_range();
+    return volume;
+  });
+}
+
+}  // namespace penumbra
