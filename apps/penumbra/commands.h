@@ -14,5 +14,6 @@ void add_info_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
 void add_techniques_command(CLI::App& app);
 void add_select_command(CLI::App& app);
+void add_convert_command(CLI::App& app);
 
 }  // namespace penumbra::cli

@@ -28,6 +28,7 @@ int main(int argc, char** argv) {
   penumbra::cli::add_bench_command(app);
   penumbra::cli::add_techniques_command(app);
   penumbra::cli::add_select_command(app);
+  penumbra::cli::add_convert_command(app);
   if (world) return penumbra::cli::run_on_all_ranks(app, argc, argv, *world);
   try {
     app.parse(argc, argv);

@@ -1,0 +1,105 @@
+"""`penumbra convert IN -o OUT.zarr` (issue 43): any volume penumbra reads written as an OME-Zarr 0.4
+pyramid that python3-zarr reads back voxel for voxel (level 0 the input's voxels, each next level the
+2×2×2 block means computed here with NumPy), with the metadata the spec asks for; penumbra reads its
+own output back; an existing output, a bad input or a bad option leave nothing behind."""
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+zarr = pytest.importorskip("zarr")  # Debian python3-zarr
+
+import penumbra  # noqa: E402
+
+CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
+
+
+def nrrd(path, array, spacing=(0.5, 0.75, 1.25), origin=(3.0, -2.0, 1.0)):
+    """A raw little-endian NRRD of `array` (z, y, x), spacings and origin given x, y, z."""
+    types = {np.dtype("uint8"): "uchar", np.dtype("int16"): "short", np.dtype("uint16"): "ushort", np.dtype("float32"): "float"}
+    header = (f"NRRD0004\ntype: {types[array.dtype]}\ndimension: 3\nsizes: {array.shape[2]} {array.shape[1]} {array.shape[0]}\n"
+              f"space: left-posterior-superior\nspace directions: ({spacing[0]},0,0) (0,{spacing[1]},0) (0,0,{spacing[2]})\n"
+              f"space origin: ({origin[0]},{origin[1]},{origin[2]})\nencoding: raw\nendian: little\n\n")
+    with open(path, "wb") as f:
+        f.write(header.encode() + np.ascontiguousarray(array).astype(array.dtype.newbyteorder("<")).tobytes())
+
+
+def mean_levels(a):
+    """Means of the 2×2×2 blocks computed in one pass (the writer averages the up to 8 voxels at once)."""
+    z, y, x = a.shape
+    fz, fy, fx = (2 if n > 1 else 1 for n in a.shape)
+    oz, oy, ox = (z + fz - 1) // fz, (y + fy - 1) // fy, (x + fx - 1) // fx
+    pad = np.full((oz * fz, oy * fy, ox * fx), np.nan)
+    pad[:z, :y, :x] = a
+    blocks = pad.reshape(oz, fz, oy, fy, ox, fx)
+    mean = np.nanmean(blocks, axis=(1, 3, 5))
+    if np.issubdtype(a.dtype, np.integer):
+        return np.floor(mean + 0.5).astype(a.dtype)
+    return mean.astype(a.dtype)
+
+
+@pytest.mark.parametrize("dtype", ["uint8", "int16", "uint16", "float32"])
+def test_the_pyramid_reads_back_in_zarr(tmp_path, dtype):
+    rng = np.random.default_rng(5)
+    if dtype == "float32":
+        data = rng.normal(0, 1, (21, 37, 45)).astype(dtype)
+    else:
+        info = np.iinfo(dtype)
+        data = rng.integers(max(info.min, -2000), min(info.max, 4000), (21, 37, 45), endpoint=True).astype(dtype)
+    src = tmp_path / "in.nrrd"
+    nrrd(src, data)
+    out = tmp_path / "out.zarr"
+    r = subprocess.run([CLI, "convert", str(src), "-o", str(out), "--chunk", "16", "--unit", "millimeter"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    root = zarr.open_group(str(out), mode="r")
+    ms = root.attrs["multiscales"][0]
+    assert ms["version"] == "0.4" and [a["name"] for a in ms["axes"]] == ["z", "y", "x"]
+    assert all(a["type"] == "space" and a["unit"] == "millimeter" for a in ms["axes"])
+    paths = [d["path"] for d in ms["datasets"]]
+    assert paths == ["0", "1", "2"]  # 45 -> 23 -> 12 (fits a 16-voxel chunk)
+    expected = data
+    spacing, origin = np.array([1.25, 0.75, 0.5]), np.array([1.0, -2.0, 3.0])  # z, y, x
+    for level, d in enumerate(ms["datasets"]):
+        if level > 0:
+            expected = mean_levels(expected)
+        np.testing.assert_array_equal(root[d["path"]][:], expected, err_msg=f"level {level}")
+        scale = d["coordinateTransformations"][0]["scale"]
+        translation = d["coordinateTransformations"][1]["translation"]
+        factor = np.array([2.0 ** level] * 3)
+        assert scale == pytest.approx(spacing * factor)
+        assert translation == pytest.approx(origin + (factor - 1) / 2 * spacing)
+        assert root[d["path"]].chunks == (16, 16, 16) and root[d["path"]].compressor.cname == "lz4"
+    # penumbra reads its own output: the finest level is the input, placed where the input was
+    back = penumbra.read_volume(str(out), level=0)
+    np.testing.assert_array_equal(back.array, data)
+    assert back.spacing == pytest.approx((1.25, 0.75, 0.5)) and back.origin == pytest.approx((1.0, -2.0, 3.0))
+
+
+def test_a_dicom_folder_converts(tmp_path):
+    ct = os.path.join(os.environ.get("PENUMBRA_ROOT", "."), "..", "shared", "data", "dicom_pancreas_ct")
+    if not os.path.isdir(ct):
+        pytest.skip("missing data: ../shared/data/dicom_pancreas_ct")
+    out = tmp_path / "ct.zarr"
+    r = subprocess.run([CLI, "convert", ct, "-o", str(out), "--codec", "zstd"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "4 levels" in r.stdout
+    np.testing.assert_array_equal(zarr.open_group(str(out), mode="r")["0"][:], penumbra.read_volume(ct).array)
+
+
+def test_failures_leave_nothing_behind(tmp_path):
+    src = tmp_path / "in.nrrd"
+    nrrd(src, np.arange(4 * 5 * 6, dtype=np.uint16).reshape(4, 5, 6))
+    out = tmp_path / "out.zarr"
+    out.mkdir()
+    r = subprocess.run([CLI, "convert", str(src), "-o", str(out)], capture_output=True, text=True)
+    assert r.returncode != 0 and "already exists" in r.stderr
+    assert os.listdir(out) == []
+    for args, message in (([str(tmp_path / "missing.nrrd")], "missing.nrrd"),
+                          ([str(src), "--codec", "brotli"], "codec 'brotli'"),
+                          ([str(src), "--chunk", "4"], "--chunk")):
+        target = tmp_path / "new.zarr"
+        r = subprocess.run([CLI, "convert", *args, "-o", str(target)], capture_output=True, text=True)
+        assert r.returncode != 0 and message in r.stderr, r.stderr
+        assert not target.exists()
+    assert [p for p in os.listdir(tmp_path) if p.startswith(".")] == [], "no partial folder is left"
