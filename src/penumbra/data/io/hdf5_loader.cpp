@@ -6,17 +6,28 @@
 // message lists them). The voxel size comes from the attribute `element_size_um` (z, y, x: Fiji's and
 // ilastik's convention) when present. libhdf5 converts the stored type and byte order to the volume's:
 // uint8, uint16, int16 and float32 kept; int8 widened to int16; wider integers and float64 as float32.
-// libhdf5 built without its thread-safe option keeps global state, so calls are serialised.
+//
+// libhdf5 is not hardened against corrupt files (a trial libFuzzer run found it allocating what a broken
+// header claims within seconds), so it runs in a forked child with a memory budget and a time limit
+// (child_process.h), as OpenVDB does: the child reads the voxels into a memfd shared with the parent and
+// answers with their description through a pipe; a crash or a limit there is an Error here.
 #include <hdf5.h>
+#include <sys/mman.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
-#include <mutex>
+#include <cstring>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "penumbra/core/error.h"
+#include "penumbra/data/io/child_process.h"
 #include "penumbra/data/io/text_fields.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/io/volume_placement.h"
@@ -26,8 +37,6 @@ namespace penumbra {
 namespace {
 
 using io_detail::printable;
-
-std::mutex hdf5_mutex;
 
 // Closes an HDF5 identifier when it goes out of scope.
 class Handle {
@@ -163,17 +172,10 @@ std::optional<std::array<double, 3>> element_size(hid_t dataset, std::vector<std
   return std::array<double, 3>{zyx[2], zyx[1], zyx[0]};
 }
 
-}  // namespace
-
-bool is_hdf5_path(const std::string& path) {
-  return io_detail::ends_with_ci(path, ".h5") || io_detail::ends_with_ci(path, ".hdf5") || io_detail::ends_with_ci(path, ".he5");
-}
-
-Volume load_hdf5_volume(const std::string& path, const std::string& dataset_name, int channel, VolumeFileInfo* info) {
-  VolumeFileInfo local;
-  VolumeFileInfo& out = info ? *info : local;
-  out.format = "hdf5";
-  const std::lock_guard lock(hdf5_mutex);
+// In the child: reads the dataset's voxels into `memfd` (sized here) and returns what the parent needs:
+// {"dims": [x, y, z], "type", "spacing": [x, y, z] or null, "notes", "channels", "channel"}.
+nlohmann::json read_in_child(const std::string& path, const std::string& dataset_name, int channel, int memfd) {
+  VolumeFileInfo out;
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors come back as messages, not printed
   if (H5Fis_hdf5(path.c_str()) <= 0) {
     H5Eclear2(H5E_DEFAULT);
@@ -226,26 +228,134 @@ Volume load_hdf5_volume(const std::string& path, const std::string& dataset_name
     if (channel >= 0 && out.channels == 1) throw Error("'channel' " + std::to_string(channel) + ": the dataset has no channel axis (4 axes, c z y x)");
     const std::array<std::int64_t, 3> xyz{static_cast<std::int64_t>(dims[dims.size() - 1]), static_cast<std::int64_t>(dims[dims.size() - 2]),
                                           static_cast<std::int64_t>(dims[dims.size() - 3])};
-    (void)with_context("shape " + shape_text(dims), [&] { return checked_voxel_count(xyz); });
+    const std::size_t voxels = with_context("shape " + shape_text(dims), [&] { return checked_voxel_count(xyz); });
+    for (const auto d : xyz)
+      if (d > std::numeric_limits<int>::max()) throw Error("an axis of " + std::to_string(d) + " voxels is too long");
     const ScalarType stored = storage_type(type.get());
-    Volume volume(stored, {static_cast<int>(xyz[0]), static_cast<int>(xyz[1]), static_cast<int>(xyz[2])}, {1, 1, 1}, {0, 0, 0},
-                  VoxelFill::Uninitialized);
+    const std::size_t bytes = voxels * scalar_size(stored);
+    if (::ftruncate(memfd, static_cast<off_t>(bytes)) != 0) throw Error("cannot hold " + std::to_string(bytes) + " bytes of voxels: " + std::strerror(errno));
+    void* target = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, memfd, 0);
+    if (target == MAP_FAILED) throw Error("cannot map " + std::to_string(bytes) + " bytes of voxels: " + std::strerror(errno));
     if (H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr) < 0)
       throw Error("could not select the voxels: " + hdf5_errors());
     const hsize_t memory_dims[3] = {dims[dims.size() - 3], dims[dims.size() - 2], dims[dims.size() - 1]};
     const Handle memory(H5Screate_simple(3, memory_dims, nullptr), H5Sclose);
-    if (H5Dread(dataset.get(), memory_type(stored), memory.get(), space.get(), H5P_DEFAULT, volume.data()) < 0)
-      throw Error("libhdf5 could not read the voxels (a corrupt or truncated file?): " + hdf5_errors());
+    const herr_t read = H5Dread(dataset.get(), memory_type(stored), memory.get(), space.get(), H5P_DEFAULT, target);
+    ::munmap(target, bytes);
+    if (read < 0) throw Error("libhdf5 could not read the voxels (a corrupt or truncated file?): " + hdf5_errors());
     const std::size_t size = H5Tget_size(type.get());
     const bool kept = (cls == H5T_INTEGER && size <= 2 && !(size == 1 && H5Tget_sign(type.get()) == H5T_SGN_2)) || (cls == H5T_FLOAT && size == 4);
     if (!kept)
       out.notes.push_back("stored as " + to_string(stored) + " (the file's " + (cls == H5T_FLOAT ? "float" : "integer") + std::to_string(8 * size) + ")");
     const auto spacing = element_size(dataset.get(), out.notes);
-    const Affine affine = Affine::diagonal(spacing.value_or(std::array<double, 3>{1, 1, 1}), {0, 0, 0});
-    volume = place_volume(std::move(volume), affine, out);
-    volume.recompute_range();
-    return volume;
+    return nlohmann::json{{"dims", xyz}, {"type", to_string(stored)}, {"bytes", bytes},
+                          {"spacing", spacing ? nlohmann::json(*spacing) : nlohmann::json(nullptr)},
+                          {"notes", out.notes}, {"channels", out.channels}, {"channel", out.channel}};
   });
+}
+
+// Everything the pipe brings back, read to its end.
+std::string read_all(int fd) {
+  std::string text;
+  char buffer[4096];
+  for (;;) {
+    const ssize_t n = ::read(fd, buffer, sizeof buffer);
+    if (n > 0) text.append(buffer, static_cast<std::size_t>(n));
+    else if (n == 0 || errno != EINTR) break;
+  }
+  return text;
+}
+
+void write_all(int fd, const std::string& text) {
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return;
+    done += static_cast<std::size_t>(n);
+  }
+}
+
+class Fd {
+public:
+  explicit Fd(int fd) : fd_(fd) {}
+  ~Fd() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  Fd(const Fd&) = delete;
+  Fd& operator=(const Fd&) = delete;
+  int get() const { return fd_; }
+  void close() {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = -1;
+  }
+
+private:
+  int fd_;
+};
+
+}  // namespace
+
+bool is_hdf5_path(const std::string& path) {
+  return io_detail::ends_with_ci(path, ".h5") || io_detail::ends_with_ci(path, ".hdf5") || io_detail::ends_with_ci(path, ".he5");
+}
+
+Volume load_hdf5_volume(const std::string& path, const std::string& dataset_name, int channel, VolumeFileInfo* info) {
+  VolumeFileInfo local;
+  VolumeFileInfo& out = info ? *info : local;
+  out.format = "hdf5";
+  if (::access(path.c_str(), R_OK) != 0) throw Error(std::string("cannot read the file: ") + std::strerror(errno));
+  const Fd memfd(::memfd_create("penumbra-hdf5", MFD_CLOEXEC));
+  if (memfd.get() < 0) throw Error(std::string("cannot make shared memory for the HDF5 reader: ") + std::strerror(errno));
+  int fds[2];
+  if (::pipe(fds) != 0) throw Error("cannot create a pipe for the HDF5 reader");
+  Fd from_child(fds[0]), to_parent(fds[1]);
+  const io_detail::ChildLimits limits = io_detail::child_limits(path);
+  const pid_t child = ::fork();
+  if (child < 0) throw Error("cannot start the HDF5 reader process");
+  if (child == 0) {  // the child: libhdf5 only, then _exit (no destructors of the parent's state)
+    from_child.close();
+    io_detail::limit_child(limits);
+    std::string answer;
+    try {
+      answer = "V" + read_in_child(path, dataset_name, channel, memfd.get()).dump();
+    } catch (const std::bad_alloc&) {
+      answer = "Elibhdf5 ran out of memory reading it (a corrupt size?)";
+    } catch (const std::exception& e) {
+      answer = std::string("E") + e.what();
+    }
+    write_all(to_parent.get(), answer);
+    ::_exit(0);
+  }
+  to_parent.close();
+  const std::string answer = read_all(from_child.get());
+  int status = 0;
+  while (::waitpid(child, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (!answer.empty() && answer[0] == 'E') throw Error(answer.substr(1));
+  if (answer.empty() || answer[0] != 'V' || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw Error("libhdf5 failed reading it: its reader process " + io_detail::child_exit_text(status, limits) + " (a corrupt file?)");
+  const nlohmann::json meta = nlohmann::json::parse(answer.substr(1), nullptr, false);
+  if (meta.is_discarded()) throw Error("the HDF5 reader process gave an incomplete answer");
+  const auto xyz = meta["dims"].get<std::array<std::int64_t, 3>>();
+  const ScalarType stored = scalar_type_from_string(meta["type"].get<std::string>());
+  Volume volume(stored, {static_cast<int>(xyz[0]), static_cast<int>(xyz[1]), static_cast<int>(xyz[2])}, {1, 1, 1}, {0, 0, 0},
+                VoxelFill::Uninitialized);
+  const std::size_t bytes = volume.voxel_count() * scalar_size(stored);
+  if (meta["bytes"].get<std::size_t>() != bytes) throw Error("the HDF5 reader process gave an inconsistent answer");
+  if (bytes > 0) {
+    const void* voxels = ::mmap(nullptr, bytes, PROT_READ, MAP_SHARED, memfd.get(), 0);
+    if (voxels == MAP_FAILED) throw Error(std::string("cannot map the voxels the HDF5 reader read: ") + std::strerror(errno));
+    std::memcpy(volume.data(), voxels, bytes);
+    ::munmap(const_cast<void*>(voxels), bytes);
+  }
+  out.notes = meta["notes"].get<std::vector<std::string>>();
+  out.channels = meta["channels"].get<int>();
+  out.channel = meta["channel"].get<int>();
+  const std::array<double, 3> spacing = meta["spacing"].is_null() ? std::array<double, 3>{1, 1, 1} : meta["spacing"].get<std::array<double, 3>>();
+  volume = place_volume(std::move(volume), Affine::diagonal(spacing, {0, 0, 0}), out);
+  volume.recompute_range();
+  return volume;
 }
 
 }  // namespace penumbra

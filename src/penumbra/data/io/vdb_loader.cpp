@@ -19,23 +19,21 @@
 // Which grid: `grid` names one (or gives its index from 0); by default the float grid named "density",
 // else the first scalar grid. The notes list every grid in the file with its type, class and active
 // voxels, and how much memory the sparse volume takes against a dense one.
-#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
-#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <sstream>
-#include <thread>
 
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 
 #include "penumbra/core/error.h"
+#include "penumbra/data/io/child_process.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/io/volume_placement.h"
 
@@ -456,62 +454,6 @@ bool read_answer(PipeReader& in, ParsedGrid& g, std::string& error) {
   return !in.get(extra);  // nothing after the last brick
 }
 
-// What the child may use beyond what the process held when it forked. OpenVDB allocates what a corrupt
-// header says before it finds the data missing, so memory is bounded by what the file can hold: zlib
-// and Blosc expand at most about 1000:1, so 1100 times the file's size (at least 256 MiB, at most the
-// machine's memory). Time: 30 s plus 2 s per MiB of file.
-struct ChildLimits {
-  std::uint64_t memory_budget;        // bytes beyond the fork-time size
-  std::uint64_t base_resident;        // resident bytes at fork
-  std::uint64_t base_address_space;   // address space at fork
-  double seconds;
-};
-
-ChildLimits child_limits(const std::string& path) {
-  std::error_code ec;
-  const std::uint64_t file = std::filesystem::file_size(path, ec);
-  const std::uint64_t page = static_cast<std::uint64_t>(::sysconf(_SC_PAGE_SIZE));
-  const std::uint64_t physical = static_cast<std::uint64_t>(::sysconf(_SC_PHYS_PAGES)) * page;
-  ChildLimits l{};
-  l.memory_budget = std::min(physical, std::max<std::uint64_t>(std::uint64_t{256} << 20, ec ? 0 : 1100 * file));
-  std::ifstream statm("/proc/self/statm");
-  std::uint64_t size = 0, resident = 0;
-  if (statm >> size >> resident) {
-    l.base_address_space = size * page;
-    l.base_resident = resident * page;
-  }
-  l.seconds = 30.0 + 2.0 * static_cast<double>(ec ? 0 : file) / (1 << 20);
-  return l;
-}
-
-// The child's watchdog: ends the child when its resident memory passes the budget (exit 4) or its time
-// runs out (exit 5). A thread, not a signal: AddressSanitizer's builds cannot bound address space.
-void watch_child(const ChildLimits& l) {
-  std::thread([l] {
-    const auto start = std::chrono::steady_clock::now();
-    const std::uint64_t page = static_cast<std::uint64_t>(::sysconf(_SC_PAGE_SIZE));
-    for (;;) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-      std::ifstream statm("/proc/self/statm");
-      std::uint64_t size = 0, resident = 0;
-      if (statm >> size >> resident && resident * page > l.base_resident + l.memory_budget) ::_exit(4);
-      if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > l.seconds) ::_exit(5);
-    }
-  }).detach();
-}
-
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAddressSanitizer = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kAddressSanitizer = true;
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
-#else
-constexpr bool kAddressSanitizer = false;
-#endif
-
 }  // namespace
 
 Volume load_vdb_volume(const std::string& path, const std::string& grid_choice, VolumeFileInfo* info) {
@@ -528,7 +470,7 @@ Volume load_vdb_volume(const std::string& path, const std::string& grid_choice, 
 
   int fds[2];
   if (::pipe(fds) != 0) throw Error("cannot create a pipe for the OpenVDB reader");
-  const ChildLimits limits = child_limits(path);
+  const io_detail::ChildLimits limits = io_detail::child_limits(path);
   const pid_t child = ::fork();
   if (child < 0) {
     ::close(fds[0]);
@@ -537,12 +479,7 @@ Volume load_vdb_volume(const std::string& path, const std::string& grid_choice, 
   }
   if (child == 0) {  // the child: OpenVDB only, then _exit (no destructors of the parent's state)
     ::close(fds[0]);
-    if (!kAddressSanitizer && limits.base_address_space > 0) {  // a huge allocation fails at once (ASan reserves terabytes)
-      const rlim_t as = static_cast<rlim_t>(limits.base_address_space + limits.memory_budget);
-      const rlimit r{as, as};
-      ::setrlimit(RLIMIT_AS, &r);
-    }
-    watch_child(limits);
+    io_detail::limit_child(limits);
     {
       PipeWriter w(fds[1]);
       try {
