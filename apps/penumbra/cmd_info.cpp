@@ -98,7 +98,10 @@ void add_info_command(CLI::App& app) {
     std::printf("type        %s (%zu bytes in memory)\n", to_string(v.type()).c_str(), v.memory_bytes());
     std::printf("spacing     %g %g %g\n", v.spacing().x, v.spacing().y, v.spacing().z);
     std::printf("origin      %g %g %g\n", v.origin().x, v.origin().y, v.origin().z);
-    if (info.affine) std::printf("affine      %s (file voxel index to world, LPS mm)\n", info.affine->str().c_str());
+    // NRRD, NIfTI and DICOM place voxels in a patient frame (LPS, mm); the others in their own world and unit
+    const bool patient = info.format == "nrrd" || info.format == "nifti" || info.format == "dicom";
+    if (info.affine)
+      std::printf("affine      %s (file voxel index to world%s)\n", info.affine->str().c_str(), patient ? ", LPS mm" : ", the file's own unit");
     if (!info.orientation.empty()) std::printf("orientation %s\n", info.orientation.c_str());
     std::printf("bounds      [%g %g %g] .. [%g %g %g]\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
     for (const auto& note : info.notes) std::printf("note        %s\n", note.c_str());
