@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "commands.h"
+#include "inputs.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/data/io/volume_io.h"
@@ -16,8 +17,8 @@ namespace penumbra::cli {
 void add_convert_command(CLI::App& app) {
   struct Options {
     std::vector<std::string> files;
-    std::string out, series, grid, dataset;
-    int channel = -1, level = -1;
+    std::string out;
+    VolumeLoadOptions choice;  // --series, --channel, --level, --dataset, --grid
     OmeZarrWriteOptions write;
   };
   auto o = std::make_shared<Options>();
@@ -28,21 +29,11 @@ void add_convert_command(CLI::App& app) {
   cmd->add_option("--codec", o->write.codec, "Blosc compressor: lz4 (default), zstd or zlib");
   cmd->add_option("--clevel", o->write.clevel, "Compression level 1-9 (default 5)")->check(CLI::Range(1, 9));
   cmd->add_option("--unit", o->write.unit, "The axes' unit in the metadata (e.g. millimeter, micrometer; default none)");
-  cmd->add_option("--series", o->series, "DICOM input holding several series: the one to convert");
-  cmd->add_option("--channel", o->channel, "Multi-channel TIFF, OME-Zarr or HDF5 input: the channel (from 0)")->check(CLI::Range(0, 1 << 20));
-  cmd->add_option("--level", o->level, "OME-Zarr input: the level to convert (0 the finest)")->check(CLI::Range(0, 64));
-  cmd->add_option("--dataset", o->dataset, "HDF5 input: the dataset's path in the file");
-  cmd->add_option("--grid", o->grid, "OpenVDB input: the grid (converted dense)");
+  add_volume_choice_options(*cmd, o->choice);
   cmd->callback([o] {
-    VolumeLoadOptions lo;
-    lo.series = o->series;
-    lo.channel = o->channel;
-    lo.level = o->level;
-    lo.dataset = o->dataset;
-    lo.grid = o->grid;
     Timer timer;
     VolumeFileInfo info;
-    Volume v = load_volume(o->files, lo, &info);
+    Volume v = load_volume(o->files, o->choice, &info);
     if (v.is_bricked()) v = v.densified(std::size_t{16} << 30);
     const double read_ms = timer.elapsed_ms();
     const bool terminal = ::isatty(STDERR_FILENO) != 0;

@@ -6,6 +6,7 @@
 
 #include "commands.h"
 #include "info_trajectory.h"
+#include "inputs.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/data/io/particle_io.h"
@@ -19,10 +20,7 @@ void add_info_command(CLI::App& app) {
   struct Options {
     std::vector<std::string> files;
     std::string file;  // the first of them
-    std::string series, grid;
-    int channel = -1;
-    int level = -1;
-    std::string dataset;
+    VolumeLoadOptions choice;  // --series, --channel, --level, --dataset, --grid
     int bins = 16;
     int assembly = 0;
     bool trajectory = false;
@@ -35,11 +33,7 @@ void add_info_command(CLI::App& app) {
                                              "slices or .dcm files), a particle file (.pdb, .cif, .gro, .xyz) "
                                              "or a trajectory (.xtc, .dcd; .pdb, .cif, .xyz, .gro with --trajectory)");
   cmd->add_option("file", o->files, "Volume, particle or trajectory file (several: the slices of one DICOM series)")->required();
-  cmd->add_option("--series", o->series, "DICOM: the series to describe (SeriesInstanceUID or index; default: the one with the most slices)");
-  cmd->add_option("--channel", o->channel, "Multi-channel TIFF or OME-Zarr: the channel to describe (from 0)")->check(CLI::Range(0, 1 << 20));
-  cmd->add_option("--level", o->level, "OME-Zarr pyramid: the level to describe (0 the finest)")->check(CLI::Range(0, 64));
-  cmd->add_option("--dataset", o->dataset, "HDF5: the dataset to describe (its path in the file)");
-  cmd->add_option("--grid", o->grid, "OpenVDB: the grid to describe (name or index; default: 'density', else the first float grid)");
+  add_volume_choice_options(*cmd, o->choice);
   cmd->add_option("--bins", o->bins, "Histogram bins (volumes)")->check(CLI::Range(1, 1024));
   cmd->add_option("--assembly", o->assembly, "Biological assembly to build (particle files; 0 = as deposited)")->check(CLI::Range(0, 1000000));
   cmd->add_flag("--trajectory", o->trajectory, "Read FILE as a trajectory (multi-model PDB or mmCIF, multi-frame XYZ or GRO; .xtc and .dcd always are)");
@@ -52,7 +46,7 @@ void add_info_command(CLI::App& app) {
       throw penumbra::Error("several files are described together only as the slices of one DICOM series (.dcm)");
     const std::string traj_format = trajectory_file_format(o->file);
     const bool particles = o->trajectory || traj_format == "xtc" || traj_format == "dcd" || !particle_file_format(o->file).empty();
-    if (particles && (!o->series.empty() || o->channel >= 0 || o->level >= 0 || !o->dataset.empty() || !o->grid.empty()))
+    if (particles && chooses_part(o->choice))
       throw penumbra::Error("--series, --channel, --level, --dataset and --grid are for volumes: " + o->file + " is not one");
     if (o->trajectory || traj_format == "xtc" || traj_format == "dcd") {
       if (o->assembly != 0) throw penumbra::Error("--assembly: not for trajectories");
@@ -77,15 +71,9 @@ void add_info_command(CLI::App& app) {
       return;
     }
     if (o->assembly != 0) throw penumbra::Error("--assembly: " + o->file + " is not a particle file");
-    VolumeLoadOptions lo;
-    lo.series = o->series;
-    lo.channel = o->channel;
-    lo.level = o->level;
-    lo.dataset = o->dataset;
-    lo.grid = o->grid;
     VolumeFileInfo info;
     Timer read;
-    const Volume v = load_volume(o->files, lo, &info);
+    const Volume v = load_volume(o->files, o->choice, &info);
     const double read_ms = read.elapsed_ms();
     const Box3 b = v.bounds();
     std::printf("file        %s\n", o->file.c_str());

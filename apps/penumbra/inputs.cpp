@@ -34,13 +34,8 @@ VolumeLoadOptions volume_load_options(const InputOptions& o) {
   bool has_raw = false;
   for (const auto& f : o.inputs) has_raw = has_raw || std::filesystem::path(f).extension() == ".raw" || std::filesystem::path(f).extension() == ".RAW";
   if (raw && !has_raw) throw Error("--raw-dims, --raw-type: no .raw file among the inputs");
-  VolumeLoadOptions volume_options;
+  VolumeLoadOptions volume_options = o.choice;
   volume_options.raw = raw;
-  volume_options.series = o.series;
-  volume_options.channel = o.channel;
-  volume_options.level = o.level;
-  volume_options.dataset = o.dataset;
-  volume_options.grid = o.grid;
   return volume_options;
 }
 
@@ -66,20 +61,29 @@ void add_input_options(CLI::App& cmd, InputOptions& o) {
   cmd.add_option("--raw-spacing", o.raw_spacing, "Voxel spacing x y z of the .raw volumes (default 1 1 1)")->expected(3);
   cmd.add_option("--raw-endian", o.raw_endian, "Byte order of the .raw volumes: little (default) or big");
   cmd.add_option("--raw-header-bytes", o.raw_header_bytes, "Bytes to skip at the start of the .raw volumes");
-  cmd.add_option("--series", o.series, "DICOM input holding several series: the one to open (SeriesInstanceUID, or its index in "
-                                       "`penumbra info`; default: the series with the most slices)");
-  cmd.add_option("--dataset", o.dataset, "HDF5 files: the dataset to open, its path in the file (default: the only dataset of three or more axes)");
-  cmd.add_option("--channel", o.channel, "Multi-channel TIFF stacks, OME-Zarr images and HDF5 datasets (c z y x): the channel to open (from 0; default 0)")->check(CLI::Range(0, 1 << 20));
-  cmd.add_option("--level", o.level, "OME-Zarr pyramids: the level to open (0 the finest; default: the finest that fits a quarter of "
-                                     "the memory)")->check(CLI::Range(0, 64));
-  cmd.add_option("--grid", o.grid, "OpenVDB files: the grid to open (its name, or its index in `penumbra info`; default: "
-                                   "'density', else the first float grid)");
+  add_volume_choice_options(cmd, o.choice);
+}
+
+void add_volume_choice_options(CLI::App& cmd, VolumeLoadOptions& choice) {
+  cmd.add_option("--series", choice.series, "DICOM input holding several series: the one to open (SeriesInstanceUID, or its index in "
+                                            "`penumbra info`; default: the series with the most slices)");
+  cmd.add_option("--channel", choice.channel, "Multi-channel TIFF stacks, OME-Zarr images and HDF5 datasets (c z y x): the channel "
+                                              "(from 0; default 0)")->check(CLI::Range(0, 1 << 20));
+  cmd.add_option("--level", choice.level, "OME-Zarr pyramids: the level (0 the finest; default: the finest that fits a quarter of "
+                                          "the memory)")->check(CLI::Range(0, 64));
+  cmd.add_option("--dataset", choice.dataset, "HDF5 files: the dataset, its path in the file (default: the only dataset of three or more axes)");
+  cmd.add_option("--grid", choice.grid, "OpenVDB files: the grid (its name, or its index in `penumbra info`; default: "
+                                        "'density', else the first float grid)");
+}
+
+bool chooses_part(const VolumeLoadOptions& c) {
+  return !c.series.empty() || c.channel >= 0 || c.level >= 0 || !c.dataset.empty() || !c.grid.empty();
 }
 
 std::optional<SceneDocument> scene_file_document(const InputOptions& o, const std::vector<std::string>& extra_sets) {
   if (o.inputs.size() != 1 || input_kind(o.inputs.front()) != InputKind::SceneFile) return std::nullopt;
   if (raw_options(o)) throw Error("--raw-dims, --raw-type: the layout of .raw volumes opened directly (a scene file gives 'raw' per volume)");
-  if (!o.series.empty() || o.channel >= 0 || o.level >= 0 || !o.dataset.empty() || !o.grid.empty())
+  if (chooses_part(o.choice))
     throw Error("--series, --channel, --level, --dataset, --grid: for volumes opened directly (a scene file gives 'series', 'channel', 'level', 'dataset' and "
                 "'grid' per volume)");
   const std::string& path = o.inputs.front();

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/data/io/volume_io.h"
 #include "penumbra/distributed/brick_reading.h"
 #include "penumbra/engine/engine.h"
 
@@ -23,12 +24,13 @@ struct InputOptions {
   std::string raw_type, raw_endian = "little";
   std::vector<float> raw_spacing;
   std::uint64_t raw_header_bytes = 0;
-  std::string series;  // the DICOM series to open (UID or index)
-  int channel = -1;    // the channel of multi-channel TIFF stacks and OME-Zarr images
-  int level = -1;      // the level of OME-Zarr pyramids (-1: the finest that fits)
-  std::string dataset; // the dataset of HDF5 files ("": the only volume-shaped one)
-  std::string grid;    // the OpenVDB grid to open (name or index)
+  VolumeLoadOptions choice;  // which part of a volume file: --series, --channel, --level, --dataset, --grid
 };
+
+// --series, --channel, --level, --dataset and --grid, into `choice` (render, view, info, convert).
+void add_volume_choice_options(CLI::App& cmd, VolumeLoadOptions& choice);
+// Whether any of them was given.
+bool chooses_part(const VolumeLoadOptions& choice);
 
 // Adds the positional inputs, the --raw-* options, --series, --channel, --level, --dataset and --grid to a subcommand.
 void add_input_options(CLI::App& cmd, InputOptions& o);

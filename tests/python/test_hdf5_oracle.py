@@ -12,17 +12,7 @@ import pytest
 h5py = pytest.importorskip("h5py")  # Debian python3-h5py (scripts/install-deps.sh)
 
 import penumbra  # noqa: E402
-
-
-def field(shape, dtype, seed=1):
-    rng = np.random.default_rng(seed)
-    z, y, x = np.meshgrid(*(np.linspace(0, 1, n) for n in shape), indexing="ij")
-    base = np.sin(5 * x) * np.cos(3 * y) + z + rng.normal(0, 0.05, shape)
-    if np.issubdtype(np.dtype(dtype), np.integer):
-        info = np.iinfo(dtype)
-        lo, hi = max(info.min, -30000), min(info.max, 60000)
-        return (lo + (base - base.min()) / np.ptp(base) * (hi - lo)).astype(dtype)
-    return base.astype(dtype)
+from volume_fields import field  # noqa: E402
 
 
 def write(path, name, data, **kwargs):

@@ -13,18 +13,7 @@ zarr = pytest.importorskip("zarr")  # Debian python3-zarr (scripts/install-deps.
 from numcodecs import GZip, Zlib, Zstd, Blosc  # noqa: E402
 
 import penumbra  # noqa: E402
-
-
-def field(shape, dtype, seed=1):
-    """A smooth field with noise, in the dtype's range (z, y, x)."""
-    rng = np.random.default_rng(seed)
-    z, y, x = np.meshgrid(*(np.linspace(0, 1, n) for n in shape), indexing="ij")
-    base = np.sin(6 * x) * np.cos(4 * y) + z + rng.normal(0, 0.05, shape)
-    if np.issubdtype(np.dtype(dtype), np.integer):
-        info = np.iinfo(dtype)
-        lo, hi = max(info.min, -30000), min(info.max, 60000)
-        return (lo + (base - base.min()) / (np.ptp(base) or 1) * (hi - lo)).astype(dtype)
-    return base.astype(dtype)
+from volume_fields import field  # noqa: E402
 
 
 def read(path, **kwargs):
