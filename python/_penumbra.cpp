@@ -28,6 +28,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/registry/technique_catalog.h"
 #include "penumbra/core/cancel.h"
+#include "penumbra/core/byte_size.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/frame_memory.h"
 #include "penumbra/core/image.h"
@@ -438,8 +439,10 @@ PYBIND11_MODULE(_penumbra, m) {
   }, py::arg("document"), py::arg("base_dir"), py::arg("volumes") = py::dict(), py::arg("particles") = py::dict());
   // A volume file (or the slices of a DICOM series) read as the renderer reads it: a NumPy copy of its
   // voxels (axes z, y, x), spacing and origin (x, y, z) and what the reader found, as JSON text.
-  m.def("read_volume", [](const std::vector<std::string>& paths, const std::string& series, int channel, const std::string& grid, int level, const std::string& dataset) {
+  m.def("read_volume", [](const std::vector<std::string>& paths, const std::string& series, int channel, const std::string& grid, int level,
+                          const std::string& dataset, const std::string& memory_budget) {
     VolumeLoadOptions lo;
+    if (!memory_budget.empty()) lo.memory_budget = parse_byte_size(memory_budget);
     lo.dataset = dataset;
     lo.series = series;
     lo.channel = channel;
@@ -476,7 +479,8 @@ PYBIND11_MODULE(_penumbra, m) {
                                       {"channel", info.channel}, {"notes", info.notes}};
     return py::make_tuple(array, py::make_tuple(v.spacing().x, v.spacing().y, v.spacing().z),
                           py::make_tuple(v.origin().x, v.origin().y, v.origin().z), described.dump());
-  }, py::arg("paths"), py::arg("series") = "", py::arg("channel") = -1, py::arg("grid") = "", py::arg("level") = -1, py::arg("dataset") = "");
+  }, py::arg("paths"), py::arg("series") = "", py::arg("channel") = -1, py::arg("grid") = "", py::arg("level") = -1, py::arg("dataset") = "",
+     py::arg("memory_budget") = "");
   // Van der Waals radius (Å) and CPK colour (linear RGB) of each element symbol; unknown: 1.7 Å, grey.
   m.def("element_style", [](const std::vector<std::string>& symbols) {
     py::array_t<float> radii(static_cast<py::ssize_t>(symbols.size()));

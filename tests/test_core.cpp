@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "penumbra/core/byte_size.h"
 #include "penumbra/core/color.h"
 #include "penumbra/core/cutoffs.h"
 #include "penumbra/core/math.h"
@@ -59,6 +60,28 @@ TEST(VolumeCore, RejectsBadDimensionsAndNaN) {
 
 // The counter-based generator: same keys, same number; different keys, different numbers; roughly
 // uniform (χ² over 16 bins at 10^5 draws, critical value 37.7 for 15 degrees of freedom at α = 0.001).
+TEST(ByteSize, ParsesWhatUsersWrite) {
+  EXPECT_EQ(parse_byte_size("3000000"), 3000000u);
+  EXPECT_EQ(parse_byte_size("512M"), 512ull << 20);
+  EXPECT_EQ(parse_byte_size("4G"), 4ull << 30);
+  EXPECT_EQ(parse_byte_size("4 GiB"), 4ull << 30);
+  EXPECT_EQ(parse_byte_size("1.5gb"), 3ull << 29);
+  EXPECT_EQ(parse_byte_size("2T"), 2ull << 40);
+  EXPECT_EQ(parse_byte_size("64k"), 64ull << 10);
+  EXPECT_EQ(parse_byte_size("100 B"), 100u);
+  for (const char* bad : {"", "G", "-1G", "0", "4X", "4GX", "1e30", "4 G B", "..", "0.1"}) {
+    try {
+      parse_byte_size(bad);
+      ADD_FAILURE() << "'" << bad << "' parsed";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string("'") + bad + "'"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(byte_size_string(100), "100 B");
+  EXPECT_EQ(byte_size_string(3ull << 29), "1.5 GiB");
+  EXPECT_EQ(byte_size_string(512ull << 20), "512 MiB");
+}
+
 TEST(Rng, CounterBasedAndUniform) {
   EXPECT_EQ(uniform_float(1, 2, 3), uniform_float(1, 2, 3));
   EXPECT_NE(uniform_float(1, 2, 3), uniform_float(1, 2, 4));

@@ -357,6 +357,30 @@ TEST(ProceduralCtBody, NoiseHasTheRequestedDeviation) {
   EXPECT_NEAR(sd, 60, 1.5);  // the default noise
 }
 
+// What `penumbra convert` streams a ct-body larger than memory from: any slab of slices is byte for byte
+// the whole volume's (the noise hashes 4 voxels at a time across slice borders: odd slices test that).
+TEST(ProceduralCtBody, SlabsAreTheWholeVolumesSlices) {
+  for (const CtBodyParams p : {CtBodyParams{{48, 40, 90}, 2, 60}, CtBodyParams{{9, 11, 13}, 1, 60}}) {
+    const Volume whole = make_ct_body_volume(p);
+    const std::size_t slice = static_cast<std::size_t>(p.dims[0]) * p.dims[1];
+    for (const auto& [first, count] : std::vector<std::pair<int, int>>{{0, 1}, {3, 5}, {p.dims[2] - 2, 2}, {0, p.dims[2]}}) {
+      std::vector<std::uint16_t> slab(slice * static_cast<std::size_t>(count));
+      make_ct_body_slices(p, first, count, slab.data());
+      EXPECT_EQ(std::memcmp(slab.data(), whole.data_as<std::uint16_t>() + slice * static_cast<std::size_t>(first), slab.size() * 2), 0)
+          << "slices " << first << " + " << count << " of " << p.dims[2];
+    }
+    std::vector<std::uint16_t> one(slice);
+    EXPECT_THROW(make_ct_body_slices(p, p.dims[2], 1, one.data()), Error);
+    const CtBodyGrid g = ct_body_grid(p);
+    EXPECT_FLOAT_EQ(static_cast<float>(g.spacing[2]), whole.spacing().z);
+    EXPECT_FLOAT_EQ(static_cast<float>(g.origin[0]), whole.origin().x);
+  }
+  // convert takes dims beyond what a volume held whole may have; a scene keeps 2048
+  EXPECT_EQ(ct_body_params(json{{"name", "ct-body"}, {"dims", {4096, 4096, 2048}}}, 16384).dims, (std::array<int, 3>{4096, 4096, 2048}));
+  EXPECT_THROW(ct_body_params(json{{"name", "ct-body"}, {"dims", {4096, 4096, 2048}}}), Error);
+  EXPECT_THROW(ct_body_params(json{{"name", "ct-body"}, {"size", 64}}, 16384), Error);
+}
+
 TEST(ProceduralCtBody, BadParametersNameTheKey) {
   const auto expect_key = [](const json& spec, const std::string& key) {
     const std::string e = procedural_error_of(spec);

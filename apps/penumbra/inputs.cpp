@@ -4,6 +4,7 @@
 #include <fstream>
 #include <optional>
 
+#include "penumbra/core/byte_size.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/replace_file.h"
 #include "penumbra/scene_io/data_scene.h"
@@ -36,13 +37,25 @@ VolumeLoadOptions volume_load_options(const InputOptions& o) {
   if (raw && !has_raw) throw Error("--raw-dims, --raw-type: no .raw file among the inputs");
   VolumeLoadOptions volume_options = o.choice;
   volume_options.raw = raw;
+  if (!o.memory_budget.empty())  // in the document before its first read, so that nothing loads beyond it
+    volume_options.memory_budget = with_context("--memory-budget", [&] { return parse_byte_size(o.memory_budget); });
   return volume_options;
 }
 
-// `extra_sets`, then the user's --set, on a data files' document.
+// --memory-budget, checked, as the first of the sets (so that a --set memory_budget=... wins).
+std::vector<std::string> sets_with_budget(const InputOptions& o, const std::vector<std::string>& extra_sets) {
+  if (o.memory_budget.empty()) return extra_sets;
+  with_context("--memory-budget", [&] { return parse_byte_size(o.memory_budget); });
+  std::vector<std::string> sets{"memory_budget=" + nlohmann::json(o.memory_budget).dump()};
+  sets.insert(sets.end(), extra_sets.begin(), extra_sets.end());
+  return sets;
+}
+
+// `extra_sets` (after --memory-budget), then the user's --set, on a data files' document.
 void apply_sets(nlohmann::json& doc, const InputOptions& o, const std::vector<std::string>& extra_sets) {
+  const std::vector<std::string> first = sets_with_budget(o, extra_sets);
   with_context("--set", [&] {
-    for (const auto& s : extra_sets) apply_override(doc, s);
+    for (const auto& s : first) apply_override(doc, s);
     for (const auto& s : o.sets) apply_override(doc, s);
   });
 }
@@ -62,6 +75,9 @@ void add_input_options(CLI::App& cmd, InputOptions& o) {
   cmd.add_option("--raw-endian", o.raw_endian, "Byte order of the .raw volumes: little (default) or big");
   cmd.add_option("--raw-header-bytes", o.raw_header_bytes, "Bytes to skip at the start of the .raw volumes");
   add_volume_choice_options(cmd, o.choice);
+  cmd.add_option("--memory-budget", o.memory_budget,
+                 "What the volumes may hold in memory (voxels, macrocells, stored gradients), e.g. 4G or 512M: an OME-Zarr pyramid "
+                 "opens at the finest level that fits (the scene's memory_budget)");
 }
 
 void add_volume_choice_options(CLI::App& cmd, VolumeLoadOptions& choice) {
@@ -88,8 +104,9 @@ std::optional<SceneDocument> scene_file_document(const InputOptions& o, const st
                 "'grid' per volume)");
   const std::string& path = o.inputs.front();
   SceneDocument d{read_json_file(path), std::filesystem::path(path).parent_path().string()};
+  const std::vector<std::string> first = sets_with_budget(o, extra_sets);
   with_context(path, [&] {
-    for (const auto& s : extra_sets) apply_override(d.document, s);
+    for (const auto& s : first) apply_override(d.document, s);
     for (const auto& s : o.sets) apply_override(d.document, s);
   });
   return d;

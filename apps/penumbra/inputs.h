@@ -25,6 +25,7 @@ struct InputOptions {
   std::vector<float> raw_spacing;
   std::uint64_t raw_header_bytes = 0;
   VolumeLoadOptions choice;  // which part of a volume file: --series, --channel, --level, --dataset, --grid
+  std::string memory_budget;  // --memory-budget: the scene's memory_budget ("" keeps the scene's)
 };
 
 // --series, --channel, --level, --dataset and --grid, into `choice` (render, view, info, convert).

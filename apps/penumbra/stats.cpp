@@ -48,6 +48,16 @@ nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const 
                         {"volume_structures", renderer.volume_structure_memory_bytes()},
                         {"particles", renderer.particle_memory_bytes()}, {"bvh", renderer.bvh_memory_bytes()},
                         {"light_cache", renderer.light_cache_memory_bytes()}};
+  // Each volume as it was read (a pyramid's level is seen in its dims), and against the scene's
+  // memory_budget what the volumes hold: voxels and their structures (gradients, macrocells).
+  j["volumes"] = nlohmann::json::array();
+  for (const auto& v : scene.volumes) {
+    const auto& d = v.volume->dims();
+    j["volumes"].push_back({{"source", v.source}, {"dims", {d[0], d[1], d[2]}}, {"type", to_string(v.volume->type())},
+                            {"bytes", v.volume->memory_bytes()}});
+  }
+  if (scene.memory_budget > 0)
+    j["memory_budget"] = {{"budget", scene.memory_budget}, {"held", volume_bytes + renderer.volume_structure_memory_bytes()}};
   const IsosurfaceFrameStats& iso = first.isosurface;
   j["counts"] = {{"voxels", renderer.voxel_count()}, {"spheres", renderer.sphere_count()}, {"points", iso.points},
                  {"lights", scene.lights.size()}, {"sphere_pixels", first.sphere_pixels},

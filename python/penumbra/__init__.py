@@ -555,13 +555,14 @@ class VolumeData:
                 f"spacing {self.spacing}, origin {self.origin})")
 
 
-def read_volume(path, series=None, channel=None, grid=None, level=None, dataset=None):
+def read_volume(path, series=None, channel=None, grid=None, level=None, dataset=None, memory_budget=None):
     """Reads a volume as penumbra does: .nrrd, .nhdr, .nii(.gz), .tif(f), .vti, .vtk, .vdb, .h5/.hdf5
     (``dataset``: its path in the file), a Zarr v2 store (an array or an OME-Zarr 0.4 image), a folder of
     DICOM slices or a list of .dcm files.
     ``series`` picks a DICOM series (SeriesInstanceUID or index; default the one with the most slices),
     ``channel`` a TIFF, OME-Zarr or HDF5 channel, ``level`` an OME-Zarr pyramid level (0 the finest; default
-    the finest that fits a quarter of the memory), ``grid`` an OpenVDB grid (name or index; default
+    the finest whose voxels fit ``memory_budget``, bytes or a size such as "4G", else a quarter of the
+    memory), ``grid`` an OpenVDB grid (name or index; default
     'density', else the first float grid; the array is dense: NumPy has no sparse layout). Returns a
     VolumeData, whose array goes to
     Scene.add_volume(v.array, spacing=v.spacing, origin=v.origin)."""
@@ -573,7 +574,8 @@ def read_volume(path, series=None, channel=None, grid=None, level=None, dataset=
     array, spacing, origin, info = _penumbra.read_volume(paths, "" if series is None else str(series),
                                                          -1 if channel is None else channel,
                                                          "" if grid is None else str(grid), -1 if level is None else level,
-                                                         "" if dataset is None else str(dataset))
+                                                         "" if dataset is None else str(dataset),
+                                                         "" if memory_budget is None else str(memory_budget))
     return VolumeData(array, tuple(reversed(spacing)), tuple(reversed(origin)), json.loads(info))
 
 

@@ -2,8 +2,10 @@
 pyramid that python3-zarr reads back voxel for voxel (level 0 the input's voxels, each next level the
 2×2×2 block means computed here with NumPy), with the metadata the spec asks for; penumbra reads its
 own output back; an existing output, a bad input or a bad option leave nothing behind."""
+import json
 import os
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -103,3 +105,61 @@ def test_failures_leave_nothing_behind(tmp_path):
         assert r.returncode != 0 and message in r.stderr, r.stderr
         assert not target.exists()
     assert [p for p in os.listdir(tmp_path) if p.startswith(".")] == [], "no partial folder is left"
+
+
+def peak_rss_mib(args):
+    """Runs `args` in a fresh Python process of its own, so that RUSAGE_CHILDREN is that one command's
+    peak resident memory; returns (CompletedProcess-like returncode, stdout, stderr, MiB)."""
+    probe = ("import resource, subprocess, sys, json\n"
+             "r = subprocess.run(sys.argv[1:], capture_output=True, text=True)\n"
+             "print(json.dumps([r.returncode, r.stdout, r.stderr, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024]))\n")
+    out = subprocess.run([sys.executable, "-c", probe, *map(str, args)], capture_output=True, text=True, check=True)
+    return json.loads(out.stdout)
+
+
+def test_an_nrrd_streams_in_bounded_memory(tmp_path):
+    """A 160 MB NRRD is read a slab at a time: convert's peak memory over what the program takes for a tiny
+    file stays far below the file's size (read whole first, it is above it), and the pyramid is still
+    every voxel and every mean."""
+    z, y, x = 200, 640, 640
+    k, j, i = np.ogrid[0:z, 0:y, 0:x]
+    data = ((i * 7 + j * 3 + k * 11) % 4093).astype(np.uint16)
+    src = tmp_path / "big.nrrd"
+    nrrd(src, data)
+    out = tmp_path / "big.zarr"
+    code, stdout, stderr, mib = peak_rss_mib([CLI, "convert", src, "-o", out, "--chunk", "16"])
+    assert code == 0, stderr
+    assert "(streamed)" in stdout
+    tiny = tmp_path / "tiny.nrrd"
+    nrrd(tiny, np.zeros((4, 4, 4), np.uint16))
+    code, _, stderr, baseline = peak_rss_mib([CLI, "convert", tiny, "-o", tmp_path / "tiny.zarr"])
+    assert code == 0, stderr
+    file_mib = data.nbytes / 2**20
+    # 16 MiB slabs and 1.34 rows of 16 slices of 640 x 640 x 2 bytes: about 34 MiB over the program itself
+    assert mib - baseline < 0.35 * file_mib, f"convert peaked at {mib:.0f} MiB ({baseline:.0f} MiB for a tiny file) for a {file_mib:.0f} MiB file"
+    root = zarr.open_group(str(out), mode="r")
+    np.testing.assert_array_equal(root["0"][:], data)
+    np.testing.assert_array_equal(root["1"][:], mean_levels(data))
+
+
+def test_a_procedural_ct_body_streams(tmp_path):
+    """--procedural ct-body is made a slab at a time (tests/test_procedural.cpp: each slab is the whole
+    volume's slices byte for byte) on its documented grid; bad specs are errors that leave nothing."""
+    out = tmp_path / "body.zarr"
+    spec = '{"name": "ct-body", "dims": [40, 36, 90], "seed": 3}'
+    r = subprocess.run([CLI, "convert", "--procedural", spec, "-o", str(out), "--chunk", "16"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "procedural ct-body (streamed)" in r.stdout
+    back = penumbra.read_volume(str(out), level=0)
+    assert back.array.shape == (90, 36, 40) and back.array.dtype == np.uint16
+    assert back.spacing == pytest.approx((1734 / 90, 500 / 36, 500 / 40))  # z, y, x: a 500 x 500 x 1734 mm box
+    assert back.origin == pytest.approx((-0.5 * 89 * 1734 / 90, -0.5 * 35 * 500 / 36, -0.5 * 39 * 500 / 40))
+    assert np.median(back.array[:, 0, :]) < 200 and back.array.max() > 1400  # air at the border, bone inside
+    for spec, message in (('{"name": "ct-body", "dims": [4, 4, 4]}', "dims"), ('{"name": "ct-body", "size": 8}', "size"),
+                          ("not json", "--procedural"), ('{"name": "nothing"}', "nothing")):
+        target = tmp_path / "bad.zarr"
+        r = subprocess.run([CLI, "convert", "--procedural", spec, "-o", str(target)], capture_output=True, text=True)
+        assert r.returncode != 0 and message in r.stderr, r.stderr
+        assert not target.exists()
+    r = subprocess.run([CLI, "convert", "-o", str(tmp_path / "none.zarr")], capture_output=True, text=True)
+    assert r.returncode != 0 and "one input" in r.stderr

@@ -7,8 +7,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <string>
 #include <vector>
 
+#include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/rng.h"
 #include "penumbra/data/ct_body_anatomy.h"
@@ -217,36 +219,50 @@ std::vector<std::vector<std::uint32_t>> structures_by_slice(const std::vector<It
 
 }  // namespace
 
-Volume make_ct_body_volume(const CtBodyParams& params) {
+CtBodyGrid ct_body_grid(const CtBodyParams& params) {
   const auto [nx, ny, nz] = params.dims;
   const double sx = ct_anatomy::kFov / nx, sy = ct_anatomy::kFov / ny, sz = ct_anatomy::kLength / nz;
-  const double x0 = -0.5 * (nx - 1) * sx, y0 = -0.5 * (ny - 1) * sy, z0 = -0.5 * (nz - 1) * sz;
-  Volume volume(ScalarType::UInt16, params.dims, Vec3(static_cast<float>(sx), static_cast<float>(sy), static_cast<float>(sz)),
-                Vec3(static_cast<float>(x0), static_cast<float>(y0), static_cast<float>(z0)), VoxelFill::Uninitialized);
+  return {{sx, sy, sz}, {-0.5 * (nx - 1) * sx, -0.5 * (ny - 1) * sy, -0.5 * (nz - 1) * sz}};
+}
 
+void make_ct_body_slices(const CtBodyParams& params, int first, int count, std::uint16_t* out) {
+  const auto [nx, ny, nz] = params.dims;
+  if (first < 0 || count < 0 || first + count > nz)
+    throw Error("ct-body slices " + std::to_string(first) + " + " + std::to_string(count) + " (the volume has " + std::to_string(nz) + ")");
+  const CtBodyGrid grid = ct_body_grid(params);
+  const double sx = grid.spacing[0], sy = grid.spacing[1], sz = grid.spacing[2];
+  const double x0 = grid.origin[0], y0 = grid.origin[1], z0 = grid.origin[2];
   const std::vector<Item> items = ct_anatomy::build(params.seed);
   const auto active = structures_by_slice(items, nz, z0, sz);
   // Two octaves (30 and 9 mm) of the low-frequency field, and the per-voxel noise, each keyed apart.
   const std::vector<NoiseOctave> octaves{{30, 2.0f / 3, hash_keys(params.seed, 0xF1E1D, 1)},
                                          {9, 1.0f / 3, hash_keys(params.seed, 0xF1E1D, 2)}};
   const std::uint64_t noise_key = hash_keys(params.seed, 0x7015E);
-  std::uint16_t* voxels = volume.data_as<std::uint16_t>();
   const std::size_t slice_voxels = static_cast<std::size_t>(nx) * ny;
   // Chunks of slices share their buffers (a fresh megabyte per slice would cost more page faults than
   // the painting); 64 chunks keep the threads busy to the end.
-  const std::size_t grain = std::max<std::size_t>(1, static_cast<std::size_t>(nz) / 64);
+  const std::size_t grain = std::max<std::size_t>(1, static_cast<std::size_t>(count) / 64);
   // Structured bindings are copied for the lambda: C++20 lets a lambda capture them, clang 14 does not.
   const int width = nx, height = ny;
-  parallel_for(static_cast<std::size_t>(nz), [&](std::size_t k0, std::size_t k1) {
+  parallel_for(static_cast<std::size_t>(count), [&](std::size_t k0, std::size_t k1) {
     SliceGrid s{width, height, x0, y0, sx, sy, std::max(sx, sy), std::vector<float>(slice_voxels), std::vector<float>(slice_voxels),
             std::vector<float>(slice_voxels)};
-    for (std::size_t k = k0; k < k1; ++k) {
+    for (std::size_t k = k0 + static_cast<std::size_t>(first); k < k1 + static_cast<std::size_t>(first); ++k) {
       const double z = z0 + static_cast<double>(k) * sz;
       low_frequency_field(s, octaves, z);
       paint_slice(s, items, active[k], z, sz);
-      write_slice(s, noise_key, static_cast<float>(params.noise), k * slice_voxels, voxels + k * slice_voxels);
+      write_slice(s, noise_key, static_cast<float>(params.noise), k * slice_voxels, out + (k - static_cast<std::size_t>(first)) * slice_voxels);
     }
   }, grain);
+}
+
+Volume make_ct_body_volume(const CtBodyParams& params) {
+  const CtBodyGrid grid = ct_body_grid(params);
+  Volume volume(ScalarType::UInt16, params.dims,
+                Vec3(static_cast<float>(grid.spacing[0]), static_cast<float>(grid.spacing[1]), static_cast<float>(grid.spacing[2])),
+                Vec3(static_cast<float>(grid.origin[0]), static_cast<float>(grid.origin[1]), static_cast<float>(grid.origin[2])),
+                VoxelFill::Uninitialized);
+  make_ct_body_slices(params, 0, params.dims[2], volume.data_as<std::uint16_t>());
   volume.recompute_range();
   return volume;
 }

@@ -50,8 +50,17 @@ constexpr float kEnamel = 2600;     // teeth
 constexpr float kBoneThreshold = 1400;
 }  // namespace ct_tissue
 
+// The grid's spacing and the first voxel's centre (x, y, z, mm).
+struct CtBodyGrid {
+  std::array<double, 3> spacing, origin;
+};
+CtBodyGrid ct_body_grid(const CtBodyParams& params);
+
 // Builds the volume in place (the voxels are written once, slices in parallel; the result does not
 // depend on the thread count).
 Volume make_ct_body_volume(const CtBodyParams& params);
+// Slices [first, first + count) of the same volume into `out` (x fastest), exactly the voxels
+// make_ct_body_volume writes there: what `penumbra convert` streams a ct-body larger than memory from.
+void make_ct_body_slices(const CtBodyParams& params, int first, int count, std::uint16_t* out);
 
 }  // namespace penumbra

@@ -93,16 +93,21 @@ std::vector<Ball> test_sphere_layout(std::int64_t seed) {
   return balls;
 }
 
+}  // namespace
+
 // "ct-body" (ct_body.h): its own grid ("dims", not "size"), a seed and the noise level.
-CtBodyParams ct_body_params(const json& spec) {
+CtBodyParams ct_body_params(const json& spec, int max_dim) {
   CtBodyParams p;
   const std::string where = "procedural volume \"ct-body\": ";
+  for (const auto& [key, value] : spec.items())
+    if (key != "name" && key != "dims" && key != "seed" && key != "noise")
+      throw Error(where + "unknown key \"" + key + "\" (expected name, dims, seed, noise)");
   if (spec.contains("dims")) {
     const json& d = spec["dims"];
     bool ok = d.is_array() && d.size() == 3;
     for (std::size_t a = 0; ok && a < 3; ++a)
-      ok = d[a].is_number_integer() && d[a].get<std::int64_t>() >= 8 && d[a].get<std::int64_t>() <= 2048;
-    if (!ok) throw Error(where + "\"dims\": " + d.dump() + " (expected [x, y, z]: three integers in 8..2048)");
+      ok = d[a].is_number_integer() && d[a].get<std::int64_t>() >= 8 && d[a].get<std::int64_t>() <= max_dim;
+    if (!ok) throw Error(where + "\"dims\": " + d.dump() + " (expected [x, y, z]: three integers in 8.." + std::to_string(max_dim) + ")");
     for (std::size_t a = 0; a < 3; ++a) p.dims[a] = static_cast<int>(d[a].get<std::int64_t>());
   }
   if (spec.contains("seed")) {
@@ -115,6 +120,8 @@ CtBodyParams ct_body_params(const json& spec) {
   if (p.noise > 10000) throw Error(where + "\"noise\": " + num(p.noise) + " (expected at most 10000)");
   return p;
 }
+
+namespace {
 
 // ------------------------------------------------------------------------------- molecular-density
 

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/data/ct_body.h"
 #include "penumbra/data/volume.h"
 
 namespace penumbra {
@@ -41,5 +42,8 @@ std::vector<std::string> procedural_volume_names();
 // dimension is at most 1024 voxels (an Error naming "spacing" otherwise). The splat runs in parallel
 // over z-slabs and gives the same bytes for any thread count.
 Volume make_procedural_volume(const nlohmann::json& spec, const std::string& base_dir = "");
+// The parameters of a "ct-body" spec, each of its dims from 8 to `max_dim` (2048 for a volume held whole;
+// `penumbra convert` streams larger ones slice by slice).
+CtBodyParams ct_body_params(const nlohmann::json& spec, int max_dim = 2048);
 
 }  // namespace penumbra

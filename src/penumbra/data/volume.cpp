@@ -27,6 +27,17 @@ ScalarType scalar_type_from_string(const std::string& name) {
   throw Error("unknown voxel type '" + name + "' (expected uint8, int16, uint16 or float32)");
 }
 
+std::uint64_t macrocell_held_bytes(const std::array<std::int64_t, 3>& dims) {
+  std::uint64_t cells = 1;
+  for (const std::int64_t d : dims) cells *= static_cast<std::uint64_t>(std::max<std::int64_t>(1, (d - 1 + 7) / 8));
+  return cells * 9;
+}
+
+std::uint64_t volume_held_bytes(const std::array<std::int64_t, 3>& dims, ScalarType type) {
+  return static_cast<std::uint64_t>(dims[0]) * static_cast<std::uint64_t>(dims[1]) * static_cast<std::uint64_t>(dims[2]) * scalar_size(type) +
+         macrocell_held_bytes(dims);
+}
+
 std::size_t scalar_size(ScalarType type) {
   switch (type) {
     case ScalarType::UInt8: return 1;

@@ -48,6 +48,14 @@ constexpr std::uint64_t kMaxVoxels = 1ull << 34;
 // Checks dims > 0 and that their product (times the voxel size) neither overflows nor exceeds kMaxVoxels.
 std::size_t checked_voxel_count(const std::array<std::int64_t, 3>& dims);
 
+// What a volume of `dims` voxels of `type` holds once rendered, gradients aside: its voxels and the
+// macrocell grid and empty-cell marks beside them (9 bytes a cell of 8³ voxels, accel/macrocell_grid.h,
+// whose cell count this repeats). A memory budget (the scene's memory_budget) counts these bytes, and
+// kGradientBytesPerVoxel more where the shading gradients are stored (render/prepared_volume.h).
+std::uint64_t macrocell_held_bytes(const std::array<std::int64_t, 3>& dims);
+std::uint64_t volume_held_bytes(const std::array<std::int64_t, 3>& dims, ScalarType type);
+constexpr std::uint64_t kGradientBytesPerVoxel = 4;
+
 // The 2x2x2 voxels around continuous voxel coordinates and the weights between them: what every
 // trilinear fetch on this grid (scalars, the ray caster's gradient volume) needs. Coordinates outside
 // the grid are clamped to the border; a dimension of size 1 has stride 0.

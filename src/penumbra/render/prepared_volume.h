@@ -21,9 +21,6 @@ namespace penumbra {
 // gradient-shaded; flatter samples fade to unshaded (pure emission under the light), as their normal
 // is noise. Keeps homogeneous interiors from speckling.
 constexpr float kFullShadingGradient = 0.03f;
-// volumes[].gradients = auto stores the gradients up to this size (1 GiB: a 640³ volume), and computes
-// them per sample beyond it, where 4 bytes a voxel would add to a volume that is itself large.
-constexpr std::size_t kStoredGradientBytes = std::size_t{1} << 30;
 
 // Each part can be rebuilt in place (the renderer does so after an edit): the gradients and the min/max
 // grid depend only on the data, the table on the transfer function and the step, the empty cells on

@@ -40,6 +40,11 @@ struct ShadowFlags {
   bool clip = true;  // spheres are cut exactly (a cap on each cut face), isosurfaces end open at a cut
 };
 
+// volumes[].gradients = auto stores the gradients up to this size (1 GiB: a 640³ volume), and computes
+// them per sample beyond it, where 4 bytes a voxel would add to a volume that is itself large (or
+// where they would not fit the scene's memory_budget: the scene reader then chooses for auto).
+constexpr std::size_t kStoredGradientBytes = std::size_t{1} << 30;
+
 struct VolumeObject : ShadowFlags {
   std::shared_ptr<const Volume> volume;
   std::string source;                   // file path or "procedural:<name>", for messages and stats
@@ -220,6 +225,11 @@ struct Scene {
   std::vector<std::string> unread_keys;
   // The frame shown of every trajectory (particles[].trajectory) and volume series (volumes[].files).
   std::size_t time = 0;
+  // memory_budget: bytes the volumes may hold (voxels, macrocells, stored gradients: volume_held_bytes
+  // and kGradientBytesPerVoxel), in the order they are read; 0: none. OME-Zarr pyramids open at the
+  // finest level that fits what is left, gradients are computed per sample where storing them would not
+  // fit, and a volume that cannot fit is an Error (docs/scene-file.md).
+  std::uint64_t memory_budget = 0;
 
   // The frames every dynamic object holds (the smallest count); 0 when nothing moves.
   std::size_t frame_count() const;

@@ -92,6 +92,7 @@ nlohmann::json data_scene_inputs(const std::vector<std::string>& files, const Vo
   nlohmann::json doc = nlohmann::json::object();
   doc["volumes"] = nlohmann::json::array();
   doc["particles"] = nlohmann::json::array();
+  if (volume_options.memory_budget > 0) doc["memory_budget"] = volume_options.memory_budget;
   nlohmann::json dicom_slices = nlohmann::json::array();  // .dcm files given one by one: one volume
   bool has_dicom = false, has_tiff = false, has_vdb = false, has_zarr = false, has_hdf5 = false;
   for (const std::string& file : files) {

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <optional>
 
+#include "penumbra/core/byte_size.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/procedural.h"
 #include "penumbra/data/transfer_function_choice.h"
@@ -143,10 +144,26 @@ void check_same_grid(JsonReader& r, const SeriesGrid& first, const Volume& step,
                         " (every step must have the same grid, voxel type, spacing and origin)");
 }
 
+// What `volume` holds against the scene's memory_budget (voxels and macrocells; an array viewed in
+// place costs its macrocells only: its voxels are the caller's); Error naming `source` (and, for a
+// `file`, how to make a pyramid of it) when that is over `left`.
+std::uint64_t budgeted_bytes(const Volume& volume, const std::string& source, bool file, std::uint64_t left) {
+  const std::uint64_t voxels = volume.stored_voxel_count();
+  const auto& d = volume.dims();
+  const std::uint64_t held = macrocell_held_bytes({d[0], d[1], d[2]}) + (volume.is_view() ? 0 : voxels * scalar_size(volume.type()));
+  if (held > left)
+    throw Error(source + " holds " + byte_size_string(held) + " (" + std::to_string(voxels) + " voxels of " + to_string(volume.type()) +
+                " and their macrocells), over the " + byte_size_string(left) + " left of memory_budget; " +
+                (file ? "write it as an OME-Zarr pyramid (`penumbra convert " + source + " -o " +
+                            std::filesystem::path(source).stem().string() + ".zarr`) and open a level that fits"
+                      : std::string("raise memory_budget")));
+  return held;
+}
+
 }  // namespace
 
 VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const std::string& base_dir, const SceneReadOptions& options,
-                         std::size_t time) {
+                         std::size_t time, std::uint64_t* budget_left) {
   JsonReader r(j, path);
   VolumeObject v;
   require_one_source(r);
@@ -173,6 +190,10 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
     std::vector<std::string> paths = file.empty() ? volume_file_list(r, base_dir) : std::vector<std::string>{file};
     VolumeLoadOptions lo = read_volume_load_options(r);
     lo.confine_to = options.confine_to;
+    if (budget_left) {  // a pyramid's level depends on what is left
+      lo.memory_budget = *budget_left;
+      data_id += "@budget=" + std::to_string(*budget_left);
+    }
     const std::string key = r.has("files") ? "files" : "file";
     const auto* reader = options.volume_reader;
     load = [&r, paths, lo, key, reader] {
@@ -213,6 +234,8 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
     return vol;
   };
   const std::shared_ptr<Volume> volume = options.cache ? options.cache->volume(data_id, load_placed) : std::make_shared<Volume>(load_placed());
+  const std::string source_key = r.has("file") ? "file" : r.has("files") ? "files" : r.has("procedural") ? "procedural" : "array";
+  if (budget_left) *budget_left -= with_context(r.key_path(source_key), [&] { return budgeted_bytes(*volume, v.source, source_key == "file" || source_key == "files", *budget_left); });
   // A series keeps the grid and value range of the first step it loaded: every step must share that
   // grid, and the transfer function reads that range, so colours hold still while the data change.
   float range_lo = volume->min_value(), range_hi = volume->max_value();
@@ -250,6 +273,16 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   else if (gradients == "stored") v.gradients = VolumeObject::Gradients::Stored;
   else if (gradients == "on_the_fly") v.gradients = VolumeObject::Gradients::OnTheFly;
   else r.fail("gradients", "unknown value '" + gradients + "' (expected auto, stored or on_the_fly)");
+  if (budget_left && v.visible) {  // stored gradients take from the budget; auto stores them only where they fit
+    const std::uint64_t gradient_bytes = volume->stored_voxel_count() * kGradientBytesPerVoxel;
+    const bool fit = gradient_bytes <= *budget_left;
+    if (v.gradients == VolumeObject::Gradients::Stored && !fit)
+      r.fail("gradients", "\"stored\" needs " + byte_size_string(gradient_bytes) + ", over the " + byte_size_string(*budget_left) +
+                              " left of memory_budget (\"auto\" computes them per sample instead)");
+    if (v.gradients == VolumeObject::Gradients::Auto)
+      v.gradients = fit && gradient_bytes <= kStoredGradientBytes ? VolumeObject::Gradients::Stored : VolumeObject::Gradients::OnTheFly;
+    if (v.gradients == VolumeObject::Gradients::Stored) *budget_left -= gradient_bytes;
+  }
   if (!v.visible)
     for (const char* key : {"casts_shadows", "receives_shadows"})
       if (r.has(key)) r.fail(key, "the volume is not visible ('visible': false): it neither casts nor receives shadows");

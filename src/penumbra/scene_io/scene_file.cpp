@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "penumbra/accel/extinction_sat.h"
+#include "penumbra/core/byte_size.h"
 #include "penumbra/registry/technique_catalog.h"
 #include "penumbra/scene_io/json_reader.h"
 #include "penumbra/scene_io/scene_sections.h"
@@ -167,10 +168,18 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir, const Sc
   JsonReader r(j, "");
   Scene s;
   s.time = static_cast<std::size_t>(r.integer("time", 0, 0, INT32_MAX));
+  if (r.has("memory_budget")) {
+    const nlohmann::json& b = r.raw("memory_budget");
+    if (b.is_number_integer() && b.get<std::int64_t>() > 0) s.memory_budget = static_cast<std::uint64_t>(b.get<std::int64_t>());
+    else if (b.is_string()) s.memory_budget = with_context("memory_budget", [&] { return parse_byte_size(b.get<std::string>()); });
+    else r.fail("memory_budget", json_brief(b) + " (expected bytes, or a size such as \"4G\" or \"512M\")");
+  }
   if (r.has("volumes")) {
     const auto& vols = array_at(r, "volumes");
+    std::uint64_t budget_left = s.memory_budget;
     for (std::size_t i = 0; i < vols.size(); ++i)
-      s.volumes.push_back(read_volume(vols[i], "volumes." + std::to_string(i), base_dir, options, s.time));
+      s.volumes.push_back(read_volume(vols[i], "volumes." + std::to_string(i), base_dir, options, s.time,
+                                      s.memory_budget > 0 ? &budget_left : nullptr));
   }
   if (r.has("particles")) {
     const auto& parts = array_at(r, "particles");

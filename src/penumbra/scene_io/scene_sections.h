@@ -50,8 +50,10 @@ Plane read_plane(const nlohmann::json& j, const std::string& path);
 ClipPlanes read_clip_planes(const nlohmann::json& j, const std::string& path);
 Plane read_slice(const nlohmann::json& j, const std::string& path, const std::vector<VolumeObject>& volumes,
                  const std::string& base_dir);
+// `budget_left`: what is left of the scene's memory_budget (Scene::memory_budget) for this volume and
+// those after it, less what this one holds once read; null: no budget.
 VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const std::string& base_dir, const SceneReadOptions& options,
-                         std::size_t time);
+                         std::size_t time, std::uint64_t* budget_left = nullptr);
 IsosurfaceObject read_isosurface(const nlohmann::json& j, const std::string& path, const std::vector<VolumeObject>& volumes);
 // `files`: where the particle files read are kept, so that entries naming one file read it once (the
 // scene's cache, or one for the scene being read when there is none).

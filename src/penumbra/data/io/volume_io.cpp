@@ -68,7 +68,7 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
     check_options_fit(paths, dicom, options);
     if (dicom) return load_dicom_volume(paths, options.series, &out, options.confine_to);
     const std::string& path = paths[0];
-    if (is_zarr_store(path)) return load_zarr_volume(path, options.level, options.channel, &out);
+    if (is_zarr_store(path)) return load_zarr_volume(path, options.level, options.channel, &out, options.memory_budget);
     if (is_hdf5_path(path)) return load_hdf5_volume(path, options.dataset, options.channel, &out);
     // Each loader already ran recompute_range(), which rejects NaN/inf voxels and sets the range,
     // so the volume is returned as is rather than scanned twice.

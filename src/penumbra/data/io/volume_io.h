@@ -54,6 +54,10 @@ struct VolumeLoadOptions {
   std::string series;                   // DICOM: SeriesInstanceUID or index ("" = the series with the most slices)
   int channel = -1;                     // multi-channel TIFF or OME-Zarr image: channel from 0 (-1 = channel 0)
   int level = -1;                       // OME-Zarr pyramid: level from 0, the finest (-1 = the finest that fits, zarr_loader.cpp)
+  // Bytes the volume may hold (volume_held_bytes: its voxels and macrocells): an OME-Zarr pyramid opens
+  // at the finest level that fits (unless `level` is given). 0: no budget; a pyramid then opens at the
+  // finest level that fits a quarter of this machine's memory.
+  std::uint64_t memory_budget = 0;
   std::string grid;                     // OpenVDB: grid name or index ("" = "density", else the first scalar grid)
   std::string dataset;                  // HDF5: the dataset's path in the file ("" = its only dataset of 3+ axes)
   // A canonical folder that every file the volume's files name must lie inside: an NRRD header's data
@@ -107,10 +111,11 @@ Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info);
 Volume load_vdb_volume(const std::string& path, const std::string& grid, VolumeFileInfo* info);
 
 // Zarr v2 (zarr_loader.cpp): a folder holding one array (.zarray) or an OME-Zarr 0.4 image (.zattrs with
-// "multiscales"), of which one level (`level`, -1: the finest that fits a quarter of the machine's memory)
-// and one channel (-1: 0) are read, chunk by chunk; missing chunks hold the fill value.
+// "multiscales"), of which one level (`level`; -1: the finest whose volume_held_bytes fit `memory_budget`,
+// or with no budget (0) a quarter of the machine's memory) and one channel (-1: 0) are read, chunk by
+// chunk; missing chunks hold the fill value.
 bool is_zarr_store(const std::string& path);
-Volume load_zarr_volume(const std::string& path, int level, int channel, VolumeFileInfo* info);
+Volume load_zarr_volume(const std::string& path, int level, int channel, VolumeFileInfo* info, std::uint64_t memory_budget = 0);
 // HDF5 (hdf5_loader.cpp; .h5, .hdf5, .he5): one numeric dataset (`dataset`, "" = the only one of three or
 // more axes), z y x last, a leading channel axis chosen by `channel`; the filters libhdf5 decodes.
 bool is_hdf5_path(const std::string& path);

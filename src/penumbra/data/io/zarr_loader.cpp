@@ -5,9 +5,9 @@
 // blosclz, snappy: whatever Debian's c-blosc decodes), zlib, gzip and zstd; a filter or another codec is
 // refused by name. OME-Zarr 0.5 (Zarr v3, zarr.json) is refused with a message saying so.
 //
-// The pyramid's level: `level` (0 is the finest), or by default the finest whose voxels take at most a
-// quarter of this machine's memory, so that a store far larger than memory opens at a level that fits
-// (the note says which and how to choose another). Its scale and translation transformations give the
+// The pyramid's level: `level` (0 is the finest), or by default the finest whose voxels and macrocells
+// (volume_held_bytes) fit the memory budget, without one a quarter of this machine's memory, so that a
+// store far larger than memory opens at a level that fits (the note says which and how to choose another). Its scale and translation transformations give the
 // voxels' spacing and origin; axes t and c before z, y, x are fixed (time 0, channel `channel`).
 #include <blosc.h>
 #include <unistd.h>
@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "penumbra/core/byte_size.h"
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/data/io/byte_order.h"
@@ -319,7 +320,7 @@ bool is_zarr_store(const std::string& path) {
   return false;
 }
 
-Volume load_zarr_volume(const std::string& path, int level_choice, int channel, VolumeFileInfo* info) {
+Volume load_zarr_volume(const std::string& path, int level_choice, int channel, VolumeFileInfo* info, std::uint64_t memory_budget) {
   VolumeFileInfo local;
   VolumeFileInfo& out = info ? *info : local;
   out.format = "zarr";
@@ -343,22 +344,36 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
     if (level_choice >= n) throw Error("'level' " + std::to_string(level_choice) + ": the pyramid has " + std::to_string(n) + " levels (0 to " + std::to_string(n - 1) + ")");
     if (level_choice >= 0) {
       level_index = level_choice;
-    } else {  // the finest level that fits a quarter of the machine's memory
-      const std::uint64_t budget = physical_memory() / 4;
-      level_index = n - 1;
+    } else {  // the finest level that fits the budget, or a quarter of the machine's memory
+      const std::uint64_t budget = memory_budget > 0 ? memory_budget : physical_memory() / 4;
+      const std::string what = memory_budget > 0 ? "the memory budget (" + byte_size_string(budget) + ")"
+                                                 : "a quarter of this machine's memory (" + byte_size_string(budget) + ")";
+      level_index = -1;
+      std::uint64_t coarsest = 0;
       for (int l = 0; l < n; ++l) {
         const ZarrArray a = read_array_metadata(root / pyramid.levels[static_cast<std::size_t>(l)].path);
         double voxels = 1;
-        for (std::size_t k = a.shape.size() >= 3 ? a.shape.size() - 3 : 0; k < a.shape.size(); ++k) voxels *= static_cast<double>(a.shape[k]);
-        const double bytes = voxels * static_cast<double>(scalar_size(storage_type(a.dtype)));
+        std::array<std::int64_t, 3> dims{1, 1, 1};  // x, y, z
+        for (std::size_t k = a.shape.size() >= 3 ? a.shape.size() - 3 : 0, axis = 2; k < a.shape.size(); ++k, --axis) {
+          voxels *= static_cast<double>(a.shape[k]);
+          dims[axis] = a.shape[k];
+        }
+        const double bytes = voxels > 1e18 ? 1e19 : static_cast<double>(volume_held_bytes(dims, storage_type(a.dtype)));
+        coarsest = static_cast<std::uint64_t>(std::min(bytes, 1e19));
         if (budget == 0 || bytes <= static_cast<double>(budget)) {
           level_index = l;
           break;
         }
       }
-      if (level_index > 0)
-        out.notes.push_back("level " + std::to_string(level_index) + " of " + std::to_string(n) + " loaded: the finest whose voxels fit a quarter of this machine's memory (" +
-                            std::to_string(physical_memory() / 4 >> 20) + " MiB); 'level' chooses another");
+      if (level_index < 0) {
+        if (memory_budget > 0)
+          throw Error("no level of the pyramid fits " + what + ": the coarsest, " + std::to_string(n - 1) + ", holds " +
+                      byte_size_string(coarsest) + " (raise memory_budget, or choose 'level')");
+        level_index = n - 1;
+      }
+      if (level_index > 0 || memory_budget > 0)
+        out.notes.push_back("level " + std::to_string(level_index) + " of " + std::to_string(n) + " loaded: the finest whose voxels fit " + what +
+                            "; 'level' chooses another");
     }
     std::string sizes;
     for (int l = 0; l < n; ++l) {

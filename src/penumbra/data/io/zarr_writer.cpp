@@ -1,14 +1,12 @@
 #include "penumbra/data/io/zarr_writer.h"
 
 #include <blosc.h>
-#include <unistd.h>
 
 #include <nlohmann/json.hpp>
 
 #include <atomic>
 #include <cmath>
 #include <cstring>
-#include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <optional>
@@ -24,46 +22,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// One level of the pyramid: its voxels (x fastest; level 0 points at the volume's own, the others own
-// theirs) and where it lies.
-template <class T>
-struct LevelVoxels {
-  std::array<std::int64_t, 3> dims{};  // x, y, z
-  std::array<double, 3> scale{}, translation{};
-  std::vector<T> owned;
-  const T* voxels = nullptr;
-};
-
-// The mean of the level's 2×2×2 blocks along the axes longer than 1 (integers rounded half up).
-template <class T>
-LevelVoxels<T> downsampled(const LevelVoxels<T>& in) {
-  LevelVoxels<T> out;
-  std::array<int, 3> factor{};
-  for (int a = 0; a < 3; ++a) {
-    factor[a] = in.dims[a] > 1 ? 2 : 1;
-    out.dims[a] = (in.dims[a] + factor[a] - 1) / factor[a];
-    out.scale[a] = in.scale[a] * factor[a];
-    out.translation[a] = in.translation[a] + (factor[a] - 1) * 0.5 * in.scale[a];
+template <class F> decltype(auto) with_scalar_type(ScalarType type, F&& f) {
+  switch (type) {
+    case ScalarType::UInt8: return f(std::uint8_t{});
+    case ScalarType::Int16: return f(std::int16_t{});
+    case ScalarType::UInt16: return f(std::uint16_t{});
+    case ScalarType::Float32: break;
   }
-  out.owned.resize(static_cast<std::size_t>(out.dims[0] * out.dims[1] * out.dims[2]));
-  out.voxels = out.owned.data();
-  parallel_for(static_cast<std::size_t>(out.dims[2]), [&](std::size_t z0, std::size_t z1) {
-    for (auto z = static_cast<std::int64_t>(z0); z < static_cast<std::int64_t>(z1); ++z)
-      for (std::int64_t y = 0; y < out.dims[1]; ++y)
-        for (std::int64_t x = 0; x < out.dims[0]; ++x) {
-          double sum = 0;
-          int count = 0;
-          for (std::int64_t k = z * factor[2]; k < std::min(in.dims[2], (z + 1) * factor[2]); ++k)
-            for (std::int64_t j = y * factor[1]; j < std::min(in.dims[1], (y + 1) * factor[1]); ++j)
-              for (std::int64_t i = x * factor[0]; i < std::min(in.dims[0], (x + 1) * factor[0]); ++i, ++count)
-                sum += static_cast<double>(in.voxels[static_cast<std::size_t>((k * in.dims[1] + j) * in.dims[0] + i)]);
-          const double mean = sum / count;
-          T& v = out.owned[static_cast<std::size_t>((z * out.dims[1] + y) * out.dims[0] + x)];
-          if constexpr (std::is_floating_point_v<T>) v = static_cast<T>(mean);
-          else v = static_cast<T>(std::floor(mean + 0.5));
-        }
-  });
-  return out;
+  return f(float{});
 }
 
 const char* zarr_dtype(ScalarType t) {
@@ -82,141 +48,271 @@ void write_text(const fs::path& file, const std::string& text) {
     throw Error("cannot write " + file.string());
 }
 
-struct Counters {
-  std::atomic<std::uint64_t> files{0}, bytes{0};
+// One level of the pyramid as it streams: where it lies, the row of chunks being filled (up to `chunk`
+// slices of its x·y) and the slice waiting for its pair before the next level gets their mean.
+struct StreamLevel {
+  std::array<std::int64_t, 3> dims{};  // x, y, z
+  std::array<double, 3> scale{}, translation{};
+  std::array<int, 3> factor{};         // to the next level: 2 along the axes longer than 1
+  fs::path folder;
+  std::vector<std::byte> row;          // chunk slices, x fastest
+  std::int64_t row_slices = 0, row_index = 0;
+  std::vector<std::byte> waiting;      // one slice
+  bool has_waiting = false;
+  std::int64_t slice_bytes(std::size_t voxel) const { return dims[0] * dims[1] * static_cast<std::int64_t>(voxel); }
 };
 
-// Writes one level's array: .zarray and its chunks ("z/y/x" keys), each compressed by Blosc.
+// The means of one or two slices' 2×2 blocks (the 2×2×2 blocks of the level; fewer at odd edges).
 template <class T>
-void write_level(const LevelVoxels<T>& level, ScalarType type, const fs::path& folder, const OmeZarrWriteOptions& o, int index, int levels,
-                 Counters& counters) {
-  fs::create_directories(folder);
-  const std::int64_t c = o.chunk;
-  const nlohmann::json meta = {{"zarr_format", 2},
-                               {"shape", {level.dims[2], level.dims[1], level.dims[0]}},
-                               {"chunks", {c, c, c}},
-                               {"dtype", zarr_dtype(type)},
-                               {"compressor", {{"id", "blosc"}, {"cname", o.codec}, {"clevel", o.clevel}, {"shuffle", 1}, {"blocksize", 0}}},
-                               {"fill_value", 0},
-                               {"order", "C"},
-                               {"filters", nullptr},
-                               {"dimension_separator", "/"}};
-  write_text(folder / ".zarray", meta.dump(2));
-  const std::array<std::int64_t, 3> grid{(level.dims[0] + c - 1) / c, (level.dims[1] + c - 1) / c, (level.dims[2] + c - 1) / c};
-  const std::size_t n = static_cast<std::size_t>(grid[0] * grid[1] * grid[2]);
-  const std::size_t raw_bytes = static_cast<std::size_t>(c * c * c) * sizeof(T);
-  std::atomic<std::size_t> done{0};
-  std::mutex progress_mutex, failure_mutex;
-  std::optional<std::string> failure;
-  parallel_for(n, [&](std::size_t b0, std::size_t b1) {
-    std::vector<T> chunk(static_cast<std::size_t>(c * c * c));
-    std::vector<std::byte> packed(raw_bytes + BLOSC_MAX_OVERHEAD);
-    for (std::size_t b = b0; b < b1; ++b) {
-      const std::int64_t cx = static_cast<std::int64_t>(b) % grid[0], cy = static_cast<std::int64_t>(b) / grid[0] % grid[1],
-                         cz = static_cast<std::int64_t>(b) / (grid[0] * grid[1]);
-      std::fill(chunk.begin(), chunk.end(), T{});  // beyond the array's edge: the fill value
-      for (std::int64_t z = 0; z < c && cz * c + z < level.dims[2]; ++z)
-        for (std::int64_t y = 0; y < c && cy * c + y < level.dims[1]; ++y) {
-          const std::int64_t x_count = std::min(c, level.dims[0] - cx * c);
-          std::memcpy(chunk.data() + (z * c + y) * c,
-                      level.voxels + ((cz * c + z) * level.dims[1] + cy * c + y) * level.dims[0] + cx * c,
-                      static_cast<std::size_t>(x_count) * sizeof(T));
+void downsample_slices(const StreamLevel& in, const T* a, const T* b, const StreamLevel& out, T* result) {
+  const std::int64_t fx = in.factor[0], fy = in.factor[1];
+  parallel_for(static_cast<std::size_t>(out.dims[1]), [&](std::size_t y0, std::size_t y1) {
+    for (auto y = static_cast<std::int64_t>(y0); y < static_cast<std::int64_t>(y1); ++y)
+      for (std::int64_t x = 0; x < out.dims[0]; ++x) {
+        double sum = 0;
+        int count = 0;
+        for (const T* slice : {a, b}) {
+          if (!slice) continue;
+          for (std::int64_t j = y * fy; j < std::min(in.dims[1], (y + 1) * fy); ++j)
+            for (std::int64_t i = x * fx; i < std::min(in.dims[0], (x + 1) * fx); ++i, ++count)
+              sum += static_cast<double>(slice[j * in.dims[0] + i]);
         }
-      const int size = blosc_compress_ctx(o.clevel, BLOSC_SHUFFLE, sizeof(T), raw_bytes, chunk.data(), packed.data(), packed.size(),
-                                          o.codec.c_str(), 0, 1);
-      try {
-        if (size <= 0) throw Error("Blosc could not compress a chunk with " + o.codec);
-        const fs::path dir = folder / std::to_string(cz) / std::to_string(cy);
-        fs::create_directories(dir);
-        const fs::path file = dir / std::to_string(cx);
-        std::ofstream out(file, std::ios::binary);
-        if (!out || !out.write(reinterpret_cast<const char*>(packed.data()), size)) throw Error("cannot write " + file.string());
-        counters.files += 1;
-        counters.bytes += static_cast<std::uint64_t>(size);
-      } catch (const std::exception& e) {
-        const std::lock_guard lock(failure_mutex);
-        if (!failure) failure = e.what();
+        const double mean = sum / count;
+        T& v = result[y * out.dims[0] + x];
+        if constexpr (std::is_floating_point_v<T>) v = static_cast<T>(mean);
+        else v = static_cast<T>(std::floor(mean + 0.5));
       }
-      const std::size_t written = ++done;
-      if (o.progress) {
-        const std::lock_guard lock(progress_mutex);
-        o.progress(index, levels, written, n);
-      }
-    }
   });
-  if (failure) throw Error(*failure);
-}
-
-int level_count(std::array<std::int64_t, 3> dims, int chunk) {
-  int levels = 1;
-  while (std::max({dims[0], dims[1], dims[2]}) > chunk) {
-    for (auto& d : dims) d = d > 1 ? (d + 1) / 2 : 1;
-    ++levels;
-  }
-  return levels;
 }
 
 }  // namespace
 
-OmeZarrWritten write_ome_zarr(const Volume& volume, const std::string& path, const OmeZarrWriteOptions& o) {
-  if (volume.is_bricked()) throw Error("a sparse (bricked) volume cannot be written as OME-Zarr yet");
+struct OmeZarrStreamWriter::State {
+  ScalarType type;
+  std::size_t voxel;
+  OmeZarrWriteOptions options;
+  fs::path target, partial;
+  std::vector<StreamLevel> levels;
+  std::int64_t slices_in = 0;
+  std::atomic<std::uint64_t> files{0}, bytes{0};
+  bool finished = false;
+
+  // Writes the level's row of chunks (its slices so far; the rest of the chunks is the fill value).
+  template <class T>
+  void write_row(StreamLevel& level) {
+    const std::int64_t c = options.chunk;
+    const std::array<std::int64_t, 2> grid{(level.dims[0] + c - 1) / c, (level.dims[1] + c - 1) / c};
+    const std::size_t n = static_cast<std::size_t>(grid[0] * grid[1]);
+    const std::size_t raw_bytes = static_cast<std::size_t>(c * c * c) * sizeof(T);
+    const T* rows = reinterpret_cast<const T*>(level.row.data());
+    std::mutex failure_mutex;
+    std::optional<std::string> failure;
+    const fs::path row_folder = level.folder / std::to_string(level.row_index);
+    parallel_for(n, [&](std::size_t b0, std::size_t b1) {
+      std::vector<T> chunk(static_cast<std::size_t>(c * c * c));
+      std::vector<std::byte> packed(raw_bytes + BLOSC_MAX_OVERHEAD);
+      for (std::size_t b = b0; b < b1; ++b) {
+        const std::int64_t cx = static_cast<std::int64_t>(b) % grid[0], cy = static_cast<std::int64_t>(b) / grid[0];
+        std::fill(chunk.begin(), chunk.end(), T{});  // beyond the array's edge: the fill value
+        const std::int64_t x_count = std::min(c, level.dims[0] - cx * c);
+        for (std::int64_t z = 0; z < level.row_slices; ++z)
+          for (std::int64_t y = 0; y < c && cy * c + y < level.dims[1]; ++y)
+            std::memcpy(chunk.data() + (z * c + y) * c, rows + (z * level.dims[1] + cy * c + y) * level.dims[0] + cx * c,
+                        static_cast<std::size_t>(x_count) * sizeof(T));
+        const int size = blosc_compress_ctx(options.clevel, BLOSC_SHUFFLE, sizeof(T), raw_bytes, chunk.data(), packed.data(),
+                                            packed.size(), options.codec.c_str(), 0, 1);
+        try {
+          if (size <= 0) throw Error("Blosc could not compress a chunk with " + options.codec);
+          const fs::path dir = row_folder / std::to_string(cy);
+          fs::create_directories(dir);
+          const fs::path file = dir / std::to_string(cx);
+          std::ofstream out(file, std::ios::binary);
+          if (!out || !out.write(reinterpret_cast<const char*>(packed.data()), size)) throw Error("cannot write " + file.string());
+          files += 1;
+          bytes += static_cast<std::uint64_t>(size);
+        } catch (const std::exception& e) {
+          const std::lock_guard lock(failure_mutex);
+          if (!failure) failure = e.what();
+        }
+      }
+    });
+    if (failure) throw Error(*failure);
+    level.row_slices = 0;
+    ++level.row_index;
+  }
+
+  // One slice into level l: onto its row of chunks, and paired into level l + 1.
+  template <class T>
+  void add_slice(std::size_t l, const T* slice) {
+    StreamLevel& level = levels[l];
+    const std::int64_t n = level.dims[0] * level.dims[1];
+    std::memcpy(level.row.data() + static_cast<std::size_t>(level.row_slices * n) * sizeof(T), slice,
+                static_cast<std::size_t>(n) * sizeof(T));
+    if (++level.row_slices == options.chunk) write_row<T>(level);
+    if (l + 1 == levels.size()) return;
+    if (level.factor[2] == 2 && !level.has_waiting) {
+      std::memcpy(level.waiting.data(), slice, static_cast<std::size_t>(n) * sizeof(T));
+      level.has_waiting = true;
+      return;
+    }
+    pass_down<T>(l, level.has_waiting ? reinterpret_cast<const T*>(level.waiting.data()) : slice,
+                 level.has_waiting ? slice : nullptr);
+  }
+
+  template <class T>
+  void pass_down(std::size_t l, const T* a, const T* b) {
+    StreamLevel& level = levels[l];
+    const StreamLevel& next = levels[l + 1];
+    std::vector<T> mean(static_cast<std::size_t>(next.dims[0] * next.dims[1]));
+    downsample_slices(level, a, b, next, mean.data());
+    level.has_waiting = false;
+    add_slice<T>(l + 1, mean.data());
+  }
+};
+
+OmeZarrStreamWriter::OmeZarrStreamWriter(const std::string& path, ScalarType type, const std::array<std::int64_t, 3>& dims,
+                                         const Vec3& spacing, const Vec3& origin, const OmeZarrWriteOptions& o)
+    : state_(std::make_unique<State>()) {
   if (o.chunk < 8 || o.chunk > 512) throw Error("chunk " + std::to_string(o.chunk) + " (expected 8 to 512 voxels)");
   if (o.codec != "lz4" && o.codec != "zstd" && o.codec != "zlib") throw Error("codec '" + o.codec + "' (expected lz4, zstd or zlib)");
   if (o.clevel < 1 || o.clevel > 9) throw Error("compression level " + std::to_string(o.clevel) + " (expected 1 to 9)");
-  const fs::path target = fs::absolute(path).lexically_normal();
+  for (int a = 0; a < 3; ++a)
+    if (dims[a] < 1 || dims[a] > (std::int64_t{1} << 24))
+      throw Error("dimension " + std::to_string(dims[a]) + " (expected 1 to 2^24 voxels along each axis)");
+  State& s = *state_;
+  s.type = type;
+  s.voxel = scalar_size(type);
+  s.options = o;
+  s.target = fs::absolute(path).lexically_normal();
   std::error_code ec;
-  if (fs::exists(target, ec)) throw Error(target.string() + ": already exists (convert writes a new folder)");
-  if (!fs::is_directory(target.parent_path(), ec)) throw Error(target.parent_path().string() + ": no such folder");
+  if (fs::exists(s.target, ec)) throw Error(s.target.string() + ": already exists (convert writes a new folder)");
+  if (!fs::is_directory(s.target.parent_path(), ec)) throw Error(s.target.parent_path().string() + ": no such folder");
   std::random_device random;
-  const fs::path partial = target.parent_path() / ("." + target.filename().string() + ".partial-" + std::to_string(random()));
-  OmeZarrWritten written;
-  try {
-    fs::create_directories(partial);
-    write_text(partial / ".zgroup", "{\n  \"zarr_format\": 2\n}");
-    Counters counters;
-    nlohmann::json datasets = nlohmann::json::array();
-    volume.with_voxel_type([&](auto t) {
-      using T = decltype(t);
-      LevelVoxels<T> level;
-      for (int a = 0; a < 3; ++a) {
-        level.dims[a] = volume.dims()[a];
-        level.scale[a] = volume.spacing()[a];
-        level.translation[a] = volume.origin()[a];
-      }
-      level.voxels = volume.data_as<T>();  // level 0 is written from the volume itself, not a copy
-      const int levels = level_count(level.dims, o.chunk);
-      for (int l = 0; l < levels; ++l) {
-        if (l > 0) level = downsampled(level);
-        write_level(level, volume.type(), partial / std::to_string(l), o, l, levels, counters);
-        datasets.push_back({{"path", std::to_string(l)},
-                            {"coordinateTransformations",
-                             {{{"type", "scale"}, {"scale", {level.scale[2], level.scale[1], level.scale[0]}}},
-                              {{"type", "translation"}, {"translation", {level.translation[2], level.translation[1], level.translation[0]}}}}}});
-      }
-      written.levels = levels;
-    });
-    nlohmann::json axes = nlohmann::json::array();
-    for (const char* name : {"z", "y", "x"}) {
-      nlohmann::json axis = {{"name", name}, {"type", "space"}};
-      if (!o.unit.empty()) axis["unit"] = o.unit;
-      axes.push_back(axis);
+  s.partial = s.target.parent_path() / ("." + s.target.filename().string() + ".partial-" + std::to_string(random()));
+  StreamLevel level;
+  level.dims = dims;
+  for (int a = 0; a < 3; ++a) {
+    level.scale[a] = spacing[a];
+    level.translation[a] = origin[a];
+  }
+  while (true) {
+    const bool last = std::max({level.dims[0], level.dims[1], level.dims[2]}) <= o.chunk;
+    StreamLevel next;
+    for (int a = 0; a < 3; ++a) {
+      level.factor[a] = level.dims[a] > 1 ? 2 : 1;
+      next.dims[a] = (level.dims[a] + level.factor[a] - 1) / level.factor[a];
+      next.scale[a] = level.scale[a] * level.factor[a];
+      next.translation[a] = level.translation[a] + (level.factor[a] - 1) * 0.5 * level.scale[a];
     }
-    const nlohmann::json attrs = {{"multiscales",
-                                   {{{"version", "0.4"},
-                                     {"name", o.name},
-                                     {"axes", axes},
-                                     {"datasets", datasets},
-                                     {"type", "mean"},
-                                     {"metadata", {{"description", "2x2x2 block means (penumbra convert)"}}}}}}};
-    write_text(partial / ".zattrs", attrs.dump(2));
-    written.chunk_files = counters.files;
-    written.bytes = counters.bytes;
-    fs::rename(partial, target);
+    level.folder = s.partial / std::to_string(s.levels.size());
+    s.levels.push_back(std::move(level));
+    if (last) break;
+    level = std::move(next);
+  }
+  try {
+    fs::create_directories(s.partial);
+    write_text(s.partial / ".zgroup", "{\n  \"zarr_format\": 2\n}");
+    const std::int64_t c = o.chunk;
+    for (StreamLevel& l : s.levels) {
+      fs::create_directories(l.folder);
+      const nlohmann::json meta = {{"zarr_format", 2},
+                                   {"shape", {l.dims[2], l.dims[1], l.dims[0]}},
+                                   {"chunks", {c, c, c}},
+                                   {"dtype", zarr_dtype(type)},
+                                   {"compressor", {{"id", "blosc"}, {"cname", o.codec}, {"clevel", o.clevel}, {"shuffle", 1}, {"blocksize", 0}}},
+                                   {"fill_value", 0},
+                                   {"order", "C"},
+                                   {"filters", nullptr},
+                                   {"dimension_separator", "/"}};
+      write_text(l.folder / ".zarray", meta.dump(2));
+      l.row.resize(static_cast<std::size_t>(l.slice_bytes(s.voxel) * c));
+      l.waiting.resize(static_cast<std::size_t>(l.slice_bytes(s.voxel)));
+    }
   } catch (...) {
-    fs::remove_all(partial, ec);
+    fs::remove_all(s.partial, ec);
     throw;
   }
-  return written;
+}
+
+OmeZarrStreamWriter::~OmeZarrStreamWriter() {
+  if (!state_->finished) {
+    std::error_code ec;
+    fs::remove_all(state_->partial, ec);
+  }
+}
+
+int OmeZarrStreamWriter::levels() const { return static_cast<int>(state_->levels.size()); }
+std::int64_t OmeZarrStreamWriter::slices_in() const { return state_->slices_in; }
+
+std::uint64_t OmeZarrStreamWriter::buffer_bytes() const {
+  std::uint64_t total = 0;
+  for (const StreamLevel& l : state_->levels) total += l.row.size() + l.waiting.size();
+  return total;
+}
+
+void OmeZarrStreamWriter::add_slices(const std::byte* voxels, std::int64_t count) {
+  State& s = *state_;
+  if (s.finished) throw Error("the OME-Zarr pyramid is finished");
+  const StreamLevel& top = s.levels.front();
+  if (count < 0 || s.slices_in + count > top.dims[2])
+    throw Error("slices " + std::to_string(s.slices_in) + " + " + std::to_string(count) + " (the volume has " +
+                std::to_string(top.dims[2]) + ")");
+  const std::int64_t slice_bytes = top.slice_bytes(s.voxel);
+  with_scalar_type(s.type, [&](auto t) {
+    using T = decltype(t);
+    for (std::int64_t k = 0; k < count; ++k) {
+      s.add_slice<T>(0, reinterpret_cast<const T*>(voxels + k * slice_bytes));
+      ++s.slices_in;
+      if (s.options.progress) s.options.progress(s.slices_in, top.dims[2], s.bytes.load());
+    }
+  });
+}
+
+OmeZarrWritten OmeZarrStreamWriter::finish() {
+  State& s = *state_;
+  if (s.finished) throw Error("the OME-Zarr pyramid is finished");
+  if (s.slices_in != s.levels.front().dims[2])
+    throw Error("the pyramid got " + std::to_string(s.slices_in) + " of its " + std::to_string(s.levels.front().dims[2]) + " slices");
+  nlohmann::json datasets = nlohmann::json::array();
+  with_scalar_type(s.type, [&](auto t) {
+    using T = decltype(t);
+    for (std::size_t l = 0; l < s.levels.size(); ++l) {
+      StreamLevel& level = s.levels[l];
+      if (level.has_waiting) s.pass_down<T>(l, reinterpret_cast<const T*>(level.waiting.data()), nullptr);  // an odd last slice
+      if (level.row_slices > 0) s.write_row<T>(level);
+      level.row = {};
+      level.waiting = {};
+      datasets.push_back({{"path", std::to_string(l)},
+                          {"coordinateTransformations",
+                           {{{"type", "scale"}, {"scale", {level.scale[2], level.scale[1], level.scale[0]}}},
+                            {{"type", "translation"}, {"translation", {level.translation[2], level.translation[1], level.translation[0]}}}}}});
+    }
+  });
+  nlohmann::json axes = nlohmann::json::array();
+  for (const char* name : {"z", "y", "x"}) {
+    nlohmann::json axis = {{"name", name}, {"type", "space"}};
+    if (!s.options.unit.empty()) axis["unit"] = s.options.unit;
+    axes.push_back(axis);
+  }
+  const nlohmann::json attrs = {{"multiscales",
+                                 {{{"version", "0.4"},
+                                   {"name", s.options.name},
+                                   {"axes", axes},
+                                   {"datasets", datasets},
+                                   {"type", "mean"},
+                                   {"metadata", {{"description", "2x2x2 block means (penumbra convert)"}}}}}}};
+  write_text(s.partial / ".zattrs", attrs.dump(2));
+  fs::rename(s.partial, s.target);
+  s.finished = true;
+  return {static_cast<int>(s.levels.size()), s.files.load(), s.bytes.load()};
+}
+
+OmeZarrWritten write_ome_zarr(const Volume& volume, const std::string& path, const OmeZarrWriteOptions& options) {
+  if (volume.is_bricked()) throw Error("a sparse (bricked) volume cannot be written as OME-Zarr yet");
+  const auto& d = volume.dims();
+  OmeZarrStreamWriter writer(path, volume.type(), {d[0], d[1], d[2]}, volume.spacing(), volume.origin(), options);
+  writer.add_slices(volume.data(), d[2]);
+  return writer.finish();
 }
 
 }  // namespace penumbra

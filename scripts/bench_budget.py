@@ -1,0 +1,131 @@
+#!/usr/bin/env python3
+"""Volumes under a memory budget (issue 43): a pyramid written by `penumbra convert`, rendered with
+`--memory-budget` against the finest level fully in memory. Each render is a fresh process under GNU
+time (its own peak resident set); the image's error is RMSE/PSNR against the in-memory frame.
+
+    scripts/bench_budget.py body [--build build/release] [--out DIR] [--size 512]
+        the Visible-Woman-sized ct-body (512×512×1734 uint16, 867 MiB) at budgets of 1/8, 1/4 and 1/2
+        of its size and fully in memory
+    scripts/bench_budget.py big --dims 4096 4096 2048 [--budget 4G] [--keep]
+        a procedural ct-body larger than memory (4096×4096×2048 uint16: 64 GiB) converted (time, size,
+        peak memory), then opened under the budget: time to the first image and frames per second over
+        an orbit; the store is removed unless --keep
+
+Prints Markdown tables and writes budget_<case>.json into --out.
+"""
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def timed(args):
+    """(seconds, peak MiB, stdout, stderr) of one process under GNU time."""
+    t0 = time.perf_counter()
+    r = subprocess.run(["/usr/bin/time", "-f", "peak_kib=%M", *map(str, args)], capture_output=True, text=True)
+    seconds = time.perf_counter() - t0
+    if r.returncode != 0:
+        sys.exit(f"{' '.join(map(str, args))} failed:\n{r.stderr}")
+    peak = int(re.search(r"peak_kib=([0-9]+)", r.stderr).group(1)) / 1024.0
+    return seconds, peak, r.stdout, r.stderr
+
+
+def compare(cli, a, b):
+    out = subprocess.run([cli, "compare", a, b], capture_output=True, text=True, check=True).stdout
+    rmse = float(re.search(r"rmse ([0-9.eE+-]+)", out).group(1))
+    psnr = re.search(r"psnr ([0-9.eE+-]+|inf)", out).group(1)
+    return rmse, psnr
+
+
+def body(o, cli, out):
+    store = os.path.join(o.work, "ct_body.zarr")
+    if not os.path.isdir(store):
+        seconds, peak, stdout, _ = timed([cli, "convert", "--procedural", '{"name": "ct-body"}', "-o", store, "--unit", "millimeter"])
+        print(f"convert: {stdout.strip()} ({seconds:.1f} s, peak {peak:.0f} MiB)")
+    full_bytes = 512 * 512 * 1734 * 2
+    rows = []
+    ref = os.path.join(out, "budget_full.png")
+    cases = [("in memory (level 0)", ["--level", "0"]), ("1/2", ["--memory-budget", str(full_bytes // 2)]),
+             ("1/4", ["--memory-budget", str(full_bytes // 4)]), ("1/8", ["--memory-budget", str(full_bytes // 8)])]
+    for label, args in cases:
+        image = ref if label.startswith("in memory") else os.path.join(out, f"budget_{label.replace('/', 'of')}.png")
+        stats_file = os.path.join(out, "stats.json")
+        seconds, peak, _, _ = timed([cli, "render", store, *args, "--width", o.size, "--height", o.size, "-o", image, "--stats", stats_file])
+        stats = json.load(open(stats_file))
+        rmse, psnr = compare(cli, image, ref)
+        rows.append({"case": label, "dims": stats["volumes"][0]["dims"], "held_mib": (stats["memory_bytes"]["volume"] + stats["memory_bytes"]["volume_structures"]) / 2**20,
+                     "gradients": "stored" if stats["memory_bytes"]["volume_structures"] >= 4 * stats["counts"]["voxels"] else "on the fly",
+                     "first_image_s": seconds, "frame_ms": stats["timings_ms"]["total"], "prepare_ms": stats["timings_ms"]["prepare"],
+                     "peak_mib": peak, "rmse": rmse, "psnr": psnr})
+    print(f"\nct-body 512×512×1734 uint16 ({full_bytes / 2**20:.0f} MiB), {o.size}² frame, default scene of the file")
+    print("| budget | level dims | held (MiB) | gradients | first image (s) | frame (ms) | peak RSS (MiB) | RMSE | PSNR (dB) |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['case']} | {'×'.join(map(str, r['dims']))} | {r['held_mib']:.0f} | {r['gradients']} | {r['first_image_s']:.1f} | "
+              f"{r['frame_ms']:.0f} | {r['peak_mib']:.0f} | {r['rmse']:.4f} | {r['psnr']} |")
+    json.dump(rows, open(os.path.join(out, "budget_body.json"), "w"), indent=2)
+
+
+def big(o, cli, out):
+    store = os.path.join(o.work, "big_body.zarr")
+    spec = json.dumps({"name": "ct-body", "dims": o.dims})
+    result = {}
+    if not os.path.isdir(store):
+        seconds, peak, stdout, _ = timed([cli, "convert", "--procedural", spec, "-o", store, "--codec", "zstd", "--clevel", "1"])
+        du = subprocess.run(["du", "-sb", store], capture_output=True, text=True).stdout.split()[0]
+        result["convert"] = {"seconds": seconds, "peak_mib": peak, "summary": stdout.strip(), "store_bytes": int(du)}
+        print(f"convert: {stdout.strip()}\n  {seconds:.0f} s, peak {peak:.0f} MiB, {int(du) / 2**30:.1f} GiB on disk")
+    stats_file = os.path.join(out, "stats.json")
+    image = os.path.join(out, "budget_big.png")
+    seconds, peak, _, _ = timed([cli, "render", store, "--memory-budget", o.budget, "--width", 1024, "--height", 1024, "-o", image,
+                                 "--stats", stats_file])
+    stats = json.load(open(stats_file))
+    result["first"] = {"seconds": seconds, "peak_mib": peak, "dims": stats["volumes"][0]["dims"], "frame_ms": stats["timings_ms"]["total"],
+                       "held_mib": stats["memory_budget"]["held"] / 2**20}
+    orbit = os.path.join(out, "orbit.json")
+    o_seconds, o_peak, _, _ = timed([cli, "render", store, "--memory-budget", o.budget, "--width", 1024, "--height", 1024,
+                                     "-o", os.path.join(out, "orbit.png"), "--orbit", 12, "--stats", orbit])
+    frames = json.load(open(orbit)).get("frames", [])
+    totals = sorted(f["timings_ms"]["total"] for f in frames[1:]) if frames else []
+    median = totals[len(totals) // 2] if totals else float("nan")
+    result["orbit"] = {"seconds": o_seconds, "peak_mib": o_peak, "median_frame_ms": median, "fps": 1000 / median if totals else 0}
+    print(f"\nct-body {'×'.join(map(str, o.dims))} uint16 under --memory-budget {o.budget}, 1024² frames")
+    print("| what | figure |\n|---|---|")
+    print(f"| level opened | {'×'.join(map(str, result['first']['dims']))} ({result['first']['held_mib']:.0f} MiB held) |")
+    print(f"| time to first image (process start to PNG) | {result['first']['seconds']:.1f} s |")
+    print(f"| its frame | {result['first']['frame_ms']:.0f} ms |")
+    print(f"| orbit, 12 frames | {median:.0f} ms a frame ({result['orbit']['fps']:.1f} fps) |")
+    print(f"| peak resident memory | {max(peak, o_peak):.0f} MiB |")
+    json.dump(result, open(os.path.join(out, "budget_big.json"), "w"), indent=2)
+    if not o.keep:
+        shutil.rmtree(store)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("case", choices=["body", "big"])
+    p.add_argument("--build", default=os.path.join(ROOT, "build", "release"))
+    p.add_argument("--out", default=None)
+    p.add_argument("--work", default=None, help="where the stores go (default: a temporary folder)")
+    p.add_argument("--size", type=int, default=512)
+    p.add_argument("--dims", type=int, nargs=3, default=[4096, 4096, 2048])
+    p.add_argument("--budget", default="4G")
+    p.add_argument("--keep", action="store_true")
+    o = p.parse_args()
+    cli = os.path.join(o.build, "penumbra")
+    out = o.out or tempfile.mkdtemp(prefix="bench_budget_")
+    os.makedirs(out, exist_ok=True)
+    o.work = o.work or out
+    (body if o.case == "body" else big)(o, cli, out)
+    print(f"\n(files in {out})")
+
+
+if __name__ == "__main__":
+    main()

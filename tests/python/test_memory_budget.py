@@ -1,0 +1,165 @@
+"""The scene's memory_budget and `penumbra render --memory-budget` (issue 43): an OME-Zarr pyramid opens at
+the finest level whose voxels and macrocells fit (volume_held_bytes: 9 bytes per macrocell of 8³ voxels), gradients are stored only where they fit too, the frame is the frame of that level opened by
+hand, peak memory follows the budget, and what cannot fit is an error that names the budget."""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+zarr = pytest.importorskip("zarr")  # Debian python3-zarr
+
+import penumbra  # noqa: E402
+
+CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
+
+
+def held_bytes(shape, itemsize):
+    """volume_held_bytes: the voxels and 9 bytes per macrocell of 8 cells (max(1, ceil((n - 1) / 8)) per axis)."""
+    cells = int(np.prod([max(1, (n - 1 + 7) // 8) for n in shape]))
+    return int(np.prod(shape)) * itemsize + 9 * cells
+
+
+def nrrd(path, array):
+    header = (f"NRRD0004\ntype: ushort\ndimension: 3\nsizes: {array.shape[2]} {array.shape[1]} {array.shape[0]}\n"
+              f"spacings: 1 1 1\nencoding: raw\nendian: little\n\n")
+    with open(path, "wb") as f:
+        f.write(header.encode() + np.ascontiguousarray(array, dtype="<u2").tobytes())
+
+
+def blobs(shape):
+    """Two soft balls: a volume with an inside and an outside at every level of the pyramid."""
+    z, y, x = np.meshgrid(*(np.linspace(-1, 1, n) for n in shape), indexing="ij")
+    field = np.exp(-((x - 0.3) ** 2 + y ** 2 + z ** 2) * 6) + 0.7 * np.exp(-((x + 0.4) ** 2 + (y - 0.2) ** 2 + z ** 2) * 10)
+    return (field * 3000).astype(np.uint16)
+
+
+@pytest.fixture(scope="module")
+def pyramid(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("budget")
+    src = folder / "blobs.nrrd"
+    nrrd(src, blobs((80, 96, 128)))
+    out = folder / "blobs.zarr"
+    r = subprocess.run([CLI, "convert", str(src), "-o", str(out), "--chunk", "16"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    shapes = [zarr.open_group(str(out), mode="r")[str(level)].shape for level in range(4)]
+    assert shapes == [(80, 96, 128), (40, 48, 64), (20, 24, 32), (10, 12, 16)]
+    return src, out, shapes
+
+
+def render(tmp_path, *args, name="out"):
+    image, stats = tmp_path / f"{name}.png", tmp_path / f"{name}.json"
+    r = subprocess.run([CLI, "render", *map(str, args), "--width", "96", "--height", "72", "-o", str(image), "--stats", str(stats)],
+                       capture_output=True, text=True, timeout=300)
+    return r, image, (json.loads(stats.read_text()) if stats.exists() else None)
+
+
+def test_the_finest_level_that_fits_opens(pyramid, tmp_path):
+    _, store, shapes = pyramid
+    for level in (0, 1, 2, 3):
+        budget = held_bytes(shapes[level], 2)  # exactly what the level holds: it fits, the finer one does not
+        r, _, stats = render(tmp_path, store, "--memory-budget", budget, name=f"l{level}")
+        assert r.returncode == 0, r.stderr
+        assert stats["volumes"][0]["dims"] == list(reversed(shapes[level])), f"budget {budget}"
+        assert stats["memory_budget"]["budget"] == budget
+        # no room left for 4 bytes a voxel of gradients: they are computed per sample
+        assert stats["memory_budget"]["held"] <= budget
+        assert stats["memory_bytes"]["volume_structures"] < 4 * np.prod(shapes[level])
+
+
+def test_gradients_are_stored_where_they_fit(pyramid, tmp_path):
+    _, store, shapes = pyramid
+    budget = held_bytes(shapes[1], 2) + 4 * int(np.prod(shapes[1]))
+    r, _, stats = render(tmp_path, store, "--memory-budget", budget)
+    assert r.returncode == 0, r.stderr
+    assert stats["volumes"][0]["dims"] == list(reversed(shapes[1]))
+    assert stats["memory_bytes"]["volume_structures"] >= 4 * np.prod(shapes[1])
+    assert stats["memory_budget"]["held"] <= budget
+
+
+def test_the_frame_is_the_levels_frame(pyramid, tmp_path):
+    """Under a budget the frame is exactly the frame of the level it chose, opened by hand (gradients on
+    the fly in both: the budget leaves no room for them)."""
+    _, store, shapes = pyramid
+    r, budgeted, stats = render(tmp_path, store, "--memory-budget", held_bytes(shapes[2], 2) + 100, name="budget")
+    assert r.returncode == 0, r.stderr
+    r, by_hand, _ = render(tmp_path, store, "--level", 2, "--set", "volumes.0.gradients=on_the_fly", name="level")
+    assert r.returncode == 0, r.stderr
+    assert budgeted.read_bytes() == by_hand.read_bytes()
+    r, finest, _ = render(tmp_path, store, "--level", 0, name="finest")
+    assert r.returncode == 0, r.stderr
+    assert budgeted.read_bytes() != finest.read_bytes()
+
+
+def test_what_cannot_fit_is_an_error(pyramid, tmp_path):
+    src, store, shapes = pyramid
+    r, image, _ = render(tmp_path, store, "--memory-budget", "1K")
+    assert r.returncode != 0 and "no level of the pyramid fits the memory budget (1 KiB)" in r.stderr, r.stderr
+    assert not image.exists()
+    r, image, _ = render(tmp_path, src, "--memory-budget", "1M")
+    assert r.returncode != 0 and "blobs.nrrd" in r.stderr and "memory_budget" in r.stderr and "penumbra convert" in r.stderr, r.stderr
+    assert not image.exists()
+    r, _, _ = render(tmp_path, store, "--memory-budget", "lots")
+    assert r.returncode != 0 and "--memory-budget" in r.stderr and "'lots'" in r.stderr, r.stderr
+    # asked for explicitly, stored gradients that do not fit are an error too
+    r, _, _ = render(tmp_path, store, "--memory-budget", held_bytes(shapes[1], 2), "--set", "volumes.0.gradients=stored")
+    assert r.returncode != 0 and "gradients" in r.stderr and "memory_budget" in r.stderr, r.stderr
+
+
+def test_the_scene_key(pyramid, tmp_path):
+    _, store, shapes = pyramid
+    for budget in (held_bytes(shapes[2], 2), f"{-(-held_bytes(shapes[2], 2) // 1024)}K"):
+        scene = tmp_path / "scene.json"
+        scene.write_text(json.dumps({"memory_budget": budget, "volumes": [{"file": str(store)}]}))
+        r, _, stats = render(tmp_path, scene)
+        assert r.returncode == 0, r.stderr
+        assert stats["volumes"][0]["dims"] == list(reversed(shapes[2])), budget
+    for bad in (-5, 0, "4X", [1]):
+        scene.write_text(json.dumps({"memory_budget": bad, "volumes": [{"file": str(store)}]}))
+        r, _, _ = render(tmp_path, scene)
+        assert r.returncode != 0 and "memory_budget" in r.stderr, (bad, r.stderr)
+    # two volumes share one budget, in order: the second opens coarser once the first took its part
+    scene.write_text(json.dumps({"memory_budget": held_bytes(shapes[1], 2) + held_bytes(shapes[2], 2),
+                                 "volumes": [{"file": str(store)}, {"file": str(store)}]}))
+    r, _, stats = render(tmp_path, scene)
+    assert r.returncode == 0, r.stderr
+    assert [v["dims"] for v in stats["volumes"]] == [list(reversed(shapes[1])), list(reversed(shapes[2]))]
+
+
+def test_read_volume_takes_the_budget(pyramid):
+    _, store, shapes = pyramid
+    v = penumbra.read_volume(str(store), memory_budget=held_bytes(shapes[1], 2))
+    assert v.array.shape == shapes[1]
+    assert any("memory budget" in n for n in v.info["notes"])
+    with pytest.raises(penumbra.Error, match="memory size 'x'"):
+        penumbra.read_volume(str(store), memory_budget="x")
+
+
+def peak_rss_mib(args):
+    probe = ("import resource, subprocess, sys\n"
+             "r = subprocess.run(sys.argv[1:], capture_output=True, text=True)\n"
+             "assert r.returncode == 0, r.stderr\n"
+             "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024)\n")
+    out = subprocess.run([sys.executable, "-c", probe, *map(str, args)], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    return float(out.stdout)
+
+
+def test_peak_memory_follows_the_budget(tmp_path):
+    """A 64 MiB level 0 (256³ uint16; with its stored gradients 192 MiB): rendered under a 4 MiB budget the
+    process peaks within the budget plus 8 MiB of what it holds when it opens the coarsest level by hand."""
+    k, j, i = np.ogrid[0:256, 0:256, 0:256]
+    src = tmp_path / "cube.nrrd"
+    nrrd(src, ((i * 5 + j * 3 + k * 7) % 3001).astype(np.uint16))
+    store = tmp_path / "cube.zarr"
+    r = subprocess.run([CLI, "convert", str(src), "-o", str(store), "--chunk", "32"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    os.remove(src)
+    common = ["render", store, "--width", "64", "--height", "48", "-o", tmp_path / "x.png"]
+    coarsest = peak_rss_mib([CLI, *common, "--level", 3])
+    budgeted = peak_rss_mib([CLI, *common, "--memory-budget", "4M"])
+    finest = peak_rss_mib([CLI, *common, "--level", 0])
+    assert budgeted <= coarsest + 4 + 8, (coarsest, budgeted, finest)
+    assert finest > coarsest + 64, (coarsest, budgeted, finest)  # the check can see a level that does not fit
