@@ -5,11 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <filesystem>
 #include <random>
 
 #include "penumbra/core/error.h"
 
 #include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/io/zarr_writer.h"
 #include "penumbra/data/procedural.h"
 #include "penumbra/data/transfer_function_choice.h"
 #include "penumbra/data/volume_stats.h"
@@ -163,5 +165,52 @@ TEST(VolumeWindow, FilesAreReadOnlyForTheChosenSlices) {
     FAIL() << "no error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("slices 10 to 12 of a volume of 12"), std::string::npos) << e.what();
+  }
+}
+
+// A Zarr store (here an OME-Zarr pyramid penumbra wrote, 8³ chunks) reads only the chunks that hold the
+// chosen slices, at the level chosen, and the window is the whole level's slices.
+TEST(VolumeWindow, ZarrStoresReadOnlyTheChunksOfTheChosenSlices) {
+  ScratchDir dir;
+  Volume source(ScalarType::UInt16, {13, 10, 40}, {0.5f, 0.75f, 1.25f}, {3, -2, 1});
+  for (std::size_t i = 0; i < source.voxel_count(); ++i) source.set_value(i, static_cast<float>(i * 37 % 4001));
+  source.recompute_range();
+  OmeZarrWriteOptions options;
+  options.chunk = 8;
+  write_ome_zarr(source, dir.file("v.zarr"), options);
+  for (const int level : {0, 1}) {
+    SCOPED_TRACE("level " + std::to_string(level));
+    VolumeLoadOptions lo;
+    lo.level = level;
+    const Volume whole = load_volume(dir.file("v.zarr"), lo);
+    const int nz = whole.dims()[2];
+    for (const auto& [first, count] : std::vector<std::pair<int, int>>{{0, 5}, {9, 8}, {nz - 3, 3}, {0, nz}}) {
+      SCOPED_TRACE("slices " + std::to_string(first) + " + " + std::to_string(count));
+      WindowRead read;
+      const Volume window = load_volume_window({dir.file("v.zarr")}, lo, [&](const std::array<int, 3>& dims) {
+        EXPECT_EQ(dims, whole.dims());
+        return SliceRange{first, count};
+      }, read);
+      EXPECT_FALSE(read.whole);
+      EXPECT_EQ(window.is_window(), count < nz);
+      ASSERT_EQ(window.dims(), (std::array<int, 3>{whole.dims()[0], whole.dims()[1], count}));
+      EXPECT_EQ(window.bounds().lo, whole.bounds().lo);
+      EXPECT_EQ(window.bounds().hi, whole.bounds().hi);
+      for (int k = 0; k < count; ++k)
+        for (int j = 0; j < whole.dims()[1]; ++j)
+          for (int i = 0; i < whole.dims()[0]; ++i) ASSERT_EQ(window.value(i, j, k), whole.value(i, j, k + first));
+      // the chunks read: those of the slices' chunk rows (2 × 2 chunks a row at level 0), each a file
+      const int rows = (first + count - 1) / 8 - first / 8 + 1;
+      const int chunks_a_row = ((whole.dims()[0] + 7) / 8) * ((whole.dims()[1] + 7) / 8);
+      std::uint64_t row_bytes = 0, all_bytes = 0;
+      for (const auto& entry : std::filesystem::recursive_directory_iterator(dir.file("v.zarr") + "/" + std::to_string(level))) {
+        if (!entry.is_regular_file() || entry.path().filename().string()[0] == '.') continue;
+        const int cz = std::stoi(entry.path().parent_path().parent_path().filename().string());
+        all_bytes += entry.file_size();
+        if (cz >= first / 8 && cz <= (first + count - 1) / 8) row_bytes += entry.file_size();
+      }
+      EXPECT_EQ(read.bytes_read, row_bytes) << rows << " rows of " << chunks_a_row << " chunks";
+      if (count < nz && rows < (nz + 7) / 8) EXPECT_LT(read.bytes_read, all_bytes);
+    }
   }
 }

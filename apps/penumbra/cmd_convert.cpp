@@ -3,9 +3,10 @@
 // or a procedural one (--procedural), written as an OME-Zarr 0.4 pyramid (zarr_writer.h) with a
 // progress line on a terminal.
 //
-// The pyramid streams (OmeZarrStreamWriter): NRRD files are read a slab of slices at a time
-// (load_volume_window: raw data seeks, gzip data decompresses up to the slab) and a procedural ct-body
-// is made a slab at a time, so that neither is ever held whole; other formats are read whole first.
+// The pyramid streams (OmeZarrStreamWriter): NRRD files and Zarr stores are read a slab of slices at a
+// time (load_volume_window: raw data seeks, gzip data decompresses up to the slab, a Zarr store reads
+// the chunks of the slab's rows) and a procedural ct-body is made a slab at a time, so that none is
+// ever held whole; other formats are read whole first.
 #include <unistd.h>
 
 #include <nlohmann/json.hpp>
@@ -68,10 +69,10 @@ Converted stream_ct_body(const CtBodyParams& p, const std::string& out, const Om
   return {dims, ScalarType::UInt16, "procedural ct-body", true, writer.buffer_bytes() + voxels.size() * 2, writer.finish()};
 }
 
-// An NRRD file a slab at a time; one its reader cannot read in part (another axis order than the file's
-// z) is read whole.
-Converted stream_nrrd(const std::vector<std::string>& files, const VolumeLoadOptions& choice, const std::string& out,
-                      const OmeZarrWriteOptions& options) {
+// An NRRD file or a Zarr store a slab at a time; one its reader cannot read in part (an NRRD whose z is
+// another file axis, a Zarr level whose z scale is negative) is read whole.
+Converted stream_slabs(const std::vector<std::string>& files, const VolumeLoadOptions& choice, const std::string& format,
+                       const std::string& out, const OmeZarrWriteOptions& options) {
   std::array<int, 3> dims{};
   std::int64_t first = 0, slab = 0;
   const SliceChooser choose = [&](const std::array<int, 3>& d) {
@@ -98,7 +99,7 @@ Converted stream_nrrd(const std::vector<std::string>& files, const VolumeLoadOpt
     part = load_volume_window(files, choice, choose, read);
   }
   const ScalarType type = part.type();
-  return {{dims[0], dims[1], dims[2]}, type, "nrrd", true, writer.buffer_bytes() + held, writer.finish()};
+  return {{dims[0], dims[1], dims[2]}, type, format, true, writer.buffer_bytes() + held, writer.finish()};
 }
 
 bool is_nrrd(const std::string& path) {
@@ -161,8 +162,8 @@ void add_convert_command(CLI::App& app) {
       else c = write_whole(make_procedural_volume(spec), "procedural " + o->write.name, o->out, o->write);
     } else {
       o->write.name = std::filesystem::path(o->files.front()).filename().string();
-      if (o->files.size() == 1 && is_nrrd(o->files.front())) {
-        c = stream_nrrd(o->files, o->choice, o->out, o->write);
+      if (o->files.size() == 1 && (is_nrrd(o->files.front()) || is_zarr_store(o->files.front()))) {
+        c = stream_slabs(o->files, o->choice, is_nrrd(o->files.front()) ? "nrrd" : "zarr", o->out, o->write);
       } else {
         VolumeFileInfo info;
         Volume v = load_volume(o->files, o->choice, &info);

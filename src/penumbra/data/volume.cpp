@@ -157,6 +157,7 @@ Volume Volume::densified(std::size_t max_bytes) const {
   });
   dense.range_ = range_;
   dense.level_set_ = level_set_;
+  dense.opacity_length_ = opacity_length_;
   return dense;
 }
 
@@ -164,14 +165,14 @@ Volume::Volume(const Volume& o)
     : type_(o.type_), dims_(o.dims_), spacing_(o.spacing_), inv_spacing_(o.inv_spacing_), origin_(o.origin_),
       owned_(o.owned_), owner_(o.owner_), data_(o.owner_ ? o.data_ : owned_.data()), range_(o.range_),
       brick_base_(o.brick_base_), brick_grid_(o.brick_grid_), stored_(o.stored_), shared_end_(o.shared_end_),
-      level_set_(o.level_set_), window_first_(o.window_first_), whole_slices_(o.whole_slices_),
+      level_set_(o.level_set_), opacity_length_(o.opacity_length_), window_first_(o.window_first_), whole_slices_(o.whole_slices_),
       window_offset_(o.window_offset_), grid_origin_z_(o.grid_origin_z_) {}
 
 Volume::Volume(Volume&& o) noexcept
     : type_(o.type_), dims_(o.dims_), spacing_(o.spacing_), inv_spacing_(o.inv_spacing_), origin_(o.origin_),
       owned_(std::move(o.owned_)), owner_(std::move(o.owner_)), data_(o.data_), range_(o.range_),
       brick_base_(std::move(o.brick_base_)), brick_grid_(o.brick_grid_), stored_(o.stored_), shared_end_(o.shared_end_),
-      level_set_(o.level_set_), window_first_(o.window_first_), whole_slices_(o.whole_slices_),
+      level_set_(o.level_set_), opacity_length_(o.opacity_length_), window_first_(o.window_first_), whole_slices_(o.whole_slices_),
       window_offset_(o.window_offset_), grid_origin_z_(o.grid_origin_z_) {
   o.data_ = nullptr;
   o.dims_ = {0, 0, 0};
@@ -198,6 +199,7 @@ Volume& Volume::operator=(Volume&& o) noexcept {
   stored_ = o.stored_;
   shared_end_ = o.shared_end_;
   level_set_ = o.level_set_;
+  opacity_length_ = o.opacity_length_;
   window_first_ = o.window_first_;
   whole_slices_ = o.whole_slices_;
   window_offset_ = o.window_offset_;
@@ -227,6 +229,7 @@ Volume Volume::window_z(int first, int count) const {
   std::memcpy(w.data(), data_ + static_cast<std::size_t>(first) * slice, static_cast<std::size_t>(count) * slice);
   w.range_ = range_;
   w.level_set_ = level_set_;
+  w.opacity_length_ = opacity_length_;
   w.window_first_ = window_first_ + first;
   w.whole_slices_ = whole_dims()[2];
   w.window_offset_ = static_cast<float>(w.window_first_);

@@ -138,6 +138,11 @@ public:
     origin_ = o + Vec3{0, 0, static_cast<float>(window_first_) * spacing_.z};
   }
   void set_spacing(const Vec3& spacing);  // Error unless positive and finite
+  // The length a transfer function's opacity refers to: the smallest voxel edge, or for a coarser level
+  // of a pyramid the finest level's (set by its reader), so that a level shows the same matter per unit
+  // length as the data at full resolution.
+  float opacity_length() const { return opacity_length_ > 0 ? opacity_length_ : std::min(spacing_.x, std::min(spacing_.y, spacing_.z)); }
+  void set_opacity_length(float length) { opacity_length_ = length; }
   std::size_t voxel_count() const { return static_cast<std::size_t>(dims_[0]) * dims_[1] * dims_[2]; }
   std::size_t memory_bytes() const {  // what this volume allocated (a view: 0)
     return owned_.size() + brick_base_.size() * sizeof(brick_base_[0]);
@@ -296,6 +301,7 @@ private:
   std::array<int, 3> brick_grid_{0, 0, 0};
   std::size_t stored_ = 0, shared_end_ = 0;
   bool level_set_ = false;
+  float opacity_length_ = 0;  // 0: the smallest voxel edge
   // A window: its first slice, the whole grid's slices (0: not a window), the first slice as a float,
   // and the whole grid's origin z (origin_.z otherwise).
   int window_first_ = 0, whole_slices_ = 0;

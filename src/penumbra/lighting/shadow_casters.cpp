@@ -19,7 +19,7 @@ ShadowCasters::ShadowCasters(const Scene& scene, std::span<const MacrocellGrid* 
   // one lattice for every volume: the finest of their voxels
   float voxel = kInfinity;
   for (std::size_t i = 0; i < scene.volumes.size(); ++i)
-    if (i < grids.size() && grids[i] && scene.volumes[i].casts_shadows) voxel = std::min(voxel, scene.volumes[i].reference_step());
+    if (i < grids.size() && grids[i] && scene.volumes[i].casts_shadows) voxel = std::min(voxel, scene.volumes[i].voxel_step());
   if (voxel < kInfinity) step_ = steps_in_voxels * voxel;
   for (std::size_t i = 0; i < scene.volumes.size(); ++i)
     if (i < grids.size() && grids[i] && scene.volumes[i].casts_shadows)

@@ -123,7 +123,7 @@ void PreparedVolume::update_grid() {
 
 void PreparedVolume::update_lut(float step_world) {
   full_step = step_world;
-  preview_step = std::max(step_world, std::min(2 * step_world, 8 * object->reference_step()));
+  preview_step = std::max(step_world, std::min(2 * step_world, 8 * object->voxel_step()));
   auto table = [&](float s) {
     return TransferLut(object->transfer_function, volume->min_value(), volume->max_value(), s / object->reference_step(), 4096,
                        object->compositing);

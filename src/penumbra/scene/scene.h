@@ -64,10 +64,14 @@ struct VolumeObject : ShadowFlags {
     const Vec3& s = volume->spacing();
     return step * std::min(s.x, std::min(s.y, s.z));
   }
-  float reference_step() const {  // the length a transfer-function opacity refers to: one voxel
+  float voxel_step() const {  // the smallest voxel edge: what sampling lattices are sized by
     const Vec3& s = volume->spacing();
     return std::min(s.x, std::min(s.y, s.z));
   }
+  // The length a transfer-function opacity (and a gradient's shading weight) refers to: one voxel of the
+  // data as stored at full resolution (Volume::opacity_length), so that every level of a pyramid looks
+  // as its finest does.
+  float reference_step() const { return volume->opacity_length(); }
   const TransferFunction& shadow_tf() const {
     return has_shadow_transfer_function ? shadow_transfer_function : transfer_function;
   }

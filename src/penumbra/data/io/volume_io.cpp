@@ -109,6 +109,10 @@ Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoa
   with_context(joined(paths), [&] { check_options_fit(paths, all_dicom(paths), options); });
   if (paths.size() == 1 && ends_with_ci(paths[0], ".raw") && options.raw)
     return with_context(paths[0], [&] { return load_raw_volume(paths[0], *options.raw, &choose, &read); });
+  if (paths.size() == 1 && is_zarr_store(paths[0]))
+    return with_context(paths[0], [&] {
+      return load_zarr_volume(paths[0], options.level, options.channel, nullptr, options.memory_budget, &choose, &read);
+    });
   if (paths.size() == 1 && (ends_with_ci(paths[0], ".nrrd") || ends_with_ci(paths[0], ".nhdr")))
     return with_context(paths[0], [&] {
       VolumeFileInfo info;

@@ -114,8 +114,11 @@ Volume load_vdb_volume(const std::string& path, const std::string& grid, VolumeF
 // "multiscales"), of which one level (`level`; -1: the finest whose volume_held_bytes fit `memory_budget`,
 // or with no budget (0) a quarter of the machine's memory) and one channel (-1: 0) are read, chunk by
 // chunk; missing chunks hold the fill value.
+// With `choose`, only the chosen slices are read, from the chunks that hold them (a window of the whole
+// grid, as load_raw_volume's; a level whose z scale is negative is read whole and cut).
 bool is_zarr_store(const std::string& path);
-Volume load_zarr_volume(const std::string& path, int level, int channel, VolumeFileInfo* info, std::uint64_t memory_budget = 0);
+Volume load_zarr_volume(const std::string& path, int level, int channel, VolumeFileInfo* info, std::uint64_t memory_budget = 0,
+                        const SliceChooser* choose = nullptr, WindowRead* read = nullptr);
 // HDF5 (hdf5_loader.cpp; .h5, .hdf5, .he5): one numeric dataset (`dataset`, "" = the only one of three or
 // more axes), z y x last, a leading channel axis chosen by `channel`; the filters libhdf5 decodes.
 bool is_hdf5_path(const std::string& path);
@@ -129,8 +132,8 @@ bool is_volume_file(const std::string& path);
 Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOptions& options, VolumeFileInfo* info = nullptr);
 Volume load_volume(const std::string& path, const VolumeLoadOptions& options, VolumeFileInfo* info = nullptr);
 Volume load_volume(const std::string& path, const std::optional<RawVolumeOptions>& raw = std::nullopt);
-// load_volume of the chosen slices only: raw and NRRD files read just those (above); every other format
-// (and a DICOM series) is read whole and cut, which `read.whole` says.
+// load_volume of the chosen slices only: raw and NRRD files and Zarr stores read just those (above); every
+// other format (and a DICOM series) is read whole and cut, which `read.whole` says.
 Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoadOptions& options, const SliceChooser& choose,
                           WindowRead& read);
 

@@ -320,7 +320,8 @@ bool is_zarr_store(const std::string& path) {
   return false;
 }
 
-Volume load_zarr_volume(const std::string& path, int level_choice, int channel, VolumeFileInfo* info, std::uint64_t memory_budget) {
+Volume load_zarr_volume(const std::string& path, int level_choice, int channel, VolumeFileInfo* info, std::uint64_t memory_budget,
+                        const SliceChooser* choose, WindowRead* read) {
   VolumeFileInfo local;
   VolumeFileInfo& out = info ? *info : local;
   out.format = "zarr";
@@ -422,8 +423,15 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
     if (sel.dims[a3] > std::numeric_limits<int>::max()) throw Error("an axis of " + std::to_string(sel.dims[a3]) + " voxels is too long");
 
   const ScalarType type = storage_type(a.dtype);
-  Volume volume(type, {static_cast<int>(sel.dims[0]), static_cast<int>(sel.dims[1]), static_cast<int>(sel.dims[2])}, {1, 1, 1}, {0, 0, 0},
-                VoxelFill::Uninitialized);
+  // A window (one rank's brick, a slab of `penumbra convert`): the chosen slices only, from the chunks
+  // that hold them. The level's scale keeps z's direction (a negative one flips it): read whole and cut.
+  if (read) *read = WindowRead{};
+  const std::array<int, 3> whole_dims{static_cast<int>(sel.dims[0]), static_cast<int>(sel.dims[1]), static_cast<int>(sel.dims[2])};
+  const SliceRange chosen_slices = choose ? checked_slices(*choose, whole_dims) : SliceRange{0, whole_dims[2]};
+  const bool windowed = choose && chosen.scale[2] > 0;
+  const SliceRange slices = windowed ? chosen_slices : SliceRange{0, whole_dims[2]};
+  std::atomic<std::uint64_t> bytes_read{0};
+  Volume volume(type, {whole_dims[0], whole_dims[1], slices.count}, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
   // the chunk grid over the spatial axes (x, y, z), the leading axes fixed to the chunk holding the index
   std::array<std::int64_t, 3> chunk{}, grid{};
   for (int a3 = 0; a3 < 3; ++a3) {
@@ -452,7 +460,9 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
     lead_offset += (sel.fixed[k] % a.chunks[k]) * stride[k];
     lead_key += std::to_string(sel.fixed[k] / a.chunks[k]) + a.separator;
   }
-  const std::size_t n_chunks = static_cast<std::size_t>(grid[0] * grid[1] * grid[2]);
+  const std::int64_t z_first = slices.first, z_end = static_cast<std::int64_t>(slices.first) + slices.count;
+  const std::int64_t chunk_z0 = z_first / chunk[2], chunk_z1 = z_end > 0 ? (z_end - 1) / chunk[2] + 1 : 0;
+  const std::size_t n_chunks = static_cast<std::size_t>(grid[0] * grid[1] * (chunk_z1 - chunk_z0));
   std::atomic<std::size_t> missing{0};
   std::mutex failure_mutex;
   std::optional<std::string> failure;
@@ -468,19 +478,24 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
     parallel_for(n_chunks, [&](std::size_t c0, std::size_t c1) {
       for (std::size_t c = c0; c < c1; ++c) {
         const std::array<std::int64_t, 3> ci{static_cast<std::int64_t>(c) % grid[0], static_cast<std::int64_t>(c) / grid[0] % grid[1],
-                                             static_cast<std::int64_t>(c) / (grid[0] * grid[1])};
+                                             chunk_z0 + static_cast<std::int64_t>(c) / (grid[0] * grid[1])};
         const std::string key = lead_key + std::to_string(ci[2]) + a.separator + std::to_string(ci[1]) + a.separator + std::to_string(ci[0]);
         const fs::path file = a.folder / key;
         try {
           std::error_code fec;
           std::vector<std::byte> bytes;
           const bool present = fs::is_regular_file(file, fec);
-          if (present) bytes = decode_chunk(a, read_file(file), chunk_bytes);
-          else ++missing;
+          if (present) {
+            std::vector<std::byte> stored = read_file(file);
+            bytes_read += stored.size();
+            bytes = decode_chunk(a, std::move(stored), chunk_bytes);
+          } else {
+            ++missing;
+          }
           const std::int64_t x0 = ci[0] * chunk[0], x1 = std::min(sel.dims[0], (ci[0] + 1) * chunk[0]);
-          for (std::int64_t z = ci[2] * chunk[2]; z < std::min(sel.dims[2], (ci[2] + 1) * chunk[2]); ++z)
+          for (std::int64_t z = std::max(z_first, ci[2] * chunk[2]); z < std::min(z_end, (ci[2] + 1) * chunk[2]); ++z)
             for (std::int64_t y = ci[1] * chunk[1]; y < std::min(sel.dims[1], (ci[1] + 1) * chunk[1]); ++y) {
-              const std::size_t row = static_cast<std::size_t>((z * sel.dims[1] + y) * sel.dims[0]);
+              const std::size_t row = static_cast<std::size_t>(((z - z_first) * sel.dims[1] + y) * sel.dims[0]);
               if (!present) {
                 for (std::int64_t x = x0; x < x1; ++x) store(row + static_cast<std::size_t>(x), a.fill);
                 continue;
@@ -513,8 +528,20 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
   if (!pyramid.units.empty() && !pyramid.units.back().empty()) unit = pyramid.units.back();
   if (!unit.empty()) out.notes.push_back("spacing in " + unit + " (the image's unit)");
   const Affine affine = Affine::diagonal(chosen.scale, chosen.translation);
-  volume = place_volume(std::move(volume), affine, out);
+  volume = place_volume(std::move(volume), affine, out);  // a window's origin is still the whole grid's here
+  if (level_index > 0) {  // opacities refer to the finest level's voxel, so that every level shows the same matter
+    const auto& finest = pyramid.levels.front().scale;
+    volume.set_opacity_length(static_cast<float>(std::min({std::abs(finest[0]), std::abs(finest[1]), std::abs(finest[2])})));
+  }
   volume.recompute_range();  // rejects NaN voxels (a NaN fill value of missing chunks too) and gives the range
+  if (read) read->bytes_read = bytes_read.load();
+  if (choose && !windowed && chosen_slices.count < whole_dims[2]) {
+    if (read) read->whole = true;
+    volume = volume.window_z(chosen_slices.first, chosen_slices.count);
+    volume.recompute_range();
+  } else if (windowed && slices.count < whole_dims[2]) {
+    volume.set_window(slices.first, whole_dims[2]);
+  }
   return volume;
 }
 
