@@ -363,14 +363,15 @@ TEST(ProceduralCtBody, SlabsAreTheWholeVolumesSlices) {
   for (const CtBodyParams p : {CtBodyParams{{48, 40, 90}, 2, 60}, CtBodyParams{{9, 11, 13}, 1, 60}}) {
     const Volume whole = make_ct_body_volume(p);
     const std::size_t slice = static_cast<std::size_t>(p.dims[0]) * p.dims[1];
+    CtBodySlices slices(p);  // one maker for every slab, in any order
     for (const auto& [first, count] : std::vector<std::pair<int, int>>{{0, 1}, {3, 5}, {p.dims[2] - 2, 2}, {0, p.dims[2]}}) {
       std::vector<std::uint16_t> slab(slice * static_cast<std::size_t>(count));
-      make_ct_body_slices(p, first, count, slab.data());
+      slices.make(first, count, slab.data());
       EXPECT_EQ(std::memcmp(slab.data(), whole.data_as<std::uint16_t>() + slice * static_cast<std::size_t>(first), slab.size() * 2), 0)
           << "slices " << first << " + " << count << " of " << p.dims[2];
     }
     std::vector<std::uint16_t> one(slice);
-    EXPECT_THROW(make_ct_body_slices(p, p.dims[2], 1, one.data()), Error);
+    EXPECT_THROW(slices.make(p.dims[2], 1, one.data()), Error);
     const CtBodyGrid g = ct_body_grid(p);
     EXPECT_FLOAT_EQ(static_cast<float>(g.spacing[2]), whole.spacing().z);
     EXPECT_FLOAT_EQ(static_cast<float>(g.origin[0]), whole.origin().x);

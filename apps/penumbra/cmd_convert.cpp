@@ -18,6 +18,7 @@
 #include "commands.h"
 #include "inputs.h"
 #include "penumbra/core/error.h"
+#include "penumbra/core/parallel.h"
 #include "penumbra/core/timer.h"
 #include "penumbra/data/ct_body.h"
 #include "penumbra/data/io/volume_io.h"
@@ -59,11 +60,13 @@ Converted stream_ct_body(const CtBodyParams& p, const std::string& out, const Om
   const auto vec = [](const std::array<double, 3>& a) { return Vec3(static_cast<float>(a[0]), static_cast<float>(a[1]), static_cast<float>(a[2])); };
   OmeZarrStreamWriter writer(out, ScalarType::UInt16, dims, vec(grid.spacing), vec(grid.origin), options);
   const std::int64_t slice = dims[0] * dims[1];
-  const std::int64_t slab = slab_slices(slice * 2, dims[2]);
+  // ct-body paints slices in parallel: at least two a core, however large a slice
+  const std::int64_t slab = std::max(slab_slices(slice * 2, dims[2]), std::min<std::int64_t>(dims[2], 2 * ThreadLimit::current_max()));
   std::vector<std::uint16_t> voxels(static_cast<std::size_t>(slab * slice));
+  CtBodySlices body(p);
   for (std::int64_t first = 0; first < dims[2]; first += slab) {
     const std::int64_t count = std::min(slab, dims[2] - first);
-    make_ct_body_slices(p, static_cast<int>(first), static_cast<int>(count), voxels.data());
+    body.make(static_cast<int>(first), static_cast<int>(count), voxels.data());
     writer.add_slices(reinterpret_cast<const std::byte*>(voxels.data()), count);
   }
   return {dims, ScalarType::UInt16, "procedural ct-body", true, writer.buffer_bytes() + voxels.size() * 2, writer.finish()};

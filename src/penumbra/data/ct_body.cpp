@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <tbb/enumerable_thread_specific.h>
+
 #include "penumbra/core/error.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/rng.h"
@@ -31,7 +33,10 @@ struct SliceGrid {
   int nx = 0, ny = 0;
   double x0 = 0, y0 = 0, sx = 1, sy = 1;
   double edge = 1;  // width of the anti-aliasing ramp: one voxel
-  std::vector<float> value, field, noise;
+  // Every element is written before it is read (paint_slice, low_frequency_field, write_slice): left
+  // unzeroed, as zeroing three fresh slices of 4096² cost more than painting them.
+  using Buffer = std::vector<float, DefaultInitAllocator<float>>;
+  Buffer value, field, noise;
 };
 
 // The first column at or after x (`up`), or the last at or before it, clamped to the grid.
@@ -225,33 +230,57 @@ CtBodyGrid ct_body_grid(const CtBodyParams& params) {
   return {{sx, sy, sz}, {-0.5 * (nx - 1) * sx, -0.5 * (ny - 1) * sy, -0.5 * (nz - 1) * sz}};
 }
 
-void make_ct_body_slices(const CtBodyParams& params, int first, int count, std::uint16_t* out) {
-  const auto [nx, ny, nz] = params.dims;
+// What every slab of one volume shares: its grid, the anatomy and which structures reach each slice,
+// the noise keys, and one slice's buffers per thread, kept between slabs (a fresh 4096² slice buffer
+// costs a page fault every 4 KiB).
+struct CtBodySlices::State {
+  CtBodyParams params;
+  CtBodyGrid grid;
+  std::vector<Item> items;
+  std::vector<std::vector<std::uint32_t>> active;
+  // Two octaves (30 and 9 mm) of the low-frequency field, and the per-voxel noise, each keyed apart.
+  std::vector<NoiseOctave> octaves;
+  std::uint64_t noise_key;
+  tbb::enumerable_thread_specific<SliceGrid> buffers;
+};
+
+CtBodySlices::CtBodySlices(const CtBodyParams& params) {
+  const CtBodyGrid grid = ct_body_grid(params);
+  const std::vector<Item> items = ct_anatomy::build(params.seed);
+  const int width = params.dims[0], height = params.dims[1];
+  const double x0 = grid.origin[0], y0 = grid.origin[1], sx = grid.spacing[0], sy = grid.spacing[1];
+  const std::size_t slice_voxels = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+  state_.reset(new State{params,
+                         grid,
+                         items,
+                         structures_by_slice(items, params.dims[2], grid.origin[2], grid.spacing[2]),
+                         {{30, 2.0f / 3, hash_keys(params.seed, 0xF1E1D, 1)}, {9, 1.0f / 3, hash_keys(params.seed, 0xF1E1D, 2)}},
+                         hash_keys(params.seed, 0x7015E),
+                         tbb::enumerable_thread_specific<SliceGrid>([=] {
+                           return SliceGrid{width, height, x0, y0, sx, sy, std::max(sx, sy), SliceGrid::Buffer(slice_voxels),
+                                            SliceGrid::Buffer(slice_voxels), SliceGrid::Buffer(slice_voxels)};
+                         })});
+}
+
+CtBodySlices::~CtBodySlices() = default;
+
+void CtBodySlices::make(int first, int count, std::uint16_t* out) {
+  State& st = *state_;
+  const int nz = st.params.dims[2];
   if (first < 0 || count < 0 || first + count > nz)
     throw Error("ct-body slices " + std::to_string(first) + " + " + std::to_string(count) + " (the volume has " + std::to_string(nz) + ")");
-  const CtBodyGrid grid = ct_body_grid(params);
-  const double sx = grid.spacing[0], sy = grid.spacing[1], sz = grid.spacing[2];
-  const double x0 = grid.origin[0], y0 = grid.origin[1], z0 = grid.origin[2];
-  const std::vector<Item> items = ct_anatomy::build(params.seed);
-  const auto active = structures_by_slice(items, nz, z0, sz);
-  // Two octaves (30 and 9 mm) of the low-frequency field, and the per-voxel noise, each keyed apart.
-  const std::vector<NoiseOctave> octaves{{30, 2.0f / 3, hash_keys(params.seed, 0xF1E1D, 1)},
-                                         {9, 1.0f / 3, hash_keys(params.seed, 0xF1E1D, 2)}};
-  const std::uint64_t noise_key = hash_keys(params.seed, 0x7015E);
-  const std::size_t slice_voxels = static_cast<std::size_t>(nx) * ny;
-  // Chunks of slices share their buffers (a fresh megabyte per slice would cost more page faults than
-  // the painting); 64 chunks keep the threads busy to the end.
+  const double z0 = st.grid.origin[2], sz = st.grid.spacing[2];
+  const std::size_t slice_voxels = static_cast<std::size_t>(st.params.dims[0]) * static_cast<std::size_t>(st.params.dims[1]);
+  // 64 chunks of slices keep the threads busy to the end.
   const std::size_t grain = std::max<std::size_t>(1, static_cast<std::size_t>(count) / 64);
-  // Structured bindings are copied for the lambda: C++20 lets a lambda capture them, clang 14 does not.
-  const int width = nx, height = ny;
   parallel_for(static_cast<std::size_t>(count), [&](std::size_t k0, std::size_t k1) {
-    SliceGrid s{width, height, x0, y0, sx, sy, std::max(sx, sy), std::vector<float>(slice_voxels), std::vector<float>(slice_voxels),
-            std::vector<float>(slice_voxels)};
+    SliceGrid& s = st.buffers.local();
     for (std::size_t k = k0 + static_cast<std::size_t>(first); k < k1 + static_cast<std::size_t>(first); ++k) {
       const double z = z0 + static_cast<double>(k) * sz;
-      low_frequency_field(s, octaves, z);
-      paint_slice(s, items, active[k], z, sz);
-      write_slice(s, noise_key, static_cast<float>(params.noise), k * slice_voxels, out + (k - static_cast<std::size_t>(first)) * slice_voxels);
+      low_frequency_field(s, st.octaves, z);
+      paint_slice(s, st.items, st.active[k], z, sz);
+      write_slice(s, st.noise_key, static_cast<float>(st.params.noise), k * slice_voxels,
+                  out + (k - static_cast<std::size_t>(first)) * slice_voxels);
     }
   }, grain);
 }
@@ -262,7 +291,7 @@ Volume make_ct_body_volume(const CtBodyParams& params) {
                 Vec3(static_cast<float>(grid.spacing[0]), static_cast<float>(grid.spacing[1]), static_cast<float>(grid.spacing[2])),
                 Vec3(static_cast<float>(grid.origin[0]), static_cast<float>(grid.origin[1]), static_cast<float>(grid.origin[2])),
                 VoxelFill::Uninitialized);
-  make_ct_body_slices(params, 0, params.dims[2], volume.data_as<std::uint16_t>());
+  CtBodySlices(params).make(0, params.dims[2], volume.data_as<std::uint16_t>());
   volume.recompute_range();
   return volume;
 }

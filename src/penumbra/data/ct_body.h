@@ -20,6 +20,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 
 #include "penumbra/data/volume.h"
 
@@ -59,8 +60,21 @@ CtBodyGrid ct_body_grid(const CtBodyParams& params);
 // Builds the volume in place (the voxels are written once, slices in parallel; the result does not
 // depend on the thread count).
 Volume make_ct_body_volume(const CtBodyParams& params);
-// Slices [first, first + count) of the same volume into `out` (x fastest), exactly the voxels
-// make_ct_body_volume writes there: what `penumbra convert` streams a ct-body larger than memory from.
-void make_ct_body_slices(const CtBodyParams& params, int first, int count, std::uint16_t* out);
+// The same volume a slab of slices at a time: make(first, count, out) writes slices [first, first +
+// count) into `out` (x fastest), exactly the voxels make_ct_body_volume writes there; what `penumbra
+// convert` streams a ct-body larger than memory from. It keeps what slabs share (the anatomy, one
+// slice's buffers per thread) while it lives.
+class CtBodySlices {
+public:
+  explicit CtBodySlices(const CtBodyParams& params);
+  ~CtBodySlices();
+  CtBodySlices(const CtBodySlices&) = delete;
+  CtBodySlices& operator=(const CtBodySlices&) = delete;
+  void make(int first, int count, std::uint16_t* out);  // Error outside the volume's slices
+
+private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
 
 }  // namespace penumbra

@@ -59,6 +59,7 @@ struct StreamLevel {
   std::int64_t row_slices = 0, row_index = 0;
   std::vector<std::byte> waiting;      // one slice
   bool has_waiting = false;
+  std::vector<std::byte> mean;         // one slice of the next level, passed down
   std::int64_t slice_bytes(std::size_t voxel) const { return dims[0] * dims[1] * static_cast<std::int64_t>(voxel); }
 };
 
@@ -113,8 +114,9 @@ struct OmeZarrStreamWriter::State {
       std::vector<std::byte> packed(raw_bytes + BLOSC_MAX_OVERHEAD);
       for (std::size_t b = b0; b < b1; ++b) {
         const std::int64_t cx = static_cast<std::int64_t>(b) % grid[0], cy = static_cast<std::int64_t>(b) / grid[0];
-        std::fill(chunk.begin(), chunk.end(), T{});  // beyond the array's edge: the fill value
         const std::int64_t x_count = std::min(c, level.dims[0] - cx * c);
+        if (x_count < c || (cy + 1) * c > level.dims[1] || level.row_slices < c)
+          std::fill(chunk.begin(), chunk.end(), T{});  // beyond the array's edge: the fill value
         for (std::int64_t z = 0; z < level.row_slices; ++z)
           for (std::int64_t y = 0; y < c && cy * c + y < level.dims[1]; ++y)
             std::memcpy(chunk.data() + (z * c + y) * c, rows + (z * level.dims[1] + cy * c + y) * level.dims[0] + cx * c,
@@ -163,10 +165,10 @@ struct OmeZarrStreamWriter::State {
   void pass_down(std::size_t l, const T* a, const T* b) {
     StreamLevel& level = levels[l];
     const StreamLevel& next = levels[l + 1];
-    std::vector<T> mean(static_cast<std::size_t>(next.dims[0] * next.dims[1]));
-    downsample_slices(level, a, b, next, mean.data());
+    T* mean = reinterpret_cast<T*>(level.mean.data());
+    downsample_slices(level, a, b, next, mean);
     level.has_waiting = false;
-    add_slice<T>(l + 1, mean.data());
+    add_slice<T>(l + 1, mean);
   }
 };
 
@@ -228,6 +230,7 @@ OmeZarrStreamWriter::OmeZarrStreamWriter(const std::string& path, ScalarType typ
       l.row.resize(static_cast<std::size_t>(l.slice_bytes(s.voxel) * c));
       l.waiting.resize(static_cast<std::size_t>(l.slice_bytes(s.voxel)));
     }
+    for (std::size_t l = 0; l + 1 < s.levels.size(); ++l) s.levels[l].mean.resize(static_cast<std::size_t>(s.levels[l + 1].slice_bytes(s.voxel)));
   } catch (...) {
     fs::remove_all(s.partial, ec);
     throw;
@@ -246,7 +249,7 @@ std::int64_t OmeZarrStreamWriter::slices_in() const { return state_->slices_in; 
 
 std::uint64_t OmeZarrStreamWriter::buffer_bytes() const {
   std::uint64_t total = 0;
-  for (const StreamLevel& l : state_->levels) total += l.row.size() + l.waiting.size();
+  for (const StreamLevel& l : state_->levels) total += l.row.size() + l.waiting.size() + l.mean.size();
   return total;
 }
 
@@ -282,6 +285,7 @@ OmeZarrWritten OmeZarrStreamWriter::finish() {
       if (level.row_slices > 0) s.write_row<T>(level);
       level.row = {};
       level.waiting = {};
+      level.mean = {};
       datasets.push_back({{"path", std::to_string(l)},
                           {"coordinateTransformations",
                            {{{"type", "scale"}, {"scale", {level.scale[2], level.scale[1], level.scale[0]}}},
