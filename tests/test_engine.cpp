@@ -148,6 +148,7 @@ TEST(Engine, EveryEditRebuildsWhatTheTableSaysAndMatchesAFreshRender) {
       {"ambient.technique", "none"},
       {"ambient.rays", 8},
       {"sphere_renderer", "embree"},
+      {"memory_budget", "64M"},
   };
   for (const auto& [path, value] : edits) check_edit(base, path, value);
 }

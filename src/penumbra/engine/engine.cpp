@@ -151,7 +151,7 @@ void Engine::edit(const std::vector<std::pair<std::string, nlohmann::json>>& edi
     check_utf8(path, "edit: the path");
     if (!invalidation_rule(path))
       throw Error(path + ": not a scene path (expected camera, lights.N, volumes.N, particles.N, isosurfaces.N, planes.N, "
-                         "shadows, ambient, light_cache, shading, background or sphere_renderer, then a key of docs/scene-file.md)");
+                         "shadows, ambient, light_cache, shading, background, sphere_renderer, time or memory_budget, then a key of docs/scene-file.md)");
     with_context(path, [&] { set_path(edited, path, edit.second); });
   }
   std::vector<std::string> paths;

@@ -126,6 +126,7 @@ const std::vector<InvalidationRule>& invalidation_table() {
       {"ambient", {"ambient"}, "the ambient cache"},
       {"ambient.bleeding", {"sat", "ambient"}, "the SAT holds colour only for colour bleeding"},
       {"light_cache", {"sat"}, "the SAT's grid"},
+      {"memory_budget", {kScene}, "what the volumes may hold: a new scene (a pyramid may open at another level, gradients be stored or not)"},
       {"time", {kTrajectorySpheres},
        "another frame: the spheres of every trajectory (and what depends on them: BVH, shadows, AO); a volume "
        "series' next step is new data, so a new scene"},
