@@ -166,7 +166,9 @@ void add_convert_command(CLI::App& app) {
     } else {
       o->write.name = std::filesystem::path(o->files.front()).filename().string();
       if (o->files.size() == 1 && (is_nrrd(o->files.front()) || is_zarr_store(o->files.front()))) {
-        c = stream_slabs(o->files, o->choice, is_nrrd(o->files.front()) ? "nrrd" : "zarr", o->out, o->write);
+        VolumeLoadOptions choice = o->choice;
+        if (is_zarr_store(o->files.front()) && choice.level < 0) choice.level = 0;  // streamed: the finest, however large
+        c = stream_slabs(o->files, choice, is_nrrd(o->files.front()) ? "nrrd" : "zarr", o->out, o->write);
       } else {
         VolumeFileInfo info;
         Volume v = load_volume(o->files, o->choice, &info);

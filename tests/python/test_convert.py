@@ -140,6 +140,12 @@ def test_an_nrrd_streams_in_bounded_memory(tmp_path):
     root = zarr.open_group(str(out), mode="r")
     np.testing.assert_array_equal(root["0"][:], data)
     np.testing.assert_array_equal(root["1"][:], mean_levels(data))
+    # a pyramid converts again (rechunked, recompressed) from its level 0, streamed
+    again = tmp_path / "again.zarr"
+    code, stdout, stderr, _ = peak_rss_mib([CLI, "convert", out, "-o", again, "--chunk", "32", "--codec", "zstd"])
+    assert code == 0, stderr
+    assert "from zarr (streamed)" in stdout
+    np.testing.assert_array_equal(zarr.open_group(str(again), mode="r")["0"][:], data)
 
 
 def test_a_procedural_ct_body_streams(tmp_path):
