@@ -210,7 +210,9 @@ TEST(VolumeWindow, ZarrStoresReadOnlyTheChunksOfTheChosenSlices) {
         if (cz >= first / 8 && cz <= (first + count - 1) / 8) row_bytes += entry.file_size();
       }
       EXPECT_EQ(read.bytes_read, row_bytes) << rows << " rows of " << chunks_a_row << " chunks";
-      if (count < nz && rows < (nz + 7) / 8) EXPECT_LT(read.bytes_read, all_bytes);
+      if (count < nz && rows < (nz + 7) / 8) {
+        EXPECT_LT(read.bytes_read, all_bytes);
+      }
     }
   }
 }

@@ -19,13 +19,8 @@
 
 namespace penumbra {
 
-namespace {
-
-using ct_anatomy::Item;
-using ct_anatomy::Knot;
-
-constexpr double kDisplace = 1.5;  // mm: the largest boundary shift by the low-frequency field
-constexpr float kTexture = 0.03f;  // the largest relative change of a tissue value by that field
+// The types CtBodySlices::State keeps (named, not anonymous: a member of an external class).
+namespace ct_body_slices {
 
 // The slice grid and its working buffers: painted values, the low-frequency field in [-1, 1] and the
 // standard normal noise of each voxel.
@@ -33,11 +28,30 @@ struct SliceGrid {
   int nx = 0, ny = 0;
   double x0 = 0, y0 = 0, sx = 1, sy = 1;
   double edge = 1;  // width of the anti-aliasing ramp: one voxel
-  // Every element is written before it is read (paint_slice, low_frequency_field, write_slice): left
-  // unzeroed, as zeroing three fresh slices of 4096² cost more than painting them.
+  // Every element is written before it is read (paint_slice, low_frequency_field, write_slice), so the
+  // buffers are not zeroed when made.
   using Buffer = std::vector<float, DefaultInitAllocator<float>>;
   Buffer value, field, noise;
 };
+
+// Smoothstep-weighted value noise: random values in [-1, 1] on a cubic lattice of `cell` mm.
+struct NoiseOctave {
+  double cell;
+  float weight;
+  std::uint64_t key;
+};
+
+}  // namespace ct_body_slices
+
+namespace {
+
+using ct_anatomy::Item;
+using ct_anatomy::Knot;
+using ct_body_slices::NoiseOctave;
+using ct_body_slices::SliceGrid;
+
+constexpr double kDisplace = 1.5;  // mm: the largest boundary shift by the low-frequency field
+constexpr float kTexture = 0.03f;  // the largest relative change of a tissue value by that field
 
 // The first column at or after x (`up`), or the last at or before it, clamped to the grid.
 int column(const SliceGrid& s, double x, bool up) {
@@ -99,12 +113,6 @@ void paint(SliceGrid& s, const Item& it, const Knot& out, const Knot* inner, dou
   }
 }
 
-// Smoothstep-weighted value noise: random values in [-1, 1] on a cubic lattice of `cell` mm.
-struct NoiseOctave {
-  double cell;
-  float weight;
-  std::uint64_t key;
-};
 
 // Adds the octaves of the low-frequency field at height z to s.field: per slice the lattice plane is
 // interpolated in z, per row in y, so a voxel costs one interpolation in x per octave.

@@ -18,7 +18,29 @@
 
 namespace penumbra {
 
+// What OmeZarrStreamWriter::State keeps (named, not anonymous: a member of an external class).
+namespace ome_zarr_stream {
+
+// One level of the pyramid as it streams: where it lies, the row of chunks being filled (up to `chunk`
+// slices of its x·y) and the slice waiting for its pair before the next level gets their mean.
+struct StreamLevel {
+  std::array<std::int64_t, 3> dims{};  // x, y, z
+  std::array<double, 3> scale{}, translation{};
+  std::array<int, 3> factor{};         // to the next level: 2 along the axes longer than 1
+  std::filesystem::path folder;
+  std::vector<std::byte> row;          // chunk slices, x fastest
+  std::int64_t row_slices = 0, row_index = 0;
+  std::vector<std::byte> waiting;      // one slice
+  bool has_waiting = false;
+  std::vector<std::byte> mean;         // one slice of the next level, passed down
+  std::int64_t slice_bytes(std::size_t voxel) const { return dims[0] * dims[1] * static_cast<std::int64_t>(voxel); }
+};
+
+}  // namespace ome_zarr_stream
+
 namespace {
+
+using ome_zarr_stream::StreamLevel;
 
 namespace fs = std::filesystem;
 
@@ -48,20 +70,6 @@ void write_text(const fs::path& file, const std::string& text) {
     throw Error("cannot write " + file.string());
 }
 
-// One level of the pyramid as it streams: where it lies, the row of chunks being filled (up to `chunk`
-// slices of its x·y) and the slice waiting for its pair before the next level gets their mean.
-struct StreamLevel {
-  std::array<std::int64_t, 3> dims{};  // x, y, z
-  std::array<double, 3> scale{}, translation{};
-  std::array<int, 3> factor{};         // to the next level: 2 along the axes longer than 1
-  fs::path folder;
-  std::vector<std::byte> row;          // chunk slices, x fastest
-  std::int64_t row_slices = 0, row_index = 0;
-  std::vector<std::byte> waiting;      // one slice
-  bool has_waiting = false;
-  std::vector<std::byte> mean;         // one slice of the next level, passed down
-  std::int64_t slice_bytes(std::size_t voxel) const { return dims[0] * dims[1] * static_cast<std::int64_t>(voxel); }
-};
 
 // The means of one or two slices' 2×2 blocks (the 2×2×2 blocks of the level; fewer at odd edges).
 template <class T>
