@@ -30,6 +30,7 @@
 #include <optional>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "penumbra/core/math.h"
@@ -41,6 +42,17 @@ enum class ScalarType { UInt8, Int16, UInt16, Float32 };
 std::string to_string(ScalarType type);
 ScalarType scalar_type_from_string(const std::string& name);  // "uint8", "int16", "uint16", "float32"
 std::size_t scalar_size(ScalarType type);
+
+// Calls f(T{}) with the C++ type of a voxel of this type: the one switch a typed loop needs.
+template <class F> decltype(auto) with_scalar_type(ScalarType type, F&& f) {
+  switch (type) {
+    case ScalarType::UInt8: return f(std::uint8_t{});
+    case ScalarType::Int16: return f(std::int16_t{});
+    case ScalarType::UInt16: return f(std::uint16_t{});
+    case ScalarType::Float32: break;
+  }
+  return f(float{});
+}
 
 // Largest voxel count a volume may have (2^34 voxels); larger products are taken as lying headers.
 constexpr std::uint64_t kMaxVoxels = 1ull << 34;
@@ -236,16 +248,8 @@ public:
     const float c0 = c00 + (c10 - c00) * c.ty, c1 = c01 + (c11 - c01) * c.ty;
     return c0 + (c1 - c0) * c.tz;
   }
-  // Calls f(T{}) with the voxels' C++ type: the one switch a typed loop needs.
-  template <class F> decltype(auto) with_voxel_type(F&& f) const {
-    switch (type_) {
-      case ScalarType::UInt8: return f(std::uint8_t{});
-      case ScalarType::Int16: return f(std::int16_t{});
-      case ScalarType::UInt16: return f(std::uint16_t{});
-      case ScalarType::Float32: break;
-    }
-    return f(float{});
-  }
+  // Calls f(T{}) with the voxels' C++ type (see with_scalar_type).
+  template <class F> decltype(auto) with_voxel_type(F&& f) const { return with_scalar_type(type_, std::forward<F>(f)); }
   // Calls f(value, count) for every voxel of the grid, runs of equal voxels at once (a shared brick's
   // voxels in one call), in no particular order.
   template <class F> void for_each_value(F&& f) const {

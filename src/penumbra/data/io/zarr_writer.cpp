@@ -44,16 +44,6 @@ using ome_zarr_stream::StreamLevel;
 
 namespace fs = std::filesystem;
 
-template <class F> decltype(auto) with_scalar_type(ScalarType type, F&& f) {
-  switch (type) {
-    case ScalarType::UInt8: return f(std::uint8_t{});
-    case ScalarType::Int16: return f(std::int16_t{});
-    case ScalarType::UInt16: return f(std::uint16_t{});
-    case ScalarType::Float32: break;
-  }
-  return f(float{});
-}
-
 const char* zarr_dtype(ScalarType t) {
   switch (t) {
     case ScalarType::UInt8: return "|u1";
