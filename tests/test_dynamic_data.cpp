@@ -114,6 +114,37 @@ TEST(Trajectory, FrameKEqualsAStaticRenderOfItsPositions) {
 
 // Proves a trajectory given as a list of files plays their frames in order, and that the default
 // camera frames the topology, so the view holds still while the atoms move.
+// ambient.reuse through the engine: a time edit builds the same particle_ao again, keeping the cones of
+// the atoms that moved less than `reuse` cells (8 here: the ring and the slow N atom; the O atom flies
+// 2.5 Å, 13 cells) and reporting how many it kept; an edit of the ambient settings starts afresh, and a
+// frame so made equals a static render of its positions byte for byte.
+TEST(Trajectory, AmbientReuseKeepsTheConesOfAtomsThatMovedLittle) {
+  ScratchDir dir;
+  {
+    std::ofstream topology(dir.file("top.xyz")), trajectory(dir.file("traj.xyz"));
+    write_xyz_frame(topology, 0);
+    for (int k = 0; k < 3; ++k) write_xyz_frame(trajectory, k);
+  }
+  nlohmann::json doc = particle_scene({{"file", "top.xyz"}, {"trajectory", "traj.xyz"}});
+  doc["ambient"]["reuse"] = 8;
+  Engine engine(doc, dir.path().string());
+  EXPECT_EQ(engine.render().frame.ambient_kept, 0u);
+  engine.set("time", 1);
+  const EngineFrame moved = engine.render();
+  EXPECT_TRUE(contains(moved.rebuilt, "ambient"));
+  EXPECT_EQ(moved.frame.ambient_kept, frame_atoms(1).size() - 1);
+  engine.set("ambient.reuse", 0.0);
+  const EngineFrame afresh = engine.render();
+  EXPECT_TRUE(contains(afresh.rebuilt, "ambient"));
+  EXPECT_EQ(afresh.frame.ambient_kept, 0u);
+  {
+    std::ofstream one(dir.file("frame.xyz"));
+    write_xyz_frame(one, 1);
+  }
+  const Image fresh = Renderer(build_scene(particle_scene({{"file", "frame.xyz"}}), dir.path().string())).render().image;
+  EXPECT_EQ(compare_images(afresh.image, fresh).max_abs, 0.0);
+}
+
 TEST(Trajectory, AListOfFilesIsOneTrajectoryAndTheViewHoldsStill) {
   ScratchDir dir;
   {

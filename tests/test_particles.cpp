@@ -643,6 +643,141 @@ TEST(ParticleAo, TheConeCacheChangesNoResult) {
   EXPECT_GT(pooled.memory_bytes(), uncached.memory_bytes());
 }
 
+// ambient.reuse (paper 003: the AO updated, not rebuilt, when atoms move a little): a rebuild keeps a
+// sphere's cones while it moved less than `reuse` density cells, and the result stays near a fresh
+// build's; spheres that moved further, or matter that moved more than that anywhere, are traced anew,
+// exactly as a fresh build traces them.
+TEST(ParticleAo, KeptConesFollowSmallMovesAndLargeMovesAreTracedAnew) {
+  const ParticleSet start = random_spheres(600, 0.05f, 4);
+  // every sphere moved by `cells` density cells (the grid's cell: the box's side / 64) in its own direction
+  const auto moved = [&](float cells) {
+    ParticleSet p = start;
+    const float cell = 1.0f / 64.0f;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      const Vec3 d = normalize(Vec3{uniform_float(99, i, 0) - 0.5f, uniform_float(99, i, 1) - 0.5f, uniform_float(99, i, 2) - 0.5f});
+      p.spheres[i].center = p.spheres[i].center + d * (cells * cell);
+    }
+    return p;
+  };
+  AmbientSettings s;
+  s.params.set("max_distance", 0.3f);
+  AmbientSettings keeping = s;
+  keeping.params.set("reuse", 1.0);
+  ParticleAmbientOcclusion kept(keeping.params);
+  ASSERT_TRUE(kept.keeps_state_across_builds());
+  EXPECT_FALSE(ParticleAmbientOcclusion(s.params).keeps_state_across_builds());
+  const auto fresh = [&](const SphereWorld& w, const std::vector<SurfacePoint>& pts) {
+    ParticleAmbientOcclusion ao(s.params);
+    ao.build(w.view);
+    return ambient_of(ao, pts);
+  };
+
+  const SphereWorld w0(start);
+  const auto pts0 = frame_points(w0, looking_at(w0.view.bounds(), 48));
+  kept.build(w0.view);
+  EXPECT_EQ(kept.kept_from_last_build(), 0u);
+  EXPECT_EQ(ambient_of(kept, pts0), fresh(w0, pts0));
+  kept.build(w0.view);  // nothing moved: every cone kept, the same values
+  EXPECT_EQ(kept.kept_from_last_build(), start.size());
+  EXPECT_EQ(ambient_of(kept, pts0), fresh(w0, pts0));
+
+  const SphereWorld w1(moved(0.2f));  // a little: kept, within a few quantisation steps of a fresh build
+  const auto pts1 = frame_points(w1, looking_at(w1.view.bounds(), 48));
+  kept.build(w1.view);
+  EXPECT_EQ(kept.kept_from_last_build(), start.size());
+  const std::vector<float> a = ambient_of(kept, pts1), b = fresh(w1, pts1);
+  ASSERT_GT(a.size(), 500u);
+  double worst = 0, sum = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    worst = std::max(worst, static_cast<double>(std::abs(a[i] - b[i])));
+    sum += std::abs(a[i] - b[i]);
+  }
+  EXPECT_LT(worst, 0.05);
+  EXPECT_LT(sum / static_cast<double>(a.size()), 0.005);
+
+  const SphereWorld w2(moved(2.0f));  // beyond `reuse`: every sphere traced anew, as a fresh build does
+  const auto pts2 = frame_points(w2, looking_at(w2.view.bounds(), 48));
+  kept.build(w2.view);
+  EXPECT_EQ(kept.kept_from_last_build(), 0u);
+  EXPECT_EQ(ambient_of(kept, pts2), fresh(w2, pts2));
+}
+
+// A sphere that moved further than `reuse` is traced anew while the others keep their cones (reuse 8:
+// no opacity change drops them all).
+TEST(ParticleAo, OnlyTheSpheresThatMovedAreTracedAnew) {
+  ParticleSet set = random_spheres(300, 0.02f, 5);
+  AmbientSettings s;
+  s.params.set("reuse", 8.0);
+  ParticleAmbientOcclusion ao(s.params);
+  const SphereWorld w0(set);
+  ao.build(w0.view);
+  (void)ambient_of(ao, frame_points(w0, looking_at(w0.view.bounds(), 32)));
+  // two spheres well inside the box (it stays as it was): one moves 13+ cells inwards, one grows by 11
+  const auto inside = [](const Vec3& c, float r) { return std::abs(c.x) < r && std::abs(c.y) < r && std::abs(c.z) < r; };
+  std::size_t moving = set.size(), growing = set.size();
+  for (std::size_t i = 0; i < set.size(); ++i) {
+    const Vec3 c = set.spheres[i].center;
+    if (moving == set.size() && inside(c, 0.4f) && length(c) > 0.3f) moving = i;
+    else if (growing == set.size() && inside(c, 0.25f)) growing = i;
+  }
+  ASSERT_LT(moving, set.size());
+  ASSERT_LT(growing, set.size());
+  set.spheres[moving].center = set.spheres[moving].center * 0.2f;
+  set.spheres[growing].radius = 0.2f;
+  const SphereWorld w1(set);
+  ASSERT_EQ(w1.view.bounds().lo, w0.view.bounds().lo);
+  ao.build(w1.view);
+  EXPECT_EQ(ao.kept_from_last_build(), set.size() - 2);
+}
+
+// Matter that moved more than `reuse` cells drops every kept cone, even when no sphere alone moved
+// that far: two coincident spheres each moved 0.45 cells (reuse 0.5) change the filled fraction of the
+// cells at their edge by 0.9; one sphere moved as far changes it by 0.45 and its cones are kept.
+TEST(ParticleAo, MatterMovedBeyondReuseDropsEveryCone) {
+  const auto scene_with = [](int middle, float shift) {
+    ParticleSet p;
+    for (int k = 0; k < 8; ++k)  // the box, held still by eight spheres at its corners
+      p.spheres.push_back({{k & 1 ? 0.5f : -0.5f, k & 2 ? 0.5f : -0.5f, k & 4 ? 0.5f : -0.5f}, 0.05f});
+    for (int i = 0; i < middle; ++i) p.spheres.push_back({{shift, 0, 0}, 0.1f});
+    p.colors.assign(p.spheres.size(), pack_rgba8(Rgb(0.8f)));
+    return p;
+  };
+  const float cell = 1.1f / 64.0f;  // the box's side, corner spheres included, over the grid
+  for (const int middle : {1, 2}) {
+    SCOPED_TRACE(middle);
+    AmbientSettings s;
+    s.params.set("reuse", 0.5);
+    ParticleAmbientOcclusion ao(s.params);
+    const SphereWorld w0(scene_with(middle, 0));
+    ao.build(w0.view);
+    const SphereWorld w1(scene_with(middle, 0.45f * cell));
+    ao.build(w1.view);
+    EXPECT_EQ(ao.kept_from_last_build(), middle == 1 ? w1.particles.size() : 0u);
+  }
+}
+
+// forget() drops one sphere's cones and leaves the others', with an entry for every sphere and pooled.
+TEST(SphereConeCache, ForgettingASphereLeavesTheOthers) {
+  for (const std::size_t bytes : {std::size_t{1} << 20, std::size_t{100} * 4 + 20 * 16}) {
+    SphereConeCache cache;
+    cache.reset(100, 8, bytes);
+    ASSERT_TRUE(cache.enabled());
+    for (std::uint32_t s = 0; s < 10; ++s)
+      for (std::size_t c = 0; c < 8; ++c) cache.put(s, c, static_cast<std::uint8_t>(s * 8 + c + 1));
+    cache.forget(3);
+    std::uint8_t q[8] = {};
+    EXPECT_EQ(cache.get_all(3, q), 0u);
+    for (const std::uint8_t v : q) EXPECT_EQ(v, 0);
+    EXPECT_EQ(cache.get_all(4, q), 0xFFu);
+    EXPECT_EQ(q[5], 4 * 8 + 5 + 1);
+    cache.put(3, 2, 77);  // a sphere forgotten is stored again
+    EXPECT_EQ(cache.get_all(3, q), 0x4u);
+    EXPECT_EQ(q[2], 77);
+    EXPECT_TRUE(cache.laid_out_for(100, 8, bytes));
+    EXPECT_FALSE(cache.laid_out_for(101, 8, bytes));
+  }
+}
+
 TEST(ParticleAo, AgreesWithMonteCarloAmbientOcclusionOnASmallCluster) {
   const SphereWorld w(random_spheres(800, 0.05f, 9));
   const auto pts = frame_points(w, looking_at(w.view.bounds(), test::sanitize_scale() ? 40 : 64));

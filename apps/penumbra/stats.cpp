@@ -20,6 +20,7 @@ nlohmann::json frame_stats(const FrameResult& frame) {
             {"shadow_pass", iso.shadow_ms}, {"shade", iso.shade_ms}, {"total", frame.total_ms}}},
           {"rebuilt", frame.rebuilt},
           {"issm_rings", frame.issm_rings},
+          {"ambient_kept", frame.ambient_kept},
           {"sphere_pixels", frame.sphere_pixels},
           {"points", iso.points},
           {"light_points", iso.light_points}};

@@ -35,6 +35,11 @@ public:
   virtual bool combines_over_bricks() const { return false; }
   // False when one brick's voxels suffice in a distributed frame (ShadowTechnique::reads_whole_volume).
   virtual bool reads_whole_volume() const { return true; }
+  // True when build() on a built technique reuses what the last build made (particle_ao's kept cones):
+  // the renderer then builds the same object again while the ambient settings stay the same.
+  virtual bool keeps_state_across_builds() const { return false; }
+  // What the last build kept from the one before: particle_ao's spheres whose cones it kept.
+  virtual std::size_t kept_from_last_build() const { return 0; }
 
   Rgb ambient(const Vec3& p) const {
     Rgb out;

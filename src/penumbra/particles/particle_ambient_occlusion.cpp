@@ -89,13 +89,29 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
   const float longest = std::max(e.x, std::max(e.y, e.z));
   max_distance_ = max_distance_fraction_ * longest;
   // cubic cells, `grid` along the longest side, one cell of margin so the splat never falls off
-  const float cell = longest / static_cast<float>(grid_);
+  float cell = longest / static_cast<float>(grid_);
   origin_ = b.lo - Vec3{cell, cell, cell};
   Level base;
   base.cell = cell;
   base.nx = static_cast<int>(std::ceil(e.x / cell)) + 2;
   base.ny = static_cast<int>(std::ceil(e.y / cell)) + 2;
   base.nz = static_cast<int>(std::ceil(e.z / cell)) + 2;
+  if (reuse_ > 0 && !kept_base_.value.empty()) {
+    // ambient.reuse: the grid the kept cones were traced on, while it holds the occluders and lies
+    // within `reuse` cells of this one (the cones' samples then fall on the same cells)
+    const float kept_cell = kept_base_.cell;
+    const Vec3 kept_hi = kept_origin_ + Vec3{static_cast<float>(kept_base_.nx), static_cast<float>(kept_base_.ny), static_cast<float>(kept_base_.nz)} * kept_cell;
+    const bool near = length(origin_ - kept_origin_) <= reuse_ * kept_cell && std::abs(cell - kept_cell) * static_cast<float>(grid_) <= reuse_ * kept_cell;
+    const Vec3 half{0.5f * kept_cell, 0.5f * kept_cell, 0.5f * kept_cell};  // the splat's reach past a centre
+    const Vec3 lo = kept_origin_ + half, hi = kept_hi - half;
+    const bool holds = lo.x <= b.lo.x && lo.y <= b.lo.y && lo.z <= b.lo.z && b.hi.x <= hi.x && b.hi.y <= hi.y && b.hi.z <= hi.z;
+    if (near && holds) {
+      cell = kept_cell;
+      origin_ = kept_origin_;
+      base.cell = cell;
+      base.nx = kept_base_.nx, base.ny = kept_base_.ny, base.nz = kept_base_.nz;
+    }
+  }
   const std::size_t n = static_cast<std::size_t>(base.nx) * static_cast<std::size_t>(base.ny) * static_cast<std::size_t>(base.nz);
   base.value.assign(n, 0.0f);
 
@@ -207,6 +223,17 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
     }
   }
 
+  // ambient.reuse compares what fills each cell from one build to the next: the filled fraction whose
+  // opacity the cell has (the volumes' opacity included), which an edge of matter moving δ cells
+  // changes by at most δ (the opacity itself jumps where cells are nearly full)
+  filled_.clear();
+  if (reuse_ > 0) {
+    filled_.resize(n);
+    const float inv_exponent = 1.0f / cell_exponent;
+    parallel_for(n, [&](std::size_t b0, std::size_t b1) {
+      for (std::size_t i = b0; i < b1; ++i) filled_[i] = 1.0f - std::pow(1.0f - std::min(base.value[i], 1.0f), inv_exponent);
+    }, 1 << 14);
+  }
   pyramid_.clear();
   pyramid_.push_back(std::move(base));
   // Mip levels of opacity, composed rather than averaged: along each axis a ray crosses two children
@@ -278,8 +305,7 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
     steps_.push_back({d, l0, blend, reach});
     d += step;
   }
-  // kept across frames; the spheres seen only when not all fit (sphere_cone_cache.h)
-  cone_cache_.reset(ps.size(), cone_dirs_.size(), cone_cache_bytes_);
+  keep_or_reset_cones(ps);
   const Level& b0 = pyramid_[0];
   grid_box_ = Box3{origin_, origin_ + Vec3{static_cast<float>(b0.nx), static_cast<float>(b0.ny), static_cast<float>(b0.nz)} * cell};
   // the volume samples' lattice: every corner unfilled until a sample needs it
@@ -287,6 +313,45 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
   const std::size_t corners = static_cast<std::size_t>(corners_x_) * static_cast<std::size_t>(corners_y_) * static_cast<std::size_t>(corners_z_);
   volume_ambient_ = std::make_unique<std::atomic<std::uint32_t>[]>(corners);
   for (std::size_t c = 0; c < corners; ++c) volume_ambient_[c].store(kUnfilled, std::memory_order_relaxed);
+}
+
+void ParticleAmbientOcclusion::keep_or_reset_cones(const ParticleSet& ps) {
+  const Level& base = pyramid_.front();
+  spheres_kept_ = 0;
+  // kept on the same grid (build chose it), for the same spheres and cones
+  bool keep = reuse_ > 0 && cone_cache_.laid_out_for(ps.size(), cone_dirs_.size(), cone_cache_bytes_) &&
+              traced_as_.size() == ps.size() && origin_ == kept_origin_ && base.cell == kept_base_.cell &&
+              kept_base_.nx == base.nx && kept_base_.ny == base.ny && kept_base_.nz == base.nz;
+  for (std::size_t i = 0; keep && i < filled_.size(); ++i) keep = std::abs(filled_[i] - kept_base_.value[i]) <= reuse_;
+  if (!keep) {
+    // every cone traced anew; the spheres seen only when not all fit (sphere_cone_cache.h)
+    cone_cache_.reset(ps.size(), cone_dirs_.size(), cone_cache_bytes_);
+    if (reuse_ > 0) {
+      traced_as_ = ps.spheres;
+      kept_base_ = base;
+      kept_base_.value = filled_;
+      kept_origin_ = origin_;
+    }
+    return;
+  }
+  // a sphere that moved (or grew) more than `reuse` cells since its cones were traced is traced anew
+  const float limit = reuse_ * base.cell;
+  std::atomic<std::size_t> kept{0};
+  parallel_for(ps.size(), [&](std::size_t b, std::size_t e) {
+    std::size_t here = 0;
+    for (std::size_t i = b; i < e; ++i) {
+      const Sphere& now = ps.spheres[i];
+      Sphere& then = traced_as_[i];
+      if (length(now.center - then.center) + std::abs(now.radius - then.radius) <= limit) {
+        ++here;
+        continue;
+      }
+      cone_cache_.forget(static_cast<std::uint32_t>(i));
+      then = now;
+    }
+    kept.fetch_add(here, std::memory_order_relaxed);
+  });
+  spheres_kept_ = kept.load();
 }
 
 float ParticleAmbientOcclusion::density(int level, const Vec3& p) const {
@@ -426,6 +491,7 @@ std::size_t ParticleAmbientOcclusion::memory_bytes() const {
   std::size_t bytes = 0;
   for (const auto& l : pyramid_) bytes += l.value.capacity() * sizeof(float);
   bytes += cone_cache_.memory_bytes();
+  bytes += traced_as_.capacity() * sizeof(Sphere) + (kept_base_.value.capacity() + filled_.capacity()) * sizeof(float);
   bytes += static_cast<std::size_t>(corners_x_) * static_cast<std::size_t>(corners_y_) * static_cast<std::size_t>(corners_z_) * sizeof(std::uint32_t);
   return bytes;
 }
@@ -433,16 +499,19 @@ std::size_t ParticleAmbientOcclusion::memory_bytes() const {
 namespace {
 const ParamSpec kDirections = integer_param("directions", 16, 1, 1024, "cones", "cones over the hemisphere (Staib et al. 2015)");
 const ParamSpec kDensityGrid = integer_param("grid", 64, 4, 512, "cells", "density-volume cells along the spheres' longest side");
+const ParamSpec kReuse = number_param("reuse", 0, 0, 8, "density cells",
+                                      "keep a sphere's traced cones across rebuilds (moving atoms) while it and the matter around moved less than this; 0: trace anew");
 }  // namespace
 
 ParticleAmbientOcclusion::ParticleAmbientOcclusion(const TechniqueParams& params, std::size_t cone_cache_bytes)
     : directions_(static_cast<int>(kDirections.integer(params))), max_distance_fraction_(static_cast<float>(kAoMaxDistance.number(params))),
-      grid_(static_cast<int>(kDensityGrid.integer(params))), cone_cache_bytes_(cone_cache_bytes) {}
+      grid_(static_cast<int>(kDensityGrid.integer(params))), reuse_(static_cast<float>(kReuse.number(params))),
+      cone_cache_bytes_(cone_cache_bytes) {}
 
 const TechniqueInfo& particle_ao_technique() {
   static const TechniqueInfo info{"particle_ao", TechniqueFamily::Ambient, kind_bit(ObjectKind::Spheres) | kind_bit(ObjectKind::Volume),
                                   "ambient occlusion from cones through a density pyramid of the spheres (and volumes) (Staib et al.)",
-                                  {kDirections, kAoMaxDistance, kDensityGrid},
+                                  {kDirections, kAoMaxDistance, kDensityGrid, kReuse},
                                   {},
                                   {},
                                   ambient_factory<ParticleAmbientOcclusion>()};

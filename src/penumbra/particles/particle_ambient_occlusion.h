@@ -11,7 +11,16 @@
 // sphere share its cones, kept across frames — each step half the cone's diameter, sampling the
 // level whose cell matches the diameter (trilinear, blended between levels) and compositing its
 // opacity front to back, up to `max_distance`. The ambient factor is 1 minus the cosine-weighted mean
-// of the cones' occlusion. Our choices are explained and measured in docs/techniques/issm.md. A
+// of the cones' occlusion. Our choices are explained and measured in docs/techniques/issm.md. Moving
+// atoms (a trajectory's next frame), paper 003's "updated, not rebuilt, when atoms move a little": with
+// `reuse` > 0 a rebuild keeps each sphere's traced cones while the sphere has moved (centre and radius)
+// less than `reuse` density cells since they were traced. The density grid stays where the kept cones
+// were traced while it holds the occluders and a fresh grid would lie within `reuse` cells of it. All
+// the cones are dropped when matter has moved more than that anywhere: some cell's filled fraction (the
+// one its opacity stands for, volumes included) changed by more than `reuse` since the cones were first
+// kept (an edge of matter shifted by δ cells changes it by about δ), or the grid had to move. A frame
+// then depends on the frames built before it;
+// `reuse` 0 (the default) traces every cone anew at every build. A
 // particle scene split by space over MPI ranks (accel/brick_reduction.h) splats each rank's spheres
 // into a grid over all of them and sums the ranks' densities (one allreduce of a double a cell); beside
 // a volume split into slabs, each rank composes the volume's opacity into the cells whose centres its
@@ -21,6 +30,7 @@
 // | ambient.directions   | 16      | cones per hemisphere                                  |
 // | ambient.max_distance | 0.7     | reach, a fraction of the spheres' longest side         |
 // | ambient.grid         | 64      | density-volume cells along the spheres' longest side   |
+// | ambient.reuse        | 0       | cells atoms may move before their cones are traced anew |
 #pragma once
 
 #include <atomic>
@@ -55,6 +65,8 @@ public:
   // the split spheres' densities added (accel/brick_reduction.h).
   bool combines_over_bricks() const override { return true; }
   bool reads_whole_volume() const override { return false; }
+  bool keeps_state_across_builds() const override { return reuse_ > 0; }
+  std::size_t kept_from_last_build() const override { return spheres_kept_; }  // spheres whose cones were kept
 
   // Density (filled fraction) of level `level` at world point p, trilinear; 0 outside the grid.
   float density(int level, const Vec3& p) const;
@@ -76,10 +88,12 @@ private:
   // Occlusion along one cone from `origin`, ignoring the steps nearer than `skip`.
   float occlusion(const Vec3& origin, const Vec3& dir, float skip) const;
   float sphere_cone(std::uint32_t sphere, std::size_t cone) const;  // quantised to 1/255, cached (cone_cache_)
+  void keep_or_reset_cones(const ParticleSet& ps);  // build's last step: ambient.reuse
 
   int directions_;
   float max_distance_fraction_;
   int grid_;
+  float reuse_;  // cells (ambient.reuse)
   std::size_t cone_cache_bytes_;
   Vec3 origin_;  // world position of the grid's lower corner
   std::vector<Level> pyramid_;
@@ -97,6 +111,13 @@ private:
   std::vector<float> cone_x_, cone_y_, cone_z_;  // the same by component, zero-padded to a multiple of 4
   const ParticleSet* particles_ = nullptr;
   SphereConeCache cone_cache_;
+  // ambient.reuse: each sphere as its kept cones were traced; each base cell's filled fraction now and
+  // when the cones were first kept (kept_base_: that grid)
+  std::vector<Sphere> traced_as_;
+  std::vector<float> filled_;
+  Level kept_base_;
+  Vec3 kept_origin_;
+  std::size_t spheres_kept_ = 0;
   // Volume samples' ambient factor on the corners of the base level's cells, filled as samples first
   // need them and kept until the next build: it does not depend on the camera, so an orbit reuses it
   // (a volume sample costs 2·directions cone marches uncached; a 64-cell grid has 65³ corners against

@@ -7,6 +7,7 @@ namespace penumbra {
 void SphereConeCache::reset(std::size_t spheres, std::size_t cones, std::size_t max_bytes) {
   spheres_ = spheres;
   cones_ = cones;
+  max_bytes_ = max_bytes;
   words_ = (cones + 7) / 8;
   capacity_ = 0;
   slot_.reset();
@@ -54,6 +55,13 @@ std::uint64_t SphereConeCache::get_all(std::uint32_t sphere, std::uint8_t* q) co
     for (std::size_t b = 0; b < 8; ++b) q[8 * w + b] = static_cast<std::uint8_t>(word >> (8 * b));
   }
   return stored;
+}
+
+void SphereConeCache::forget(std::uint32_t sphere) {
+  const std::size_t entry = entry_of(sphere);
+  if (entry == kNone) return;
+  std::atomic_ref<std::uint64_t>(bits_[entry]).store(0, std::memory_order_relaxed);
+  for (std::size_t w = 0; w < words_; ++w) std::atomic_ref<std::uint64_t>(values_[entry * words_ + w]).store(0, std::memory_order_relaxed);
 }
 
 void SphereConeCache::put(std::uint32_t sphere, std::size_t cone, std::uint8_t q) const {

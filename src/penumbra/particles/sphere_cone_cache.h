@@ -30,6 +30,13 @@ public:
   // q[cone] for all its cones (0 where not stored; q has room for cones rounded up to a multiple of
   // 8); one without (mask 0) leaves q as it was.
   std::uint64_t get_all(std::uint32_t sphere, std::uint8_t* q) const;
+  // Drops what is stored for one sphere (its entry, if it has one, stays its own). Not concurrent with
+  // queries of the same sphere.
+  void forget(std::uint32_t sphere);
+  // True when reset(spheres, cones, max_bytes) would lay out the cache as it is now.
+  bool laid_out_for(std::size_t spheres, std::size_t cones, std::size_t max_bytes) const {
+    return spheres == spheres_ && cones == cones_ && max_bytes == max_bytes_;
+  }
 
   bool enabled() const { return capacity_ > 0; }
   bool every_sphere() const { return !slot_; }  // sphere i owns entry i
@@ -41,7 +48,7 @@ private:
   static constexpr std::size_t kNone = ~std::size_t{0};
   std::size_t entry_of(std::uint32_t sphere) const;  // the sphere's entry, kNone when it has none (yet)
   std::size_t entry_bytes() const { return (words_ + 1) * sizeof(std::uint64_t); }
-  std::size_t spheres_ = 0, cones_ = 0, words_ = 0, capacity_ = 0;  // words_: value words per entry
+  std::size_t spheres_ = 0, cones_ = 0, words_ = 0, capacity_ = 0, max_bytes_ = 0;  // words_: value words per entry
   std::unique_ptr<std::uint32_t[]> slot_;   // pooled: entry + 1 of each sphere (0: none yet, or a marker); null: entry = sphere
   std::unique_ptr<std::uint64_t[]> bits_;   // per entry: the cones stored
   std::unique_ptr<std::uint64_t[]> values_;  // per entry, words_ words: cone c in byte c mod 8 of word c / 8 (0 until stored)

@@ -388,8 +388,13 @@ void Renderer::prepare(Quality quality, FrameResult& frame) {
     for (std::size_t l = 0; l < scene_.lights.size(); ++l) stale_.insert(indexed("lights", l, "shadows"));
   }
   if (stale("ambient")) {
+    // a technique that keeps what it built (particle_ao's cones under ambient.reuse) is built again
+    std::unique_ptr<AmbientTechnique> ambient;
+    if (ambient_ && ambient_->keeps_state_across_builds() && ambient_settings_ == settings_.ambient) ambient = std::move(ambient_);
+    else ambient = make_ambient_technique(settings_.ambient);
     ambient_.reset();
-    if (auto ambient = make_ambient_technique(settings_.ambient)) {
+    ambient_settings_ = settings_.ambient;
+    if (ambient) {
       Timer t;
       // the ambient technique's occluders: every object of its kinds, casting or not
       occluders_ = std::make_unique<ShadowCasters>(casters_->restricted_to(ambient_occluders(scene_)));
@@ -399,6 +404,7 @@ void Renderer::prepare(Quality quality, FrameResult& frame) {
       ambient_ = std::move(ambient);
       repack_ambient_ = true;
       frame.ambient_ms = t.elapsed_ms();
+      frame.ambient_kept = ambient_->kept_from_last_build();
       rebuilt("ambient", quality, frame);
     }
     stale_.erase("ambient");

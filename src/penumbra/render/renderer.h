@@ -74,6 +74,7 @@ struct FrameResult {
                               // where the volumes' accumulated opacity reaches 1/2; infinity: background
   double sat_ms = 0;      // extinction volume + summed area table, when rebuilt this frame
   double ambient_ms = 0;  // ambient-occlusion cache, when rebuilt this frame
+  std::size_t ambient_kept = 0;  // what that rebuild kept from the one before (particle_ao: spheres, ambient.reuse)
   double build_ms = 0;    // shadow structures of the lights rebuilt this frame (and view-dependent ones)
   double prepare_ms = 0;  // transfer-function tables, empty space, gradients, min/max, hierarchies, sphere set
   double render_ms = 0;   // surfaces and ray casting
@@ -173,6 +174,7 @@ private:
   const ShadowBrick* frame_brick_ = nullptr;  // during prepare(): the frame's brick (its SAT summed over bricks)
   std::optional<SampleSlab> sat_slab_;         // the slab the SAT was summed for (none: the whole volume's)
   std::unique_ptr<AmbientTechnique> ambient_;
+  AmbientSettings ambient_settings_;  // what ambient_ was built with
   std::vector<std::unique_ptr<LightShadows>> shadows_;
   // Paper 001's light cache texture: the ambient term and the sat_cone lights' terms packed per cell
   // (null when fewer than two terms would share it); each light's slot in it (−1: asked separately);

@@ -200,6 +200,7 @@ struct ShadowSettings {
 struct AmbientSettings {
   std::string technique = "none";
   TechniqueParams params;  // ambient.radius, .rays, ...: only the keys the scene gives
+  bool operator==(const AmbientSettings&) const = default;
 };
 
 // The extinction SAT and the light cache of paper 001 (Algorithm 1) share one grid.
