@@ -170,6 +170,23 @@ TEST(TileBins, HiddenItemsAreSkippedWithoutChangingTheNearest) {
   EXPECT_LT(bounded_calls.load(), all_calls.load() / 4) << "the bounds skipped too few items";
 }
 
+// centre_span holds exactly the pixels whose centres lie within [c − r, c + r] (a hundredth of a pixel
+// to spare), clamped to the raster, against a count of every pixel.
+TEST(TileBins, CentreSpanHoldsExactlyThePixelsWhoseCentreIsInside) {
+  constexpr int n = 40;
+  for (int k = 0; k < 20000; ++k) {
+    const float c = uniform_float(17, static_cast<std::uint64_t>(k), 0) * 50.0f - 5.0f;
+    const float r = uniform_float(17, static_cast<std::uint64_t>(k), 1) * 6.0f;
+    int i0 = 0, i1 = 0;
+    centre_span(c, r, n, i0, i1);
+    for (int i = 0; i < n; ++i) {
+      const float d = std::abs(static_cast<float>(i) + 0.5f - c);
+      if (d <= r) EXPECT_TRUE(i >= i0 && i <= i1) << "c " << c << " r " << r << " pixel " << i << " left out";
+      if (d > r + 0.011f) EXPECT_FALSE(i >= i0 && i <= i1) << "c " << c << " r " << r << " pixel " << i << " taken";
+    }
+  }
+}
+
 TEST(SphereHits, SplattingIsTheSameForAnyThreadCount) {
   const ParticleSet set = random_spheres(2000, 0.04f, 3);
   const Camera cam = looking_at(set.bounds(), 120);

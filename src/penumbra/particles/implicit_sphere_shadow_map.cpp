@@ -45,8 +45,13 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
         centre_uvd[i] = {u * fn, v * fn, depth};
         nearest[i] = lower_bound_with_margin(depth - s.radius, std::abs(depth) + s.radius);
         const float r = s.radius * texels_per_world;
-        pixel_span(u * fn - r, u * fn + r, n, rects[i].x0, rects[i].x1);
-        pixel_span(v * fn - r, v * fn + r, n, rects[i].y0, rects[i].y1);
+        if (ps.clip_of(i) == kSphereWhole) {  // the texels whose centre lies in the disc (hit() tests just that)
+          centre_span(u * fn, r, n, rects[i].x0, rects[i].x1);
+          centre_span(v * fn, r, n, rects[i].y0, rects[i].y1);
+        } else {  // a cut sphere is met by texel rays, whose grazing hits rounding may put just outside
+          pixel_span(u * fn - r, u * fn + r, n, rects[i].x0, rects[i].x1);
+          pixel_span(v * fn - r, v * fn + r, n, rects[i].y0, rects[i].y1);
+        }
         continue;
       }
       // perspective: the map rectangle of the sphere's bounding cube (none when part of it is

@@ -34,6 +34,15 @@ inline void pixel_span(float lo, float hi, int n, int& i0, int& i1) {
   i1 = std::min(n - 1, floor_int(std::min(std::max(hi - 0.5f, -2.0f), fn + 1)) + 1);
 }
 
+// The inclusive range of pixel indices whose centres (i + 0.5) lie in [c − r, c + r] — a footprint known
+// exactly (a disc under a parallel projection), with a hundredth of a pixel to spare for rounding —
+// clamped to [0, n − 1]; i1 < i0 when no centre does.
+inline void centre_span(float c, float r, int n, int& i0, int& i1) {
+  const float fn = static_cast<float>(n), spare = 0.01f;
+  i0 = std::max(0, -floor_int(-std::min(std::max(c - r - 0.5f - spare, -2.0f), fn + 1)));
+  i1 = std::min(n - 1, floor_int(std::min(std::max(c + r - 0.5f + spare, -2.0f), fn + 1)));
+}
+
 // A lower bound `d` for TileBins::nearest_per_pixel's `nearest`, lowered by a relative margin so that
 // it stays below the float-rounded distances it bounds (`scale`: the magnitude of those distances).
 inline float lower_bound_with_margin(float d, float scale) { return d - 1e-4f * scale; }
