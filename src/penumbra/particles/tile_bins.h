@@ -34,14 +34,18 @@ inline void pixel_span(float lo, float hi, int n, int& i0, int& i1) {
   i1 = std::min(n - 1, floor_int(std::min(std::max(hi - 0.5f, -2.0f), fn + 1)) + 1);
 }
 
-// The inclusive range of pixel indices whose centres (i + 0.5) lie in [c − r, c + r] — a footprint known
-// exactly (a disc under a parallel projection), with a hundredth of a pixel to spare for rounding —
+// The inclusive range of pixel indices whose centres (i + 0.5) lie in [lo − spare, hi + spare] — a
+// footprint known exactly, the spare covering the rounding of the tests that decide a hit there —
 // clamped to [0, n − 1]; i1 < i0 when no centre does.
-inline void centre_span(float c, float r, int n, int& i0, int& i1) {
-  const float fn = static_cast<float>(n), spare = 0.01f;
-  i0 = std::max(0, -floor_int(-std::min(std::max(c - r - 0.5f - spare, -2.0f), fn + 1)));
-  i1 = std::min(n - 1, floor_int(std::min(std::max(c + r - 0.5f + spare, -2.0f), fn + 1)));
+inline void centre_range(float lo, float hi, float spare, int n, int& i0, int& i1) {
+  const float fn = static_cast<float>(n);
+  i0 = std::max(0, -floor_int(-std::min(std::max(lo - 0.5f - spare, -2.0f), fn + 1)));
+  i1 = std::min(n - 1, floor_int(std::min(std::max(hi - 0.5f + spare, -2.0f), fn + 1)));
 }
+
+// The same for a disc's exact footprint [c − r, c + r] under a parallel projection, where the hit
+// test is the same arithmetic: a hundredth of a pixel to spare.
+inline void centre_span(float c, float r, int n, int& i0, int& i1) { centre_range(c - r, c + r, 0.01f, n, i0, i1); }
 
 // A lower bound `d` for TileBins::nearest_per_pixel's `nearest`, lowered by a relative margin so that
 // it stays below the float-rounded distances it bounds (`scale`: the magnitude of those distances).
