@@ -147,12 +147,19 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
           const int x = floor_int(g.x), y = floor_int(g.y), z = floor_int(g.z);
           const float fx = g.x - static_cast<float>(x), fy = g.y - static_cast<float>(y), fz = g.z - static_cast<float>(z);
           const float vol = (4.0f / 3.0f) * kPi * s.radius * s.radius * s.radius * inv_cell_volume *
-                            ps.clip_planes.kept_fraction(s.center, s.radius, clip);
+                            (clip == kSphereWhole ? 1.0f : ps.clip_planes.kept_fraction(s.center, s.radius, clip));
+          const float wx[2] = {1 - fx, fx}, wy[2] = {1 - fy, fy}, wz[2] = {1 - fz, fz};
+          if (x >= 0 && y >= 0 && z >= 0 && x + 1 < base.nx && y + 1 < base.ny && z + 1 < base.nz) {  // all 8 inside
+            float* cell0 = acc.data() + index(x, y, z);
+            const std::size_t sy = static_cast<std::size_t>(base.nx), sz = sy * static_cast<std::size_t>(base.ny);
+            for (int k = 0; k < 8; ++k)
+              cell0[(k & 1) + ((k >> 1) & 1) * sy + ((k >> 2) & 1) * sz] += vol * (wx[k & 1] * wy[(k >> 1) & 1] * wz[(k >> 2) & 1]);
+            continue;
+          }
           for (int k = 0; k < 8; ++k) {
             const int cx = x + (k & 1), cy = y + ((k >> 1) & 1), cz = z + ((k >> 2) & 1);
             if (cx < 0 || cy < 0 || cz < 0 || cx >= base.nx || cy >= base.ny || cz >= base.nz) continue;
-            const float w = ((k & 1) ? fx : 1 - fx) * ((k & 2) ? fy : 1 - fy) * ((k & 4) ? fz : 1 - fz);
-            acc[index(cx, cy, cz)] += vol * w;
+            acc[index(cx, cy, cz)] += vol * (wx[k & 1] * wy[(k >> 1) & 1] * wz[(k >> 2) & 1]);
           }
           continue;
         }
