@@ -69,9 +69,33 @@ def test_the_playback_benchmark_runs(tmp_path):
                          capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     results = json.loads((tmp_path / "playback.json").read_text())["results"]
-    assert set(results) == {"local lighting", "issm", "issm + particle_ao", "issm 512²", "issm 512² + particle_ao"}
+    assert set(results) == {"local lighting", "issm", "issm + particle_ao", "issm 512²", "issm 512² + particle_ao",
+                            "issm + particle_ao reuse 0.25", "issm + particle_ao reuse 0.5"}
     assert all(r["frames"] == 2 and r["fps"] > 0 and r["read_ms"] > 0 for r in results.values())
     assert "spheres" in results["issm"]["rebuilt"] and "lights.0.shadows" in results["issm"]["rebuilt"]
+    # the reuse rows are compared with the frames traced anew (this run's water moves too far: nothing kept)
+    reuse = results["issm + particle_ao reuse 0.5"]
+    assert reuse["psnr_worst"] > 20 and reuse["max_pixel_difference"] >= 0 and len(reuse["ambient_kept"]) == 2
+
+
+@needs_md
+def test_ambient_reuse_keeps_the_cones_of_atoms_that_moved_little():
+    scene = md_scene()
+    scene["ambient"] = {"technique": "particle_ao", "reuse": 1.0}
+    r = penumbra.Renderer(scene)
+    r.render()
+    assert r.stats["counts"]["ambient_kept"] == 0  # the first build traces every cone
+    r.set("time", 1)
+    kept = r.render().copy()
+    assert r.stats["counts"]["ambient_kept"] > 0.5 * r.stats["particles"][0]["spheres"]
+    r.set("ambient.reuse", 0.0)  # an edit of the AO's settings starts afresh
+    fresh = r.render()
+    assert r.stats["counts"]["ambient_kept"] == 0
+    scene["ambient"] = {"technique": "particle_ao"}
+    scene["time"] = 1
+    assert np.array_equal(fresh, penumbra.Renderer(scene).render())
+    diff = np.abs(kept.astype(int) - fresh.astype(int))
+    assert diff.max() < 64 and diff.mean() < 1.0  # the cones kept from frame 0 stay close to frame 1's
 
 
 def series_scene():
