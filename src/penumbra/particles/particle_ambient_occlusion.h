@@ -19,9 +19,8 @@
 // the cones are dropped when matter has moved more than that anywhere: some cell's filled fraction (the
 // one its opacity stands for, volumes included) changed by more than `reuse` since the cones were first
 // kept (an edge of matter shifted by δ cells changes it by about δ), or the grid had to move. A frame
-// then depends on the frames built before it;
-// `reuse` 0 (the default) traces every cone anew at every build. A
-// particle scene split by space over MPI ranks (accel/brick_reduction.h) splats each rank's spheres
+// then depends on the frames built before it; `reuse` 0 (the default) traces every cone anew at every
+// build. A particle scene split by space over MPI ranks (accel/brick_reduction.h) splats each rank's spheres
 // into a grid over all of them and sums the ranks' densities (one allreduce of a double a cell); beside
 // a volume split into slabs, each rank composes the volume's opacity into the cells whose centres its
 // slab owns (it holds only its brick's voxels) and the ranks add the cells (one allreduce likewise).
