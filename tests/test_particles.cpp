@@ -181,8 +181,12 @@ TEST(TileBins, CentreSpanHoldsExactlyThePixelsWhoseCentreIsInside) {
     centre_span(c, r, n, i0, i1);
     for (int i = 0; i < n; ++i) {
       const float d = std::abs(static_cast<float>(i) + 0.5f - c);
-      if (d <= r) EXPECT_TRUE(i >= i0 && i <= i1) << "c " << c << " r " << r << " pixel " << i << " left out";
-      if (d > r + 0.011f) EXPECT_FALSE(i >= i0 && i <= i1) << "c " << c << " r " << r << " pixel " << i << " taken";
+      if (d <= r) {
+        EXPECT_TRUE(i >= i0 && i <= i1) << "c " << c << " r " << r << " pixel " << i << " left out";
+      }
+      if (d > r + 0.011f) {
+        EXPECT_FALSE(i >= i0 && i <= i1) << "c " << c << " r " << r << " pixel " << i << " taken";
+      }
     }
   }
 }

@@ -3,10 +3,10 @@
 // or a procedural one (--procedural), written as an OME-Zarr 0.4 pyramid (zarr_writer.h) with a
 // progress line on a terminal.
 //
-// The pyramid streams (OmeZarrStreamWriter): NRRD files and Zarr stores are read a slab of slices at a
-// time (load_volume_window: raw data seeks, gzip data decompresses up to the slab, a Zarr store reads
-// the chunks of the slab's rows) and a procedural ct-body is made a slab at a time, so that none is
-// ever held whole; other formats are read whole first.
+// The pyramid streams (OmeZarrStreamWriter): NRRD files, HDF5 datasets and Zarr stores are read a slab
+// of slices at a time (load_volume_window: raw data seeks, gzip data decompresses up to the slab, an HDF5
+// hyperslab and a Zarr store read the chunks of the slab's rows) and a procedural ct-body is made a slab
+// at a time, so that none is ever held whole; other formats are read whole first.
 #include <unistd.h>
 
 #include <nlohmann/json.hpp>
@@ -72,7 +72,7 @@ Converted stream_ct_body(const CtBodyParams& p, const std::string& out, const Om
   return {dims, ScalarType::UInt16, "procedural ct-body", true, writer.buffer_bytes() + voxels.size() * 2, writer.finish()};
 }
 
-// An NRRD file or a Zarr store a slab at a time; one its reader cannot read in part (an NRRD whose z is
+// An NRRD file, an HDF5 dataset or a Zarr store a slab at a time; one its reader cannot read in part (an NRRD whose z is
 // another file axis, a Zarr level whose z scale is negative) is read whole.
 Converted stream_slabs(const std::vector<std::string>& files, const VolumeLoadOptions& choice, const std::string& format,
                        const std::string& out, const OmeZarrWriteOptions& options) {
@@ -165,10 +165,11 @@ void add_convert_command(CLI::App& app) {
       else c = write_whole(make_procedural_volume(spec), "procedural " + o->write.name, o->out, o->write);
     } else {
       o->write.name = std::filesystem::path(o->files.front()).filename().string();
-      if (o->files.size() == 1 && (is_nrrd(o->files.front()) || is_zarr_store(o->files.front()))) {
+      const std::string& in = o->files.front();
+      if (o->files.size() == 1 && (is_nrrd(in) || is_hdf5_path(in) || is_zarr_store(in))) {
         VolumeLoadOptions choice = o->choice;
-        if (is_zarr_store(o->files.front()) && choice.level < 0) choice.level = 0;  // streamed: the finest, however large
-        c = stream_slabs(o->files, choice, is_nrrd(o->files.front()) ? "nrrd" : "zarr", o->out, o->write);
+        if (is_zarr_store(in) && choice.level < 0) choice.level = 0;  // streamed: the finest, however large
+        c = stream_slabs(o->files, choice, is_nrrd(in) ? "nrrd" : is_hdf5_path(in) ? "hdf5" : "zarr", o->out, o->write);
       } else {
         VolumeFileInfo info;
         Volume v = load_volume(o->files, o->choice, &info);

@@ -169,3 +169,35 @@ def test_a_procedural_ct_body_streams(tmp_path):
         assert not target.exists()
     r = subprocess.run([CLI, "convert", "-o", str(tmp_path / "none.zarr")], capture_output=True, text=True)
     assert r.returncode != 0 and "one input" in r.stderr
+
+
+def test_an_hdf5_dataset_streams_a_hyperslab_at_a_time(tmp_path):
+    """A 160 MB channel of a chunked, gzip-compressed 4-D HDF5 dataset (c z y x, written by h5py) is read a
+    slab of slices at a time (hyperslabs whose chunk rows straddle the slabs): convert's peak memory over
+    what a tiny file takes stays far below the channel's size, and the pyramid is still every voxel of
+    that channel as h5py reads it, and every mean."""
+    h5py = pytest.importorskip("h5py")  # Debian python3-h5py
+    z, y, x = 200, 640, 640
+    k, j, i = np.ogrid[0:z, 0:y, 0:x]
+    channel1 = ((i * 5 + j * 3 + k * 13) % 4091).astype(np.uint16)
+    src = tmp_path / "big.h5"
+    with h5py.File(src, "w") as f:
+        d = f.create_dataset("cells/raw", shape=(2, z, y, x), dtype="<u2", chunks=(1, 7, 128, 128), compression="gzip", compression_opts=1,
+                             fillvalue=7)
+        for first in range(0, z, 7):  # a chunk row at a time (h5py writing it whole rewrites chunks for minutes)
+            d[1, first:first + 7] = channel1[first:first + 7]
+    out = tmp_path / "big.zarr"
+    code, stdout, stderr, mib = peak_rss_mib([CLI, "convert", src, "--channel", "1", "-o", out, "--chunk", "16"])
+    assert code == 0, stderr
+    assert "from hdf5 (streamed)" in stdout, stdout
+    tiny = tmp_path / "tiny.h5"
+    with h5py.File(tiny, "w") as f:
+        f.create_dataset("v", data=np.zeros((4, 4, 4), np.uint16))
+    code, _, stderr, baseline = peak_rss_mib([CLI, "convert", tiny, "-o", tmp_path / "tiny.zarr"])
+    assert code == 0, stderr
+    channel_mib = channel1.nbytes / 2**20
+    assert mib - baseline < 0.35 * channel_mib, f"convert peaked at {mib:.0f} MiB ({baseline:.0f} MiB for a tiny file) for a {channel_mib:.0f} MiB channel"
+    root = zarr.open_group(str(out), mode="r")
+    with h5py.File(src, "r") as f:
+        np.testing.assert_array_equal(root["0"][:], f["cells/raw"][1])
+    np.testing.assert_array_equal(root["1"][:], mean_levels(channel1))

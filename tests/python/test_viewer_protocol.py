@@ -352,10 +352,13 @@ def test_penumbra_view_from_python_serves_the_scene_and_stops():
     assert state["document"]["volumes"][0]["array"] == "volume0"
     frame, jpeg = receive(ws, "frame")
     assert jpeg[:2] == b"\xff\xd8"
-    ws.close()
     viewer.stop()
-    with pytest.raises(OSError):
+    with pytest.raises(urllib.error.URLError) as refused:  # stopped: its port is closed, not left unanswered
         urllib.request.urlopen(viewer.url, timeout=5)
+    assert isinstance(refused.value.reason, ConnectionRefusedError), refused.value
+    with pytest.raises((websocket.WebSocketConnectionClosedException, ConnectionResetError, BrokenPipeError)):
+        for _ in range(1000):  # what was sent before, then the end: its clients were disconnected
+            ws.recv_data()
     viewer.stop()  # twice is fine
 
 

@@ -229,6 +229,11 @@ public:
       self->write_next();
     });
   }
+  // When the server stops, on the thread that ran its event loop (which has returned).
+  void close_now() {
+    beast::error_code ignored;
+    beast::get_lowest_layer(ws_).socket().close(ignored);
+  }
   void send_frame(Text meta, Text jpeg) {
     net::post(ws_.get_executor(), [self = shared_from_this(), meta, jpeg] {
       self->queue_.push_frame(meta, jpeg);
@@ -316,6 +321,10 @@ public:
   std::optional<std::chrono::steady_clock::time_point> waiting_since() const { return waiting_since_; }
   void close_idle() {
     waiting_since_.reset();  // not chosen again before its read handler sees the close
+    close_now();
+  }
+  // When the server stops, on the thread that ran its event loop (which has returned).
+  void close_now() {
     beast::error_code ec;
     stream_.socket().close(ec);
   }
@@ -721,6 +730,13 @@ void ViewerServer::run() {
   s.wake.notify_all();
   renderer.join();
   s.jobs.clear();  // the clients they hold go while the event loop they belong to still exists
+  // Stopped means refused: the port is closed and every client disconnected now, not when the server
+  // object goes (a Python Viewer lives on after stop()).
+  beast::error_code ignored;
+  s.acceptor.close(ignored);
+  for (const auto& w : s.http_sessions)
+    if (auto h = w.lock()) h->close_now();
+  for (const auto& ws : s.live_sessions()) ws->close_now();
 }
 
 void ViewerServer::stop() {

@@ -6,6 +6,8 @@
 // message lists them). The voxel size comes from the attribute `element_size_um` (z, y, x: Fiji's and
 // ilastik's convention) when present. libhdf5 converts the stored type and byte order to the volume's:
 // uint8, uint16, int16 and float32 kept; int8 widened to int16; wider integers and float64 as float32.
+// A window (a slab of `penumbra convert`, an MPI rank's brick) is a hyperslab of its slices: libhdf5
+// reads and decodes only the chunks they lie in.
 //
 // libhdf5 is not hardened against corrupt files (a trial libFuzzer run found it allocating what a broken
 // header claims within seconds), so it runs in a forked child with a memory budget and a time limit
@@ -172,9 +174,38 @@ std::optional<std::array<double, 3>> element_size(hid_t dataset, std::vector<std
   return std::array<double, 3>{zyx[2], zyx[1], zyx[0]};
 }
 
+// What the child reads: the header only (the grid, for the parent to choose slices from), or the voxels
+// of slices [first, first + count) along z (every slice when count is 0), as a hyperslab: libhdf5 reads
+// and decodes only the chunks those slices lie in.
+struct ChildRead {
+  bool header_only = false;
+  int first = 0, count = 0;
+};
+
+// The stored bytes of the chunk rows (along z) that slices [first, first + count) lie in: the dataset's
+// storage in proportion, exact for a contiguous dataset and for chunks compressed alike.
+std::uint64_t stored_bytes_of_slices(hid_t dataset, const std::vector<hsize_t>& dims, int first, int count) {
+  const hsize_t storage = H5Dget_storage_size(dataset);
+  const hsize_t z = dims[dims.size() - 3];
+  if (z == 0) return 0;
+  hsize_t rows = z, rows_read = static_cast<hsize_t>(count);
+  const Handle dcpl(H5Dget_create_plist(dataset), H5Pclose);
+  if (H5Pget_layout(dcpl.get()) == H5D_CHUNKED) {
+    std::vector<hsize_t> chunk(dims.size(), 1);
+    if (H5Pget_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data()) == static_cast<int>(chunk.size())) {
+      const hsize_t cz = std::max<hsize_t>(chunk[chunk.size() - 3], 1);
+      rows = (z + cz - 1) / cz;
+      rows_read = (static_cast<hsize_t>(first + count) + cz - 1) / cz - static_cast<hsize_t>(first) / cz;
+    }
+  }
+  H5Eclear2(H5E_DEFAULT);
+  return static_cast<std::uint64_t>(static_cast<long double>(storage) * static_cast<long double>(rows_read) / static_cast<long double>(rows));
+}
+
 // In the child: reads the dataset's voxels into `memfd` (sized here) and returns what the parent needs:
-// {"dims": [x, y, z], "type", "spacing": [x, y, z] or null, "notes", "channels", "channel"}.
-nlohmann::json read_in_child(const std::string& path, const std::string& dataset_name, int channel, int memfd) {
+// {"dims": [x, y, z] (the whole grid), "slices" (read), "type", "spacing": [x, y, z] or null, "notes",
+// "channels", "channel", "stored_bytes" (read from the file)}; the header only when asked.
+nlohmann::json read_in_child(const std::string& path, const std::string& dataset_name, int channel, const ChildRead& request, int memfd) {
   VolumeFileInfo out;
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors come back as messages, not printed
   if (H5Fis_hdf5(path.c_str()) <= 0) {
@@ -228,9 +259,17 @@ nlohmann::json read_in_child(const std::string& path, const std::string& dataset
     if (channel >= 0 && out.channels == 1) throw Error("'channel' " + std::to_string(channel) + ": the dataset has no channel axis (4 axes, c z y x)");
     const std::array<std::int64_t, 3> xyz{static_cast<std::int64_t>(dims[dims.size() - 1]), static_cast<std::int64_t>(dims[dims.size() - 2]),
                                           static_cast<std::int64_t>(dims[dims.size() - 3])};
-    const std::size_t voxels = with_context("shape " + shape_text(dims), [&] { return checked_voxel_count(xyz); });
+    with_context("shape " + shape_text(dims), [&] { return checked_voxel_count(xyz); });
     for (const auto d : xyz)
       if (d > std::numeric_limits<int>::max()) throw Error("an axis of " + std::to_string(d) + " voxels is too long");
+    if (request.header_only) return nlohmann::json{{"dims", xyz}};
+    const std::size_t z_axis = dims.size() - 3;
+    const int first = request.count > 0 ? request.first : 0;
+    const int slices = request.count > 0 ? request.count : static_cast<int>(xyz[2]);
+    if (first < 0 || slices < 1 || first > xyz[2] - slices) throw Error("slices outside the dataset's z axis");
+    start[z_axis] = static_cast<hsize_t>(first);
+    count[z_axis] = static_cast<hsize_t>(slices);
+    const std::size_t voxels = checked_voxel_count({xyz[0], xyz[1], slices});
     const ScalarType stored = storage_type(type.get());
     const std::size_t bytes = voxels * scalar_size(stored);
     if (::ftruncate(memfd, static_cast<off_t>(bytes)) != 0) throw Error("cannot hold " + std::to_string(bytes) + " bytes of voxels: " + std::strerror(errno));
@@ -238,7 +277,7 @@ nlohmann::json read_in_child(const std::string& path, const std::string& dataset
     if (target == MAP_FAILED) throw Error("cannot map " + std::to_string(bytes) + " bytes of voxels: " + std::strerror(errno));
     if (H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr) < 0)
       throw Error("could not select the voxels: " + hdf5_errors());
-    const hsize_t memory_dims[3] = {dims[dims.size() - 3], dims[dims.size() - 2], dims[dims.size() - 1]};
+    const hsize_t memory_dims[3] = {count[z_axis], dims[dims.size() - 2], dims[dims.size() - 1]};
     const Handle memory(H5Screate_simple(3, memory_dims, nullptr), H5Sclose);
     const herr_t read = H5Dread(dataset.get(), memory_type(stored), memory.get(), space.get(), H5P_DEFAULT, target);
     ::munmap(target, bytes);
@@ -248,7 +287,8 @@ nlohmann::json read_in_child(const std::string& path, const std::string& dataset
     if (!kept)
       out.notes.push_back("stored as " + to_string(stored) + " (the file's " + (cls == H5T_FLOAT ? "float" : "integer") + std::to_string(8 * size) + ")");
     const auto spacing = element_size(dataset.get(), out.notes);
-    return nlohmann::json{{"dims", xyz}, {"type", to_string(stored)}, {"bytes", bytes},
+    return nlohmann::json{{"dims", xyz}, {"slices", slices}, {"type", to_string(stored)}, {"bytes", bytes},
+                          {"stored_bytes", stored_bytes_of_slices(dataset.get(), dims, first, slices)},
                           {"spacing", spacing ? nlohmann::json(*spacing) : nlohmann::json(nullptr)},
                           {"notes", out.notes}, {"channels", out.channels}, {"channel", out.channel}};
   });
@@ -294,19 +334,8 @@ private:
   int fd_;
 };
 
-}  // namespace
-
-bool is_hdf5_path(const std::string& path) {
-  return io_detail::ends_with_ci(path, ".h5") || io_detail::ends_with_ci(path, ".hdf5") || io_detail::ends_with_ci(path, ".he5");
-}
-
-Volume load_hdf5_volume(const std::string& path, const std::string& dataset_name, int channel, VolumeFileInfo* info) {
-  VolumeFileInfo local;
-  VolumeFileInfo& out = info ? *info : local;
-  out.format = "hdf5";
-  if (::access(path.c_str(), R_OK) != 0) throw Error(std::string("cannot read the file: ") + std::strerror(errno));
-  const Fd memfd(::memfd_create("penumbra-hdf5", MFD_CLOEXEC));
-  if (memfd.get() < 0) throw Error(std::string("cannot make shared memory for the HDF5 reader: ") + std::strerror(errno));
+// Runs read_in_child in a forked, limited process; its answer (an Error when it failed).
+nlohmann::json read_in_process(const std::string& path, const std::string& dataset_name, int channel, const ChildRead& request, int memfd) {
   int fds[2];
   if (::pipe(fds) != 0) throw Error("cannot create a pipe for the HDF5 reader");
   Fd from_child(fds[0]), to_parent(fds[1]);
@@ -318,7 +347,7 @@ Volume load_hdf5_volume(const std::string& path, const std::string& dataset_name
     io_detail::limit_child(limits);
     std::string answer;
     try {
-      answer = "V" + read_in_child(path, dataset_name, channel, memfd.get()).dump();
+      answer = "V" + read_in_child(path, dataset_name, channel, request, memfd).dump();
     } catch (const std::bad_alloc&) {
       answer = "Elibhdf5 ran out of memory reading it (a corrupt size?)";
     } catch (const std::exception& e) {
@@ -336,11 +365,39 @@ Volume load_hdf5_volume(const std::string& path, const std::string& dataset_name
   if (answer.empty() || answer[0] != 'V' || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
     throw Error("libhdf5 failed reading it: its reader process " + io_detail::child_exit_text(status, limits) + " (a corrupt file?)");
   const nlohmann::json meta = nlohmann::json::parse(answer.substr(1), nullptr, false);
-  if (meta.is_discarded()) throw Error("the HDF5 reader process gave an incomplete answer");
+  if (meta.is_discarded() || !meta.contains("dims")) throw Error("the HDF5 reader process gave an incomplete answer");
+  return meta;
+}
+
+}  // namespace
+
+bool is_hdf5_path(const std::string& path) {
+  return io_detail::ends_with_ci(path, ".h5") || io_detail::ends_with_ci(path, ".hdf5") || io_detail::ends_with_ci(path, ".he5");
+}
+
+Volume load_hdf5_volume(const std::string& path, const std::string& dataset_name, int channel, VolumeFileInfo* info,
+                        const SliceChooser* choose, WindowRead* read) {
+  VolumeFileInfo local;
+  VolumeFileInfo& out = info ? *info : local;
+  out.format = "hdf5";
+  if (read) *read = WindowRead{};
+  if (::access(path.c_str(), R_OK) != 0) throw Error(std::string("cannot read the file: ") + std::strerror(errno));
+  const Fd memfd(::memfd_create("penumbra-hdf5", MFD_CLOEXEC));
+  if (memfd.get() < 0) throw Error(std::string("cannot make shared memory for the HDF5 reader: ") + std::strerror(errno));
+  // a window: the grid first (a header read), then its slices only
+  ChildRead request;
+  if (choose) {
+    request.header_only = true;
+    const auto grid = read_in_process(path, dataset_name, channel, request, memfd.get())["dims"].get<std::array<std::int64_t, 3>>();
+    const SliceRange r = checked_slices(*choose, {static_cast<int>(grid[0]), static_cast<int>(grid[1]), static_cast<int>(grid[2])});
+    request = ChildRead{false, r.first, r.count};
+  }
+  const nlohmann::json meta = read_in_process(path, dataset_name, channel, request, memfd.get());
+  if (!meta.contains("slices")) throw Error("the HDF5 reader process gave an incomplete answer");
   const auto xyz = meta["dims"].get<std::array<std::int64_t, 3>>();
+  const int slices = meta["slices"].get<int>();
   const ScalarType stored = scalar_type_from_string(meta["type"].get<std::string>());
-  Volume volume(stored, {static_cast<int>(xyz[0]), static_cast<int>(xyz[1]), static_cast<int>(xyz[2])}, {1, 1, 1}, {0, 0, 0},
-                VoxelFill::Uninitialized);
+  Volume volume(stored, {static_cast<int>(xyz[0]), static_cast<int>(xyz[1]), slices}, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
   const std::size_t bytes = volume.voxel_count() * scalar_size(stored);
   if (meta["bytes"].get<std::size_t>() != bytes) throw Error("the HDF5 reader process gave an inconsistent answer");
   if (bytes > 0) {
@@ -353,8 +410,10 @@ Volume load_hdf5_volume(const std::string& path, const std::string& dataset_name
   out.channels = meta["channels"].get<int>();
   out.channel = meta["channel"].get<int>();
   const std::array<double, 3> spacing = meta["spacing"].is_null() ? std::array<double, 3>{1, 1, 1} : meta["spacing"].get<std::array<double, 3>>();
-  volume = place_volume(std::move(volume), Affine::diagonal(spacing, {0, 0, 0}), out);
+  volume = place_volume(std::move(volume), Affine::diagonal(spacing, {0, 0, 0}), out);  // a window's origin is still the whole grid's here
   volume.recompute_range();
+  if (slices < xyz[2]) volume.set_window(request.first, static_cast<int>(xyz[2]));
+  if (read) read->bytes_read = meta["stored_bytes"].get<std::uint64_t>();
   return volume;
 }
 

@@ -118,6 +118,8 @@ Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoa
       VolumeFileInfo info;
       return load_nrrd_volume(paths[0], &choose, &read, info, options.confine_to);
     });
+  if (paths.size() == 1 && is_hdf5_path(paths[0]))
+    return with_context(paths[0], [&] { return load_hdf5_volume(paths[0], options.dataset, options.channel, nullptr, &choose, &read); });
   Volume whole = load_volume(paths, options);
   read.whole = true;
   for (const std::string& p : paths) {

@@ -122,7 +122,9 @@ Volume load_zarr_volume(const std::string& path, int level, int channel, VolumeF
 // HDF5 (hdf5_loader.cpp; .h5, .hdf5, .he5): one numeric dataset (`dataset`, "" = the only one of three or
 // more axes), z y x last, a leading channel axis chosen by `channel`; the filters libhdf5 decodes.
 bool is_hdf5_path(const std::string& path);
-Volume load_hdf5_volume(const std::string& path, const std::string& dataset, int channel, VolumeFileInfo* info);
+// `choose`: only the chosen slices along z (a hyperslab; `read` says the stored bytes of their chunks).
+Volume load_hdf5_volume(const std::string& path, const std::string& dataset, int channel, VolumeFileInfo* info,
+                        const SliceChooser* choose = nullptr, WindowRead* read = nullptr);
 // Whether the path names a volume: a volume extension (.raw, .nrrd, .nhdr, .nii, .nii.gz, .dcm, .tif,
 // .tiff, .vti, .vtk, .vdb, .h5, .hdf5, .he5; any case) or a folder (a Zarr store, else a DICOM series).
 bool is_volume_file(const std::string& path);
