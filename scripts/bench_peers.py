@@ -2,7 +2,8 @@
 """penumbra side by side with its peers on this machine, for docs/BENCHMARKS.md (issue 17).
 
 usage: scripts/bench_peers.py [--build build/release] [--suite spheres volumes] [--spheres N] [--repeats N]
-                              [--out DIR] [--penumbra-only] [--quick]
+                              [--volume blobs|marschner-lobb] [--paraview all|ray-cast] [--out DIR] [--penumbra-only]
+                              [--quick]
 
 Spheres against Tachyon (VMD's ray tracer, the ISSM paper's reference; Debian `tachyon`): N
 non-overlapping spheres (one per cell of a jittered grid, 1 M by default) at 1920×1200, one sample per
@@ -19,7 +20,9 @@ Volumes against ParaView (Debian `paraview`; `pvbatch` under `xvfb-run` when the
 256³ float field of blobs in a shell, 512² frame, the same camera and transfer function, gradient
 shading; ParaView's CPU ray cast mapper ("Ray Cast Only") against penumbra unshadowed, and its GPU
 mapper with volumetric shadows (VolumetricScatteringBlending 2, under Mesa's llvmpipe here) against
-penumbra with cssm shadows. `--suite spheres` or `--suite volumes` runs one half.
+penumbra with cssm shadows. `--volume marschner-lobb` takes Marschner and Lobb's signal at 256³ uint8
+instead (the transfer function's values scaled to 0-255). `--suite spheres` or `--suite volumes` runs
+one half.
 
 Without `tachyon` on the PATH the Tachyon rows say "not run" and the rest still runs; the
 script never fails for a missing peer (pvbatch likewise). It writes DIR/peers.json and DIR/peers.md
@@ -230,9 +233,30 @@ def volume_field(n=VOLUME_N, seed=3):
     return np.clip(f, 0, 1).astype(np.float32)
 
 
-def volume_camera(n=VOLUME_N):
+def marschner_lobb_field(n=VOLUME_N, alpha=0.25, fm=6.0):
+    """Marschner and Lobb's test signal (1994) on [-1, 1]³ at n³, quantised to uint8 (0-255), z the axis
+    of its sine: the issue's "Marschner–Lobb 256³ uint8" row."""
+    t = np.linspace(-1, 1, n, dtype=np.float64)
+    z, y, x = np.meshgrid(t, t, t, indexing="ij")
+    rho_r = np.cos(2 * np.pi * fm * np.cos(np.pi * np.sqrt(x * x + y * y) / 2))
+    f = (1 - np.sin(np.pi * z / 2) + alpha * (1 + rho_r)) / (2 * (1 + alpha))
+    return np.clip(np.rint(255 * f), 0, 255).astype(np.uint8)
+
+
+def volume_input(kind, n):
+    """The field, its transfer function's points in data units, and ParaView's name for its type."""
+    if kind == "marschner-lobb":
+        return marschner_lobb_field(n), [[255 * p[0], *p[1:]] for p in VOLUME_TF], "unsigned char"
+    return volume_field(n), VOLUME_TF, "float"
+
+
+# the eye's distance in volume edges: the blobs lie in a ball, Marschner-Lobb fills its cube (seen whole)
+CAMERA_DISTANCE = {"blobs": 1.9, "marschner-lobb": 3.3}
+
+
+def volume_camera(n=VOLUME_N, distance=1.9):
     centre = [(n - 1) / 2] * 3
-    eye = [centre[0] + 1.9 * n * 0.55, centre[1] + 1.9 * n * 0.35, centre[2] + 1.9 * n * 0.75]
+    eye = [centre[0] + distance * n * 0.55, centre[1] + distance * n * 0.35, centre[2] + distance * n * 0.75]
     return eye, centre, [0.0, 1.0, 0.0]
 
 
@@ -241,7 +265,7 @@ import json, statistics, sys, time
 from paraview.simple import *
 cfg = json.loads(sys.argv[1])
 n = cfg["n"]
-reader = ImageReader(FileNames=[cfg["raw"]], DataScalarType="float", DataByteOrder="LittleEndian",
+reader = ImageReader(FileNames=[cfg["raw"]], DataScalarType=cfg["type"], DataByteOrder="LittleEndian",
                      DataExtent=[0, n - 1, 0, n - 1, 0, n - 1])
 view = GetActiveViewOrCreate("RenderView")
 view.ViewSize = [cfg["frame"], cfg["frame"]]
@@ -275,7 +299,7 @@ print("PENUMBRA_BENCH " + json.dumps({"first_ms": first, "frame_ms": statistics.
 """
 
 
-def paraview_runs(tmp, out, raw, n, repeats, timeout_s=900):
+def paraview_runs(tmp, out, raw, n, tf, scalar_type, distance, repeats, modes, timeout_s=900):
     """ParaView's CPU ray cast ("Ray Cast Only") and its GPU mapper with volumetric shadows (under
     llvmpipe here): frame times in ms, or None without pvbatch (or without a display or xvfb-run)."""
     if not shutil.which("pvbatch"):
@@ -289,10 +313,12 @@ def paraview_runs(tmp, out, raw, n, repeats, timeout_s=900):
     script = os.path.join(tmp, "pv_bench.py")
     with open(script, "w") as f:
         f.write(PV_SCRIPT)
-    eye, target, up = volume_camera(n)
+    eye, target, up = volume_camera(n, distance)
     result = {}
     for name, mode, shadows in (("ray cast", "Ray Cast Only", False), ("GPU + volumetric shadows", "GPU Based", True)):
-        cfg = {"n": n, "raw": raw, "frame": VOLUME_FRAME, "tf": VOLUME_TF, "mode": mode, "shadows": shadows,
+        if modes == "ray-cast" and shadows:
+            continue
+        cfg = {"n": n, "raw": raw, "type": scalar_type, "frame": VOLUME_FRAME, "tf": tf, "mode": mode, "shadows": shadows,
                "eye": eye, "target": target, "up": up, "fov": FOV_DEG, "repeats": repeats,
                "png": os.path.join(out, "paraview_" + name.replace(" + ", "_").replace(" ", "_") + ".png")}
         try:
@@ -310,15 +336,15 @@ def paraview_runs(tmp, out, raw, n, repeats, timeout_s=900):
     return result
 
 
-def penumbra_volume_runs(penumbra, field, repeats, out):
-    eye, target, up = volume_camera(field.shape[0])
+def penumbra_volume_runs(penumbra, field, tf, distance, repeats, out):
+    eye, target, up = volume_camera(field.shape[0], distance)
     result = {}
     for name, technique in (("unshadowed", "none"), ("cssm shadows", "cssm")):
         doc = {"camera": {"eye": eye, "target": target, "up": up, "fov_deg": FOV_DEG, "width": VOLUME_FRAME, "height": VOLUME_FRAME},
                "lights": [{"type": "directional", "direction": [-0.5, -0.7, -0.5]}], "background": [1, 1, 1],
                "shadows": {"technique": technique}}
         scene = penumbra.Scene(doc)
-        scene.add_volume(field, transfer_function={"points": VOLUME_TF})
+        scene.add_volume(field, transfer_function={"points": tf})
         r = penumbra.Renderer(scene)
         write_png(os.path.join(out, "penumbra_volume_" + name.replace(" ", "_") + ".png"), r.render(accumulate=False), penumbra)
         first = r.stats["timings_ms"]["total"]
@@ -371,14 +397,15 @@ def run_spheres(a, penumbra, report):
 
 def run_volumes(a, penumbra, report):
     # volumes beside ParaView
-    field = volume_field(64 if a.quick else VOLUME_N)
-    report["volume"] = {"dims": list(field.shape), "frame": f"{VOLUME_FRAME}x{VOLUME_FRAME}",
-                        "penumbra": penumbra_volume_runs(penumbra, field, a.repeats, a.out), "paraview": None}
+    field, tf, scalar_type = volume_input(a.volume, 64 if a.quick else VOLUME_N)
+    report["volume"] = {"field": a.volume, "dims": list(field.shape), "type": str(field.dtype), "frame": f"{VOLUME_FRAME}x{VOLUME_FRAME}",
+                        "penumbra": penumbra_volume_runs(penumbra, field, tf, CAMERA_DISTANCE[a.volume], a.repeats, a.out), "paraview": None}
     if not a.penumbra_only and not a.quick:
         with tempfile.TemporaryDirectory() as tmp:
             raw = os.path.join(tmp, "volume.raw")
-            field.astype("<f4").tofile(raw)
-            report["volume"]["paraview"] = paraview_runs(tmp, a.out, raw, field.shape[0], a.repeats)
+            field.astype(field.dtype.newbyteorder("<")).tofile(raw)
+            report["volume"]["paraview"] = paraview_runs(tmp, a.out, raw, field.shape[0], tf, scalar_type, CAMERA_DISTANCE[a.volume], a.repeats,
+                                                         a.paraview)
 
 
 def main():
@@ -391,6 +418,10 @@ def main():
     ap.add_argument("--quick", action="store_true", help="50 k spheres, one repeat: checks the script")
     ap.add_argument("--penumbra-only", action="store_true", help="skip the peers (before/after figures of a change)")
     ap.add_argument("--suite", nargs="+", choices=["spheres", "volumes"], default=["spheres", "volumes"])
+    ap.add_argument("--volume", choices=["blobs", "marschner-lobb"], default="blobs",
+                    help="the volume suite's field: 256³ float blobs in a shell, or Marschner-Lobb 256³ uint8")
+    ap.add_argument("--paraview", choices=["all", "ray-cast"], default="all",
+                    help="ParaView's mappers: both, or the CPU ray cast only (its GPU mapper under llvmpipe takes minutes a frame)")
     a = ap.parse_args()
     if a.quick:
         a.spheres, a.repeats = 50_000, 1
@@ -449,7 +480,8 @@ def sphere_table(r):
 
 
 def volume_table(v):
-    lines = ["", f"Volume {'×'.join(map(str, v['dims']))} float, {v['frame']}, gradient-shaded, one directional light (ms per frame, camera moving):", "",
+    lines = ["", f"Volume {v.get('field', 'blobs')} {'×'.join(map(str, v['dims']))} {v.get('type', 'float32')}, {v['frame']}, gradient-shaded, "
+                 "one directional light (ms per frame, camera moving):", "",
              "| renderer | frame ms | penumbra's speed-up |", "|---|---:|---:|"]
     p = v["penumbra"]
     for name, pv_name, mine in (("ParaView ray cast (CPU, Ray Cast Only)", "ray cast", "unshadowed"),
@@ -460,7 +492,7 @@ def volume_table(v):
         elif pv:
             lines.append(f"| {name} | no frame within {pv['timed_out_s']} s | |")
         else:
-            lines.append(f"| {name} | not run (no pvbatch, or --penumbra-only) | |")
+            lines.append(f"| {name} | not run (no pvbatch, --penumbra-only or --paraview ray-cast) | |")
     for name in p:
         lines.append(f"| penumbra {name} | {p[name]['frame_ms']:.0f} | |")
     return lines

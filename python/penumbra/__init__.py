@@ -557,7 +557,7 @@ class VolumeData:
 
 def read_volume(path, series=None, channel=None, grid=None, level=None, dataset=None, memory_budget=None):
     """Reads a volume as penumbra does: .nrrd, .nhdr, .nii(.gz), .tif(f), .vti, .vtk, .vdb, .h5/.hdf5
-    (``dataset``: its path in the file), a Zarr v2 store (an array or an OME-Zarr 0.4 image), a folder of
+    (``dataset``: its path in the file), a Zarr v2 or v3 store (an array, or an OME-Zarr 0.4 or 0.5 image), a folder of
     DICOM slices or a list of .dcm files.
     ``series`` picks a DICOM series (SeriesInstanceUID or index; default the one with the most slices),
     ``channel`` a TIFF, OME-Zarr or HDF5 channel, ``level`` an OME-Zarr pyramid level (0 the finest; default

@@ -110,8 +110,8 @@ Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info);
 // OpenVDB (vdb_loader.cpp): one float or double grid, kept sparse as a bricked volume.
 Volume load_vdb_volume(const std::string& path, const std::string& grid, VolumeFileInfo* info);
 
-// Zarr v2 (zarr_loader.cpp): a folder holding one array (.zarray) or an OME-Zarr 0.4 image (.zattrs with
-// "multiscales"), of which one level (`level`; -1: the finest whose volume_held_bytes fit `memory_budget`,
+// Zarr v2 and v3 (zarr_loader.cpp, zarr_array.h): a folder holding one array (.zarray, zarr.json) or an
+// OME-Zarr 0.4 or 0.5 image (.zattrs, or zarr.json's attributes.ome, with "multiscales"), of which one level (`level`; -1: the finest whose volume_held_bytes fit `memory_budget`,
 // or with no budget (0) a quarter of the machine's memory) and one channel (-1: 0) are read, chunk by
 // chunk; missing chunks hold the fill value.
 // With `choose`, only the chosen slices are read, from the chunks that hold them (a window of the whole

@@ -1,18 +1,15 @@
-// Zarr v2 stores (https://zarr.readthedocs.io/en/stable/spec/v2.html): one array (a folder with .zarray)
-// or an OME-Zarr 0.4 image pyramid (a group whose .zattrs has "multiscales"; https://ngff.openmicroscopy.org/0.4/),
-// one level of which is read. Chunks are decoded in parallel, each file read once; a chunk file that is
-// missing holds the array's fill_value, as the spec says. Codecs: none, blosc (lz4, lz4hc, zstd, zlib,
-// blosclz, snappy: whatever Debian's c-blosc decodes), zlib, gzip and zstd; a filter or another codec is
-// refused by name. OME-Zarr 0.5 (Zarr v3, zarr.json) is refused with a message saying so.
+// Zarr stores, v2 and v3 (zarr_array.h: metadata, chunk keys, shards and codecs): one array (a folder
+// with .zarray, or zarr.json of an array) or an OME-Zarr image pyramid — 0.4 on Zarr v2 (a group whose
+// .zattrs has "multiscales"; https://ngff.openmicroscopy.org/0.4/) or 0.5 on Zarr v3 (a group whose
+// zarr.json has attributes.ome.multiscales; https://ngff.openmicroscopy.org/0.5/) — one level of which is
+// read. Chunks are decoded in parallel, each read once; a chunk that is not stored holds the array's
+// fill_value, as the spec says.
 //
 // The pyramid's level: `level` (0 is the finest), or by default the finest whose voxels and macrocells
 // (volume_held_bytes) fit the memory budget, without one a quarter of this machine's memory, so that a
 // store far larger than memory opens at a level that fits (the note says which and how to choose another). Its scale and translation transformations give the
 // voxels' spacing and origin; axes t and c before z, y, x are fixed (time 0, channel `channel`).
-#include <blosc.h>
 #include <unistd.h>
-#include <zlib.h>
-#include <zstd.h>
 
 #include <nlohmann/json.hpp>
 
@@ -35,6 +32,7 @@
 #include "penumbra/data/io/file_checks.h"
 #include "penumbra/data/io/text_fields.h"
 #include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/io/zarr_array.h"
 #include "penumbra/data/io/volume_placement.h"
 
 namespace penumbra {
@@ -45,47 +43,8 @@ namespace fs = std::filesystem;
 using io_detail::bytes_str;
 using io_detail::printable;
 
-constexpr std::uint64_t kMaxMetadataBytes = 1u << 20;
-
-nlohmann::json read_json(const fs::path& file) {
-  std::error_code ec;
-  const auto size = fs::file_size(file, ec);
-  if (ec) throw Error(file.string() + ": cannot read (" + ec.message() + ")");
-  if (size > kMaxMetadataBytes) throw Error(file.string() + ": " + bytes_str(size) + " of metadata (at most 1 MiB expected)");
-  std::ifstream in(file, std::ios::binary);
-  std::string text(static_cast<std::size_t>(size), '\0');
-  if (!in.read(text.data(), static_cast<std::streamsize>(size))) throw Error(file.string() + ": cannot read");
-  try {
-    return nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception& e) {
-    throw Error(file.string() + ": not JSON (" + e.what() + ")");
-  }
-}
-
-// The stored element type of a Zarr dtype string ("<u2", "|u1", ">f4").
-struct DType {
-  char kind = 'u';  // u, i, f
-  int size = 1;
-  bool big_endian = false;
-};
-
-DType parse_dtype(const nlohmann::json& j) {
-  if (!j.is_string()) throw Error(".zarray: \"dtype\" is " + j.dump() + " (expected a string such as \"<u2\"; structured dtypes are not volumes)");
-  const std::string s = j.get<std::string>();
-  if (s.size() < 3 || (s[0] != '<' && s[0] != '>' && s[0] != '|')) throw Error(".zarray: dtype \"" + printable(s) + "\" (expected e.g. \"<u2\")");
-  DType d;
-  d.big_endian = s[0] == '>';
-  d.kind = s[1];
-  const std::string digits = s.substr(2);
-  if (digits == "1") d.size = 1;
-  else if (digits == "2") d.size = 2;
-  else if (digits == "4") d.size = 4;
-  else if (digits == "8") d.size = 8;
-  else d.size = 0;
-  const bool ok = (d.kind == 'u' || d.kind == 'i') ? d.size > 0 : (d.kind == 'f' && (d.size == 4 || d.size == 8));
-  if (!ok) throw Error(".zarray: dtype \"" + printable(s) + "\" is not supported (expected an integer of 1-8 bytes, float32 or float64)");
-  return d;
-}
+using io_detail::ZarrArray;
+using DType = io_detail::ZarrDType;
 
 // Stored as: uint8, int16, uint16 and float32 as they are; int8 widened to int16; the rest as float32.
 ScalarType storage_type(const DType& d) {
@@ -121,112 +80,6 @@ double element(const std::byte* p, const DType& d) {
       std::memcpy(&x, b, 8);
       return x;
   }
-}
-
-struct ZarrArray {
-  fs::path folder;
-  std::vector<std::int64_t> shape, chunks;
-  DType dtype;
-  nlohmann::json compressor;  // null or {"id": ...}
-  double fill = 0;            // fill_value as a number (null: 0)
-  bool fortran = false;       // order "F"
-  char separator = '.';
-};
-
-ZarrArray read_array_metadata(const fs::path& folder) {
-  const fs::path meta = folder / ".zarray";
-  const nlohmann::json j = read_json(meta);
-  return with_context(meta.string(), [&] {
-    if (!j.is_object()) throw Error("expected a JSON object");
-    if (j.value("zarr_format", 0) != 2) throw Error("zarr_format " + j.value("zarr_format", nlohmann::json()).dump() + " (expected 2)");
-    ZarrArray a;
-    a.folder = folder;
-    for (const char* key : {"shape", "chunks"}) {
-      if (!j.contains(key) || !j[key].is_array() || j[key].empty()) throw Error(std::string("\"") + key + "\" missing or not a list");
-      for (const auto& v : j[key]) {
-        if (!v.is_number_integer() || v.get<std::int64_t>() < (std::string(key) == "shape" ? 0 : 1) || v.get<std::int64_t>() > (std::int64_t{1} << 40))
-          throw Error(std::string("\"") + key + "\" holds " + v.dump() + " (expected whole numbers)");
-        (std::string(key) == "shape" ? a.shape : a.chunks).push_back(v.get<std::int64_t>());
-      }
-    }
-    if (a.shape.size() != a.chunks.size()) throw Error("\"shape\" and \"chunks\" have different lengths");
-    a.dtype = parse_dtype(j.value("dtype", nlohmann::json()));
-    a.compressor = j.value("compressor", nlohmann::json());
-    if (j.contains("filters") && !j["filters"].is_null() && !j["filters"].empty())
-      throw Error("filters " + j["filters"].dump() + " are not supported (penumbra decodes a compressor only)");
-    const std::string order = j.value("order", std::string("C"));
-    if (order != "C" && order != "F") throw Error("order \"" + printable(order) + "\" (expected \"C\" or \"F\")");
-    a.fortran = order == "F";
-    const std::string sep = j.value("dimension_separator", std::string("."));
-    if (sep != "." && sep != "/") throw Error("dimension_separator \"" + printable(sep) + "\" (expected \".\" or \"/\")");
-    a.separator = sep[0];
-    const nlohmann::json& fill = j.value("fill_value", nlohmann::json());
-    if (fill.is_number()) a.fill = fill.get<double>();
-    else if (fill.is_string() && fill.get<std::string>() == "NaN") a.fill = std::numeric_limits<double>::quiet_NaN();
-    else if (!fill.is_null()) throw Error("fill_value " + fill.dump() + " (expected a number, \"NaN\" or null)");
-    if (a.compressor.is_object()) {
-      const std::string id = a.compressor.value("id", std::string());
-      if (id != "blosc" && id != "zlib" && id != "gzip" && id != "zstd")
-        throw Error("compressor \"" + printable(id) + "\" is not supported (expected blosc, zlib, gzip, zstd or none)");
-    } else if (!a.compressor.is_null()) {
-      throw Error("compressor " + a.compressor.dump() + " (expected null or {\"id\": ...})");
-    }
-    return a;
-  });
-}
-
-std::vector<std::byte> read_file(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary | std::ios::ate);
-  if (!in) throw Error("cannot read");
-  const auto size = static_cast<std::size_t>(in.tellg());
-  std::vector<std::byte> bytes(size);
-  in.seekg(0);
-  if (size > 0 && !in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size))) throw Error("cannot read");
-  return bytes;
-}
-
-void inflate_all(const std::vector<std::byte>& in, std::vector<std::byte>& out, bool gzip) {
-  z_stream z{};
-  if (inflateInit2(&z, gzip ? 16 + MAX_WBITS : MAX_WBITS) != Z_OK) throw Error("zlib could not start");
-  z.next_in = reinterpret_cast<Bytef*>(const_cast<std::byte*>(in.data()));
-  z.avail_in = static_cast<uInt>(in.size());
-  z.next_out = reinterpret_cast<Bytef*>(out.data());
-  z.avail_out = static_cast<uInt>(out.size());
-  const int status = inflate(&z, Z_FINISH);
-  const std::size_t produced = out.size() - z.avail_out;
-  inflateEnd(&z);
-  if (status != Z_STREAM_END || produced != out.size())
-    throw Error(std::string(gzip ? "gzip" : "zlib") + " data is corrupt or holds " + (status == Z_STREAM_END ? std::to_string(produced) : "other than") +
-                " bytes (the chunk needs " + bytes_str(out.size()) + ")");
-}
-
-// The chunk's bytes as stored before compression: exactly `bytes` of them.
-std::vector<std::byte> decode_chunk(const ZarrArray& a, const std::vector<std::byte>& stored, std::size_t bytes) {
-  std::vector<std::byte> out(bytes);
-  const std::string id = a.compressor.is_object() ? a.compressor.value("id", std::string()) : std::string();
-  if (id.empty()) {
-    if (stored.size() != bytes) throw Error(bytes_str(stored.size()) + " (an uncompressed chunk of " + bytes_str(bytes) + " expected)");
-    std::memcpy(out.data(), stored.data(), bytes);
-  } else if (id == "blosc") {
-    std::size_t nbytes = 0, cbytes = 0, block = 0;
-    if (stored.size() < BLOSC_MIN_HEADER_LENGTH) throw Error("a blosc chunk shorter than its header");
-    blosc_cbuffer_sizes(stored.data(), &nbytes, &cbytes, &block);
-    if (nbytes != bytes || cbytes != stored.size())
-      throw Error("the blosc header says " + bytes_str(nbytes) + " from " + bytes_str(cbytes) + " (the chunk needs " + bytes_str(bytes) +
-                  " from the file's " + bytes_str(stored.size()) + ")");
-    const int n = blosc_decompress_ctx(stored.data(), out.data(), bytes, 1);
-    if (n < 0 || static_cast<std::size_t>(n) != bytes) throw Error("blosc could not decode the chunk (corrupt, or a codec c-blosc lacks)");
-  } else if (id == "zlib" || id == "gzip") {
-    inflate_all(stored, out, id == "gzip");
-  } else {  // zstd
-    const unsigned long long size = ZSTD_getFrameContentSize(stored.data(), stored.size());
-    if (size == ZSTD_CONTENTSIZE_ERROR) throw Error("not a zstd frame");
-    if (size != ZSTD_CONTENTSIZE_UNKNOWN && size != bytes)
-      throw Error("the zstd frame holds " + bytes_str(size) + " (the chunk needs " + bytes_str(bytes) + ")");
-    const std::size_t n = ZSTD_decompress(out.data(), bytes, stored.data(), stored.size());
-    if (ZSTD_isError(n) || n != bytes) throw Error(std::string("zstd could not decode the chunk: ") + (ZSTD_isError(n) ? ZSTD_getErrorName(n) : "short"));
-  }
-  return out;
 }
 
 // The physical memory of this machine in bytes (0 when unknown).
@@ -327,15 +180,22 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
   out.format = "zarr";
   const fs::path root(path);
   std::error_code ec;
-  if (fs::exists(root / "zarr.json", ec))
-    throw Error("a Zarr v3 store (zarr.json: OME-Zarr 0.5); penumbra reads Zarr v2 (OME-Zarr 0.4). Convert it with "
-                "python3-zarr, or ask for v3");
   Pyramid pyramid;
   fs::path array_folder = root;
   Level chosen;
   int level_index = 0;
-  if (fs::exists(root / ".zattrs", ec) && !fs::exists(root / ".zarray", ec)) {
-    const nlohmann::json attrs = read_json(root / ".zattrs");
+  if (fs::exists(root / "zarr.json", ec)) {  // Zarr v3: an array, or a group (an OME-Zarr 0.5 image)
+    const nlohmann::json node = io_detail::read_zarr_json(root / "zarr.json");
+    if (!node.is_object()) throw Error((root / "zarr.json").string() + ": expected a JSON object");
+    if (node.value("node_type", std::string()) == "group") {
+      const nlohmann::json attrs = node.value("attributes", nlohmann::json::object());
+      const nlohmann::json& ome = attrs.is_object() && attrs.contains("ome") ? attrs["ome"] : attrs;
+      if (!ome.is_object() || !ome.contains("multiscales"))
+        throw Error("a Zarr group without \"multiscales\" in its zarr.json attributes (expected an OME-Zarr 0.5 image, or the folder of one array)");
+      pyramid = read_multiscales(ome, root / "zarr.json");
+    }
+  } else if (fs::exists(root / ".zattrs", ec) && !fs::exists(root / ".zarray", ec)) {
+    const nlohmann::json attrs = io_detail::read_zarr_json(root / ".zattrs");
     if (!attrs.is_object() || !attrs.contains("multiscales"))
       throw Error("a Zarr group without \"multiscales\" in its .zattrs (expected an OME-Zarr image, or the folder of one array)");
     pyramid = read_multiscales(attrs, root / ".zattrs");
@@ -352,7 +212,7 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
       level_index = -1;
       std::uint64_t coarsest = 0;
       for (int l = 0; l < n; ++l) {
-        const ZarrArray a = read_array_metadata(root / pyramid.levels[static_cast<std::size_t>(l)].path);
+        const ZarrArray a = io_detail::read_zarr_array(root / pyramid.levels[static_cast<std::size_t>(l)].path);
         double voxels = 1;
         std::array<std::int64_t, 3> dims{1, 1, 1};  // x, y, z
         for (std::size_t k = a.shape.size() >= 3 ? a.shape.size() - 3 : 0, axis = 2; k < a.shape.size(); ++k, --axis) {
@@ -378,7 +238,7 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
     }
     std::string sizes;
     for (int l = 0; l < n; ++l) {
-      const ZarrArray la = read_array_metadata(root / pyramid.levels[static_cast<std::size_t>(l)].path);
+      const ZarrArray la = io_detail::read_zarr_array(root / pyramid.levels[static_cast<std::size_t>(l)].path);
       std::string shape;
       for (std::size_t k = la.shape.size(); k-- > (la.shape.size() >= 3 ? la.shape.size() - 3 : 0);)
         shape += (shape.empty() ? "" : "x") + std::to_string(la.shape[k]);
@@ -391,7 +251,7 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
   } else if (level_choice > 0) {
     throw Error("'level' " + std::to_string(level_choice) + ": this Zarr array is not a pyramid (one level, 0)");
   }
-  const ZarrArray a = read_array_metadata(array_folder);
+  const ZarrArray a = io_detail::read_zarr_array(array_folder);
   const std::size_t rank = a.shape.size();
   if (rank < 3) throw Error(array_folder.string() + ": a " + std::to_string(rank) + "-D array (expected 3 spatial axes, z y x, last)");
   if (!pyramid.axes.empty() && pyramid.axes.size() != rank)
@@ -455,10 +315,10 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
       for (std::size_t k = rank; k-- > 0;) stride[k] = s, s *= a.chunks[k];
   }
   std::int64_t lead_offset = 0;  // the element offset of the fixed leading indices inside their chunk
-  std::string lead_key;
+  std::vector<std::int64_t> lead_index;  // the chunk index along the fixed leading axes
   for (std::size_t k = 0; k + 3 < rank; ++k) {
     lead_offset += (sel.fixed[k] % a.chunks[k]) * stride[k];
-    lead_key += std::to_string(sel.fixed[k] / a.chunks[k]) + a.separator;
+    lead_index.push_back(sel.fixed[k] / a.chunks[k]);
   }
   const std::int64_t z_first = slices.first, z_end = static_cast<std::int64_t>(slices.first) + slices.count;
   const std::int64_t chunk_z0 = z_first / chunk[2], chunk_z1 = z_end > 0 ? (z_end - 1) / chunk[2] + 1 : 0;
@@ -479,19 +339,15 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
       for (std::size_t c = c0; c < c1; ++c) {
         const std::array<std::int64_t, 3> ci{static_cast<std::int64_t>(c) % grid[0], static_cast<std::int64_t>(c) / grid[0] % grid[1],
                                              chunk_z0 + static_cast<std::int64_t>(c) / (grid[0] * grid[1])};
-        const std::string key = lead_key + std::to_string(ci[2]) + a.separator + std::to_string(ci[1]) + a.separator + std::to_string(ci[0]);
-        const fs::path file = a.folder / key;
+        std::vector<std::int64_t> index = lead_index;
+        index.insert(index.end(), {ci[2], ci[1], ci[0]});
         try {
-          std::error_code fec;
-          std::vector<std::byte> bytes;
-          const bool present = fs::is_regular_file(file, fec);
-          if (present) {
-            std::vector<std::byte> stored = read_file(file);
-            bytes_read += stored.size();
-            bytes = decode_chunk(a, std::move(stored), chunk_bytes);
-          } else {
-            ++missing;
-          }
+          std::uint64_t read_here = 0;
+          std::optional<std::vector<std::byte>> chunk_bytes_read = io_detail::read_zarr_chunk(a, index, chunk_bytes, read_here);
+          bytes_read += read_here;
+          const bool present = chunk_bytes_read.has_value();
+          if (!present) ++missing;
+          const std::vector<std::byte> bytes = present ? std::move(*chunk_bytes_read) : std::vector<std::byte>();
           const std::int64_t x0 = ci[0] * chunk[0], x1 = std::min(sel.dims[0], (ci[0] + 1) * chunk[0]);
           for (std::int64_t z = std::max(z_first, ci[2] * chunk[2]); z < std::min(z_end, (ci[2] + 1) * chunk[2]); ++z)
             for (std::int64_t y = ci[1] * chunk[1]; y < std::min(sel.dims[1], (ci[1] + 1) * chunk[1]); ++y) {
@@ -511,7 +367,7 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
             }
         } catch (const std::exception& e) {
           const std::lock_guard lock(failure_mutex);
-          if (!failure) failure = "chunk " + file.string() + ": " + e.what();
+          if (!failure) failure = e.what();
         }
       }
     });
