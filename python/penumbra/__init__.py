@@ -562,7 +562,8 @@ def read_volume(path, series=None, channel=None, grid=None, level=None, dataset=
     ``series`` picks a DICOM series (SeriesInstanceUID or index; default the one with the most slices),
     ``channel`` a TIFF, OME-Zarr or HDF5 channel, ``level`` an OME-Zarr pyramid level (0 the finest; default
     the finest whose voxels fit ``memory_budget``, bytes or a size such as "4G", else a quarter of the
-    memory), ``grid`` an OpenVDB grid (name or index; default
+    memory; an NRRD, HDF5 or raw file over the budget is read reduced by the finest power of two that
+    fits, each voxel its block's mean, a slab at a time), ``grid`` an OpenVDB grid (name or index; default
     'density', else the first float grid; the array is dense: NumPy has no sparse layout). Returns a
     VolumeData, whose array goes to
     Scene.add_volume(v.array, spacing=v.spacing, origin=v.origin)."""

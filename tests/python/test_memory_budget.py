@@ -98,8 +98,10 @@ def test_what_cannot_fit_is_an_error(pyramid, tmp_path):
     r, image, _ = render(tmp_path, store, "--memory-budget", "1K")
     assert r.returncode != 0 and "no level of the pyramid fits the memory budget (1 KiB)" in r.stderr, r.stderr
     assert not image.exists()
-    r, image, _ = render(tmp_path, src, "--memory-budget", "1M")
-    assert r.returncode != 0 and "blobs.nrrd" in r.stderr and "memory_budget" in r.stderr and "penumbra convert" in r.stderr, r.stderr
+    # a file without a pyramid opens reduced (test_a_file_over_its_budget_opens_reduced), down to one voxel
+    # along its longest axis: under 10 bytes not even that fits
+    r, image, _ = render(tmp_path, src, "--memory-budget", "10")
+    assert r.returncode != 0 and "blobs.nrrd" in r.stderr and "even reduced to one voxel" in r.stderr and "10 B" in r.stderr, r.stderr
     assert not image.exists()
     r, _, _ = render(tmp_path, store, "--memory-budget", "lots")
     assert r.returncode != 0 and "--memory-budget" in r.stderr and "'lots'" in r.stderr, r.stderr
@@ -187,3 +189,65 @@ def test_every_level_shows_the_same_matter(tmp_path):
     # or less is 4 %); with the level's own voxel as the reference the centre is 29 % darker
     assert centre[1] == pytest.approx(centre[0], rel=0.06), centre
     assert penumbra.compare(images[0], images[1])["rmse"] < 0.02
+
+
+def block_means(a, f):
+    """Means of the f×f×f blocks (fewer at the edges), integers rounded half up: the reduced file's voxels."""
+    z, y, x = a.shape
+    pad = np.full((-(-z // f) * f, -(-y // f) * f, -(-x // f) * f), np.nan)
+    pad[:z, :y, :x] = a
+    mean = np.nanmean(pad.reshape(pad.shape[0] // f, f, pad.shape[1] // f, f, pad.shape[2] // f, f), axis=(1, 3, 5))
+    return np.floor(mean + 0.5).astype(a.dtype) if np.issubdtype(a.dtype, np.integer) else mean.astype(a.dtype)
+
+
+def test_a_file_over_its_budget_opens_reduced(pyramid, tmp_path):
+    """An NRRD and an HDF5 dataset over the budget open at the finest power-of-two reduction that fits, read
+    a slab at a time, each voxel the mean of its block; placed as a pyramid's level (spacing × 2^l, the
+    block's centre), the frame is byte for byte the frame of the pyramid's level 1 opened by hand."""
+    src, store, shapes = pyramid
+    data = blobs((80, 96, 128))
+    for budget, f in ((held_bytes(shapes[1], 2), 2), (held_bytes(shapes[2], 2), 4), (held_bytes(shapes[1], 2) - 1, 4)):
+        v = penumbra.read_volume(str(src), memory_budget=budget)
+        np.testing.assert_array_equal(v.array, block_means(data, f))
+        assert v.spacing == pytest.approx((f, f, f)) and v.origin == pytest.approx(((f - 1) / 2,) * 3)
+        assert any(f"reduced {f}×" in n and "memory budget" in n for n in v.info["notes"]), v.info["notes"]
+    assert penumbra.read_volume(str(src), memory_budget=held_bytes(shapes[0], 2)).array.shape == shapes[0]  # fits: whole
+    h5py = pytest.importorskip("h5py")
+    h5 = tmp_path / "blobs.h5"
+    with h5py.File(h5, "w") as file:
+        file.create_dataset("v", data=data, chunks=(7, 32, 32), compression="gzip")
+    np.testing.assert_array_equal(penumbra.read_volume(str(h5), memory_budget=held_bytes(shapes[2], 2)).array, block_means(data, 4))
+    # one scene but for its volume's file (a file's automatic scene depends on its format's metadata)
+    def scene(name, volume):
+        path = tmp_path / f"{name}.json"
+        path.write_text(json.dumps({"volumes": [{"transfer_function": {"points": [[0, 0.9, 0.5, 0.3, 0], [800, 0.9, 0.6, 0.4, 0.05],
+                                                                                   [3000, 1, 1, 1, 0.3]]}, **volume}],
+                                    "camera": {"eye": [250, 160, 300], "target": [64, 48, 40], "fov_deg": 35},
+                                    "lights": [{"type": "directional", "direction": [-0.4, -1, -0.3]}], "shadows": {"technique": "cssm"}}))
+        return path
+    r, reduced, stats = render(tmp_path, scene("reduced", {"file": str(src)}), "--memory-budget", held_bytes(shapes[1], 2), name="reduced")
+    assert r.returncode == 0, r.stderr
+    assert stats["volumes"][0]["dims"] == list(reversed(shapes[1]))
+    r, level, _ = render(tmp_path, scene("level1", {"file": str(store), "level": 1, "gradients": "on_the_fly"}), name="level1")
+    assert r.returncode == 0, r.stderr
+    assert reduced.read_bytes() == level.read_bytes()
+    r, whole, _ = render(tmp_path, scene("whole", {"file": str(src)}), name="whole")
+    assert r.returncode == 0, r.stderr
+    assert whole.read_bytes() != reduced.read_bytes()  # the comparison can see a volume that was not reduced
+
+
+def test_a_file_over_its_budget_is_never_held_whole(tmp_path):
+    """A 64 MiB NRRD (256³ uint16) under a 4 MiB budget: the process peaks within 16 MiB (a slab) and 8 MiB
+    of rendering the reduced volume written as a file of its own, far below the file read whole."""
+    k, j, i = np.ogrid[0:256, 0:256, 0:256]
+    data = ((i * 5 + j * 3 + k * 7) % 3001).astype(np.uint16)
+    src = tmp_path / "cube.nrrd"
+    nrrd(src, data)
+    small = tmp_path / "small.nrrd"
+    nrrd(small, block_means(data, 4))
+    common = ["render", "--width", "64", "--height", "48", "-o", tmp_path / "x.png"]
+    alone = peak_rss_mib([CLI, *common, small])
+    budgeted = peak_rss_mib([CLI, *common, src, "--memory-budget", "4M"])
+    whole = peak_rss_mib([CLI, *common, src])
+    assert budgeted <= alone + 16 + 8, (alone, budgeted, whole)
+    assert whole > alone + 64, (alone, budgeted, whole)

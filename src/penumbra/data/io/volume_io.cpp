@@ -7,6 +7,7 @@
 
 #include "penumbra/core/error.h"
 #include "penumbra/data/io/text_fields.h"
+#include "penumbra/data/io/volume_reduction.h"
 
 namespace penumbra {
 
@@ -68,6 +69,10 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
     check_options_fit(paths, dicom, options);
     if (dicom) return load_dicom_volume(paths, options.series, &out, options.confine_to);
     const std::string& path = paths[0];
+    if (std::optional<Volume> reduced = load_reduced_to_fit(path, options, out)) {  // over its budget: reduced, streamed
+      out.format = is_hdf5_path(path) ? "hdf5" : ends_with_ci(path, ".raw") ? "raw" : "nrrd";
+      return std::move(*reduced);
+    }
     if (is_zarr_store(path)) return load_zarr_volume(path, options.level, options.channel, &out, options.memory_budget);
     if (is_hdf5_path(path)) return load_hdf5_volume(path, options.dataset, options.channel, &out);
     // Each loader already ran recompute_range(), which rejects NaN/inf voxels and sets the range,

@@ -55,8 +55,9 @@ struct VolumeLoadOptions {
   int channel = -1;                     // multi-channel TIFF or OME-Zarr image: channel from 0 (-1 = channel 0)
   int level = -1;                       // OME-Zarr pyramid: level from 0, the finest (-1 = the finest that fits, zarr_loader.cpp)
   // Bytes the volume may hold (volume_held_bytes: its voxels and macrocells): an OME-Zarr pyramid opens
-  // at the finest level that fits (unless `level` is given). 0: no budget; a pyramid then opens at the
-  // finest level that fits a quarter of this machine's memory.
+  // at the finest level that fits (unless `level` is given), an NRRD, HDF5 or raw file over it reduced
+  // (volume_reduction.h). 0: no budget; a pyramid then opens at the finest level that fits a quarter of
+  // this machine's memory.
   std::uint64_t memory_budget = 0;
   std::string grid;                     // OpenVDB: grid name or index ("" = "density", else the first scalar grid)
   std::string dataset;                  // HDF5: the dataset's path in the file ("" = its only dataset of 3+ axes)
