@@ -3,9 +3,10 @@
 `--memory-budget` against the finest level fully in memory. Each render is a fresh process under GNU
 time (its own peak resident set); the image's error is RMSE/PSNR against the in-memory frame.
 
-    scripts/bench_budget.py body [--build build/release] [--out DIR] [--size 512]
+    scripts/bench_budget.py body [--build build/release] [--out DIR] [--size 512] [--file]
         the Visible-Woman-sized ct-body (512×512×1734 uint16, 867 MiB) at budgets of 1/8, 1/4 and 1/2
-        of its size and fully in memory
+        of its size and fully in memory; with --file as one NRRD (no pyramid: opened reduced, read a slab
+        at a time, volume_reduction.h) instead of the OME-Zarr pyramid
     scripts/bench_budget.py big --dims 4096 4096 2048 [--budget 4G] [--keep]
         a procedural ct-body larger than memory (4096×4096×2048 uint16: 64 GiB) converted (time, size,
         peak memory), then opened under the budget: time to the first image and frames per second over
@@ -44,33 +45,56 @@ def compare(cli, a, b):
     return rmse, psnr
 
 
+def nrrd_of_level0(store, path):
+    """The pyramid's level 0 as one raw NRRD (its spacing and origin), written a slab at a time."""
+    import zarr
+    level = zarr.open_group(store, mode="r")
+    attrs = level.attrs["multiscales"][0]["datasets"][0]["coordinateTransformations"]
+    scale = next(t["scale"] for t in attrs if t["type"] == "scale")
+    shift = next((t["translation"] for t in attrs if t["type"] == "translation"), [0, 0, 0])
+    a = level["0"]
+    z, y, x = a.shape
+    with open(path, "wb") as f:
+        f.write((f"NRRD0004\ntype: ushort\ndimension: 3\nsizes: {x} {y} {z}\nspace: left-posterior-superior\n"
+                 f"space directions: ({scale[2]},0,0) (0,{scale[1]},0) (0,0,{scale[0]})\n"
+                 f"space origin: ({shift[2]},{shift[1]},{shift[0]})\nencoding: raw\nendian: little\n\n").encode())
+        for first in range(0, z, 64):
+            f.write(a[first:first + 64].astype("<u2").tobytes())
+
+
 def body(o, cli, out):
     store = os.path.join(o.work, "ct_body.zarr")
     if not os.path.isdir(store):
         seconds, peak, stdout, _ = timed([cli, "convert", "--procedural", '{"name": "ct-body"}', "-o", store, "--unit", "millimeter"])
         print(f"convert: {stdout.strip()} ({seconds:.1f} s, peak {peak:.0f} MiB)")
+    source, full = store, ["--level", "0"]
+    if o.file:
+        source, full = os.path.join(o.work, "ct_body.nrrd"), []
+        if not os.path.isfile(source):
+            nrrd_of_level0(store, source)
     full_bytes = 512 * 512 * 1734 * 2
     rows = []
     ref = os.path.join(out, "budget_full.png")
-    cases = [("in memory (level 0)", ["--level", "0"]), ("1/2", ["--memory-budget", str(full_bytes // 2)]),
+    cases = [("in memory (level 0)", full), ("1/2", ["--memory-budget", str(full_bytes // 2)]),
              ("1/4", ["--memory-budget", str(full_bytes // 4)]), ("1/8", ["--memory-budget", str(full_bytes // 8)])]
     for label, args in cases:
         image = ref if label.startswith("in memory") else os.path.join(out, f"budget_{label.replace('/', 'of')}.png")
         stats_file = os.path.join(out, "stats.json")
-        seconds, peak, _, _ = timed([cli, "render", store, *args, "--width", o.size, "--height", o.size, "-o", image, "--stats", stats_file])
+        seconds, peak, _, _ = timed([cli, "render", source, *args, "--width", o.size, "--height", o.size, "-o", image, "--stats", stats_file])
         stats = json.load(open(stats_file))
         rmse, psnr = compare(cli, image, ref)
         rows.append({"case": label, "dims": stats["volumes"][0]["dims"], "held_mib": (stats["memory_bytes"]["volume"] + stats["memory_bytes"]["volume_structures"]) / 2**20,
                      "gradients": "stored" if stats["memory_bytes"]["volume_structures"] >= 4 * stats["counts"]["voxels"] else "on the fly",
                      "first_image_s": seconds, "frame_ms": stats["timings_ms"]["total"], "prepare_ms": stats["timings_ms"]["prepare"],
                      "peak_mib": peak, "rmse": rmse, "psnr": psnr})
-    print(f"\nct-body 512×512×1734 uint16 ({full_bytes / 2**20:.0f} MiB), {o.size}² frame, default scene of the file")
+    print(f"\nct-body 512×512×1734 uint16 ({full_bytes / 2**20:.0f} MiB) {'as one NRRD' if o.file else 'as an OME-Zarr pyramid'}, "
+          f"{o.size}² frame, default scene of the file")
     print("| budget | level dims | held (MiB) | gradients | first image (s) | frame (ms) | peak RSS (MiB) | RMSE | PSNR (dB) |")
     print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['case']} | {'×'.join(map(str, r['dims']))} | {r['held_mib']:.0f} | {r['gradients']} | {r['first_image_s']:.1f} | "
               f"{r['frame_ms']:.0f} | {r['peak_mib']:.0f} | {r['rmse']:.4f} | {r['psnr']} |")
-    json.dump(rows, open(os.path.join(out, "budget_body.json"), "w"), indent=2)
+    json.dump(rows, open(os.path.join(out, "budget_body_file.json" if o.file else "budget_body.json"), "w"), indent=2)
 
 
 def big(o, cli, out):
@@ -118,6 +142,7 @@ def main():
     p.add_argument("--dims", type=int, nargs=3, default=[4096, 4096, 2048])
     p.add_argument("--budget", default="4G")
     p.add_argument("--keep", action="store_true")
+    p.add_argument("--file", action="store_true", help="body: the ct-body as one NRRD file, not a pyramid")
     o = p.parse_args()
     cli = os.path.join(o.build, "penumbra")
     out = o.out or tempfile.mkdtemp(prefix="bench_budget_")

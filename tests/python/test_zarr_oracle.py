@@ -155,7 +155,8 @@ def test_refusals(tmp_path):
                             (lambda m: m.update(dtype="<c8"), 'dtype "<c8" is not supported'),
                             (lambda m: m.update(shape=[4, 4], chunks=[4, 4]), "a 2-D array"),
                             (lambda m: m.update(shape=[4, 4]), '"shape" and "chunks" have different lengths'),
-                            (lambda m: m.update(chunks=[4, 4, 8]), "chunk")):
+                            (lambda m: m.update(chunks=[4, 4, 8]), "chunk"),
+                            (lambda m: m.update(order=3), r'"order" is 3 \(expected a string\)')):
         m = dict(meta)
         change(m)
         (path / ".zarray").write_text(json.dumps(m))

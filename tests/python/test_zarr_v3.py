@@ -245,7 +245,9 @@ def test_refusals_name_what_is_wrong(tmp_path):
             (lambda m: m.update(chunk_key_encoding={"name": "nested"}), "chunk_key_encoding"),
             (lambda m: m.update(codecs=[]), '"codecs" missing'),
             (lambda m: m["chunk_grid"]["configuration"].update(chunk_shape=[4, 4, 8]), "gzip data is corrupt or holds 128 bytes"),  # a lying chunk shape
-            (lambda m: m.update(node_type="group"), 'a Zarr group without "multiscales"')):
+            (lambda m: m.update(node_type="group"), 'a Zarr group without "multiscales"'),
+            (lambda m: m.update(node_type=5), r'"node_type" is 5 \(expected a string\)'),  # fuzz_zarr found such a field thrown past the reader
+            (lambda m: m["codecs"][0]["configuration"].update(endian=["little"]), r'"endian" is \["little"\] \(expected a string\)')):
         m = json.loads(json.dumps(meta))
         change(m)
         (path / "zarr.json").write_text(json.dumps(m))

@@ -76,25 +76,25 @@ ZarrArray read_v2(const fs::path& folder) {
   const nlohmann::json j = read_zarr_json(meta);
   return with_context(meta.string(), [&] {
     if (!j.is_object()) throw Error("expected a JSON object");
-    if (j.value("zarr_format", 0) != 2) throw Error("zarr_format " + j.value("zarr_format", nlohmann::json()).dump() + " (expected 2)");
+    if (json_field(j, "zarr_format") != 2) throw Error("zarr_format " + json_field(j, "zarr_format").dump() + " (expected 2)");
     ZarrArray a;
     a.folder = folder;
-    a.shape = whole_numbers(j.value("shape", nlohmann::json()), "shape", 0);
-    a.chunks = whole_numbers(j.value("chunks", nlohmann::json()), "chunks", 1);
+    a.shape = whole_numbers(json_field(j, "shape"), "shape", 0);
+    a.chunks = whole_numbers(json_field(j, "chunks"), "chunks", 1);
     if (a.shape.size() != a.chunks.size()) throw Error("\"shape\" and \"chunks\" have different lengths");
-    a.dtype = parse_v2_dtype(j.value("dtype", nlohmann::json()));
+    a.dtype = parse_v2_dtype(json_field(j, "dtype"));
     if (j.contains("filters") && !j["filters"].is_null() && !j["filters"].empty())
       throw Error("filters " + j["filters"].dump() + " are not supported (penumbra decodes a compressor only)");
-    const std::string order = j.value("order", std::string("C"));
+    const std::string order = json_string(j, "order", std::string("C"));
     if (order != "C" && order != "F") throw Error("order \"" + printable(order) + "\" (expected \"C\" or \"F\")");
     a.fortran = order == "F";
-    const std::string sep = j.value("dimension_separator", std::string("."));
+    const std::string sep = json_string(j, "dimension_separator", std::string("."));
     if (sep != "." && sep != "/") throw Error("dimension_separator \"" + printable(sep) + "\" (expected \".\" or \"/\")");
     a.separator = sep[0];
-    a.fill = parse_fill(j.value("fill_value", nlohmann::json()));
-    const nlohmann::json compressor = j.value("compressor", nlohmann::json());
+    a.fill = parse_fill(json_field(j, "fill_value"));
+    const nlohmann::json compressor = json_field(j, "compressor");
     if (compressor.is_object()) {
-      const std::string id = compressor.value("id", std::string());
+      const std::string id = json_string(compressor, "id", std::string());
       if (id != "blosc" && id != "zlib" && id != "gzip" && id != "zstd")
         throw Error("compressor \"" + printable(id) + "\" is not supported (expected blosc, zlib, gzip, zstd or none)");
       a.codecs.push_back(id);
@@ -126,9 +126,9 @@ CodecChain parse_codecs(const nlohmann::json& list, std::size_t rank, bool insid
   bool to_bytes = false;
   for (const auto& c : list) {
     const std::string name = codec_name(c);
-    const nlohmann::json config = c.value("configuration", nlohmann::json::object());
+    const nlohmann::json config = json_field(c, "configuration");
     if (!to_bytes && name == "transpose") {
-      const nlohmann::json order = config.value("order", nlohmann::json());
+      const nlohmann::json order = json_field(config, "order");
       std::vector<std::int64_t> o;
       if (order.is_array())
         for (const auto& v : order) o.push_back(v.is_number_integer() ? v.get<std::int64_t>() : -1);
@@ -137,20 +137,20 @@ CodecChain parse_codecs(const nlohmann::json& list, std::size_t rank, bool insid
       if (o == f_order) chain.fortran = !chain.fortran;
       else if (o != c_order) throw Error("a transpose of order " + order.dump() + " (expected the identity or the axes reversed, F order)");
     } else if (!to_bytes && name == "bytes") {
-      const std::string endian = config.value("endian", std::string("little"));
+      const std::string endian = json_string(config, "endian", std::string("little"));
       if (endian != "little" && endian != "big") throw Error("the bytes codec's endian \"" + printable(endian) + "\" (expected little or big)");
       chain.big_endian = endian == "big";
       to_bytes = true;
     } else if (!to_bytes && name == "sharding_indexed") {
       if (inside_shard) throw Error("a shard inside a shard is not supported");
       chain.sharded = true;
-      chain.inner_chunks = whole_numbers(config.value("chunk_shape", nlohmann::json()), "sharding_indexed chunk_shape", 1);
+      chain.inner_chunks = whole_numbers(json_field(config, "chunk_shape"), "sharding_indexed chunk_shape", 1);
       if (chain.inner_chunks.size() != rank) throw Error("sharding_indexed's chunk_shape has " + std::to_string(chain.inner_chunks.size()) + " axes, the array " + std::to_string(rank));
-      chain.inner = std::make_shared<CodecChain>(parse_codecs(config.value("codecs", nlohmann::json()), rank, true));
-      const std::string where = config.value("index_location", std::string("end"));
+      chain.inner = std::make_shared<CodecChain>(parse_codecs(json_field(config, "codecs"), rank, true));
+      const std::string where = json_string(config, "index_location", std::string("end"));
       if (where != "end" && where != "start") throw Error("sharding_indexed's index_location \"" + printable(where) + "\" (expected end or start)");
       chain.index_at_end = where == "end";
-      const nlohmann::json index_codecs = config.value("index_codecs", nlohmann::json());
+      const nlohmann::json index_codecs = json_field(config, "index_codecs");
       const CodecChain index = parse_codecs(index_codecs, 1, true);
       if (index.big_endian || index.sharded || (!index.codecs.empty() && index.codecs != std::vector<std::string>{"crc32c"}))
         throw Error("sharding_indexed's index_codecs " + index_codecs.dump() + " (expected bytes, little endian, and at most crc32c)");
@@ -173,28 +173,28 @@ ZarrArray read_v3(const fs::path& folder) {
   const nlohmann::json j = read_zarr_json(meta);
   return with_context(meta.string(), [&] {
     if (!j.is_object()) throw Error("expected a JSON object");
-    if (j.value("zarr_format", 0) != 3) throw Error("zarr_format " + j.value("zarr_format", nlohmann::json()).dump() + " (expected 3)");
-    if (j.value("node_type", std::string()) != "array") throw Error("node_type " + j.value("node_type", nlohmann::json()).dump() + " (expected \"array\")");
+    if (json_field(j, "zarr_format") != 3) throw Error("zarr_format " + json_field(j, "zarr_format").dump() + " (expected 3)");
+    if (json_string(j, "node_type", std::string()) != "array") throw Error("node_type " + json_field(j, "node_type").dump() + " (expected \"array\")");
     if (j.contains("storage_transformers") && !j["storage_transformers"].empty()) throw Error("storage_transformers are not supported");
     ZarrArray a;
     a.folder = folder;
     a.format = 3;
-    a.shape = whole_numbers(j.value("shape", nlohmann::json()), "shape", 0);
-    const nlohmann::json grid = j.value("chunk_grid", nlohmann::json());
-    if (!grid.is_object() || grid.value("name", std::string()) != "regular")
+    a.shape = whole_numbers(json_field(j, "shape"), "shape", 0);
+    const nlohmann::json grid = json_field(j, "chunk_grid");
+    if (!grid.is_object() || json_string(grid, "name", std::string()) != "regular")
       throw Error("chunk_grid " + grid.dump() + " (expected {\"name\": \"regular\", ...})");
-    const std::vector<std::int64_t> outer = whole_numbers(grid.value("configuration", nlohmann::json::object()).value("chunk_shape", nlohmann::json()), "chunk_shape", 1);
+    const std::vector<std::int64_t> outer = whole_numbers(json_field(json_field(grid, "configuration"), "chunk_shape"), "chunk_shape", 1);
     if (outer.size() != a.shape.size()) throw Error("\"shape\" and \"chunk_shape\" have different lengths");
-    a.dtype = parse_v3_data_type(j.value("data_type", nlohmann::json()));
-    a.fill = parse_fill(j.value("fill_value", nlohmann::json()));
-    const nlohmann::json keys = j.value("chunk_key_encoding", nlohmann::json{{"name", "default"}});
-    const std::string encoding = keys.value("name", std::string());
+    a.dtype = parse_v3_data_type(json_field(j, "data_type"));
+    a.fill = parse_fill(json_field(j, "fill_value"));
+    const nlohmann::json keys = j.contains("chunk_key_encoding") ? json_field(j, "chunk_key_encoding") : nlohmann::json{{"name", "default"}};
+    const std::string encoding = json_string(keys, "name", std::string());
     if (encoding != "default" && encoding != "v2") throw Error("chunk_key_encoding " + keys.dump() + " (expected default or v2)");
-    const std::string sep = keys.value("configuration", nlohmann::json::object()).value("separator", std::string(encoding == "default" ? "/" : "."));
+    const std::string sep = json_string(json_field(keys, "configuration"), "separator", encoding == "default" ? "/" : ".");
     if (sep != "." && sep != "/") throw Error("the chunk key separator \"" + printable(sep) + "\" (expected \".\" or \"/\")");
     a.separator = sep[0];
     a.key_prefix = encoding == "default" ? "c" + sep : "";
-    const CodecChain chain = parse_codecs(j.value("codecs", nlohmann::json()), a.shape.size(), false);
+    const CodecChain chain = parse_codecs(json_field(j, "codecs"), a.shape.size(), false);
     const CodecChain& chunk = chain.sharded ? *chain.inner : chain;
     if (chain.sharded && chain.fortran) throw Error("a transpose before sharding_indexed is not supported");
     a.fortran = chunk.fortran;
@@ -305,6 +305,20 @@ nlohmann::json read_zarr_json(const fs::path& file) {
   } catch (const nlohmann::json::exception& e) {
     throw Error(file.string() + ": not JSON (" + e.what() + ")");
   }
+}
+
+const nlohmann::json& json_field(const nlohmann::json& j, const char* key) {
+  static const nlohmann::json null;
+  if (!j.is_object()) return null;
+  const auto it = j.find(key);
+  return it == j.end() ? null : *it;
+}
+
+std::string json_string(const nlohmann::json& j, const char* key, const std::string& fallback) {
+  const nlohmann::json& v = json_field(j, key);
+  if (v.is_null()) return fallback;
+  if (!v.is_string()) throw Error("\"" + std::string(key) + "\" is " + v.dump() + " (expected a string)");
+  return v.get<std::string>();
 }
 
 ZarrArray read_zarr_array(const fs::path& folder) {

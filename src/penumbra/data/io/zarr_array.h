@@ -22,6 +22,11 @@ namespace penumbra::io_detail {
 
 // A metadata file (at most 1 MiB) as JSON; an Error naming it otherwise.
 nlohmann::json read_zarr_json(const std::filesystem::path& file);
+// Fields of metadata that may be anything: j[key] when j is an object holding it, else null; a string
+// field, `fallback` when absent, an Error naming the key when it is not a string. Neither throws
+// nlohmann's exceptions, whatever the file holds.
+const nlohmann::json& json_field(const nlohmann::json& j, const char* key);
+std::string json_string(const nlohmann::json& j, const char* key, const std::string& fallback);
 
 // The stored element type.
 struct ZarrDType {

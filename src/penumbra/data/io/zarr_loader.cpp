@@ -98,12 +98,12 @@ void apply_transforms(const nlohmann::json& list, std::size_t n_axes, Level& lev
   if (list.is_null()) return;
   if (!list.is_array()) throw Error(where + ": coordinateTransformations is not a list");
   for (const auto& t : list) {
-    const std::string type = t.value("type", std::string());
+    const std::string type = io_detail::json_string(t, "type", "");
     if (type == "identity") continue;
     if (type != "scale" && type != "translation")
       throw Error(where + ": a transformation of type \"" + printable(type) + "\" (expected scale or translation)");
     if (t.contains("path")) throw Error(where + ": a " + type + " stored in a file (\"path\") is not supported");
-    const nlohmann::json& v = t.value(type, nlohmann::json());
+    const nlohmann::json& v = io_detail::json_field(t, type.c_str());
     if (!v.is_array() || v.size() != n_axes || !std::all_of(v.begin(), v.end(), [](const nlohmann::json& x) { return x.is_number(); }))
       throw Error(where + ": the " + type + " must hold " + std::to_string(n_axes) + " numbers, one per axis");
     for (int a = 0; a < 3; ++a) {
@@ -131,16 +131,16 @@ Pyramid read_multiscales(const nlohmann::json& attrs, const fs::path& where_file
   if (!ms.is_array() || ms.empty() || !ms[0].is_object()) throw Error(where + ": \"multiscales\" is not a list of images");
   const nlohmann::json& m = ms[0];
   Pyramid p;
-  const nlohmann::json& axes = m.value("axes", nlohmann::json());
+  const nlohmann::json& axes = io_detail::json_field(m, "axes");
   if (axes.is_array()) {
     for (const auto& a : axes) {
       if (a.is_string()) p.axes.push_back(a.get<std::string>()), p.units.emplace_back();
       else if (a.is_object() && a.contains("name") && a["name"].is_string())
-        p.axes.push_back(a["name"].get<std::string>()), p.units.push_back(a.value("unit", std::string()));
+        p.axes.push_back(a["name"].get<std::string>()), p.units.push_back(io_detail::json_string(a, "unit", ""));
       else throw Error(where + ": an axis " + a.dump() + " (expected a name or {\"name\": ...})");
     }
   }
-  const nlohmann::json& datasets = m.value("datasets", nlohmann::json());
+  const nlohmann::json& datasets = io_detail::json_field(m, "datasets");
   if (!datasets.is_array() || datasets.empty()) throw Error(where + ": the image has no \"datasets\" (its levels)");
   for (const auto& d : datasets) {
     if (!d.is_object() || !d.contains("path") || !d["path"].is_string()) throw Error(where + ": a dataset without a \"path\"");
@@ -149,8 +149,8 @@ Pyramid read_multiscales(const nlohmann::json& attrs, const fs::path& where_file
     if (level.path.empty() || level.path.find("..") != std::string::npos || level.path[0] == '/')
       throw Error(where + ": dataset path \"" + printable(level.path) + "\" (expected a folder inside the store)");
     const std::size_t n = p.axes.empty() ? 3 : p.axes.size();
-    apply_transforms(d.value("coordinateTransformations", nlohmann::json()), n, level, where + ", dataset " + level.path);
-    apply_transforms(m.value("coordinateTransformations", nlohmann::json()), n, level, where + ", multiscale");
+    apply_transforms(io_detail::json_field(d, "coordinateTransformations"), n, level, where + ", dataset " + level.path);
+    apply_transforms(io_detail::json_field(m, "coordinateTransformations"), n, level, where + ", multiscale");
     p.levels.push_back(level);
   }
   return p;
@@ -187,8 +187,8 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
   if (fs::exists(root / "zarr.json", ec)) {  // Zarr v3: an array, or a group (an OME-Zarr 0.5 image)
     const nlohmann::json node = io_detail::read_zarr_json(root / "zarr.json");
     if (!node.is_object()) throw Error((root / "zarr.json").string() + ": expected a JSON object");
-    if (node.value("node_type", std::string()) == "group") {
-      const nlohmann::json attrs = node.value("attributes", nlohmann::json::object());
+    if (io_detail::json_string(node, "node_type", "") == "group") {
+      const nlohmann::json& attrs = io_detail::json_field(node, "attributes");
       const nlohmann::json& ome = attrs.is_object() && attrs.contains("ome") ? attrs["ome"] : attrs;
       if (!ome.is_object() || !ome.contains("multiscales"))
         throw Error("a Zarr group without \"multiscales\" in its zarr.json attributes (expected an OME-Zarr 0.5 image, or the folder of one array)");
