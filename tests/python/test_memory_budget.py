@@ -251,3 +251,20 @@ def test_a_file_over_its_budget_is_never_held_whole(tmp_path):
     whole = peak_rss_mib([CLI, *common, src])
     assert budgeted <= alone + 16 + 8, (alone, budgeted, whole)
     assert whole > alone + 64, (alone, budgeted, whole)
+
+
+def test_a_broken_file_over_its_budget_is_an_error_naming_it_once(tmp_path):
+    """Read reduced, a truncated NRRD, a NaN voxel and an empty HDF5 file are the errors they are read whole,
+    naming the file once; nothing is written."""
+    short = tmp_path / "short.nrrd"
+    short.write_bytes(b"NRRD0004\ntype: ushort\ndimension: 3\nsizes: 64 64 64\nencoding: raw\nendian: little\n\n" + bytes(40 * 64 * 64 * 2))
+    nan = np.ones((16, 16, 16), np.float32)
+    nan[3, 3, 3] = np.nan
+    nan_file = tmp_path / "nan.nrrd"
+    nan_file.write_bytes(b"NRRD0004\ntype: float\ndimension: 3\nsizes: 16 16 16\nencoding: raw\nendian: little\n\n" + nan.tobytes())
+    empty = tmp_path / "empty.h5"
+    empty.write_bytes(b"")
+    for path, message in ((short, "raw data has only 327680 bytes"), (nan_file, "is NaN"), (empty, "not an HDF5 file")):
+        r, image, _ = render(tmp_path, path, "--memory-budget", "4K", name=path.stem)
+        assert r.returncode != 0 and message in r.stderr and r.stderr.count(str(path)) == 1, r.stderr
+        assert not image.exists()

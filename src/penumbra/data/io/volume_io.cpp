@@ -62,6 +62,9 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
   VolumeFileInfo local;
   VolumeFileInfo& out = info ? *info : local;
   out = VolumeFileInfo{};
+  // over its budget: read reduced, in slabs (its errors name the file already)
+  if (paths.size() == 1)
+    if (std::optional<Volume> reduced = load_reduced_to_fit(paths[0], options, out)) return std::move(*reduced);
   return with_context(joined(paths), [&] {
     const bool dicom = all_dicom(paths);
     if (paths.size() > 1 && !dicom)
@@ -69,10 +72,6 @@ Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOption
     check_options_fit(paths, dicom, options);
     if (dicom) return load_dicom_volume(paths, options.series, &out, options.confine_to);
     const std::string& path = paths[0];
-    if (std::optional<Volume> reduced = load_reduced_to_fit(path, options, out)) {  // over its budget: reduced, streamed
-      out.format = is_hdf5_path(path) ? "hdf5" : ends_with_ci(path, ".raw") ? "raw" : "nrrd";
-      return std::move(*reduced);
-    }
     if (is_zarr_store(path)) return load_zarr_volume(path, options.level, options.channel, &out, options.memory_budget);
     if (is_hdf5_path(path)) return load_hdf5_volume(path, options.dataset, options.channel, &out);
     // Each loader already ran recompute_range(), which rejects NaN/inf voxels and sets the range,

@@ -13,6 +13,8 @@ namespace penumbra {
 
 namespace {
 
+using io_detail::ends_with_ci;
+
 // Slices read at a time: about this many bytes, a whole number of blocks.
 constexpr std::int64_t kSlabBytes = std::int64_t{16} << 20;
 
@@ -32,7 +34,6 @@ std::string dims_text(const std::array<int, 3>& d) {
 }  // namespace
 
 bool reducible_in_slabs(const std::string& path) {
-  using io_detail::ends_with_ci;
   return ends_with_ci(path, ".nrrd") || ends_with_ci(path, ".nhdr") || ends_with_ci(path, ".raw") || is_hdf5_path(path);
 }
 
@@ -56,7 +57,7 @@ std::optional<Volume> load_reduced_to_fit(const std::string& path, const VolumeL
   const int longest = std::max({dims[0], dims[1], dims[2]});
   while (volume_held_bytes(reduced_dims(dims, factors(dims, f)), type) > budget) {
     if (f >= longest)
-      throw Error("the file's " + dims_text(dims) + " " + to_string(type) + " voxels hold " + byte_size_string(whole_bytes) +
+      throw Error(path + ": the file's " + dims_text(dims) + " " + to_string(type) + " voxels hold " + byte_size_string(whole_bytes) +
                   "; even reduced to one voxel along its longest axis they do not fit the memory budget of " + byte_size_string(budget));
     f *= 2;
   }
@@ -105,6 +106,7 @@ std::optional<Volume> load_reduced_to_fit(const std::string& path, const VolumeL
   out.recompute_range();
   // opacities refer to the file's voxel, so that the reduced volume shows the same matter (as a pyramid's level)
   out.set_opacity_length(std::min({std::abs(s.x), std::abs(s.y), std::abs(s.z)}));
+  info.format = is_hdf5_path(path) ? "hdf5" : ends_with_ci(path, ".raw") ? "raw" : "nrrd";
   info.notes.push_back("reduced " + std::to_string(f) + "× to " + std::to_string(rd[0]) + "×" + std::to_string(rd[1]) + "×" + std::to_string(rd[2]) +
                        " (each voxel the mean of a " + std::to_string(k[0]) + "×" + std::to_string(k[1]) + "×" + std::to_string(k[2]) +
                        " block, read a slab at a time): the file's " + dims_text(dims) + " " + to_string(type) + " voxels hold " +

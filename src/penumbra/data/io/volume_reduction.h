@@ -14,10 +14,11 @@
 
 namespace penumbra {
 
-// The reduced volume when the file's volume_held_bytes exceed options.memory_budget (> 0), with notes in
-// `info` saying by how much and why; nothing when the file fits, or when its format cannot be read in
-// slabs (it is then read whole by load_volume and checked against the budget there). Error when even
-// the coarsest reduction (one voxel along the longest axis) does not fit.
+// The reduced volume when the file's volume_held_bytes exceed options.memory_budget (> 0), with its format
+// and notes in `info` saying by how much and why; nothing when the file fits, or when its format cannot be read in
+// slabs (it is then read whole by load_volume and checked against the budget there). Error naming the
+// file when it cannot be read, or when even the coarsest reduction (one voxel along the longest axis)
+// does not fit.
 std::optional<Volume> load_reduced_to_fit(const std::string& path, const VolumeLoadOptions& options, VolumeFileInfo& info);
 
 // Whether load_reduced_to_fit can read the file in slabs (by its name: .nrrd, .nhdr, .h5, .hdf5, .he5, .raw).

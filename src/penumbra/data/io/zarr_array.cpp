@@ -71,38 +71,46 @@ std::vector<std::int64_t> whole_numbers(const nlohmann::json& j, const std::stri
   return out;
 }
 
-ZarrArray read_v2(const fs::path& folder) {
-  const fs::path meta = folder / ".zarray";
+// The array's metadata file `name` in `folder`: a JSON object of zarr_format `format`, the rest read by
+// `parse` (Errors name the file).
+ZarrArray read_metadata(const fs::path& folder, const char* name, int format, void (*parse)(const nlohmann::json&, ZarrArray&)) {
+  const fs::path meta = folder / name;
   const nlohmann::json j = read_zarr_json(meta);
   return with_context(meta.string(), [&] {
     if (!j.is_object()) throw Error("expected a JSON object");
-    if (json_field(j, "zarr_format") != 2) throw Error("zarr_format " + json_field(j, "zarr_format").dump() + " (expected 2)");
+    if (json_field(j, "zarr_format") != format)
+      throw Error("zarr_format " + json_field(j, "zarr_format").dump() + " (expected " + std::to_string(format) + ")");
     ZarrArray a;
     a.folder = folder;
-    a.shape = whole_numbers(json_field(j, "shape"), "shape", 0);
-    a.chunks = whole_numbers(json_field(j, "chunks"), "chunks", 1);
-    if (a.shape.size() != a.chunks.size()) throw Error("\"shape\" and \"chunks\" have different lengths");
-    a.dtype = parse_v2_dtype(json_field(j, "dtype"));
-    if (j.contains("filters") && !j["filters"].is_null() && !j["filters"].empty())
-      throw Error("filters " + j["filters"].dump() + " are not supported (penumbra decodes a compressor only)");
-    const std::string order = json_string(j, "order", std::string("C"));
-    if (order != "C" && order != "F") throw Error("order \"" + printable(order) + "\" (expected \"C\" or \"F\")");
-    a.fortran = order == "F";
-    const std::string sep = json_string(j, "dimension_separator", std::string("."));
-    if (sep != "." && sep != "/") throw Error("dimension_separator \"" + printable(sep) + "\" (expected \".\" or \"/\")");
-    a.separator = sep[0];
-    a.fill = parse_fill(json_field(j, "fill_value"));
-    const nlohmann::json compressor = json_field(j, "compressor");
-    if (compressor.is_object()) {
-      const std::string id = json_string(compressor, "id", std::string());
-      if (id != "blosc" && id != "zlib" && id != "gzip" && id != "zstd")
-        throw Error("compressor \"" + printable(id) + "\" is not supported (expected blosc, zlib, gzip, zstd or none)");
-      a.codecs.push_back(id);
-    } else if (!compressor.is_null()) {
-      throw Error("compressor " + compressor.dump() + " (expected null or {\"id\": ...})");
-    }
+    a.format = format;
+    parse(j, a);
     return a;
   });
+}
+
+void parse_v2(const nlohmann::json& j, ZarrArray& a) {
+  a.shape = whole_numbers(json_field(j, "shape"), "shape", 0);
+  a.chunks = whole_numbers(json_field(j, "chunks"), "chunks", 1);
+  if (a.shape.size() != a.chunks.size()) throw Error("\"shape\" and \"chunks\" have different lengths");
+  a.dtype = parse_v2_dtype(json_field(j, "dtype"));
+  if (j.contains("filters") && !j["filters"].is_null() && !j["filters"].empty())
+    throw Error("filters " + j["filters"].dump() + " are not supported (penumbra decodes a compressor only)");
+  const std::string order = json_string(j, "order", std::string("C"));
+  if (order != "C" && order != "F") throw Error("order \"" + printable(order) + "\" (expected \"C\" or \"F\")");
+  a.fortran = order == "F";
+  const std::string sep = json_string(j, "dimension_separator", std::string("."));
+  if (sep != "." && sep != "/") throw Error("dimension_separator \"" + printable(sep) + "\" (expected \".\" or \"/\")");
+  a.separator = sep[0];
+  a.fill = parse_fill(json_field(j, "fill_value"));
+  const nlohmann::json compressor = json_field(j, "compressor");
+  if (compressor.is_object()) {
+    const std::string id = json_string(compressor, "id", std::string());
+    if (id != "blosc" && id != "zlib" && id != "gzip" && id != "zstd")
+      throw Error("compressor \"" + printable(id) + "\" is not supported (expected blosc, zlib, gzip, zstd or none)");
+    a.codecs.push_back(id);
+  } else if (!compressor.is_null()) {
+    throw Error("compressor " + compressor.dump() + " (expected null or {\"id\": ...})");
+  }
 }
 
 // What a v3 codec chain says: the order, the byte order, the bytes-to-bytes codecs, and a shard's
@@ -168,51 +176,41 @@ CodecChain parse_codecs(const nlohmann::json& list, std::size_t rank, bool insid
   return chain;
 }
 
-ZarrArray read_v3(const fs::path& folder) {
-  const fs::path meta = folder / "zarr.json";
-  const nlohmann::json j = read_zarr_json(meta);
-  return with_context(meta.string(), [&] {
-    if (!j.is_object()) throw Error("expected a JSON object");
-    if (json_field(j, "zarr_format") != 3) throw Error("zarr_format " + json_field(j, "zarr_format").dump() + " (expected 3)");
-    if (json_string(j, "node_type", std::string()) != "array") throw Error("node_type " + json_field(j, "node_type").dump() + " (expected \"array\")");
-    if (j.contains("storage_transformers") && !j["storage_transformers"].empty()) throw Error("storage_transformers are not supported");
-    ZarrArray a;
-    a.folder = folder;
-    a.format = 3;
-    a.shape = whole_numbers(json_field(j, "shape"), "shape", 0);
-    const nlohmann::json grid = json_field(j, "chunk_grid");
-    if (!grid.is_object() || json_string(grid, "name", std::string()) != "regular")
-      throw Error("chunk_grid " + grid.dump() + " (expected {\"name\": \"regular\", ...})");
-    const std::vector<std::int64_t> outer = whole_numbers(json_field(json_field(grid, "configuration"), "chunk_shape"), "chunk_shape", 1);
-    if (outer.size() != a.shape.size()) throw Error("\"shape\" and \"chunk_shape\" have different lengths");
-    a.dtype = parse_v3_data_type(json_field(j, "data_type"));
-    a.fill = parse_fill(json_field(j, "fill_value"));
-    const nlohmann::json keys = j.contains("chunk_key_encoding") ? json_field(j, "chunk_key_encoding") : nlohmann::json{{"name", "default"}};
-    const std::string encoding = json_string(keys, "name", std::string());
-    if (encoding != "default" && encoding != "v2") throw Error("chunk_key_encoding " + keys.dump() + " (expected default or v2)");
-    const std::string sep = json_string(json_field(keys, "configuration"), "separator", encoding == "default" ? "/" : ".");
-    if (sep != "." && sep != "/") throw Error("the chunk key separator \"" + printable(sep) + "\" (expected \".\" or \"/\")");
-    a.separator = sep[0];
-    a.key_prefix = encoding == "default" ? "c" + sep : "";
-    const CodecChain chain = parse_codecs(json_field(j, "codecs"), a.shape.size(), false);
-    const CodecChain& chunk = chain.sharded ? *chain.inner : chain;
-    if (chain.sharded && chain.fortran) throw Error("a transpose before sharding_indexed is not supported");
-    a.fortran = chunk.fortran;
-    a.dtype.big_endian = chunk.big_endian && a.dtype.size > 1;
-    a.codecs = chunk.codecs;
-    if (chain.sharded) {
-      a.shard = outer;
-      a.chunks = chain.inner_chunks;
-      for (std::size_t k = 0; k < outer.size(); ++k)
-        if (outer[k] % a.chunks[k] != 0)
-          throw Error("the shard shape " + nlohmann::json(outer).dump() + " is not a multiple of the inner chunk shape " + nlohmann::json(a.chunks).dump());
-      a.index_at_end = chain.index_at_end;
-      a.index_crc32c = chain.index_crc32c;
-    } else {
-      a.chunks = outer;
-    }
-    return a;
-  });
+void parse_v3(const nlohmann::json& j, ZarrArray& a) {
+  if (json_string(j, "node_type", std::string()) != "array") throw Error("node_type " + json_field(j, "node_type").dump() + " (expected \"array\")");
+  if (j.contains("storage_transformers") && !j["storage_transformers"].empty()) throw Error("storage_transformers are not supported");
+  a.shape = whole_numbers(json_field(j, "shape"), "shape", 0);
+  const nlohmann::json grid = json_field(j, "chunk_grid");
+  if (!grid.is_object() || json_string(grid, "name", std::string()) != "regular")
+    throw Error("chunk_grid " + grid.dump() + " (expected {\"name\": \"regular\", ...})");
+  const std::vector<std::int64_t> outer = whole_numbers(json_field(json_field(grid, "configuration"), "chunk_shape"), "chunk_shape", 1);
+  if (outer.size() != a.shape.size()) throw Error("\"shape\" and \"chunk_shape\" have different lengths");
+  a.dtype = parse_v3_data_type(json_field(j, "data_type"));
+  a.fill = parse_fill(json_field(j, "fill_value"));
+  const nlohmann::json keys = j.contains("chunk_key_encoding") ? json_field(j, "chunk_key_encoding") : nlohmann::json{{"name", "default"}};
+  const std::string encoding = json_string(keys, "name", std::string());
+  if (encoding != "default" && encoding != "v2") throw Error("chunk_key_encoding " + keys.dump() + " (expected default or v2)");
+  const std::string sep = json_string(json_field(keys, "configuration"), "separator", encoding == "default" ? "/" : ".");
+  if (sep != "." && sep != "/") throw Error("the chunk key separator \"" + printable(sep) + "\" (expected \".\" or \"/\")");
+  a.separator = sep[0];
+  a.key_prefix = encoding == "default" ? "c" + sep : "";
+  const CodecChain chain = parse_codecs(json_field(j, "codecs"), a.shape.size(), false);
+  const CodecChain& chunk = chain.sharded ? *chain.inner : chain;
+  if (chain.sharded && chain.fortran) throw Error("a transpose before sharding_indexed is not supported");
+  a.fortran = chunk.fortran;
+  a.dtype.big_endian = chunk.big_endian && a.dtype.size > 1;
+  a.codecs = chunk.codecs;
+  if (chain.sharded) {
+    a.shard = outer;
+    a.chunks = chain.inner_chunks;
+    for (std::size_t k = 0; k < outer.size(); ++k)
+      if (outer[k] % a.chunks[k] != 0)
+        throw Error("the shard shape " + nlohmann::json(outer).dump() + " is not a multiple of the inner chunk shape " + nlohmann::json(a.chunks).dump());
+    a.index_at_end = chain.index_at_end;
+    a.index_crc32c = chain.index_crc32c;
+  } else {
+    a.chunks = outer;
+  }
 }
 
 std::vector<std::byte> read_range(std::ifstream& in, std::uint64_t offset, std::uint64_t size) {
@@ -323,8 +321,8 @@ std::string json_string(const nlohmann::json& j, const char* key, const std::str
 
 ZarrArray read_zarr_array(const fs::path& folder) {
   std::error_code ec;
-  if (fs::exists(folder / "zarr.json", ec)) return read_v3(folder);
-  return read_v2(folder);
+  if (fs::exists(folder / "zarr.json", ec)) return read_metadata(folder, "zarr.json", 3, parse_v3);
+  return read_metadata(folder, ".zarray", 2, parse_v2);
 }
 
 std::optional<std::vector<std::byte>> read_zarr_chunk(const ZarrArray& a, const std::vector<std::int64_t>& index, std::size_t bytes,

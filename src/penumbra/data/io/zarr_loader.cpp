@@ -343,11 +343,11 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
         index.insert(index.end(), {ci[2], ci[1], ci[0]});
         try {
           std::uint64_t read_here = 0;
-          std::optional<std::vector<std::byte>> chunk_bytes_read = io_detail::read_zarr_chunk(a, index, chunk_bytes, read_here);
+          std::optional<std::vector<std::byte>> decoded = io_detail::read_zarr_chunk(a, index, chunk_bytes, read_here);
           bytes_read += read_here;
-          const bool present = chunk_bytes_read.has_value();
+          const bool present = decoded.has_value();
           if (!present) ++missing;
-          const std::vector<std::byte> bytes = present ? std::move(*chunk_bytes_read) : std::vector<std::byte>();
+          const std::vector<std::byte> bytes = present ? std::move(*decoded) : std::vector<std::byte>();
           const std::int64_t x0 = ci[0] * chunk[0], x1 = std::min(sel.dims[0], (ci[0] + 1) * chunk[0]);
           for (std::int64_t z = std::max(z_first, ci[2] * chunk[2]); z < std::min(z_end, (ci[2] + 1) * chunk[2]); ++z)
             for (std::int64_t y = ci[1] * chunk[1]; y < std::min(sel.dims[1], (ci[1] + 1) * chunk[1]); ++y) {
