@@ -12,6 +12,12 @@ time (its own peak resident set); the image's error is RMSE/PSNR against the in-
         peak memory), then opened under the budget: time to the first image and frames per second over
         an orbit; the store is removed unless --keep
 
+    scripts/bench_budget.py formats [--dims 512 512 400]
+        one ct-body written as NRRD, gzip NIfTI (nibabel), an ImageJ TIFF stack (tifffile), a DICOM
+        series (pydicom), a gzip HDF5 dataset (h5py) and legacy VTK (read whole, for contrast), each
+        converted by `penumbra convert`: seconds and peak memory against the volume's size and a 16³
+        file of the same format
+
 Prints Markdown tables and writes budget_<case>.json into --out.
 """
 import argparse
@@ -23,6 +29,8 @@ import subprocess
 import sys
 import tempfile
 import time
+
+import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -132,9 +140,86 @@ def big(o, cli, out):
         shutil.rmtree(store)
 
 
+def write_formats(a, spacing, folder):
+    """The array `a` (z, y, x uint16) in every format that streams; {name: path}."""
+    import h5py
+    import nibabel
+    import pydicom
+    import pydicom.dataset
+    import tifffile
+    os.makedirs(folder, exist_ok=True)
+    z, y, x = a.shape
+    files = {"NRRD (raw)": os.path.join(folder, "v.nrrd"), "NIfTI (gzip)": os.path.join(folder, "v.nii.gz"),
+             "TIFF (ImageJ)": os.path.join(folder, "v.tif"), "DICOM series": os.path.join(folder, "dicom"),
+             "HDF5 (gzip chunks)": os.path.join(folder, "v.h5"), "legacy VTK (read whole)": os.path.join(folder, "v.vtk")}
+    with open(files["legacy VTK (read whole)"], "wb") as f:
+        f.write((f"# vtk DataFile Version 3.0\nct-body\nBINARY\nDATASET STRUCTURED_POINTS\nDIMENSIONS {x} {y} {z}\n"
+                 f"SPACING {spacing[2]} {spacing[1]} {spacing[0]}\nORIGIN 0 0 0\nPOINT_DATA {x * y * z}\n"
+                 "SCALARS v unsigned_short 1\nLOOKUP_TABLE default\n").encode())
+        for first in range(0, z, 64):
+            f.write(a[first:first + 64].astype(">u2").tobytes())
+    with open(files["NRRD (raw)"], "wb") as f:
+        f.write((f"NRRD0004\ntype: ushort\ndimension: 3\nsizes: {x} {y} {z}\nspacings: {spacing[2]} {spacing[1]} {spacing[0]}\n"
+                 "encoding: raw\nendian: little\n\n").encode())
+        for first in range(0, z, 64):
+            f.write(a[first:first + 64].astype("<u2").tobytes())
+    nibabel.save(nibabel.Nifti1Image(a.transpose(2, 1, 0), np.diag([-spacing[2], -spacing[1], spacing[0], 1.0])), files["NIfTI (gzip)"])
+    tifffile.imwrite(files["TIFF (ImageJ)"], a, imagej=True, metadata={"axes": "ZYX", "spacing": spacing[0]})
+    with h5py.File(files["HDF5 (gzip chunks)"], "w") as f:
+        d = f.create_dataset("v", shape=a.shape, dtype="<u2", chunks=tuple(min(c, n) for c, n in zip((16, 128, 128), a.shape)), compression="gzip", compression_opts=1)
+        for first in range(0, z, 64):
+            d[first:first + 64] = a[first:first + 64]
+    os.makedirs(files["DICOM series"], exist_ok=True)
+    meta = pydicom.dataset.FileMetaDataset()
+    meta.TransferSyntaxUID = pydicom.uid.ExplicitVRLittleEndian
+    meta.MediaStorageSOPClassUID = pydicom.uid.CTImageStorage
+    series = pydicom.uid.generate_uid()
+    for k in range(z):
+        ds = pydicom.dataset.FileDataset(None, {}, file_meta=meta, preamble=b"\0" * 128)
+        ds.SOPClassUID, ds.SOPInstanceUID, ds.SeriesInstanceUID = meta.MediaStorageSOPClassUID, pydicom.uid.generate_uid(), series
+        meta.MediaStorageSOPInstanceUID = ds.SOPInstanceUID
+        ds.Modality, ds.Rows, ds.Columns = "CT", y, x
+        ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.PixelRepresentation = 16, 12, 11, 0
+        ds.SamplesPerPixel, ds.PhotometricInterpretation = 1, "MONOCHROME2"
+        ds.RescaleSlope, ds.RescaleIntercept = 1, -1024
+        ds.PixelSpacing = [spacing[1], spacing[2]]
+        ds.ImageOrientationPatient = [1, 0, 0, 0, 1, 0]
+        ds.ImagePositionPatient = [0, 0, k * spacing[0]]
+        ds.PixelData = np.minimum(a[k], 4095).astype("<u2").tobytes()
+        ds.save_as(os.path.join(files["DICOM series"], f"{k:05d}.dcm"), write_like_original=False)
+    return files
+
+
+def formats(o, cli, out):
+    import zarr
+    x, y, z = o.dims if o.dims != [4096, 4096, 2048] else [512, 512, 400]
+    store = os.path.join(o.work, "body_formats.zarr")
+    spec = json.dumps({"name": "ct-body", "dims": [x, y, z]})
+    subprocess.run([cli, "convert", "--procedural", spec, "-o", store], check=True, capture_output=True)
+    level = zarr.open_group(store, mode="r")
+    a = level["0"][:]
+    scale = next(t["scale"] for t in level.attrs["multiscales"][0]["datasets"][0]["coordinateTransformations"] if t["type"] == "scale")
+    files = write_formats(a, scale, os.path.join(o.work, "formats"))
+    tiny = write_formats(np.full((16, 16, 16), 100, np.uint16), scale, os.path.join(o.work, "formats_tiny"))
+    rows = []
+    for name, path in files.items():
+        seconds, peak, stdout, _ = timed([cli, "convert", path, "-o", os.path.join(o.work, "out.zarr"), "--chunk", "64"])
+        _, tiny_peak, _, _ = timed([cli, "convert", tiny[name], "-o", os.path.join(o.work, "tiny.zarr"), "--chunk", "64"])
+        shutil.rmtree(os.path.join(o.work, "out.zarr"))
+        shutil.rmtree(os.path.join(o.work, "tiny.zarr"))
+        rows.append({"format": name, "streamed": "(streamed)" in stdout, "seconds": seconds, "peak_mib": peak, "tiny_peak_mib": tiny_peak})
+    print(f"\nct-body {x}×{y}×{z} uint16 ({a.nbytes / 2**20:.0f} MiB) converted to OME-Zarr (64³ chunks, blosc), a fresh process each")
+    print("| format | streamed | time (s) | peak RSS (MiB) | peak for a 16³ file (MiB) | over it (MiB) |")
+    print("|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['format']} | {'yes' if r['streamed'] else 'no'} | {r['seconds']:.1f} | {r['peak_mib']:.0f} | {r['tiny_peak_mib']:.0f} | "
+              f"{r['peak_mib'] - r['tiny_peak_mib']:.0f} |")
+    json.dump(rows, open(os.path.join(out, "budget_formats.json"), "w"), indent=2)
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("case", choices=["body", "big"])
+    p.add_argument("case", choices=["body", "big", "formats"])
     p.add_argument("--build", default=os.path.join(ROOT, "build", "release"))
     p.add_argument("--out", default=None)
     p.add_argument("--work", default=None, help="where the stores go (default: a temporary folder)")
@@ -148,7 +233,7 @@ def main():
     out = o.out or tempfile.mkdtemp(prefix="bench_budget_")
     os.makedirs(out, exist_ok=True)
     o.work = o.work or out
-    (body if o.case == "body" else big)(o, cli, out)
+    {"body": body, "big": big, "formats": formats}[o.case](o, cli, out)
     print(f"\n(files in {out})")
 
 

@@ -135,13 +135,17 @@ TEST(VolumeWindow, FilesAreReadOnlyForTheChosenSlices) {
   std::string ascii;
   for (const std::int16_t v : voxels) ascii += std::to_string(v) + "\n";
   write_file(dir.file("ascii.nrrd"), nrrd_file(header + "encoding: ascii\n", Bytes(ascii.begin(), ascii.end())));
+  NiftiSpec nifti;
+  nifti.dim = {3, 5, 4, 12, 1, 1, 1, 1};
+  write_file(dir.file("plain.nii"), nifti_file(nifti, to_bytes(voxels)));
+  write_file(dir.file("gzip.nii.gz"), gzip(nifti_file(nifti, to_bytes(voxels))));
   const SliceChooser slices_3_to_8 = [](const std::array<int, 3>& dims) {
     EXPECT_EQ(dims[2], 12);
     return SliceRange{3, 6};
   };
   VolumeLoadOptions raw;
   raw.raw = RawVolumeOptions{{5, 4, 12}, ScalarType::Int16, false, {1, 1, 2}, 0};
-  for (const std::string file : {"raw.nrrd", "gzip.nrrd", "plain.raw", "ascii.nrrd"}) {
+  for (const std::string file : {"raw.nrrd", "gzip.nrrd", "plain.raw", "ascii.nrrd", "plain.nii", "gzip.nii.gz"}) {
     SCOPED_TRACE(file);
     const VolumeLoadOptions options = file == "plain.raw" ? raw : VolumeLoadOptions{};  // the NRRD headers give their layout
     const Volume whole = load_volume(dir.file(file), options);
@@ -154,7 +158,7 @@ TEST(VolumeWindow, FilesAreReadOnlyForTheChosenSlices) {
       for (int j = 0; j < 4; ++j)
         for (int i = 0; i < 5; ++i) ASSERT_EQ(window.value(i, j, k), whole.value(i, j, k + 3));
     EXPECT_EQ(read.whole, file == "ascii.nrrd");
-    if (file == "raw.nrrd" || file == "plain.raw") {
+    if (file == "raw.nrrd" || file == "plain.raw" || file == "plain.nii") {
       EXPECT_EQ(read.bytes_read, 6u * 5 * 4 * 2);
     }
   }
@@ -166,6 +170,53 @@ TEST(VolumeWindow, FilesAreReadOnlyForTheChosenSlices) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("slices 10 to 12 of a volume of 12"), std::string::npos) << e.what();
   }
+}
+
+// Gzip data continues from where the last window of the file ended (data/io/parked_stream.h): windows
+// read in order decompress only their own part, and windows in any order, of files rewritten between
+// reads or of another file between them, are still their slices.
+TEST(VolumeWindow, GzipWindowsContinueWhereTheLastEndedAndAnyOrderIsRight) {
+  ScratchDir dir;
+  std::vector<std::int16_t> voxels(64 * 48 * 12);
+  for (std::size_t i = 0; i < voxels.size(); ++i) voxels[i] = static_cast<std::int16_t>(i * 2654435761u % 30011 - 15000);
+  const std::string header = "type: short\ndimension: 3\nsizes: 64 48 12\nendian: little\nspacings: 1 1 2\nencoding: gzip\n";
+  NiftiSpec nifti;
+  nifti.dim = {3, 64, 48, 12, 1, 1, 1, 1};
+  write_file(dir.file("v.nrrd"), nrrd_file(header, gzip(to_bytes(voxels))));
+  write_file(dir.file("v.nii.gz"), gzip(nifti_file(nifti, to_bytes(voxels))));
+  write_file(dir.file("other.nii.gz"), gzip(nifti_file(nifti, to_bytes(std::vector<std::int16_t>(voxels.rbegin(), voxels.rend())))));
+  const auto window = [&](const std::string& file, int first, int count, WindowRead& read) {
+    return load_volume_window({dir.file(file)}, VolumeLoadOptions{}, [=](const std::array<int, 3>&) { return SliceRange{first, count}; }, read);
+  };
+  const auto expect_slices = [&](const Volume& w, const Volume& whole, int first) {
+    for (int k = 0; k < w.dims()[2]; ++k)
+      for (int j = 0; j < 48; ++j)
+        for (int i = 0; i < 64; ++i) ASSERT_EQ(w.value(i, j, k), whole.value(i, j, k + first)) << i << " " << j << " " << k;
+  };
+  for (const std::string file : {"v.nrrd", "v.nii.gz"}) {
+    SCOPED_TRACE(file);
+    const Volume whole = load_volume(dir.file(file));
+    WindowRead first_read, next_read, fresh_read;
+    (void)window(file, 0, 6, first_read);
+    const Volume next = window(file, 6, 3, next_read);  // continues: reads only past slice 6
+    expect_slices(next, whole, 6);
+    WindowRead other_read;
+    (void)window("other.nii.gz", 0, 6, other_read);  // another file's window parks its own stream, at slice 6
+    const Volume again = window(file, 6, 3, fresh_read);  // not this file's (or, for the NRRD, past slice 6): starts over
+    expect_slices(again, whole, 6);
+    EXPECT_LT(next_read.bytes_read, fresh_read.bytes_read / 2) << "the second window decompressed from the start";
+    for (const auto& [first, count] : {std::pair{9, 2}, {2, 3}, {5, 7}, {0, 1}, {11, 1}}) {
+      WindowRead read;
+      expect_slices(window(file, first, count, read), whole, first);
+    }
+  }
+  // rewritten between two windows (another size): the parked stream is not the file's any more
+  WindowRead read;
+  (void)window("v.nii.gz", 0, 4, read);
+  std::vector<std::int16_t> changed(voxels.size(), 7);
+  write_file(dir.file("v.nii.gz"), gzip(nifti_file(nifti, to_bytes(changed))));
+  const Volume after = window("v.nii.gz", 4, 4, read);
+  for (int k = 0; k < 4; ++k) ASSERT_EQ(after.value(3, 5, k), 7.0f);
 }
 
 // A Zarr store (here an OME-Zarr pyramid penumbra wrote, 8³ chunks) reads only the chunks that hold the

@@ -3,10 +3,12 @@
 // or a procedural one (--procedural), written as an OME-Zarr 0.4 pyramid (zarr_writer.h) with a
 // progress line on a terminal.
 //
-// The pyramid streams (OmeZarrStreamWriter): NRRD files, HDF5 datasets and Zarr stores are read a slab
-// of slices at a time (load_volume_window: raw data seeks, gzip data decompresses up to the slab, an HDF5
-// hyperslab and a Zarr store read the chunks of the slab's rows) and a procedural ct-body is made a slab
-// at a time, so that none is ever held whole; other formats are read whole first.
+// The pyramid streams (OmeZarrStreamWriter): DICOM series, NRRD, NIfTI and TIFF files, HDF5 datasets and
+// Zarr stores (reads_slices_in_part) are read a slab of slices at a time (load_volume_window: a DICOM
+// series decodes the slab's slices, raw data seeks, gzip data decompresses up to the slab, a TIFF stack
+// decodes the slab's pages, an HDF5 hyperslab and a Zarr store read the chunks of the slab's rows) and a
+// procedural ct-body is made a slab at a time, so that none is ever held whole; other formats (VTK image
+// data, OpenVDB) are read whole first.
 #include <unistd.h>
 
 #include <nlohmann/json.hpp>
@@ -72,8 +74,8 @@ Converted stream_ct_body(const CtBodyParams& p, const std::string& out, const Om
   return {dims, ScalarType::UInt16, "procedural ct-body", true, writer.buffer_bytes() + voxels.size() * 2, writer.finish()};
 }
 
-// An NRRD file, an HDF5 dataset or a Zarr store a slab at a time; one its reader cannot read in part (an NRRD whose z is
-// another file axis, a Zarr level whose z scale is negative) is read whole.
+// A file reads_slices_in_part accepts, a slab at a time; one its reader cannot read in part (an NRRD or NIfTI file
+// whose z is another file axis, a Zarr level whose z scale is negative) is read whole.
 Converted stream_slabs(const std::vector<std::string>& files, const VolumeLoadOptions& choice, const std::string& format,
                        const std::string& out, const OmeZarrWriteOptions& options) {
   std::array<int, 3> dims{};
@@ -105,11 +107,6 @@ Converted stream_slabs(const std::vector<std::string>& files, const VolumeLoadOp
   return {{dims[0], dims[1], dims[2]}, type, format, true, writer.buffer_bytes() + held, writer.finish()};
 }
 
-bool is_nrrd(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext == ".nrrd" || ext == ".nhdr";
-}
 
 }  // namespace
 
@@ -166,10 +163,10 @@ void add_convert_command(CLI::App& app) {
     } else {
       o->write.name = std::filesystem::path(o->files.front()).filename().string();
       const std::string& in = o->files.front();
-      if (o->files.size() == 1 && (is_nrrd(in) || is_hdf5_path(in) || is_zarr_store(in))) {
+      if (reads_slices_in_part(o->files, o->choice)) {
         VolumeLoadOptions choice = o->choice;
         if (is_zarr_store(in) && choice.level < 0) choice.level = 0;  // streamed: the finest, however large
-        c = stream_slabs(o->files, choice, is_nrrd(in) ? "nrrd" : is_hdf5_path(in) ? "hdf5" : "zarr", o->out, o->write);
+        c = stream_slabs(o->files, choice, volume_format(o->files), o->out, o->write);
       } else {
         VolumeFileInfo info;
         Volume v = load_volume(o->files, o->choice, &info);

@@ -201,3 +201,103 @@ def test_an_hdf5_dataset_streams_a_hyperslab_at_a_time(tmp_path):
     with h5py.File(src, "r") as f:
         np.testing.assert_array_equal(root["0"][:], f["cells/raw"][1])
     np.testing.assert_array_equal(root["1"][:], mean_levels(channel1))
+
+
+def test_a_tiff_stack_streams_a_slab_of_pages_at_a_time(tmp_path):
+    """A 131 MB channel of a two-channel ImageJ hyperstack written by tifffile is decoded a slab of pages
+    at a time: convert's peak memory over what a tiny stack takes stays far below the channel's size,
+    and the pyramid is that channel as tifffile reads it, and every mean."""
+    tifffile = pytest.importorskip("tifffile")  # Debian python3-tifffile
+    z, y, x = 160, 640, 640
+    k, j, i = np.ogrid[0:z, 0:y, 0:x]
+    channel1 = ((i * 5 + j * 3 + k * 13) % 4091).astype(np.uint16)
+    src = tmp_path / "big.tif"
+    tifffile.imwrite(src, np.stack([4090 - channel1, channel1], axis=1), imagej=True, metadata={"axes": "ZCYX"})
+    out = tmp_path / "big.zarr"
+    code, stdout, stderr, mib = peak_rss_mib([CLI, "convert", src, "--channel", "1", "-o", out, "--chunk", "16"])
+    assert code == 0, stderr
+    assert "from tiff (streamed)" in stdout, stdout
+    tiny = tmp_path / "tiny.tif"
+    tifffile.imwrite(tiny, np.zeros((4, 2, 4, 4), np.uint16), imagej=True, metadata={"axes": "ZCYX"})
+    code, _, stderr, baseline = peak_rss_mib([CLI, "convert", tiny, "--channel", "1", "-o", tmp_path / "tiny.zarr"])
+    assert code == 0, stderr
+    channel_mib = channel1.nbytes / 2**20
+    assert mib - baseline < 0.35 * channel_mib, f"convert peaked at {mib:.0f} MiB ({baseline:.0f} MiB for a tiny stack) for a {channel_mib:.0f} MiB channel"
+    root = zarr.open_group(str(out), mode="r")
+    np.testing.assert_array_equal(root["0"][:], tifffile.imread(src)[:, 1])
+    np.testing.assert_array_equal(root["1"][:], mean_levels(channel1))
+
+
+def test_a_nifti_streams_a_slab_at_a_time(tmp_path):
+    """A 164 MB gzip NIfTI written by nibabel whose affine reverses z (and y, in LPS) is decompressed up to
+    each slab, whose slices come from the file's other end: convert's peak memory stays far below the
+    volume's size, and the pyramid is nibabel's voxels placed in LPS, and every mean."""
+    nib = pytest.importorskip("nibabel")  # Debian python3-nibabel
+    z, y, x = 200, 640, 640
+    k, j, i = np.ogrid[0:z, 0:y, 0:x]
+    data = ((i * 5 + j * 3 + k * 13) % 4091 - 2000).astype(np.int16)
+    src = tmp_path / "big.nii.gz"
+    nib.save(nib.Nifti1Image(data.transpose(2, 1, 0), np.diag([-0.5, 0.5, -1.5, 1.0])), src)
+    out = tmp_path / "big.zarr"
+    code, stdout, stderr, mib = peak_rss_mib([CLI, "convert", src, "-o", out, "--chunk", "16"])
+    assert code == 0, stderr
+    assert "from nifti (streamed)" in stdout, stdout
+    tiny = tmp_path / "tiny.nii.gz"
+    nib.save(nib.Nifti1Image(np.zeros((4, 4, 4), np.int16), np.diag([-0.5, 0.5, -1.5, 1.0])), tiny)
+    code, _, stderr, baseline = peak_rss_mib([CLI, "convert", tiny, "-o", tmp_path / "tiny.zarr"])
+    assert code == 0, stderr
+    file_mib = data.nbytes / 2**20
+    assert mib - baseline < 0.35 * file_mib, f"convert peaked at {mib:.0f} MiB ({baseline:.0f} MiB for a tiny file) for a {file_mib:.0f} MiB volume"
+    placed = np.asarray(nib.load(src).dataobj).transpose(2, 1, 0)[::-1, ::-1, :]  # RAS (-x, +y, -z) is LPS (+x, -y, -z)
+    root = zarr.open_group(str(out), mode="r")
+    np.testing.assert_array_equal(root["0"][:], placed)
+    np.testing.assert_array_equal(root["1"][:], mean_levels(placed))
+
+
+def test_a_dicom_series_streams_a_slab_of_slices_at_a_time(tmp_path):
+    """A 200-slice CT series (a real slice's header written by pydicom with new pixels and positions, the
+    columns running posterior to anterior so that the slices come from the series' other end) is decoded
+    a slab of slices at a time: convert's peak memory stays far below the series' size and the pyramid is
+    the series read whole. With 16 stored bits the rescaled values might not fit int16: the type is then
+    not known from the headers, and the series is read whole, with the same voxels."""
+    pydicom = pytest.importorskip("pydicom")
+    ct = os.path.join(os.environ.get("PENUMBRA_ROOT", "."), "..", "shared", "data", "dicom_pancreas_ct", "1-045.dcm")
+    if not os.path.isfile(ct):
+        pytest.skip("missing data: ../shared/data/dicom_pancreas_ct")
+    z, y, x = 200, 512, 512
+    j, i = np.ogrid[0:y, 0:x]
+
+    def series(folder, bits_stored, slices=z):
+        folder.mkdir()
+        ds = pydicom.dcmread(ct)
+        ds.file_meta.TransferSyntaxUID = pydicom.uid.ExplicitVRLittleEndian
+        ds.BitsStored, ds.HighBit = bits_stored, bits_stored - 1
+        ds.ImageOrientationPatient = [1, 0, 0, 0, -1, 0]  # normal -z: sorted along it, the slices run downwards
+        for k in range(slices):
+            ds.PixelData = ((i * 5 + j * 3 + k * 13) % 4091).astype("<u2").tobytes()
+            ds.ImagePositionPatient = [-275, 100, 300 - 1.25 * k]
+            ds.InstanceNumber = k + 1
+            ds.SOPInstanceUID = pydicom.uid.generate_uid()
+            ds.save_as(str(folder / f"slice{(k * 37) % slices:03d}.dcm"), write_like_original=False)  # files not in position order
+        return folder
+
+    twelve = series(tmp_path / "twelve", 12)
+    out = tmp_path / "twelve.zarr"
+    code, stdout, stderr, mib = peak_rss_mib([CLI, "convert", twelve, "-o", out, "--chunk", "16"])
+    assert code == 0, stderr
+    assert "from dicom (streamed)" in stdout, stdout
+    small = series(tmp_path / "small", 12, slices=4)
+    code, _, stderr, baseline = peak_rss_mib([CLI, "convert", small, "-o", tmp_path / "small.zarr"])
+    assert code == 0, stderr
+    series_mib = z * y * x * 2 / 2**20
+    assert mib - baseline < 0.35 * series_mib, f"convert peaked at {mib:.0f} MiB ({baseline:.0f} MiB for 4 slices) for a {series_mib:.0f} MiB series"
+    whole = penumbra.read_volume(str(twelve)).array
+    assert whole.dtype == np.int16
+    root = zarr.open_group(str(out), mode="r")
+    np.testing.assert_array_equal(root["0"][:], whole)
+    np.testing.assert_array_equal(root["1"][:], mean_levels(whole))
+    sixteen = series(tmp_path / "sixteen", 16)
+    r = subprocess.run([CLI, "convert", str(sixteen), "-o", str(tmp_path / "sixteen.zarr")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "from dicom (read whole)" in r.stdout, r.stdout
+    np.testing.assert_array_equal(zarr.open_group(str(tmp_path / "sixteen.zarr"), mode="r")["0"][:], whole)

@@ -268,3 +268,51 @@ def test_a_broken_file_over_its_budget_is_an_error_naming_it_once(tmp_path):
         r, image, _ = render(tmp_path, path, "--memory-budget", "4K", name=path.stem)
         assert r.returncode != 0 and message in r.stderr and r.stderr.count(str(path)) == 1, r.stderr
         assert not image.exists()
+
+
+def test_tiff_and_nifti_over_their_budget_open_reduced(tmp_path):
+    """A TIFF stack (a zlib-compressed ImageJ hyperstack written by tifffile, channel 1) and NIfTI files
+    written by nibabel (gzip with z and y reversed by the affine, and plain with a scale slope) over the
+    budget open reduced like an NRRD: each voxel the mean of its block of the placed voxels, the file
+    read in two slabs of slices (26 MB a channel, 16 MiB slabs)."""
+    tifffile = pytest.importorskip("tifffile")
+    nib = pytest.importorskip("nibabel")
+    shape = (200, 256, 256)  # z, y, x
+    k, j, i = np.ogrid[0:shape[0], 0:shape[1], 0:shape[2]]
+    data = ((i * 5 + j * 3 + k * 7) % 3001).astype(np.uint16)
+    tif = tmp_path / "stack.tif"
+    tifffile.imwrite(tif, np.stack([3000 - data, data], axis=1), imagej=True, metadata={"axes": "ZCYX"}, compression="zlib")
+    f = 4
+    reduced = tuple(-(-n // f) for n in shape)
+    v = penumbra.read_volume(str(tif), channel=1, memory_budget=held_bytes(reduced, 2))
+    np.testing.assert_array_equal(v.array, block_means(data, f))
+    assert any(f"reduced {f}×" in n for n in v.info["notes"]) and v.info["format"] == "tiff", v.info
+    signed = data.astype(np.int16) - 1000
+    gz = tmp_path / "flipped.nii.gz"
+    nib.save(nib.Nifti1Image(signed.transpose(2, 1, 0), np.diag([-2.0, 3.0, -4.0, 1.0])), gz)
+    placed = signed[::-1, ::-1, :]  # RAS (-x, +y, -z) is LPS (+x, -y, -z): y and z reversed
+    np.testing.assert_array_equal(penumbra.read_volume(str(gz)).array, placed)
+    v = penumbra.read_volume(str(gz), memory_budget=held_bytes(reduced, 2))
+    np.testing.assert_array_equal(v.array, block_means(placed, f))
+    assert v.spacing == pytest.approx((4 * f, 3 * f, 2 * f)) and v.info["format"] == "nifti"
+    scaled = nib.Nifti1Image(signed.transpose(2, 1, 0), np.diag([2.0, 3.0, 4.0, 1.0]))
+    scaled.header.set_slope_inter(0.5, 10)
+    plain = tmp_path / "scaled.nii"
+    nib.save(scaled, plain)
+    want = (signed.astype(np.float32) * 0.5 + 10)[:, ::-1, ::-1]  # RAS (+x, +y) is LPS (-x, -y)
+    v = penumbra.read_volume(str(plain), memory_budget=held_bytes(reduced, 4))
+    np.testing.assert_allclose(v.array, block_means(want, f), rtol=1e-6)
+
+
+def test_a_dicom_series_over_its_budget_opens_reduced():
+    """The staged CT series (50 slices of 512², two 16 MiB slabs) under a budget opens as the block means
+    of the series read whole, decoding a slab of slices at a time."""
+    ct = os.path.join(os.environ.get("PENUMBRA_ROOT", "."), "..", "shared", "data", "dicom_pancreas_ct")
+    if not os.path.isdir(ct):
+        pytest.skip("missing data: ../shared/data/dicom_pancreas_ct")
+    whole = penumbra.read_volume(ct)
+    f = 2
+    v = penumbra.read_volume(ct, memory_budget=held_bytes(tuple(-(-n // f) for n in whole.array.shape), 2))
+    np.testing.assert_array_equal(v.array, block_means(whole.array, f))
+    assert v.info["format"] == "dicom" and any(f"reduced {f}×" in n for n in v.info["notes"]), v.info
+    assert v.spacing == pytest.approx(tuple(s * f for s in whole.spacing), rel=1e-5)

@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -48,11 +49,35 @@ void quiet_gdcm() {
   (void)done;
 }
 
+// Whether every rescaled value the slices' stored bits can hold fits int16: a window of slices then has
+// the type the whole series has without decoding the others.
+bool rescale_fits_int16(const std::vector<const Slice*>& slices) {
+  for (const Slice* s : slices) {
+    const double lo = s->is_signed ? -std::ldexp(1.0, s->bits_stored - 1) : 0.0;
+    const double hi = s->is_signed ? std::ldexp(1.0, s->bits_stored - 1) - 1 : std::ldexp(1.0, s->bits_stored) - 1;
+    const double a = lo * s->slope + s->intercept, b = hi * s->slope + s->intercept;
+    if (std::min(a, b) < -32768 || std::max(a, b) > 32767) return false;
+  }
+  return true;
+}
+
+// The layout of slices [first, first + count) of `L`'s grid: those slices, placed by the same affine moved
+// to the first of them.
+dicom::Layout window_layout(const dicom::Layout& L, int first, int count) {
+  dicom::Layout W = L;
+  W.slices.assign(L.slices.begin() + first, L.slices.begin() + first + count);
+  W.dims[2] = count;
+  W.slice.resize(static_cast<std::size_t>(count));  // slice k starts at k × columns × rows in either grid
+  for (int d = 0; d < 3; ++d) W.affine.offset[d] += first * L.affine.linear[d][2];
+  return W;
+}
+
 }  // namespace
 
 Volume load_dicom_volume(const std::vector<std::string>& paths, const std::string& series, VolumeFileInfo* info_out,
-                         const std::string& confine_to) {
+                         const std::string& confine_to, const SliceChooser* choose, WindowRead* read) {
   quiet_gdcm();
+  if (read) *read = WindowRead{};
   VolumeFileInfo local;
   VolumeFileInfo& info = info_out ? *info_out : local;
   info.format = "dicom";
@@ -114,6 +139,27 @@ Volume load_dicom_volume(const std::vector<std::string>& paths, const std::strin
   if (integral && !rescaled && !first.is_signed && first.bits_allocated == 8) type = ScalarType::UInt8;
   else if (integral && !rescaled && !first.is_signed && first.bits_allocated == 16) type = ScalarType::UInt16;
   else if (integral) type = ScalarType::Int16;
+
+  // A window whose slices are the series' own (the slice normal is z, either way) and whose type the
+  // headers settle decodes only its slices; any other is read whole and cut below.
+  const auto permutation = axis_permutation(L.affine);
+  std::optional<SliceRange> window_slices;  // the placed grid's slices, known before decoding unless it is resampled
+  if (choose && permutation) window_slices = checked_slices(*choose, placed_dims(L.dims, *permutation));
+  const bool type_settled = type != ScalarType::Int16 || rescale_fits_int16(L.slices);
+  if (window_slices && permutation->file_axis[2] == 2 && window_slices->count < L.dims[2] && type_settled) {
+    const int file_first = permutation->reversed[2] ? L.dims[2] - window_slices->first - window_slices->count : window_slices->first;
+    const Layout W = window_layout(L, file_first, window_slices->count);
+    Volume window(type, W.dims, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
+    if (!dicom::fill_slices(window, W)) throw Error("a rescaled value does not fit int16 although the stored bits say it must");
+    if (read)
+      for (const Slice* s : W.slices) read->bytes_read += io_detail::regular_file_size(s->path);
+    window = place_volume(std::move(window), W.affine, info);
+    info.affine = L.affine;
+    window.recompute_range();  // this window's own
+    window.set_origin(placed_origin(L.affine, L.dims, *permutation));
+    window.set_window(window_slices->first, L.dims[2]);
+    return window;
+  }
   Volume volume(type, L.dims, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
   const bool filled = dicom::fill_slices(volume, L);
   if (!filled) {
@@ -131,6 +177,13 @@ Volume load_dicom_volume(const std::vector<std::string>& paths, const std::strin
     if (s->syntax->lossy) lossy.insert(s->syntax->name);
   for (const std::string& name : lossy) info.notes.push_back("pixel data compressed with lossy " + name);
   volume = place_volume(std::move(volume), L.affine, info);
+  if (choose) {
+    const SliceRange slices = window_slices ? *window_slices : checked_slices(*choose, volume.dims());
+    if (slices.count < volume.dims()[2]) {  // read whole, kept in part
+      volume = volume.window_z(slices.first, slices.count);
+      if (read) read->whole = true;
+    }
+  }
   volume.recompute_range();
   return volume;
 }

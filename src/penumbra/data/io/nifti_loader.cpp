@@ -16,12 +16,14 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <type_traits>
 #include <vector>
 
 #include <nifti1_io.h>
 
 #include "penumbra/data/io/file_checks.h"
+#include "penumbra/data/io/parked_stream.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/io/volume_placement.h"
 
@@ -42,6 +44,9 @@ struct GzClose {
   void operator()(gzFile_s* f) const { gzclose(f); }
 };
 using GzFile = std::unique_ptr<gzFile_s, GzClose>;
+
+// Where the last window of a .nii.gz ended (parked_stream.h).
+io_detail::ParkedStream<GzFile> parked;
 
 std::string dims_str(const short* dim) {
   std::string s;
@@ -194,7 +199,10 @@ Affine nifti_affine(const nifti_image& nim, const RawHeader& raw, VolumeFileInfo
 
 }  // namespace
 
-Volume load_nifti_volume(const std::string& path, VolumeFileInfo& info) {
+Volume load_nifti_volume(const std::string& path, VolumeFileInfo& info) { return load_nifti_volume(path, nullptr, nullptr, info); }
+
+Volume load_nifti_volume(const std::string& path, const SliceChooser* choose, WindowRead* read, VolumeFileInfo& info) {
+  if (read) *read = WindowRead{};
   const std::uint64_t file_bytes = io_detail::regular_file_size(path);
   if (file_bytes == 0) throw Error("empty file (expected a NIfTI-1 header)");
   // gzopen reads plain files as they are, so one reader serves .nii and .nii.gz.
@@ -230,17 +238,41 @@ Volume load_nifti_volume(const std::string& path, VolumeFileInfo& info) {
   const Affine affine = nifti_affine(*nim, raw, info);
   const ScalarType stored = nifti_storage_type(nim->datatype);
   const ScalarType type = scale ? ScalarType::Float32 : stored;
-  Volume volume(type, {static_cast<int>(raw.dims[0]), static_cast<int>(raw.dims[1]), static_cast<int>(raw.dims[2])});
+  const std::array<int, 3> dims{static_cast<int>(raw.dims[0]), static_cast<int>(raw.dims[1]), static_cast<int>(raw.dims[2])};
 
-  // Skip any extensions, then read the voxels straight into the volume when no conversion is needed.
-  std::vector<unsigned char> skip(static_cast<std::size_t>(raw.offset - sizeof(nifti_1_header)));
-  read_exact(file.get(), path, skip.data(), skip.size(), "header extensions");
+  // A window whose slices are the file's own (its z the file's third axis, reversed or not) reads only
+  // them; any other is read whole and cut below.
+  const auto permutation = axis_permutation(affine);
+  std::optional<SliceRange> chosen;  // the placed grid's slices, known before reading unless it is resampled
+  if (choose && permutation) chosen = checked_slices(*choose, placed_dims(dims, *permutation));
+  const bool in_part = chosen && permutation->file_axis[2] == 2 && chosen->count < dims[2];
+  const int file_first = !in_part ? 0 : permutation->reversed[2] ? dims[2] - chosen->first - chosen->count : chosen->first;
+  const int file_count = in_part ? chosen->count : dims[2];
+  Volume volume(type, {dims[0], dims[1], file_count});
+
+  // Skip any extensions and the slices before the window, then read the voxels straight into the
+  // volume when no conversion is needed.
+  const std::uint64_t slice_bytes = raw.data_bytes / static_cast<std::uint64_t>(dims[2]);
+  const std::uint64_t wanted = slice_bytes * static_cast<std::uint64_t>(file_count);
+  const std::uint64_t start = raw.offset + slice_bytes * static_cast<std::uint64_t>(file_first);
+  z_off_t counted_from = 0;  // the compressed bytes read before this window's
+  std::uint64_t resumed_at = 0;
+  if (compressed && in_part)
+    if (std::optional<GzFile> resumed = parked.resume(path, path, start, resumed_at)) {
+      file = std::move(*resumed);
+      counted_from = gzoffset(file.get());
+    }
+  if (gzseek(file.get(), static_cast<z_off_t>(start), SEEK_SET) < 0)  // forward from where a resumed stream stands
+    throw Error("cannot seek to slice " + std::to_string(file_first) + " (" + gz_message(file.get(), path) + ")");
   const int dt = nim->datatype;
   const bool direct = !scale && (dt == DT_UINT8 || dt == DT_INT16 || dt == DT_UINT16 || dt == DT_FLOAT32);
-  std::vector<std::byte> buffer(direct ? 0 : static_cast<std::size_t>(raw.data_bytes));
+  std::vector<std::byte> buffer(direct ? 0 : static_cast<std::size_t>(wanted));
   void* data = direct ? static_cast<void*>(volume.data()) : static_cast<void*>(buffer.data());
-  read_exact(file.get(), path, data, raw.data_bytes, "voxel data");
-  if (compressed) {
+  read_exact(file.get(), path, data, wanted, in_part ? "chosen slices' voxel data" : "voxel data");
+  const bool to_the_end = file_first + file_count == dims[2];
+  if (read) read->bytes_read = compressed ? static_cast<std::uint64_t>(gzoffset(file.get()) - counted_from) : wanted;
+  if (compressed && in_part && !to_the_end) parked.park(path, path, std::move(file), start + wanted);
+  if (compressed && to_the_end) {
     // Reading on to the end makes zlib check the gzip trailer: a cut or corrupt stream fails here
     // (gzread returns 0 for a cut stream, so the error state is what tells).
     unsigned char extra = 0;
@@ -249,7 +281,7 @@ Volume load_nifti_volume(const std::string& path, VolumeFileInfo& info) {
       throw Error("corrupt compressed data after the voxels (" + gz_message(file.get(), path) + ")");
   }
   if (nim->byteorder != nifti_short_order() && nim->swapsize > 1)
-    nifti_swap_Nbytes(static_cast<std::size_t>(nim->nvox), nim->swapsize, data);
+    nifti_swap_Nbytes(static_cast<std::size_t>(volume.voxel_count()), nim->swapsize, data);
 
   if (!direct) {
     switch (nim->datatype) {
@@ -264,7 +296,24 @@ Volume load_nifti_volume(const std::string& path, VolumeFileInfo& info) {
       default: throw Error("unsupported NIfTI datatype");
     }
   }
+  if (in_part) {
+    Affine window_affine = affine;
+    for (int d = 0; d < 3; ++d) window_affine.offset[d] += file_first * affine.linear[d][2];
+    volume = place_volume(std::move(volume), window_affine, info);
+    info.affine = affine;
+    volume.recompute_range();  // this window's own
+    volume.set_origin(placed_origin(affine, dims, *permutation));
+    volume.set_window(chosen->first, dims[2]);
+    return volume;
+  }
   volume = place_volume(std::move(volume), affine, info);
+  if (choose) {
+    const SliceRange slices = chosen ? *chosen : checked_slices(*choose, volume.dims());
+    if (slices.count < volume.dims()[2]) {  // read whole, kept in part
+      volume = volume.window_z(slices.first, slices.count);
+      if (read) read->whole = true;
+    }
+  }
   volume.recompute_range();  // rejects NaN/inf voxels and gives the volume its range
   return volume;
 }

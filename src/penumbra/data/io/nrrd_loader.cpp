@@ -27,6 +27,7 @@
 #include "penumbra/data/io/byte_order.h"
 #include "penumbra/data/io/file_checks.h"
 #include "penumbra/data/io/gzip_stream.h"
+#include "penumbra/data/io/parked_stream.h"
 #include "penumbra/data/io/text_fields.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/io/volume_placement.h"
@@ -490,23 +491,42 @@ void read_voxels(Next&& next, int nrrd_type, bool swap, Volume& volume) {
 
 // Raw or gzip data, read from the file teem left open at the data straight into the volume, which
 // holds slices [first_slice, first_slice + its slices) of the file's grid: raw data seeks past the
-// slices before them, gzip data decompresses and drops them, and neither reads past the last (a window
-// that stops short of the end leaves the gzip checksum unread). Returns the bytes read from the file.
-std::uint64_t read_data_file(const TeemRead& teem, const NrrdHeader& h, const Checked& c, int first_slice, Volume& volume) {
+// slices before them, gzip data decompresses and drops them (continuing from where the last window of
+// the file ended, when that is not past them), and neither reads past the last (a window that stops short
+// of the end leaves the gzip checksum unread, its stream parked). Returns the bytes read from the file.
+// A gzip stream with the data file it reads, parked where the last window ended (parked_stream.h).
+struct OpenGzip {
+  File file;
+  std::unique_ptr<GzipStream> gz;
+};
+io_detail::ParkedStream<OpenGzip> parked_gzip;
+
+std::uint64_t read_data_file(TeemRead& teem, const std::filesystem::path& header_path, const NrrdHeader& h, const Checked& c,
+                             int first_slice, Volume& volume) {
   const int type = teem.nrrd->type;
   const bool swap = nrrdTypeSize[type] > 1 && teem.endian != airEndianUnknown && teem.endian != airMyEndian();
   const std::uint64_t before = static_cast<std::uint64_t>(c.dims[0]) * static_cast<std::uint64_t>(c.dims[1]) *
                                static_cast<std::uint64_t>(first_slice) * nrrdTypeSize[type];
   const bool to_the_end = first_slice + volume.dims()[2] == c.dims[2];
-  const long start = std::ftell(teem.data.get());
   if (h.encoding == nrrdEncodingTypeGzip) {
     const auto skip = static_cast<std::uint64_t>(h.byte_skip);  // counted in the decompressed bytes
-    GzipStream gz(teem.data.get(), "NRRD gzip data", c.needed_bytes + skip, need_text(c, h, c.needed_bytes + skip));
-    gz.read(nullptr, skip + before);
-    read_voxels([&](std::byte* dst, std::size_t bytes) { gz.read(dst, bytes); }, type, swap, volume);
-    if (to_the_end) gz.finish();
-    return static_cast<std::uint64_t>(std::max(0L, std::ftell(teem.data.get()) - start));
+    const std::string key = header_path.string(), data = c.data_path.string();
+    std::uint64_t at = 0;  // where the stream stands in the decompressed bytes
+    std::optional<OpenGzip> open = first_slice > 0 ? parked_gzip.resume(key, data, skip + before, at) : std::nullopt;
+    if (!open) {
+      open.emplace();
+      open->file = std::move(teem.data);
+      open->gz = std::make_unique<GzipStream>(open->file.get(), "NRRD gzip data", c.needed_bytes + skip, need_text(c, h, c.needed_bytes + skip));
+    }
+    const long start = std::ftell(open->file.get());
+    open->gz->read(nullptr, skip + before - at);
+    read_voxels([&](std::byte* dst, std::size_t bytes) { open->gz->read(dst, bytes); }, type, swap, volume);
+    const auto bytes = static_cast<std::uint64_t>(std::max(0L, std::ftell(open->file.get()) - start));
+    if (to_the_end) open->gz->finish();
+    else parked_gzip.park(key, data, std::move(*open), skip + before + volume.voxel_count() * nrrdTypeSize[type]);
+    return bytes;
   }
+  const long start = std::ftell(teem.data.get());
   std::uint64_t done = before;
   if (before > 0 && fseeko(teem.data.get(), static_cast<off_t>(before), SEEK_CUR) != 0)
     throw Error("NRRD raw data: cannot seek to slice " + std::to_string(first_slice));
@@ -608,7 +628,7 @@ Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, Win
     if (slices.count < dims[2]) {
       const int file_first = permutation->reversed[2] ? dims[2] - slices.first - slices.count : slices.first;
       Volume window(nrrd_storage_type(n.type), {dims[0], dims[1], slices.count}, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
-      const std::uint64_t bytes = read_data_file(teem, header, checked, file_first, window);
+      const std::uint64_t bytes = read_data_file(teem, abs_path, header, checked, file_first, window);
       if (read) read->bytes_read = bytes;
       teem = TeemRead{};
       Affine window_affine = affine;
@@ -624,7 +644,7 @@ Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, Win
   Volume volume(nrrd_storage_type(n.type), dims, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);  // both paths below fill every voxel
   if (read) read->bytes_read = file_bytes;
   if (direct) {
-    const std::uint64_t bytes = read_data_file(teem, header, checked, 0, volume);
+    const std::uint64_t bytes = read_data_file(teem, abs_path, header, checked, 0, volume);
     if (read && checked.data_path != abs_path) read->bytes_read = bytes;  // a detached header's data file
   } else {
     const auto* src = static_cast<const std::byte*>(teem.nrrd->data);  // teem has fixed the byte order

@@ -79,7 +79,8 @@ TiffFile open_tiff(const std::string& path, TiffMessages& messages) {
   TIFFOpenOptionsSetMaxSingleMemAlloc(options.get(), static_cast<tmsize_t>(kMaxChunkBytes));
   TIFFOpenOptionsSetErrorHandlerExtR(options.get(), on_tiff_error, &messages);
   TIFFOpenOptionsSetWarningHandlerExtR(options.get(), on_tiff_warning, nullptr);
-  TiffFile tif(TIFFOpenExt(path.c_str(), "r", options.get()));
+  // "m": read, not memory-mapped: a window of pages then holds only what it decodes
+  TiffFile tif(TIFFOpenExt(path.c_str(), "rm", options.get()));
   if (!tif)
     throw Error("not a TIFF file libtiff can read (" + (messages.error.empty() ? std::string("no detail") : messages.error) + ")");
   return tif;
@@ -408,7 +409,8 @@ Vec3 voxel_size(TIFF* tif, const ImageJInfo& ij, std::vector<std::string>& notes
 
 }  // namespace
 
-Volume load_tiff_volume(const std::string& path, int channel, VolumeFileInfo* info) {
+Volume load_tiff_volume(const std::string& path, int channel, VolumeFileInfo* info, const SliceChooser* choose, WindowRead* read) {
+  if (read) *read = WindowRead{};
   VolumeFileInfo local;
   VolumeFileInfo& out = info ? *info : local;
   out.format = "tiff";
@@ -457,22 +459,29 @@ Volume load_tiff_volume(const std::string& path, int channel, VolumeFileInfo* in
   if (type == ScalarType::Int16 && layout.bits == 8) out.notes.push_back("int8 samples stored as int16");
   if (type == ScalarType::Float32 && layout.bits != 32)
     out.notes.push_back("float64 samples stored as float32");
-  Volume volume(type, {static_cast<int>(layout.width), static_cast<int>(layout.height), static_cast<int>(plan.depth)},
-                spacing, {0, 0, 0}, VoxelFill::Uninitialized);
+  const std::array<int, 3> whole{static_cast<int>(layout.width), static_cast<int>(layout.height), static_cast<int>(plan.depth)};
+  const SliceRange slices = choose ? checked_slices(*choose, whole) : SliceRange{0, whole[2]};
+  Volume volume(type, {whole[0], whole[1], slices.count}, spacing, {0, 0, 0}, VoxelFill::Uninitialized);
 
-  // Second pass: the pages of the chosen channel (and frame 0), in order.
-  if (!TIFFSetDirectory(tif, 0)) throw Error("cannot go back to page 0" + libtiff_says(messages));
+  // Second pass: the pages of the chosen slices (of the chosen channel and frame 0), in order.
+  const std::uint32_t first_page = static_cast<std::uint32_t>(slices.first) * plan.page_step + plan.page_first;
+  if (!TIFFSetDirectory(tif, static_cast<tdir_t>(first_page)))
+    throw Error("cannot go to page " + std::to_string(first_page) + libtiff_says(messages));
   std::vector<std::byte> chunk, page(static_cast<std::size_t>(std::uint64_t{layout.width} * layout.height * layout.sample_bytes()));
   bool exact = true;
-  std::uint32_t current = 0;
-  for (std::uint32_t k = 0; k < plan.depth; ++k) {
-    const std::uint32_t want = k * plan.page_step + plan.page_first;
+  std::uint32_t current = first_page;
+  std::uint64_t stored_bytes = 0;
+  for (int k = 0; k < slices.count; ++k) {
+    const std::uint32_t want = static_cast<std::uint32_t>(slices.first + k) * plan.page_step + plan.page_first;
     for (; current < want; ++current)
       if (!TIFFReadDirectory(tif)) throw Error("cannot read the directory of page " + std::to_string(current + 1) + libtiff_says(messages));
     const PageLayout p = read_layout(tif, want);
     read_page(tif, p, plan.sample, want, messages, chunk, page.data());
-    exact = store_page(page.data(), p, volume, k) && exact;
+    exact = store_page(page.data(), p, volume, static_cast<std::size_t>(k)) && exact;
+    for (std::uint32_t s = 0, n = TIFFNumberOfStrips(tif); s < n; ++s) stored_bytes += TIFFGetStrileByteCount(tif, s);
   }
+  if (slices.count < whole[2]) volume.set_window(slices.first, whole[2]);
+  if (read) read->bytes_read = stored_bytes;
   if (layout.bits == 32 && layout.format != SAMPLEFORMAT_IEEEFP)
     out.notes.push_back(std::string(layout.format == SAMPLEFORMAT_INT ? "int32" : "uint32") + " samples stored as float32" +
                         (exact ? " (all exact)" : " (values beyond 2^24 rounded)"));

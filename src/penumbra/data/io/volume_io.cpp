@@ -106,24 +106,46 @@ SliceRange checked_slices(const SliceChooser& choose, const std::array<int, 3>& 
   return r;
 }
 
+std::string volume_format(const std::vector<std::string>& paths) {
+  if (paths.empty()) return "";
+  if (all_dicom(paths)) return "dicom";
+  const std::string& p = paths[0];
+  if (is_zarr_store(p)) return "zarr";
+  if (is_hdf5_path(p)) return "hdf5";
+  for (const auto& [ext, name] : {std::pair{".raw", "raw"}, {".nrrd", "nrrd"}, {".nhdr", "nrrd"}, {".nii", "nifti"}, {".nii.gz", "nifti"},
+                                  {".tif", "tiff"}, {".tiff", "tiff"}, {".vti", "vti"}, {".vtk", "vtk"}, {".vdb", "vdb"}})
+    if (ends_with_ci(p, ext)) return name;
+  return "";
+}
+
+bool reads_slices_in_part(const std::vector<std::string>& paths, const VolumeLoadOptions& options) {
+  if (!paths.empty() && all_dicom(paths)) return true;
+  if (paths.size() != 1) return false;
+  const std::string& p = paths[0];
+  return (ends_with_ci(p, ".raw") && options.raw) || is_zarr_store(p) || is_hdf5_path(p) || ends_with_ci(p, ".nrrd") ||
+         ends_with_ci(p, ".nhdr") || ends_with_ci(p, ".nii") || ends_with_ci(p, ".nii.gz") || ends_with_ci(p, ".tif") ||
+         ends_with_ci(p, ".tiff");
+}
+
 Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoadOptions& options, const SliceChooser& choose,
                           WindowRead& read) {
   read = WindowRead{};
   if (paths.empty()) throw Error("no volume file given");
   with_context(joined(paths), [&] { check_options_fit(paths, all_dicom(paths), options); });
-  if (paths.size() == 1 && ends_with_ci(paths[0], ".raw") && options.raw)
-    return with_context(paths[0], [&] { return load_raw_volume(paths[0], *options.raw, &choose, &read); });
-  if (paths.size() == 1 && is_zarr_store(paths[0]))
-    return with_context(paths[0], [&] {
-      return load_zarr_volume(paths[0], options.level, options.channel, nullptr, options.memory_budget, &choose, &read);
-    });
-  if (paths.size() == 1 && (ends_with_ci(paths[0], ".nrrd") || ends_with_ci(paths[0], ".nhdr")))
-    return with_context(paths[0], [&] {
+  if (all_dicom(paths))
+    return with_context(joined(paths), [&] { return load_dicom_volume(paths, options.series, nullptr, options.confine_to, &choose, &read); });
+  if (reads_slices_in_part(paths, options)) {
+    const std::string& path = paths[0];
+    return with_context(path, [&] {
       VolumeFileInfo info;
-      return load_nrrd_volume(paths[0], &choose, &read, info, options.confine_to);
+      if (ends_with_ci(path, ".raw")) return load_raw_volume(path, *options.raw, &choose, &read);
+      if (is_zarr_store(path)) return load_zarr_volume(path, options.level, options.channel, nullptr, options.memory_budget, &choose, &read);
+      if (is_hdf5_path(path)) return load_hdf5_volume(path, options.dataset, options.channel, nullptr, &choose, &read);
+      if (ends_with_ci(path, ".nii") || ends_with_ci(path, ".nii.gz")) return load_nifti_volume(path, &choose, &read, info);
+      if (ends_with_ci(path, ".tif") || ends_with_ci(path, ".tiff")) return load_tiff_volume(path, options.channel, &info, &choose, &read);
+      return load_nrrd_volume(path, &choose, &read, info, options.confine_to);
     });
-  if (paths.size() == 1 && is_hdf5_path(paths[0]))
-    return with_context(paths[0], [&] { return load_hdf5_volume(paths[0], options.dataset, options.channel, nullptr, &choose, &read); });
+  }
   Volume whole = load_volume(paths, options);
   read.whole = true;
   for (const std::string& p : paths) {

@@ -96,14 +96,23 @@ Volume load_raw_volume(const std::string& path, const RawVolumeOptions& options,
 Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, WindowRead* read, VolumeFileInfo& info,
                         const std::string& confine_to = "");
 Volume load_nifti_volume(const std::string& path, VolumeFileInfo& info);  // .nii or .nii.gz
+// Only the chosen slices when the file's z stays the volume's z (reversed or not): an uncompressed file
+// seeks to them, a gzip one decompresses up to them and stops after the last; otherwise read whole and cut.
+Volume load_nifti_volume(const std::string& path, const SliceChooser* choose, WindowRead* read, VolumeFileInfo& info);
 
 // DICOM (dicom_loader.cpp): `paths` is one folder (every DICOM file in it and its subfolders) or a list
 // of slice files. Slices are grouped by SeriesInstanceUID; `series` picks one (see VolumeLoadOptions).
+// `choose`: only the chosen slices' pixel data is decoded (every file's header is still read, to group,
+// sort and check the series; `read` says the chosen slices' file sizes) when the slice normal is the
+// volume's z and the headers settle the voxel type (no rescale that could leave int16); otherwise the
+// series is read whole and cut.
 Volume load_dicom_volume(const std::vector<std::string>& paths, const std::string& series, VolumeFileInfo* info,
-                         const std::string& confine_to = "");
+                         const std::string& confine_to = "", const SliceChooser* choose = nullptr, WindowRead* read = nullptr);
 // Multi-page TIFF (tiff_loader.cpp): 8/16/32-bit integer or float pages of one size; ImageJ hyperstacks
-// are de-interleaved and `channel` (-1 = 0) chosen.
-Volume load_tiff_volume(const std::string& path, int channel, VolumeFileInfo* info);
+// are de-interleaved and `channel` (-1 = 0) chosen. `choose`: only the pages of the chosen slices are
+// decoded (`read` says their stored bytes; every page's directory is still read, to check the stack).
+Volume load_tiff_volume(const std::string& path, int channel, VolumeFileInfo* info, const SliceChooser* choose = nullptr,
+                        WindowRead* read = nullptr);
 // VTK image data (vti_loader.cpp, vtk_legacy_loader.cpp): XML ImageData (.vti: ascii, base64 or appended raw, zlib or
 // not) and legacy STRUCTURED_POINTS (.vtk, ASCII or BINARY).
 Volume load_vti_volume(const std::string& path, VolumeFileInfo* info);
@@ -135,8 +144,15 @@ bool is_volume_file(const std::string& path);
 Volume load_volume(const std::vector<std::string>& paths, const VolumeLoadOptions& options, VolumeFileInfo* info = nullptr);
 Volume load_volume(const std::string& path, const VolumeLoadOptions& options, VolumeFileInfo* info = nullptr);
 Volume load_volume(const std::string& path, const std::optional<RawVolumeOptions>& raw = std::nullopt);
-// load_volume of the chosen slices only: raw and NRRD files and Zarr stores read just those (above); every
-// other format (and a DICOM series) is read whole and cut, which `read.whole` says.
+// The format the files are read as, by their names: "dicom", "zarr", "hdf5", "raw", "nrrd", "nifti",
+// "tiff", "vti", "vtk", "vdb" ("" for none of these).
+std::string volume_format(const std::vector<std::string>& paths);
+// Whether load_volume_window reads only the chosen slices of these files: a DICOM series, one raw (with its
+// layout), NRRD, NIfTI, TIFF or HDF5 file or Zarr store (by name; a layout that cannot be, such as an
+// NRRD whose z is another file axis, is still read whole, which `read.whole` says).
+bool reads_slices_in_part(const std::vector<std::string>& paths, const VolumeLoadOptions& options);
+// load_volume of the chosen slices only: the formats above read just those; every other format (VTK image
+// data, OpenVDB) is read whole and cut, which `read.whole` says.
 Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoadOptions& options, const SliceChooser& choose,
                           WindowRead& read);
 

@@ -13,8 +13,6 @@ namespace penumbra {
 
 namespace {
 
-using io_detail::ends_with_ci;
-
 // Slices read at a time: about this many bytes, a whole number of blocks.
 constexpr std::int64_t kSlabBytes = std::int64_t{16} << 20;
 
@@ -33,12 +31,9 @@ std::string dims_text(const std::array<int, 3>& d) {
 
 }  // namespace
 
-bool reducible_in_slabs(const std::string& path) {
-  return ends_with_ci(path, ".nrrd") || ends_with_ci(path, ".nhdr") || ends_with_ci(path, ".raw") || is_hdf5_path(path);
-}
-
 std::optional<Volume> load_reduced_to_fit(const std::string& path, const VolumeLoadOptions& options, VolumeFileInfo& info) {
-  if (options.memory_budget == 0 || !reducible_in_slabs(path)) return std::nullopt;
+  // a Zarr store chooses among its own levels (zarr_loader.cpp)
+  if (options.memory_budget == 0 || is_zarr_store(path) || !reads_slices_in_part({path}, options)) return std::nullopt;
   VolumeLoadOptions unbudgeted = options;
   unbudgeted.memory_budget = 0;
   // the grid and the voxel type: the header and one slice
@@ -106,7 +101,7 @@ std::optional<Volume> load_reduced_to_fit(const std::string& path, const VolumeL
   out.recompute_range();
   // opacities refer to the file's voxel, so that the reduced volume shows the same matter (as a pyramid's level)
   out.set_opacity_length(std::min({std::abs(s.x), std::abs(s.y), std::abs(s.z)}));
-  info.format = is_hdf5_path(path) ? "hdf5" : ends_with_ci(path, ".raw") ? "raw" : "nrrd";
+  info.format = volume_format({path});
   info.notes.push_back("reduced " + std::to_string(f) + "× to " + std::to_string(rd[0]) + "×" + std::to_string(rd[1]) + "×" + std::to_string(rd[2]) +
                        " (each voxel the mean of a " + std::to_string(k[0]) + "×" + std::to_string(k[1]) + "×" + std::to_string(k[2]) +
                        " block, read a slab at a time): the file's " + dims_text(dims) + " " + to_string(type) + " voxels hold " +

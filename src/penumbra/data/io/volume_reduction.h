@@ -2,8 +2,9 @@
 // voxels and macrocells (volume_held_bytes) fit, each voxel the mean of a 2^l × 2^l × 2^l block of the
 // file's voxels (fewer at odd edges; integers rounded half up), computed while the file is read a slab
 // of slices at a time (load_volume_window), so that the file is never held whole. What an OME-Zarr
-// pyramid's level gives (zarr_loader.cpp) for a file that has no pyramid: NRRD (raw or gzip data),
-// HDF5 datasets and raw files; `penumbra convert` writes the pyramid when levels are to be chosen.
+// pyramid's level gives (zarr_loader.cpp) for a file that has no pyramid: what load_volume_window
+// reads in part (reads_slices_in_part: NRRD, NIfTI, TIFF stacks, HDF5 datasets, raw files);
+// `penumbra convert` writes the pyramid when levels are to be chosen.
 #pragma once
 
 #include <optional>
@@ -20,8 +21,5 @@ namespace penumbra {
 // file when it cannot be read, or when even the coarsest reduction (one voxel along the longest axis)
 // does not fit.
 std::optional<Volume> load_reduced_to_fit(const std::string& path, const VolumeLoadOptions& options, VolumeFileInfo& info);
-
-// Whether load_reduced_to_fit can read the file in slabs (by its name: .nrrd, .nhdr, .h5, .hdf5, .he5, .raw).
-bool reducible_in_slabs(const std::string& path);
 
 }  // namespace penumbra
