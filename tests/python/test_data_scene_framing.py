@@ -91,3 +91,25 @@ def test_a_dicom_series_is_framed_by_what_its_transfer_function_shows(tmp_path):
     assert 0.85 < extent <= 1.01, f"what shows spans {extent:.2f} of the half view"
     whole = 0.5 * math.dist([0, 0, 0], [512 * spacing[0], 512 * spacing[1], len(slices) * spacing[2]])
     assert camera["distance"] < 0.85 * whole / math.sin(math.radians(FOV_DEG) / 2), "framed by the whole field of view's sphere"
+
+
+def test_a_zarr_store_is_framed_like_the_same_voxels_in_a_file(tmp_path):
+    """A Zarr store is a folder but no DICOM series: its camera is y up and framed by its whole box, as the
+    NRRD of the same voxels (a folder of DICOM slices is z up and framed by what it shows)."""
+    np = pytest.importorskip("numpy")
+    pytest.importorskip("zarr")
+    z, y, x = 24, 40, 56
+    k, j, i = np.ogrid[0:z, 0:y, 0:x]
+    data = (((i - 20) ** 2 + (j - 18) ** 2 + (k - 12) ** 2 < 100) * 900 + 50).astype(np.uint16)
+    nrrd = tmp_path / "ball.nrrd"
+    with open(nrrd, "wb") as f:
+        f.write((f"NRRD0004\ntype: ushort\ndimension: 3\nsizes: {x} {y} {z}\nspacings: 1 1 1\nencoding: raw\nendian: little\n\n").encode()
+                + data.astype("<u2").tobytes())
+    store = tmp_path / "ball.zarr"
+    subprocess.run([CLI, "convert", str(nrrd), "-o", str(store)], check=True, capture_output=True)
+    from_file = saved_camera([str(nrrd)], tmp_path)
+    from_store = saved_camera([str(store), "--level", "0"], tmp_path)
+    assert from_store.get("up", [0, 1, 0]) == pytest.approx([0, 1, 0]), from_store  # "up" is left out when y
+    assert from_store.get("up") == from_file.get("up")
+    for key in ("direction", "distance", "target"):
+        assert from_store[key] == pytest.approx(from_file[key], abs=1e-4), (key, from_store, from_file)

@@ -66,12 +66,17 @@ float box_fit_distance(const Box3& box, const Vec3& direction, const Vec3& up, f
   return 1.05f * distance;
 }
 
+// A folder of DICOM slices: any folder but a Zarr store.
+bool is_dicom_folder(const std::string& path) {
+  std::error_code ec;
+  return std::filesystem::is_directory(path, ec) && !is_zarr_store(path);
+}
+
 bool in_patient_frame(const nlohmann::json& file) {
   if (file.is_array()) return true;  // DICOM slices
   const std::string path = file.get<std::string>();
-  std::error_code ec;
   return has_extension(path, ".nii") || has_extension(path, ".nii.gz") || has_extension(path, ".dcm") ||
-         has_extension(path, ".dicom") || std::filesystem::is_directory(path, ec);
+         has_extension(path, ".dicom") || is_dicom_folder(path);
 }
 
 }  // namespace
@@ -211,8 +216,7 @@ void complete_data_scene(nlohmann::json& doc, const Scene& loaded, const std::fu
   for (std::size_t i = 0; i < loaded.volumes.size(); ++i) {
     const Volume& v = *loaded.volumes[i].volume;
     const nlohmann::json& file = doc["volumes"][i]["file"];
-    std::error_code ec;
-    const bool series = (file.is_array() || (file.is_string() && std::filesystem::is_directory(file.get<std::string>(), ec))) &&
+    const bool series = (file.is_array() || (file.is_string() && is_dicom_folder(file.get<std::string>()))) &&
                         !v.level_set() && !v.is_window();
     const Box3 b = series ? box_above(v, shown_threshold(parse_transfer_function(doc["volumes"][i]["transfer_function"],
                                                                                  v.min_value(), v.max_value(), "")),
