@@ -12,9 +12,12 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <array>
 #include <string>
+#include <vector>
 
 #include "penumbra/core/error.h"
+#include "penumbra/data/io/volume_io.h"
 
 namespace penumbra::fuzz {
 
@@ -50,6 +53,45 @@ void expect_error_or_result(F&& f) {
     f();
   } catch (const penumbra::Error& e) {
     if (e.what()[0] == '\0') std::abort();
+  }
+}
+
+// Differential check of windows (load_volume_window) against the whole read: when `paths` read whole,
+// windows of their slices — in a pass, in order and then out of order, and alone — must hold the same
+// voxels, or be read whole and cut; a window that fails where the whole read did not is a finding too.
+// Volumes of over 2^22 voxels are left out (time).
+inline void expect_windows_match(const std::vector<std::string>& paths, const penumbra::VolumeLoadOptions& options) {
+  penumbra::Volume whole;
+  try {
+    whole = penumbra::load_volume(paths, options);
+  } catch (const penumbra::Error&) {
+    return;
+  }
+  const int n = whole.dims()[2];
+  if (n < 2 || whole.is_bricked() || whole.voxel_count() > (std::size_t{1} << 22)) return;
+  const auto check = [&](int first, int count) {
+    penumbra::WindowRead read;
+    const penumbra::Volume w = penumbra::load_volume_window(paths, options, [&](const std::array<int, 3>& dims) {
+      if (dims != whole.dims()) std::abort();
+      return penumbra::SliceRange{first, count};
+    }, read);
+    if (w.dims()[0] != whole.dims()[0] || w.dims()[1] != whole.dims()[1] || w.dims()[2] != count || w.type() != whole.type()) std::abort();
+    for (int k = 0; k < count; ++k)
+      for (int j = 0; j < w.dims()[1]; ++j)
+        for (int i = 0; i < w.dims()[0]; ++i)
+          if (w.value(i, j, k) != whole.value(i, j, k + first)) std::abort();
+  };
+  try {
+    {
+      const penumbra::WindowPass pass;
+      check(0, n / 2);
+      check(n / 2, n - n / 2);
+      check(0, 1);
+      check(n - 1, 1);
+    }
+    check(1, n - 1);
+  } catch (const penumbra::Error&) {
+    std::abort();
   }
 }
 

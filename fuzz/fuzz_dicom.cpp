@@ -12,5 +12,6 @@ extern "C" const char* __lsan_default_suppressions() { return "leak:gdcm::JPEGLS
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string path = penumbra::fuzz::write_input("in.dcm", data, size);
   penumbra::fuzz::expect_error_or_result([&] { (void)penumbra::load_volume(path); });
+  penumbra::fuzz::expect_windows_match({path}, {});
   return 0;
 }

@@ -1,5 +1,6 @@
 // TIFF stacks through load_volume: the input as a .tif, read with channel 0 and, when the input's last
-// byte is odd, with channel 1 too (the hyperstack and multi-sample paths).
+// byte is odd, with channel 1 too (the hyperstack and multi-sample paths); windows of its pages against
+// the whole read (fuzz_common.h expect_windows_match).
 #include "fuzz_common.h"
 #include "penumbra/data/io/volume_io.h"
 
@@ -10,6 +11,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     penumbra::VolumeLoadOptions options;
     options.channel = 1;
     penumbra::fuzz::expect_error_or_result([&] { (void)penumbra::load_volume(path, options); });
+    penumbra::fuzz::expect_windows_match({path}, options);
+  } else {
+    penumbra::fuzz::expect_windows_match({path}, {});
   }
   return 0;
 }

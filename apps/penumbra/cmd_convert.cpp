@@ -85,6 +85,7 @@ Converted stream_slabs(const std::vector<std::string>& files, const VolumeLoadOp
     if (slab == 0) slab = slab_slices(std::int64_t{d[0]} * d[1] * 4, d[2]);  // the type is not known yet: 4 bytes a voxel at most
     return SliceRange{static_cast<int>(first), static_cast<int>(std::min<std::int64_t>(slab, d[2] - first))};
   };
+  const WindowPass pass;  // gzip data decompressed once, slab after slab
   WindowRead read;
   Volume part = load_volume_window(files, choice, choose, read);
   if (read.whole) {

@@ -178,9 +178,9 @@ Volume load_dicom_volume(const std::vector<std::string>& paths, const std::strin
   for (const std::string& name : lossy) info.notes.push_back("pixel data compressed with lossy " + name);
   volume = place_volume(std::move(volume), L.affine, info);
   if (choose) {
-    const SliceRange slices = window_slices ? *window_slices : checked_slices(*choose, volume.dims());
-    if (slices.count < volume.dims()[2]) {  // read whole, kept in part
-      volume = volume.window_z(slices.first, slices.count);
+    const SliceRange kept = window_slices ? *window_slices : checked_slices(*choose, volume.dims());
+    if (kept.count < volume.dims()[2]) {  // read whole, kept in part
+      volume = volume.window_z(kept.first, kept.count);
       if (read) read->whole = true;
     }
   }

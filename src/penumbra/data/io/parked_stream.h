@@ -2,26 +2,46 @@
 // file to continue from. `penumbra convert` and a read reduced under a memory budget go through a file a
 // window at a time, in order; without this, every window of gzip data (NIfTI .nii.gz, NRRD gzip
 // encoding) decompressed everything before it again, which made a pass quadratic in its windows (a
-// 200 MiB .nii.gz: 14 s, against 1.6 s continued). One stream is parked per reader, for one file (its
-// size and modification time, and a key naming how the stream was opened: a detached NRRD header and its
-// data file); any other read leaves it or replaces it.
+// 200 MiB .nii.gz: 14 s, against 1.6 s continued).
+//
+// Streams are parked only while a pass is open (WindowPass, volume_io.h) and dropped when it ends: a
+// file's size and modification time (whose clock ticks in milliseconds) cannot tell a file rewritten
+// in place with as many bytes, so a stream is never resumed across separate reads. One stream is parked
+// per reader, for one file (its size and modification time, and a key naming how the stream was
+// opened: a detached NRRD header and its data file).
 #pragma once
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace penumbra::io_detail {
+
+// The open passes and what drops the parked streams when the last one ends (window_pass.cpp).
+bool window_pass_open();
+void on_window_pass_end(std::function<void()> drop);
 
 template <class Stream>
 class ParkedStream {
 public:
-  // The stream parked under `key` for `file` when it stands at or before uncompressed `offset`; `at` is
-  // where it stands. Nothing when none is, or the file changed since.
+  ParkedStream() {
+    on_window_pass_end([this] {
+      std::lock_guard lock(mutex_);
+      stream_.reset();
+    });
+  }
+  ParkedStream(const ParkedStream&) = delete;
+  ParkedStream& operator=(const ParkedStream&) = delete;
+
+  // The stream parked under `key` for `file` when a pass is open and it stands at or before uncompressed
+  // `offset`; `at` is where it stands. Nothing when none is, or the file changed since.
   std::optional<Stream> resume(const std::string& key, const std::string& file, std::uint64_t offset, std::uint64_t& at) {
+    if (!window_pass_open()) return std::nullopt;
     const auto id = identity(file);
     std::lock_guard lock(mutex_);
     if (!stream_ || !id || key_ != key || id_ != *id || at_ > offset) return std::nullopt;
@@ -30,8 +50,10 @@ public:
     stream_.reset();
     return out;
   }
-  // Parks `stream` of `file`, standing at uncompressed offset `at`, under `key`, in place of any other.
+  // Parks `stream` of `file`, standing at uncompressed offset `at`, under `key`, in place of any other
+  // (while a pass is open; else it is closed).
   void park(const std::string& key, const std::string& file, Stream stream, std::uint64_t at) {
+    if (!window_pass_open()) return;
     const auto id = identity(file);
     std::lock_guard lock(mutex_);
     stream_.reset();

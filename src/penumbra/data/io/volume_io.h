@@ -151,6 +151,17 @@ std::string volume_format(const std::vector<std::string>& paths);
 // layout), NRRD, NIfTI, TIFF or HDF5 file or Zarr store (by name; a layout that cannot be, such as an
 // NRRD whose z is another file axis, is still read whole, which `read.whole` says).
 bool reads_slices_in_part(const std::vector<std::string>& paths, const VolumeLoadOptions& options);
+// A pass over files a window of slices at a time (`penumbra convert`, a read reduced under a budget): while
+// one is open, a window of gzip data (NRRD, NIfTI) continues from where the same file's last window ended
+// when that is not past it, instead of decompressing everything before it again (parked_stream.h); the
+// streams are closed when the last pass ends.
+class WindowPass {
+public:
+  WindowPass();
+  ~WindowPass();
+  WindowPass(const WindowPass&) = delete;
+  WindowPass& operator=(const WindowPass&) = delete;
+};
 // load_volume of the chosen slices only: the formats above read just those; every other format (VTK image
 // data, OpenVDB) is read whole and cut, which `read.whole` says.
 Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoadOptions& options, const SliceChooser& choose,

@@ -65,6 +65,7 @@ std::optional<Volume> load_reduced_to_fit(const std::string& path, const VolumeL
   Volume out(type, {static_cast<int>(rd[0]), static_cast<int>(rd[1]), static_cast<int>(rd[2])}, spacing, origin, VoxelFill::Uninitialized);
   const std::int64_t slice_bytes = std::int64_t{dims[0]} * dims[1] * static_cast<std::int64_t>(scalar_size(type));
   const std::int64_t slab = std::max<std::int64_t>(k[2], kSlabBytes / std::max<std::int64_t>(slice_bytes, 1) / k[2] * k[2]);
+  const WindowPass pass;  // gzip data decompressed once, slab after slab
   for (std::int64_t z0 = 0; z0 < dims[2]; z0 += slab) {
     const int count = static_cast<int>(std::min<std::int64_t>(slab, dims[2] - z0));
     WindowRead part_read;
