@@ -143,22 +143,15 @@ Volume load_dicom_volume(const std::vector<std::string>& paths, const std::strin
   // A window whose slices are the series' own (the slice normal is z, either way) and whose type the
   // headers settle decodes only its slices; any other is read whole and cut below.
   const auto permutation = axis_permutation(L.affine);
-  std::optional<SliceRange> window_slices;  // the placed grid's slices, known before decoding unless it is resampled
-  if (choose && permutation) window_slices = checked_slices(*choose, placed_dims(L.dims, *permutation));
+  const FileWindow window = file_window(choose, L.dims, permutation);
   const bool type_settled = type != ScalarType::Int16 || rescale_fits_int16(L.slices);
-  if (window_slices && permutation->file_axis[2] == 2 && window_slices->count < L.dims[2] && type_settled) {
-    const int file_first = permutation->reversed[2] ? L.dims[2] - window_slices->first - window_slices->count : window_slices->first;
-    const Layout W = window_layout(L, file_first, window_slices->count);
-    Volume window(type, W.dims, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
-    if (!dicom::fill_slices(window, W)) throw Error("a rescaled value does not fit int16 although the stored bits say it must");
+  if (window.in_part && type_settled) {
+    const Layout W = window_layout(L, window.file_first, window.count);
+    Volume window_voxels(type, W.dims, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
+    if (!dicom::fill_slices(window_voxels, W)) throw Error("a rescaled value does not fit int16 although the stored bits say it must");
     if (read)
       for (const Slice* s : W.slices) read->bytes_read += io_detail::regular_file_size(s->path);
-    window = place_volume(std::move(window), W.affine, info);
-    info.affine = L.affine;
-    window.recompute_range();  // this window's own
-    window.set_origin(placed_origin(L.affine, L.dims, *permutation));
-    window.set_window(window_slices->first, L.dims[2]);
-    return window;
+    return place_window(std::move(window_voxels), L.affine, L.dims, *permutation, window, info);
   }
   Volume volume(type, L.dims, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
   const bool filled = dicom::fill_slices(volume, L);
@@ -176,14 +169,7 @@ Volume load_dicom_volume(const std::vector<std::string>& paths, const std::strin
   for (const Slice* s : L.slices)
     if (s->syntax->lossy) lossy.insert(s->syntax->name);
   for (const std::string& name : lossy) info.notes.push_back("pixel data compressed with lossy " + name);
-  volume = place_volume(std::move(volume), L.affine, info);
-  if (choose) {
-    const SliceRange kept = window_slices ? *window_slices : checked_slices(*choose, volume.dims());
-    if (kept.count < volume.dims()[2]) {  // read whole, kept in part
-      volume = volume.window_z(kept.first, kept.count);
-      if (read) read->whole = true;
-    }
-  }
+  volume = keep_chosen_slices(place_volume(std::move(volume), L.affine, info), choose, window, read);
   volume.recompute_range();
   return volume;
 }

@@ -243,11 +243,9 @@ Volume load_nifti_volume(const std::string& path, const SliceChooser* choose, Wi
   // A window whose slices are the file's own (its z the file's third axis, reversed or not) reads only
   // them; any other is read whole and cut below.
   const auto permutation = axis_permutation(affine);
-  std::optional<SliceRange> chosen;  // the placed grid's slices, known before reading unless it is resampled
-  if (choose && permutation) chosen = checked_slices(*choose, placed_dims(dims, *permutation));
-  const bool in_part = chosen && permutation->file_axis[2] == 2 && chosen->count < dims[2];
-  const int file_first = !in_part ? 0 : permutation->reversed[2] ? dims[2] - chosen->first - chosen->count : chosen->first;
-  const int file_count = in_part ? chosen->count : dims[2];
+  const FileWindow window = file_window(choose, dims, permutation);
+  const bool in_part = window.in_part;
+  const int file_first = window.file_first, file_count = window.count;
   Volume volume(type, {dims[0], dims[1], file_count});
 
   // Skip any extensions and the slices before the window, then read the voxels straight into the
@@ -296,24 +294,8 @@ Volume load_nifti_volume(const std::string& path, const SliceChooser* choose, Wi
       default: throw Error("unsupported NIfTI datatype");
     }
   }
-  if (in_part) {
-    Affine window_affine = affine;
-    for (int d = 0; d < 3; ++d) window_affine.offset[d] += file_first * affine.linear[d][2];
-    volume = place_volume(std::move(volume), window_affine, info);
-    info.affine = affine;
-    volume.recompute_range();  // this window's own
-    volume.set_origin(placed_origin(affine, dims, *permutation));
-    volume.set_window(chosen->first, dims[2]);
-    return volume;
-  }
-  volume = place_volume(std::move(volume), affine, info);
-  if (choose) {
-    const SliceRange slices = chosen ? *chosen : checked_slices(*choose, volume.dims());
-    if (slices.count < volume.dims()[2]) {  // read whole, kept in part
-      volume = volume.window_z(slices.first, slices.count);
-      if (read) read->whole = true;
-    }
-  }
+  if (in_part) return place_window(std::move(volume), affine, dims, *permutation, window, info);
+  volume = keep_chosen_slices(place_volume(std::move(volume), affine, info), choose, window, read);
   volume.recompute_range();  // rejects NaN/inf voxels and gives the volume its range
   return volume;
 }

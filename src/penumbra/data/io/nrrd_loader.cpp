@@ -526,7 +526,6 @@ std::uint64_t read_data_file(TeemRead& teem, const std::filesystem::path& header
     else parked_gzip.park(key, data, std::move(*open), skip + before + volume.voxel_count() * nrrdTypeSize[type]);
     return bytes;
   }
-  const long start = std::ftell(teem.data.get());
   std::uint64_t done = before;
   if (before > 0 && fseeko(teem.data.get(), static_cast<off_t>(before), SEEK_CUR) != 0)
     throw Error("NRRD raw data: cannot seek to slice " + std::to_string(first_slice));
@@ -621,25 +620,13 @@ Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, Win
   if (read) *read = WindowRead{0, !direct};
   // A window whose slices are the file's own (its z is the file's third axis, reversed or not) reads
   // only them.
-  std::optional<SliceRange> chosen;  // known before reading unless the volume is resampled
-  if (choose && permutation) chosen = checked_slices(*choose, placed_dims(dims, *permutation));
-  if (chosen && direct && permutation->file_axis[2] == 2) {
-    const SliceRange slices = *chosen;
-    if (slices.count < dims[2]) {
-      const int file_first = permutation->reversed[2] ? dims[2] - slices.first - slices.count : slices.first;
-      Volume window(nrrd_storage_type(n.type), {dims[0], dims[1], slices.count}, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
-      const std::uint64_t bytes = read_data_file(teem, abs_path, header, checked, file_first, window);
-      if (read) read->bytes_read = bytes;
-      teem = TeemRead{};
-      Affine window_affine = affine;
-      for (int d = 0; d < 3; ++d) window_affine.offset[d] += file_first * affine.linear[d][2];
-      window = place_volume(std::move(window), window_affine, info);
-      info.affine = affine;
-      window.recompute_range();  // this window's own; a distributed scene replaces it by the whole grid's
-      window.set_origin(placed_origin(affine, dims, *permutation));
-      window.set_window(slices.first, dims[2]);
-      return window;
-    }
+  const FileWindow window = file_window(choose, dims, permutation);
+  if (window.in_part && direct) {
+    Volume slices(nrrd_storage_type(n.type), {dims[0], dims[1], window.count}, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
+    const std::uint64_t bytes = read_data_file(teem, abs_path, header, checked, window.file_first, slices);
+    if (read) read->bytes_read = bytes;
+    teem = TeemRead{};
+    return place_window(std::move(slices), affine, dims, *permutation, window, info);
   }
   Volume volume(nrrd_storage_type(n.type), dims, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);  // both paths below fill every voxel
   if (read) read->bytes_read = file_bytes;
@@ -655,14 +642,7 @@ Volume load_nrrd_volume(const std::string& path, const SliceChooser* choose, Win
     read_voxels(next, n.type, false, volume);
   }
   teem = TeemRead{};  // free teem's copy, if any, before the range pass
-  volume = place_volume(std::move(volume), affine, info);
-  if (choose) {
-    const SliceRange slices = chosen ? *chosen : checked_slices(*choose, volume.dims());
-    if (slices.count < volume.dims()[2]) {  // read whole, kept in part
-      volume = volume.window_z(slices.first, slices.count);
-      if (read) read->whole = true;
-    }
-  }
+  volume = keep_chosen_slices(place_volume(std::move(volume), affine, info), choose, window, read);
   volume.recompute_range();  // rejects NaN/inf voxels and gives the volume its range
   return volume;
 }

@@ -268,6 +268,39 @@ Vec3 placed_origin(const Affine& affine, const std::array<int, 3>& file_dims, co
   return to_vec3(o);
 }
 
+FileWindow file_window(const SliceChooser* choose, const std::array<int, 3>& file_dims, const std::optional<AxisPermutation>& p) {
+  FileWindow w;
+  w.count = file_dims[2];
+  if (!choose || !p) return w;
+  w.placed = checked_slices(*choose, placed_dims(file_dims, *p));
+  w.in_part = p->file_axis[2] == 2 && w.placed->count < file_dims[2];
+  if (w.in_part) {
+    w.file_first = p->reversed[2] ? file_dims[2] - w.placed->first - w.placed->count : w.placed->first;
+    w.count = w.placed->count;
+  }
+  return w;
+}
+
+Volume place_window(Volume file_slices, const Affine& affine, const std::array<int, 3>& file_dims, const AxisPermutation& p,
+                    const FileWindow& window, VolumeFileInfo& info) {
+  Affine window_affine = affine;  // the window's first file slice is its index 0
+  for (int d = 0; d < 3; ++d) window_affine.offset[d] += window.file_first * affine.linear[d][2];
+  Volume placed = place_volume(std::move(file_slices), window_affine, info);
+  info.affine = affine;
+  placed.recompute_range();  // this window's own; a distributed scene replaces it by the whole grid's
+  placed.set_origin(placed_origin(affine, file_dims, p));
+  placed.set_window(window.placed->first, file_dims[2]);
+  return placed;
+}
+
+Volume keep_chosen_slices(Volume placed, const SliceChooser* choose, const FileWindow& window, WindowRead* read) {
+  if (!choose) return placed;
+  const SliceRange slices = window.placed ? *window.placed : checked_slices(*choose, placed.dims());
+  if (slices.count == placed.dims()[2]) return placed;
+  if (read) read->whole = true;
+  return placed.window_z(slices.first, slices.count);
+}
+
 Volume place_volume(Volume file_grid, const Affine& affine, VolumeFileInfo& info) {
   info.affine = affine;
   if (const auto p = axis_permutation(affine)) return reordered(std::move(file_grid), affine, *p, info);

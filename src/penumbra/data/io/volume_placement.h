@@ -57,4 +57,25 @@ Volume place_volume(Volume file_grid, const Affine& affine, VolumeFileInfo& info
 std::array<int, 3> placed_dims(const std::array<int, 3>& file_dims, const AxisPermutation& p);
 Vec3 placed_origin(const Affine& affine, const std::array<int, 3>& file_dims, const AxisPermutation& p);
 
+// A window of slices (SliceChooser) in the file: what a reader of a format that can read part of its
+// slices asks before reading.
+struct FileWindow {
+  std::optional<SliceRange> placed;  // the chosen slices of the placed grid: none without a choice, or when
+                                     // the file is resampled (then known only after reading it whole)
+  bool in_part = false;              // only the file's slices [file_first, file_first + count) are read:
+                                     // the file's z is the placed z (reversed or not) and the window is not all of it
+  int file_first = 0;
+  int count = 0;                     // in_part: the window's slices; else the file's
+};
+// Checks the chosen slices against the placed grid (Error naming them).
+FileWindow file_window(const SliceChooser* choose, const std::array<int, 3>& file_dims, const std::optional<AxisPermutation>& p);
+// The file's slices [window.file_first, + window.count) (`file_slices`: dense, in the file's order) placed as the window
+// of the whole grid `affine` and `file_dims` describe (Volume::is_window; its value range its own; `info` records the
+// whole file's affine).
+Volume place_window(Volume file_slices, const Affine& affine, const std::array<int, 3>& file_dims, const AxisPermutation& p,
+                    const FileWindow& window, VolumeFileInfo& info);
+// A volume read whole and placed, cut to the chosen slices when they are not all of it (`read.whole` then
+// set); the value range is left to the caller.
+Volume keep_chosen_slices(Volume placed, const SliceChooser* choose, const FileWindow& window, WindowRead* read);
+
 }  // namespace penumbra
