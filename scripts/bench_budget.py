@@ -151,8 +151,8 @@ def write_formats(a, spacing, folder):
     z, y, x = a.shape
     files = {"NRRD (raw)": os.path.join(folder, "v.nrrd"), "NIfTI (gzip)": os.path.join(folder, "v.nii.gz"),
              "TIFF (ImageJ)": os.path.join(folder, "v.tif"), "DICOM series": os.path.join(folder, "dicom"),
-             "HDF5 (gzip chunks)": os.path.join(folder, "v.h5"), "legacy VTK (read whole)": os.path.join(folder, "v.vtk")}
-    with open(files["legacy VTK (read whole)"], "wb") as f:
+             "HDF5 (gzip chunks)": os.path.join(folder, "v.h5"), "legacy VTK (BINARY)": os.path.join(folder, "v.vtk")}
+    with open(files["legacy VTK (BINARY)"], "wb") as f:
         f.write((f"# vtk DataFile Version 3.0\nct-body\nBINARY\nDATASET STRUCTURED_POINTS\nDIMENSIONS {x} {y} {z}\n"
                  f"SPACING {spacing[2]} {spacing[1]} {spacing[0]}\nORIGIN 0 0 0\nPOINT_DATA {x * y * z}\n"
                  "SCALARS v unsigned_short 1\nLOOKUP_TABLE default\n").encode())
@@ -169,6 +169,27 @@ def write_formats(a, spacing, folder):
         d = f.create_dataset("v", shape=a.shape, dtype="<u2", chunks=tuple(min(c, n) for c, n in zip((16, 128, 128), a.shape)), compression="gzip", compression_opts=1)
         for first in range(0, z, 64):
             d[first:first + 64] = a[first:first + 64]
+    try:  # VTK's own writer (python3-vtk9, not installed by install-deps.sh): the .vti rows need it
+        import vtk
+        from vtk.util import numpy_support
+    except ImportError:
+        vtk = None
+    if vtk is not None:
+        image = vtk.vtkImageData()
+        image.SetDimensions(x, y, z)
+        image.SetSpacing(spacing[2], spacing[1], spacing[0])
+        flat = np.ascontiguousarray(a).ravel()
+        image.GetPointData().SetScalars(numpy_support.numpy_to_vtk(flat, deep=False, array_type=vtk.VTK_UNSIGNED_SHORT))
+        for name, raw in [("VTI (VTK's default: appended base64, zlib)", False), ("VTI (appended raw)", True)]:
+            files[name] = os.path.join(folder, "v_raw.vti" if raw else "v_default.vti")
+            w = vtk.vtkXMLImageDataWriter()
+            w.SetFileName(files[name])
+            w.SetInputData(image)
+            if raw:
+                w.SetEncodeAppendedData(False)
+                w.SetCompressorTypeToNone()
+            if not w.Write():
+                raise RuntimeError("VTK could not write " + files[name])
     os.makedirs(files["DICOM series"], exist_ok=True)
     meta = pydicom.dataset.FileMetaDataset()
     meta.TransferSyntaxUID = pydicom.uid.ExplicitVRLittleEndian

@@ -139,13 +139,32 @@ TEST(VolumeWindow, FilesAreReadOnlyForTheChosenSlices) {
   nifti.dim = {3, 5, 4, 12, 1, 1, 1, 1};
   write_file(dir.file("plain.nii"), nifti_file(nifti, to_bytes(voxels)));
   write_file(dir.file("gzip.nii.gz"), gzip(nifti_file(nifti, to_bytes(voxels))));
+  // Legacy VTK: BINARY values are big-endian; two components (the first is the volume), z reversed by its
+  // negative spacing, so that the window's slices come from the file's other end.
+  std::vector<std::int16_t> two_components;
+  for (std::size_t k = 0; k < 12; ++k)
+    for (std::size_t n = 0; n < 20; ++n) {
+      two_components.push_back(voxels[(11 - k) * 20 + n]);
+      two_components.push_back(static_cast<std::int16_t>(-7 * n));
+    }
+  const std::string vtk_header = "# vtk DataFile Version 3.0\nwindow test\n";
+  const std::string vtk_grid = "DATASET STRUCTURED_POINTS\nDIMENSIONS 5 4 12\nSPACING 1 1 -2\nORIGIN 0 0 22\nPOINT_DATA 240\n";
+  const Bytes vtk_values = to_bytes(two_components, true);
+  Bytes binary_vtk(vtk_header.begin(), vtk_header.end());
+  const std::string binary_header = "BINARY\n" + vtk_grid + "SCALARS s short 2\nLOOKUP_TABLE default\n";
+  binary_vtk.insert(binary_vtk.end(), binary_header.begin(), binary_header.end());
+  binary_vtk.insert(binary_vtk.end(), vtk_values.begin(), vtk_values.end());
+  write_file(dir.file("binary.vtk"), binary_vtk);
+  std::string ascii_vtk = vtk_header + "ASCII\n" + vtk_grid + "SCALARS s short 2\nLOOKUP_TABLE default\n";
+  for (const std::int16_t v : two_components) ascii_vtk += std::to_string(v) + " ";
+  write_file(dir.file("ascii.vtk"), Bytes(ascii_vtk.begin(), ascii_vtk.end()));
   const SliceChooser slices_3_to_8 = [](const std::array<int, 3>& dims) {
     EXPECT_EQ(dims[2], 12);
     return SliceRange{3, 6};
   };
   VolumeLoadOptions raw;
   raw.raw = RawVolumeOptions{{5, 4, 12}, ScalarType::Int16, false, {1, 1, 2}, 0};
-  for (const std::string file : {"raw.nrrd", "gzip.nrrd", "plain.raw", "ascii.nrrd", "plain.nii", "gzip.nii.gz"}) {
+  for (const std::string file : {"raw.nrrd", "gzip.nrrd", "plain.raw", "ascii.nrrd", "plain.nii", "gzip.nii.gz", "binary.vtk", "ascii.vtk"}) {
     SCOPED_TRACE(file);
     const VolumeLoadOptions options = file == "plain.raw" ? raw : VolumeLoadOptions{};  // the NRRD headers give their layout
     const Volume whole = load_volume(dir.file(file), options);
@@ -157,9 +176,14 @@ TEST(VolumeWindow, FilesAreReadOnlyForTheChosenSlices) {
     for (int k = 0; k < 6; ++k)
       for (int j = 0; j < 4; ++j)
         for (int i = 0; i < 5; ++i) ASSERT_EQ(window.value(i, j, k), whole.value(i, j, k + 3));
-    EXPECT_EQ(read.whole, file == "ascii.nrrd");
+    EXPECT_EQ(read.whole, file == "ascii.nrrd" || file == "ascii.vtk");
     if (file == "raw.nrrd" || file == "plain.raw" || file == "plain.nii") {
       EXPECT_EQ(read.bytes_read, 6u * 5 * 4 * 2);
+    }
+    if (file == "binary.vtk") {
+      EXPECT_EQ(read.bytes_read, 6u * 5 * 4 * 2 * 2);  // both components of the chosen slices
+      for (int k = 0; k < 12; ++k)  // the same voxels as the NRRD: the negative spacing reversed z back
+        ASSERT_EQ(whole.value(1, 2, k), load_volume(dir.file("raw.nrrd")).value(1, 2, k));
     }
   }
   const SliceChooser too_many = [](const std::array<int, 3>&) { return SliceRange{10, 3}; };

@@ -123,6 +123,24 @@ void check_headsq(const std::string& file) {
   EXPECT_EQ(v.max_value(), 3926);
   EXPECT_EQ(info.format, file.ends_with(".vtk") ? "vtk" : "vti");
   EXPECT_TRUE(info.orientation.empty());
+  // Windows of slices (17 slices of 8 KiB from slice 41: 32 KiB zlib blocks cut at both ends) hold the whole read's voxels and
+  // read only their part of the file: raw values only theirs, zlib blocks only theirs (base64 text is
+  // decoded up to them, so only a window at the start reads little of it).
+  const std::uint64_t file_bytes = std::filesystem::file_size(dir + "/" + file);
+  for (const SliceRange slices : {SliceRange{41, 17}, SliceRange{0, 5}, SliceRange{87, 6}}) {
+    SCOPED_TRACE(slices.first);
+    WindowRead read;
+    const Volume window = load_volume_window({dir + "/" + file}, VolumeLoadOptions{}, [&](const std::array<int, 3>&) { return slices; }, read);
+    EXPECT_FALSE(read.whole);
+    ASSERT_EQ(window.dims(), (std::array<int, 3>{64, 64, slices.count}));
+    const std::size_t slice_bytes = 64 * 64 * 2;
+    EXPECT_EQ(std::memcmp(window.data(), static_cast<const std::byte*>(v.data()) + slices.first * slice_bytes, slices.count * slice_bytes), 0);
+    if (file == "headsq.vtk" || file == "headsq_appended_raw.vti") {
+      EXPECT_EQ(read.bytes_read, slices.count * slice_bytes + (file == "headsq.vtk" ? 0 : 4));  // .vti: its byte-count header
+    } else if (file == "headsq_appended_zlib.vti" || slices.first == 0) {  // base64 is decoded up to the window
+      EXPECT_LT(read.bytes_read, file_bytes / 3);
+    }
+  }
 }
 
 

@@ -254,6 +254,50 @@ def test_a_nifti_streams_a_slab_at_a_time(tmp_path):
     np.testing.assert_array_equal(root["1"][:], mean_levels(placed))
 
 
+def legacy_vtk(path, array, spacing, components=1):
+    """A BINARY legacy VTK STRUCTURED_POINTS file of `array` (z, y, x), laid out as VTK's
+    vtkStructuredPointsWriter writes one: header lines, then big-endian values, the components of a point
+    together (the others here the first negated)."""
+    z, y, x = array.shape
+    values = np.stack([array] + [-array] * (components - 1), axis=-1) if components > 1 else array
+    header = (f"# vtk DataFile Version 5.1\nvtk output\nBINARY\nDATASET STRUCTURED_POINTS\nDIMENSIONS {x} {y} {z}\n"
+              f"SPACING {spacing[0]} {spacing[1]} {spacing[2]}\nORIGIN 0 0 0\nPOINT_DATA {x * y * z}\n"
+              f"SCALARS ImageFile short {components}\nLOOKUP_TABLE default\n")
+    with open(path, "wb") as f:
+        f.write(header.encode() + np.ascontiguousarray(values).astype(">i2").tobytes())
+
+
+def test_a_legacy_vtk_file_streams_a_slab_at_a_time(tmp_path):
+    """A 131 MB BINARY legacy VTK file whose negative z spacing reverses its slices is read a slab at a
+    time, each slab's values sought from the file's other end: convert's peak memory stays far below its
+    size, and the pyramid is the file's first component with z reversed, and every mean."""
+    z, y, x = 160, 640, 640
+    k, j, i = np.ogrid[0:z, 0:y, 0:x]
+    data = ((i * 5 + j * 3 + k * 13) % 4091 - 2000).astype(np.int16)
+    src = tmp_path / "big.vtk"
+    legacy_vtk(src, data, (0.5, 0.5, -1.5))
+    out = tmp_path / "big.zarr"
+    code, stdout, stderr, mib = peak_rss_mib([CLI, "convert", src, "-o", out, "--chunk", "16"])
+    assert code == 0, stderr
+    assert "from vtk (streamed)" in stdout, stdout
+    tiny = tmp_path / "tiny.vtk"
+    legacy_vtk(tiny, np.zeros((4, 4, 4), np.int16), (0.5, 0.5, -1.5))
+    code, _, stderr, baseline = peak_rss_mib([CLI, "convert", tiny, "-o", tmp_path / "tiny.zarr"])
+    assert code == 0, stderr
+    file_mib = data.nbytes / 2**20
+    assert mib - baseline < 0.35 * file_mib, f"convert peaked at {mib:.0f} MiB ({baseline:.0f} MiB for a tiny file) for a {file_mib:.0f} MiB volume"
+    placed = data[::-1]
+    root = zarr.open_group(str(out), mode="r")
+    np.testing.assert_array_equal(root["0"][:], placed)
+    np.testing.assert_array_equal(root["1"][:], mean_levels(placed))
+    # Two components: the first is the volume, read from every point's pair.
+    two = tmp_path / "two.vtk"
+    legacy_vtk(two, data[:40, :64, :96], (1, 1, 1), components=2)
+    code, stdout, stderr, _ = peak_rss_mib([CLI, "convert", two, "-o", tmp_path / "two.zarr", "--chunk", "16"])
+    assert code == 0, stderr
+    np.testing.assert_array_equal(zarr.open_group(str(tmp_path / "two.zarr"), mode="r")["0"][:], data[:40, :64, :96])
+
+
 def test_a_dicom_series_streams_a_slab_of_slices_at_a_time(tmp_path):
     """A 200-slice CT series (a real slice's header written by pydicom with new pixels and positions, the
     columns running posterior to anterior so that the slices come from the series' other end) is decoded

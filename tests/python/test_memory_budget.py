@@ -316,3 +316,48 @@ def test_a_dicom_series_over_its_budget_opens_reduced():
     np.testing.assert_array_equal(v.array, block_means(whole.array, f))
     assert v.info["format"] == "dicom" and any(f"reduced {f}×" in n for n in v.info["notes"]), v.info
     assert v.spacing == pytest.approx(tuple(s * f for s in whole.spacing), rel=1e-5)
+
+
+def vti_zlib(path, array, spacing, block=50000):
+    """A VTK XML ImageData file of `array` (z, y, x uint16) as vtkXMLImageDataWriter lays out raw appended
+    data compressed by vtkZLibDataCompressor: a UInt32 header (blocks, block size, last block size, each
+    block's compressed size), then the zlib blocks."""
+    import zlib
+    z, y, x = array.shape
+    raw = np.ascontiguousarray(array).astype("<u2").tobytes()
+    blocks = [zlib.compress(raw[b:b + block]) for b in range(0, len(raw), block)]
+    last = len(raw) - (len(blocks) - 1) * block
+    header = np.array([len(blocks), block, last if last < block else 0] + [len(b) for b in blocks], "<u4").tobytes()
+    xml = (f'<?xml version="1.0"?>\n<VTKFile type="ImageData" version="1.0" byte_order="LittleEndian" header_type="UInt32" '
+           f'compressor="vtkZLibDataCompressor">\n  <ImageData WholeExtent="0 {x - 1} 0 {y - 1} 0 {z - 1}" Origin="0 0 0" '
+           f'Spacing="{spacing[0]} {spacing[1]} {spacing[2]}" Direction="1 0 0 0 1 0 0 0 1">\n'
+           f'    <Piece Extent="0 {x - 1} 0 {y - 1} 0 {z - 1}">\n      <PointData Scalars="v">\n'
+           f'        <DataArray type="UInt16" Name="v" format="appended" offset="0"/>\n      </PointData>\n'
+           f'    </Piece>\n  </ImageData>\n  <AppendedData encoding="raw">\n   _')
+    with open(path, "wb") as f:
+        f.write(xml.encode() + header + b"".join(blocks) + b"\n  </AppendedData>\n</VTKFile>\n")
+
+
+def test_vtk_image_data_over_its_budget_opens_reduced(tmp_path):
+    """A BINARY legacy VTK file whose negative z spacing reverses its slices and a .vti of zlib blocks
+    (50,000 bytes: cut by the slabs' ends) over the budget open reduced like an NRRD: each voxel the mean of its
+    block of the placed voxels, the file read in two slabs of slices (26 MB, 16 MiB slabs)."""
+    from test_convert import legacy_vtk
+    shape = (200, 256, 256)  # z, y, x
+    k, j, i = np.ogrid[0:shape[0], 0:shape[1], 0:shape[2]]
+    data = ((i * 5 + j * 3 + k * 7) % 3001).astype(np.int16)
+    f = 4
+    reduced = tuple(-(-n // f) for n in shape)
+    vtk = tmp_path / "reversed.vtk"
+    legacy_vtk(vtk, data, (1.0, 2.0, -3.0))
+    placed = data[::-1]
+    np.testing.assert_array_equal(penumbra.read_volume(str(vtk)).array, placed)
+    v = penumbra.read_volume(str(vtk), memory_budget=held_bytes(reduced, 2))
+    np.testing.assert_array_equal(v.array, block_means(placed, f))
+    assert any(f"reduced {f}×" in n for n in v.info["notes"]) and v.info["format"] == "vtk", v.info
+    vti = tmp_path / "blocks.vti"
+    vti_zlib(vti, data.astype(np.uint16), (1.0, 2.0, 3.0))
+    np.testing.assert_array_equal(penumbra.read_volume(str(vti)).array, data.astype(np.uint16))
+    v = penumbra.read_volume(str(vti), memory_budget=held_bytes(reduced, 2))
+    np.testing.assert_array_equal(v.array, block_means(data.astype(np.uint16), f))
+    assert v.info["format"] == "vti" and v.spacing == pytest.approx((f * 3.0, f * 2.0, f * 1.0))  # z, y, x

@@ -124,7 +124,7 @@ bool reads_slices_in_part(const std::vector<std::string>& paths, const VolumeLoa
   const std::string& p = paths[0];
   return (ends_with_ci(p, ".raw") && options.raw) || is_zarr_store(p) || is_hdf5_path(p) || ends_with_ci(p, ".nrrd") ||
          ends_with_ci(p, ".nhdr") || ends_with_ci(p, ".nii") || ends_with_ci(p, ".nii.gz") || ends_with_ci(p, ".tif") ||
-         ends_with_ci(p, ".tiff");
+         ends_with_ci(p, ".tiff") || ends_with_ci(p, ".vtk") || ends_with_ci(p, ".vti");
 }
 
 Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoadOptions& options, const SliceChooser& choose,
@@ -143,6 +143,8 @@ Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoa
       if (is_hdf5_path(path)) return load_hdf5_volume(path, options.dataset, options.channel, nullptr, &choose, &read);
       if (ends_with_ci(path, ".nii") || ends_with_ci(path, ".nii.gz")) return load_nifti_volume(path, &choose, &read, info);
       if (ends_with_ci(path, ".tif") || ends_with_ci(path, ".tiff")) return load_tiff_volume(path, options.channel, &info, &choose, &read);
+      if (ends_with_ci(path, ".vtk")) return load_legacy_vtk_volume(path, &info, &choose, &read);
+      if (ends_with_ci(path, ".vti")) return load_vti_volume(path, &info, &choose, &read);
       return load_nrrd_volume(path, &choose, &read, info, options.confine_to);
     });
   }

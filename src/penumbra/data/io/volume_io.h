@@ -116,7 +116,13 @@ Volume load_tiff_volume(const std::string& path, int channel, VolumeFileInfo* in
 // VTK image data (vti_loader.cpp, vtk_legacy_loader.cpp): XML ImageData (.vti: ascii, base64 or appended raw, zlib or
 // not) and legacy STRUCTURED_POINTS (.vtk, ASCII or BINARY).
 Volume load_vti_volume(const std::string& path, VolumeFileInfo* info);
+// `choose`: a binary array (base64 or appended, zlib or not) yields only the chosen slices' bytes (raw
+// appended data seeks to them; zlib blocks outside them are not decompressed; base64 before them is
+// decoded and dropped); an ASCII array is read whole and cut.
+Volume load_vti_volume(const std::string& path, VolumeFileInfo* info, const SliceChooser* choose, WindowRead* read);
 Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info);
+// `choose`: a BINARY file reads only the chosen slices' values (seeking to them); an ASCII one is read whole and cut.
+Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info, const SliceChooser* choose, WindowRead* read);
 // OpenVDB (vdb_loader.cpp): one float or double grid, kept sparse as a bricked volume.
 Volume load_vdb_volume(const std::string& path, const std::string& grid, VolumeFileInfo* info);
 
@@ -148,8 +154,9 @@ Volume load_volume(const std::string& path, const std::optional<RawVolumeOptions
 // "tiff", "vti", "vtk", "vdb" ("" for none of these).
 std::string volume_format(const std::vector<std::string>& paths);
 // Whether load_volume_window reads only the chosen slices of these files: a DICOM series, one raw (with its
-// layout), NRRD, NIfTI, TIFF or HDF5 file or Zarr store (by name; a layout that cannot be, such as an
-// NRRD whose z is another file axis, is still read whole, which `read.whole` says).
+// layout), NRRD, NIfTI, TIFF, VTK image data (.vti, legacy .vtk) or HDF5 file or Zarr store (by name; a layout
+// that cannot be, such as an NRRD whose z is another file axis or ASCII VTK values, is still read whole,
+// which `read.whole` says).
 bool reads_slices_in_part(const std::vector<std::string>& paths, const VolumeLoadOptions& options);
 // A pass over files a window of slices at a time (`penumbra convert`, a read reduced under a budget): while
 // one is open, a window of gzip data (NRRD, NIfTI) continues from where the same file's last window ended
@@ -162,8 +169,8 @@ public:
   WindowPass(const WindowPass&) = delete;
   WindowPass& operator=(const WindowPass&) = delete;
 };
-// load_volume of the chosen slices only: the formats above read just those; every other format (VTK image
-// data, OpenVDB) is read whole and cut, which `read.whole` says.
+// load_volume of the chosen slices only: the formats above read just those; OpenVDB (sparse) is read whole,
+// which `read.whole` says.
 Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoadOptions& options, const SliceChooser& choose,
                           WindowRead& read);
 

@@ -7,6 +7,9 @@
 // Every size the file states is checked against what the data can hold before anything is allocated.
 // Direction: an axis-aligned diagonal of ±1 (and negative spacing) is honoured by reversing those axes
 // so that the volume's world box matches VTK's; any other Direction is noted and ignored.
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -138,7 +141,9 @@ class ByteSource {
 public:
   virtual ~ByteSource() = default;
   virtual void read(std::byte* out, std::size_t n) = 0;  // Error when fewer than n bytes remain
+  virtual void skip(std::uint64_t n) = 0;                // as read, the bytes dropped
   virtual std::uint64_t remaining() const = 0;            // at most this many bytes remain
+  virtual std::uint64_t touched() const = 0;              // the file's bytes looked at so far
 };
 
 class RawSource final : public ByteSource {
@@ -150,12 +155,21 @@ public:
                   " are needed (truncated file or lying sizes)");
     std::memcpy(out, bytes_.data() + pos_, n);
     pos_ += n;
+    touched_ += n;
+  }
+  void skip(std::uint64_t n) override {
+    if (n > bytes_.size() - pos_)
+      throw Error("raw appended data ends after " + bytes_str(bytes_.size()) + " but " + bytes_str(pos_ + n) +
+                  " are needed (truncated file or lying sizes)");
+    pos_ += static_cast<std::size_t>(n);
   }
   std::uint64_t remaining() const override { return bytes_.size() - pos_; }
+  std::uint64_t touched() const override { return touched_; }
 
 private:
   std::string_view bytes_;
   std::size_t pos_ = 0;
+  std::uint64_t touched_ = 0;
 };
 
 // Base64 decoded as it is read, so that separately encoded pieces (VTK encodes a zlib header apart
@@ -171,7 +185,17 @@ public:
       used_ += take, done += take;
     }
   }
+  // Base64 has no index (blanks may lie anywhere in it): skipped bytes are decoded and dropped.
+  void skip(std::uint64_t n) override {
+    std::array<std::byte, 3 << 10> scratch;
+    for (std::uint64_t done = 0; done < n;) {
+      const std::size_t take = static_cast<std::size_t>(std::min<std::uint64_t>(n - done, scratch.size()));
+      read(scratch.data(), take);
+      done += take;
+    }
+  }
   std::uint64_t remaining() const override { return (text_.size() - pos_) / 4 * 3 + (have_ - used_); }
+  std::uint64_t touched() const override { return pos_; }
 
 private:
   static int value(char c) {
@@ -210,6 +234,27 @@ private:
   std::array<std::byte, 3> group_{};
   std::size_t have_ = 0, used_ = 0;
   std::uint64_t decoded_ = 0;
+};
+
+// The file mapped read-only, so that reading a window of slices reads only the pages that hold them (and
+// a whole read holds the file's bytes only as the page cache does, not in a copy beside the voxels).
+class MappedFile {
+public:
+  MappedFile(const std::string& path, std::uint64_t bytes) : size_(static_cast<std::size_t>(bytes)) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) throw Error("cannot open the file");
+    data_ = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
+    ::close(fd);
+    if (data_ == MAP_FAILED) throw Error("cannot map the file (" + bytes_str(bytes) + ") into memory");
+  }
+  ~MappedFile() { ::munmap(data_, size_); }
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+  std::string_view text() const { return {static_cast<const char*>(data_), size_}; }
+
+private:
+  void* data_ = nullptr;
+  std::size_t size_ = 0;
 };
 
 // ---- the file's structure ----------------------------------------------------------------------
@@ -378,13 +423,20 @@ std::uint64_t header_word(ByteSource& src, const VtiFile& f) {
   return v;
 }
 
-// A binary array: a byte count then the bytes, or a zlib block table then the blocks.
-std::vector<std::byte> read_binary(ByteSource& src, const VtiFile& f, std::uint64_t want, const std::string& need) {
+// The bytes [first, first + count) of an array of `want` bytes (its values, packed).
+struct ByteRange {
+  std::uint64_t first = 0, count = 0;
+};
+
+// Bytes `range` of a binary array: a byte count then the bytes, or a zlib block table then the blocks
+// (only the blocks that hold the range are decompressed, the others skipped unread where the data is raw).
+std::vector<std::byte> read_binary(ByteSource& src, const VtiFile& f, std::uint64_t want, ByteRange range, const std::string& need) {
   if (!f.zlib) {
     const std::uint64_t n = header_word(src, f);
     if (n != want) throw Error("its header says " + bytes_str(n) + " but " + need);
     if (src.remaining() < want) throw Error("its data has at most " + bytes_str(src.remaining()) + " but " + need + " (truncated file)");
-    std::vector<std::byte> out(static_cast<std::size_t>(want));
+    std::vector<std::byte> out(static_cast<std::size_t>(range.count));
+    src.skip(range.first);
     src.read(out.data(), out.size());
     return out;
   }
@@ -411,25 +463,43 @@ std::vector<std::byte> read_binary(ByteSource& src, const VtiFile& f, std::uint6
   }
   if (!io_detail::deflate_could_hold(stored, want))
     throw Error("its zlib blocks hold " + bytes_str(stored) + ", too few to decompress to what " + need);
-  std::vector<std::byte> out(static_cast<std::size_t>(want));
-  std::vector<std::byte> packed;
+  std::vector<std::byte> out(static_cast<std::size_t>(range.count));
+  std::vector<std::byte> packed, unpacked;
+  const std::uint64_t range_end = range.first + range.count;
   for (std::size_t b = 0; b < sizes.size(); ++b) {
+    const std::uint64_t begin = b * block, expect = b + 1 == sizes.size() ? last_size : block;
+    if (begin >= range_end) break;  // past the range: never read
+    if (begin + expect <= range.first) {  // before it
+      src.skip(sizes[b]);
+      continue;
+    }
     packed.resize(static_cast<std::size_t>(sizes[b]));
     src.read(packed.data(), packed.size());
-    const std::uint64_t expect = b + 1 == sizes.size() ? last_size : block;
+    // straight into the output when the block lies inside the range, else through a block of its own
+    const bool inside = begin >= range.first && begin + expect <= range_end;
+    if (!inside) unpacked.resize(static_cast<std::size_t>(expect));
+    std::byte* target = inside ? out.data() + (begin - range.first) : unpacked.data();
     uLongf got = static_cast<uLongf>(expect);
-    const int rc = uncompress(reinterpret_cast<Bytef*>(out.data() + b * block), &got, reinterpret_cast<const Bytef*>(packed.data()),
+    const int rc = uncompress(reinterpret_cast<Bytef*>(target), &got, reinterpret_cast<const Bytef*>(packed.data()),
                               static_cast<uLong>(packed.size()));
     if (rc != Z_OK || got != expect)
       throw Error("zlib block " + std::to_string(b) + " of " + std::to_string(sizes.size()) + " is corrupt (zlib: " +
                   (rc == Z_OK ? "it decompresses to " + bytes_str(got) + ", expected " + bytes_str(expect)
                    : rc == Z_BUF_ERROR ? std::string("incomplete or larger than the block size") : std::string(zError(rc))) + ")");
+    if (!inside) {
+      const std::uint64_t lo = std::max(begin, range.first), hi = std::min(begin + expect, range_end);
+      std::memcpy(out.data() + (lo - range.first), unpacked.data() + (lo - begin), static_cast<std::size_t>(hi - lo));
+    }
   }
   return out;
 }
 
-std::vector<std::byte> read_array(const VtiFile& f, const ArrayInfo& a, std::size_t values, const std::string& need) {
+// Bytes `range` of the array's packed values (all of them for ASCII text, which has no places).
+// `touched`: the file's bytes it looked at.
+std::vector<std::byte> read_array(const VtiFile& f, const ArrayInfo& a, std::size_t values, ByteRange range, const std::string& need,
+                                  std::uint64_t& touched) {
   const std::uint64_t want = std::uint64_t{values} * io_detail::vtk_type_size(a.type);
+  touched = a.content.size();
   if (a.format == "ascii") {
     if (a.content.size() / 2 + 1 < values) throw Error("its ASCII text is too short: " + need);
     std::vector<std::byte> out(static_cast<std::size_t>(want));
@@ -440,7 +510,9 @@ std::vector<std::byte> read_array(const VtiFile& f, const ArrayInfo& a, std::siz
   }
   if (a.format == "binary") {
     Base64Source src(a.content);
-    return read_binary(src, f, want, need);
+    std::vector<std::byte> out = read_binary(src, f, want, range, need);
+    touched = src.touched();
+    return out;
   }
   if (!f.appended) throw Error("it is format=\"appended\" but the file has no <AppendedData>");
   if (a.offset > f.appended->size())
@@ -448,10 +520,14 @@ std::vector<std::byte> read_array(const VtiFile& f, const ArrayInfo& a, std::siz
   const std::string_view data = f.appended->substr(static_cast<std::size_t>(a.offset));
   if (f.appended_base64) {
     Base64Source src(data);
-    return read_binary(src, f, want, need);
+    std::vector<std::byte> out = read_binary(src, f, want, range, need);
+    touched = src.touched();
+    return out;
   }
   RawSource src(data);
-  return read_binary(src, f, want, need);
+  std::vector<std::byte> out = read_binary(src, f, want, range, need);
+  touched = src.touched();
+  return out;
 }
 
 const ArrayInfo& choose_array(const VtiFile& f, std::vector<std::string>& notes) {
@@ -476,14 +552,17 @@ const ArrayInfo& choose_array(const VtiFile& f, std::vector<std::string>& notes)
 
 }  // namespace
 
-Volume load_vti_volume(const std::string& path, VolumeFileInfo* info) {
+Volume load_vti_volume(const std::string& path, VolumeFileInfo* info) { return load_vti_volume(path, info, nullptr, nullptr); }
+
+Volume load_vti_volume(const std::string& path, VolumeFileInfo* info, const SliceChooser* choose, WindowRead* read) {
   VolumeFileInfo local;
   VolumeFileInfo& out = info ? *info : local;
   out.format = "vti";
+  if (read) *read = WindowRead{};
   const std::uint64_t file_bytes = io_detail::regular_file_size(path);
   if (file_bytes == 0) throw Error("empty file (expected a VTK XML ImageData file)");
-  const std::string text = io_detail::read_whole_file(path, file_bytes);
-  const VtiFile f = scan(text);
+  const MappedFile file(path, file_bytes);
+  const VtiFile f = scan(file.text());
 
   if (f.pieces == 0) throw Error("no <Piece> in the ImageData");
   if (f.pieces > 1)
@@ -500,9 +579,6 @@ Volume load_vti_volume(const std::string& path, VolumeFileInfo* info) {
   const std::string need = "the extent " + dims_text + " x " + std::to_string(array.components) + " component(s) of " +
                            io_detail::vtk_type_name(array.type) + " needs " + std::to_string(values) + " values, " +
                            bytes_str(values * io_detail::vtk_type_size(array.type));
-  const std::vector<std::byte> data = with_context("DataArray '" + printable(array.name, 60) + "'", [&] {
-    return read_array(f, array, static_cast<std::size_t>(values), need);
-  });
 
   // World = Origin + Direction · (index · Spacing), the index counted from the extent's start; VTK's
   // world has no anatomical frame and is taken as it is. The voxels are placed by it (volume_placement.h).
@@ -514,10 +590,24 @@ Volume load_vti_volume(const std::string& path, VolumeFileInfo* info) {
       affine.offset[r] += affine.linear[r][c] * static_cast<double>(e[2 * c]);
     }
   }
-  Volume volume(io_detail::vtk_volume_type(array.type), {static_cast<int>(dims[0]), static_cast<int>(dims[1]), static_cast<int>(dims[2])},
-                {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
+  // A window whose slices are the file's own reads only their bytes of a binary array (ASCII text has no
+  // places: it is read whole and cut).
+  const std::array<int, 3> d{static_cast<int>(dims[0]), static_cast<int>(dims[1]), static_cast<int>(dims[2])};
+  const auto permutation = axis_permutation(affine);
+  const FileWindow window = file_window(choose, d, permutation);
+  const bool in_part = window.in_part && array.format != "ascii";
+  const std::uint64_t slice_bytes = std::uint64_t{count} / static_cast<std::uint64_t>(d[2]) * array.components * io_detail::vtk_type_size(array.type);
+  const ByteRange range = in_part ? ByteRange{window.file_first * slice_bytes, window.count * slice_bytes} : ByteRange{0, values * io_detail::vtk_type_size(array.type)};
+  std::uint64_t touched = 0;
+  const std::vector<std::byte> data = with_context("DataArray '" + printable(array.name, 60) + "'", [&] {
+    return read_array(f, array, static_cast<std::size_t>(values), range, need, touched);
+  });
+  if (read) read->bytes_read = touched;
+  Volume volume(io_detail::vtk_volume_type(array.type), {d[0], d[1], in_part ? window.count : d[2]}, {1, 1, 1}, {0, 0, 0},
+                VoxelFill::Uninitialized);
   io_detail::store_vtk_samples(data.data(), array.type, f.big_endian, array.components, volume, out.notes);
-  volume = place_volume(std::move(volume), affine, out);
+  if (in_part) return place_window(std::move(volume), affine, d, *permutation, window, out);
+  volume = keep_chosen_slices(place_volume(std::move(volume), affine, out), choose, window, read);
   volume.recompute_range();  // rejects NaN/inf voxels and gives the volume its range
   return volume;
 }

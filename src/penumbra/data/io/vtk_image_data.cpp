@@ -158,25 +158,33 @@ std::size_t parse_ascii_values(std::string_view text, VtkType type, std::size_t 
   return pos;
 }
 
-void store_vtk_samples(const std::byte* data, VtkType type, bool big_endian, std::size_t components, Volume& volume,
-                       std::vector<std::string>& notes) {
+bool convert_vtk_samples(const std::byte* data, VtkType type, bool big_endian, std::size_t components, Volume& volume,
+                         std::size_t first, std::size_t count) {
   const bool swap = big_endian != (std::endian::native == std::endian::big);
-  const std::size_t n = volume.voxel_count();
-  const bool exact = with_type(type, [&](auto zero) {
+  return with_type(type, [&](auto zero) {
     using Src = decltype(zero);
     switch (volume.type()) {
-      case ScalarType::UInt8: return convert<Src>(data, swap, components, n, volume.data_as<std::uint8_t>());
-      case ScalarType::Int16: return convert<Src>(data, swap, components, n, volume.data_as<std::int16_t>());
-      case ScalarType::UInt16: return convert<Src>(data, swap, components, n, volume.data_as<std::uint16_t>());
+      case ScalarType::UInt8: return convert<Src>(data, swap, components, count, volume.data_as<std::uint8_t>() + first);
+      case ScalarType::Int16: return convert<Src>(data, swap, components, count, volume.data_as<std::int16_t>() + first);
+      case ScalarType::UInt16: return convert<Src>(data, swap, components, count, volume.data_as<std::uint16_t>() + first);
       case ScalarType::Float32: break;
     }
-    return convert<Src>(data, swap, components, n, volume.data_as<float>());
+    return convert<Src>(data, swap, components, count, volume.data_as<float>() + first);
   });
+}
+
+void note_vtk_conversion(VtkType type, std::size_t components, bool exact, std::vector<std::string>& notes) {
   if (components > 1) notes.push_back("component 0 of " + std::to_string(components) + " loaded");
   if (type == VtkType::Int8) notes.push_back("Int8 values stored as int16");
   if (vtk_volume_type(type) == ScalarType::Float32 && type != VtkType::Float32)
     notes.push_back(std::string(vtk_type_name(type)) + " values stored as float32" +
                     (exact ? " (all exact)" : type == VtkType::Float64 ? " (rounded)" : " (values beyond 2^24 rounded)"));
+}
+
+void store_vtk_samples(const std::byte* data, VtkType type, bool big_endian, std::size_t components, Volume& volume,
+                       std::vector<std::string>& notes) {
+  const bool exact = convert_vtk_samples(data, type, big_endian, components, volume, 0, volume.voxel_count());
+  note_vtk_conversion(type, components, exact, notes);
 }
 
 std::string read_whole_file(const std::string& path, std::uint64_t bytes) {

@@ -35,8 +35,13 @@ std::size_t parse_ascii_values(std::string_view text, VtkType type, std::size_t 
 // which has the size and the vtk_volume_type of the data; says in `notes` what a conversion did.
 void store_vtk_samples(const std::byte* data, VtkType type, bool big_endian, std::size_t components, Volume& volume,
                        std::vector<std::string>& notes);
+// The same for `count` samples stored from voxel `first` on (a slab of slices at a time); false when a
+// conversion to float32 rounded a value (note_vtk_conversion then says so).
+bool convert_vtk_samples(const std::byte* data, VtkType type, bool big_endian, std::size_t components, Volume& volume,
+                         std::size_t first, std::size_t count);
+void note_vtk_conversion(VtkType type, std::size_t components, bool exact, std::vector<std::string>& notes);
 
-// The file's `bytes` bytes (its size, checked by the caller), as both VTK readers take it whole.
+// The file's first `bytes` bytes (at most its size, checked by the caller).
 std::string read_whole_file(const std::string& path, std::uint64_t bytes);
 
 }  // namespace penumbra::io_detail

@@ -31,6 +31,12 @@ using io_detail::upper;
 
 // A header longer than this is not a legacy VTK header.
 constexpr std::size_t kMaxHeaderLines = 64;
+// The bytes read to find the header of a BINARY file (VTK writes header lines of at most 256 characters):
+// the values after it are read by seeking, only those of the chosen slices.
+constexpr std::size_t kMaxHeaderBytes = std::size_t{64} << 10;
+// The slices a whole BINARY file is read in at a time (this many bytes of values at most), converted into
+// the volume as they come, so that the file's values are never held beside the volume.
+constexpr std::size_t kSlabBytes = std::size_t{16} << 20;
 
 // The header's lines in order, each with where the next one starts.
 class HeaderLines {
@@ -85,7 +91,8 @@ std::int64_t count(std::string_view field, const std::string& what, std::int64_t
   return static_cast<std::int64_t>(v);
 }
 
-LegacyHeader parse_header(std::string_view text) {
+// `text`: the file, or (`prefix`) its first bytes, which must hold the header.
+LegacyHeader parse_header(std::string_view text, bool prefix) {
   LegacyHeader h;
   HeaderLines lines(text);
   std::string_view line;
@@ -142,19 +149,33 @@ LegacyHeader parse_header(std::string_view text) {
                   "' (expected DIMENSIONS, SPACING, ORIGIN or POINT_DATA)");
     }
   }
+  if (prefix) throw Error("no POINT_DATA SCALARS in the first " + bytes_str(text.size()) + " (a legacy VTK header is a few lines)");
   throw Error("the file ends before its POINT_DATA SCALARS");
+}
+
+// Reads `bytes` bytes at `offset` of the open file (the caller checked they lie in it).
+void read_at(std::ifstream& in, std::uint64_t offset, std::byte* out, std::size_t bytes) {
+  in.seekg(static_cast<std::streamoff>(offset));
+  if (!in || !in.read(reinterpret_cast<char*>(out), static_cast<std::streamsize>(bytes)))
+    throw Error("cannot read " + bytes_str(bytes) + " of BINARY data at byte " + std::to_string(offset));
 }
 
 }  // namespace
 
-Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info) {
+Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info) { return load_legacy_vtk_volume(path, info, nullptr, nullptr); }
+
+Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info, const SliceChooser* choose, WindowRead* read) {
   VolumeFileInfo local;
   VolumeFileInfo& out = info ? *info : local;
   out.format = "vtk";
+  if (read) *read = WindowRead{};
   const std::uint64_t file_bytes = io_detail::regular_file_size(path);
   if (file_bytes == 0) throw Error("empty file (expected '# vtk DataFile Version x.y')");
-  const std::string text = io_detail::read_whole_file(path, file_bytes);
-  const LegacyHeader h = parse_header(text);
+  // The header first; an ASCII file is then read whole (its values have no fixed places), a BINARY one
+  // only where its chosen values lie.
+  const bool prefix = file_bytes > kMaxHeaderBytes;
+  std::string text = io_detail::read_whole_file(path, prefix ? kMaxHeaderBytes : file_bytes);
+  const LegacyHeader h = parse_header(text, prefix);
   if (!h.dims) throw Error("STRUCTURED_POINTS without DIMENSIONS");
   const auto& d = *h.dims;
   const std::string dims_text = std::to_string(d[0]) + "x" + std::to_string(d[1]) + "x" + std::to_string(d[2]);
@@ -165,18 +186,10 @@ Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info) {
   const std::size_t values = points * h.components, size = io_detail::vtk_type_size(h.type);
   const std::string need = "DIMENSIONS " + dims_text + " x " + std::to_string(h.components) + " component(s) of " +
                            io_detail::vtk_type_name(h.type) + " need " + std::to_string(values) + " values";
-  const std::string_view body = std::string_view(text).substr(h.data_start);
-  std::vector<std::byte> data;
-  if (h.binary) {
-    if (body.size() < values * size)
-      throw Error("BINARY data has " + bytes_str(body.size()) + " after the header but " + need + ", " + bytes_str(values * size) +
-                  " (truncated file or lying sizes)");
-    data.assign(reinterpret_cast<const std::byte*>(body.data()), reinterpret_cast<const std::byte*>(body.data()) + values * size);
-  } else {
-    if (body.size() / 2 + 1 < values) throw Error("ASCII data has " + bytes_str(body.size()) + ", too short: " + need);
-    data.resize(values * size);
-    with_context("SCALARS " + printable(h.name, 60), [&] { io_detail::parse_ascii_values(body, h.type, values, data.data()); });
-  }
+  const std::uint64_t body_bytes = file_bytes - h.data_start;
+  if (h.binary && body_bytes < values * size)
+    throw Error("BINARY data has " + bytes_str(body_bytes) + " after the header but " + need + ", " + bytes_str(values * size) +
+                " (truncated file or lying sizes)");
 
   // World = ORIGIN + index · SPACING (a negative SPACING reverses its axis), taken as it is (VTK's world
   // has no anatomical frame); the voxels are placed by it (volume_placement.h).
@@ -186,11 +199,47 @@ Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info) {
     steps[a] = h.spacing[a];
     origin[a] = h.origin[a];
   }
-  Volume volume(io_detail::vtk_volume_type(h.type), {static_cast<int>(d[0]), static_cast<int>(d[1]), static_cast<int>(d[2])},
-                {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
-  io_detail::store_vtk_samples(data.data(), h.type, h.binary, h.components, volume, out.notes);
-  volume = place_volume(std::move(volume), Affine::diagonal(steps, origin), out);
-  volume.recompute_range();  // rejects NaN/inf voxels and gives the volume its range
+  const Affine affine = Affine::diagonal(steps, origin);
+  const std::array<int, 3> dims{static_cast<int>(d[0]), static_cast<int>(d[1]), static_cast<int>(d[2])};
+  const auto permutation = axis_permutation(affine);  // a diagonal: always a permutation
+  const FileWindow window = file_window(choose, dims, permutation);
+  const ScalarType type = io_detail::vtk_volume_type(h.type);
+  const std::uint64_t slice_bytes = static_cast<std::uint64_t>(d[0]) * d[1] * h.components * size;
+
+  if (h.binary) {
+    // The file's slices [file_first, + count), a slab at a time, converted into the volume.
+    Volume volume(type, {dims[0], dims[1], window.count}, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw Error("cannot open the file");
+    const int slab = static_cast<int>(std::clamp<std::uint64_t>(kSlabBytes / slice_bytes, 1, static_cast<std::uint64_t>(window.count)));
+    std::vector<std::byte> data(static_cast<std::size_t>(slice_bytes) * static_cast<std::size_t>(slab));
+    const std::size_t slice_voxels = static_cast<std::size_t>(d[0]) * static_cast<std::size_t>(d[1]);
+    bool exact = true;
+    for (int first = 0; first < window.count; first += slab) {
+      const int n = std::min(slab, window.count - first);
+      read_at(in, h.data_start + (window.file_first + first) * slice_bytes, data.data(), static_cast<std::size_t>(n * slice_bytes));
+      exact &= io_detail::convert_vtk_samples(data.data(), h.type, true, h.components, volume, static_cast<std::size_t>(first) * slice_voxels,
+                                              static_cast<std::size_t>(n) * slice_voxels);
+    }
+    io_detail::note_vtk_conversion(h.type, h.components, exact, out.notes);
+    if (read) read->bytes_read = static_cast<std::uint64_t>(window.count) * slice_bytes;
+    if (window.in_part) return place_window(std::move(volume), affine, dims, *permutation, window, out);
+    volume = keep_chosen_slices(place_volume(std::move(volume), affine, out), choose, window, read);
+    volume.recompute_range();  // rejects NaN/inf voxels and gives the volume its range
+    return volume;
+  }
+
+  if (prefix) text = io_detail::read_whole_file(path, file_bytes);
+  if (read) read->bytes_read = file_bytes;
+  const std::string_view body = std::string_view(text).substr(h.data_start);
+  if (body.size() / 2 + 1 < values) throw Error("ASCII data has " + bytes_str(body.size()) + ", too short: " + need);
+  std::vector<std::byte> data(values * size);
+  with_context("SCALARS " + printable(h.name, 60), [&] { io_detail::parse_ascii_values(body, h.type, values, data.data()); });
+  text = std::string{};
+  Volume volume(type, dims, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
+  io_detail::store_vtk_samples(data.data(), h.type, false, h.components, volume, out.notes);
+  volume = keep_chosen_slices(place_volume(std::move(volume), affine, out), choose, window, read);
+  volume.recompute_range();
   return volume;
 }
 
