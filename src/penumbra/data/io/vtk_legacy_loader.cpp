@@ -33,10 +33,10 @@ using io_detail::upper;
 constexpr std::size_t kMaxHeaderLines = 64;
 // The bytes read to find the header of a BINARY file (VTK writes header lines of at most 256 characters):
 // the values after it are read by seeking, only those of the chosen slices.
-constexpr std::size_t kMaxHeaderBytes = std::size_t{64} << 10;
+constexpr std::size_t kLegacyHeaderBytes = std::size_t{64} << 10;
 // The slices a whole BINARY file is read in at a time (this many bytes of values at most), converted into
 // the volume as they come, so that the file's values are never held beside the volume.
-constexpr std::size_t kSlabBytes = std::size_t{16} << 20;
+constexpr std::size_t kBinarySlabBytes = std::size_t{16} << 20;
 
 // The header's lines in order, each with where the next one starts.
 class HeaderLines {
@@ -173,8 +173,8 @@ Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info, con
   if (file_bytes == 0) throw Error("empty file (expected '# vtk DataFile Version x.y')");
   // The header first; an ASCII file is then read whole (its values have no fixed places), a BINARY one
   // only where its chosen values lie.
-  const bool prefix = file_bytes > kMaxHeaderBytes;
-  std::string text = io_detail::read_whole_file(path, prefix ? kMaxHeaderBytes : file_bytes);
+  const bool prefix = file_bytes > kLegacyHeaderBytes;
+  std::string text = io_detail::read_whole_file(path, prefix ? kLegacyHeaderBytes : file_bytes);
   const LegacyHeader h = parse_header(text, prefix);
   if (!h.dims) throw Error("STRUCTURED_POINTS without DIMENSIONS");
   const auto& d = *h.dims;
@@ -211,7 +211,7 @@ Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info, con
     Volume volume(type, {dims[0], dims[1], window.count}, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
     std::ifstream in(path, std::ios::binary);
     if (!in) throw Error("cannot open the file");
-    const int slab = static_cast<int>(std::clamp<std::uint64_t>(kSlabBytes / slice_bytes, 1, static_cast<std::uint64_t>(window.count)));
+    const int slab = static_cast<int>(std::clamp<std::uint64_t>(kBinarySlabBytes / slice_bytes, 1, static_cast<std::uint64_t>(window.count)));
     std::vector<std::byte> data(static_cast<std::size_t>(slice_bytes) * static_cast<std::size_t>(slab));
     const std::size_t slice_voxels = static_cast<std::size_t>(d[0]) * static_cast<std::size_t>(d[1]);
     bool exact = true;
