@@ -361,3 +361,14 @@ def test_vtk_image_data_over_its_budget_opens_reduced(tmp_path):
     v = penumbra.read_volume(str(vti), memory_budget=held_bytes(reduced, 2))
     np.testing.assert_array_equal(v.array, block_means(data.astype(np.uint16), f))
     assert v.info["format"] == "vti" and v.spacing == pytest.approx((f * 3.0, f * 2.0, f * 1.0))  # z, y, x
+
+
+def test_a_vti_of_one_zlib_block_shorter_than_the_block_size_reads():
+    """VTK writes an array smaller than its 32 KiB block size as one block whose (last) size is the
+    array's: such a file was refused as lying about its size."""
+    import tempfile
+    data = (np.arange(16 * 16 * 16) % 3001).astype(np.uint16).reshape(16, 16, 16)
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "small.vti")
+        vti_zlib(path, data, (1.0, 1.0, 1.0), block=1 << 15)
+        np.testing.assert_array_equal(penumbra.read_volume(path).array, data)

@@ -118,7 +118,7 @@ Volume load_tiff_volume(const std::string& path, int channel, VolumeFileInfo* in
 Volume load_vti_volume(const std::string& path, VolumeFileInfo* info);
 // `choose`: a binary array (base64 or appended, zlib or not) yields only the chosen slices' bytes (raw
 // appended data seeks to them; zlib blocks outside them are not decompressed; base64 before them is
-// decoded and dropped); an ASCII array is read whole and cut.
+// stepped over); an ASCII array is read whole and cut.
 Volume load_vti_volume(const std::string& path, VolumeFileInfo* info, const SliceChooser* choose, WindowRead* read);
 Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info);
 // `choose`: a BINARY file reads only the chosen slices' values (seeking to them); an ASCII one is read whole and cut.

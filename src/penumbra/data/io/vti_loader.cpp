@@ -185,8 +185,22 @@ public:
       used_ += take, done += take;
     }
   }
-  // Base64 has no index (blanks may lie anywhere in it): skipped bytes are decoded and dropped.
+  // Base64 has no index (blanks and a separately encoded piece's padding may lie anywhere in it): where the
+  // text to skip holds neither (VTK writes appended data without them) it is stepped over, four characters
+  // for three bytes; otherwise the skipped bytes are decoded and dropped.
   void skip(std::uint64_t n) override {
+    const std::size_t rest = static_cast<std::size_t>(std::min<std::uint64_t>(n, have_ - used_));  // of the group decoded last
+    used_ += rest;
+    n -= rest;
+    if (n > 0 && have_ == used_) {
+      const std::size_t chars = static_cast<std::size_t>(std::min<std::uint64_t>(n / 3, (text_.size() - pos_) / 4)) * 4;
+      const std::string_view span = text_.substr(pos_, chars);
+      if (std::none_of(span.begin(), span.end(), [](char c) { return is_blank(c) || c == '='; })) {
+        pos_ += chars;
+        decoded_ += chars / 4 * 3;
+        n -= chars / 4 * 3;
+      }
+    }
     std::array<std::byte, 3 << 10> scratch;
     for (std::uint64_t done = 0; done < n;) {
       const std::size_t take = static_cast<std::size_t>(std::min<std::uint64_t>(n - done, scratch.size()));
@@ -447,8 +461,10 @@ std::vector<std::byte> read_binary(ByteSource& src, const VtiFile& f, std::uint6
   if (blocks > 0 && (block == 0 || last > block))
     throw Error("its zlib header has block size " + std::to_string(block) + " and last block size " + std::to_string(last));
   const std::uint64_t last_size = last ? last : block;
+  // (one block may be shorter than the block size: VTK writes a small array as one block of 32 KiB whose
+  // last, and only, size is the array's)
   const bool fits = blocks == 0 ? want == 0
-                                : block <= want && (blocks - 1) <= (want - last_size) / block && (blocks - 1) * block + last_size == want;
+                                : last_size <= want && (blocks - 1) <= (want - last_size) / block && (blocks - 1) * block + last_size == want;
   if (!fits)
     throw Error("its zlib header describes " + std::to_string(blocks) + " blocks of " + bytes_str(block) + " (last " +
                 bytes_str(last_size) + ") but " + need);
