@@ -19,7 +19,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <fstream>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -251,7 +250,9 @@ private:
 };
 
 // The file mapped read-only, so that reading a window of slices reads only the pages that hold them (and
-// a whole read holds the file's bytes only as the page cache does, not in a copy beside the voxels).
+// a whole read holds the file's bytes only as the page cache does, not in a copy beside the voxels). A
+// file cut short by another program while it is being read would stop the process (SIGBUS), as any mapped
+// reader would; a file cut short before it is read is an error like any other (its sizes are checked).
 class MappedFile {
 public:
   MappedFile(const std::string& path, std::uint64_t bytes) : size_(static_cast<std::size_t>(bytes)) {
@@ -524,26 +525,18 @@ std::vector<std::byte> read_array(const VtiFile& f, const ArrayInfo& a, std::siz
       throw Error("its ASCII text has more than the " + std::to_string(values) + " values " + need);
     return out;
   }
-  if (a.format == "binary") {
-    Base64Source src(a.content);
+  const auto binary = [&](ByteSource&& src) {
     std::vector<std::byte> out = read_binary(src, f, want, range, need);
     touched = src.touched();
     return out;
-  }
+  };
+  if (a.format == "binary") return binary(Base64Source(a.content));
   if (!f.appended) throw Error("it is format=\"appended\" but the file has no <AppendedData>");
   if (a.offset > f.appended->size())
     throw Error("its offset " + std::to_string(a.offset) + " is past the end of the appended data (" + bytes_str(f.appended->size()) + ")");
   const std::string_view data = f.appended->substr(static_cast<std::size_t>(a.offset));
-  if (f.appended_base64) {
-    Base64Source src(data);
-    std::vector<std::byte> out = read_binary(src, f, want, range, need);
-    touched = src.touched();
-    return out;
-  }
-  RawSource src(data);
-  std::vector<std::byte> out = read_binary(src, f, want, range, need);
-  touched = src.touched();
-  return out;
+  if (f.appended_base64) return binary(Base64Source(data));
+  return binary(RawSource(data));
 }
 
 const ArrayInfo& choose_array(const VtiFile& f, std::vector<std::string>& notes) {

@@ -9,7 +9,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <fstream>
 #include <limits>
 #include <type_traits>
 
@@ -185,13 +184,6 @@ void store_vtk_samples(const std::byte* data, VtkType type, bool big_endian, std
                        std::vector<std::string>& notes) {
   const bool exact = convert_vtk_samples(data, type, big_endian, components, volume, 0, volume.voxel_count());
   note_vtk_conversion(type, components, exact, notes);
-}
-
-std::string read_whole_file(const std::string& path, std::uint64_t bytes) {
-  std::string text(static_cast<std::size_t>(bytes), '\0');
-  std::ifstream in(path, std::ios::binary);
-  if (!in || !in.read(text.data(), static_cast<std::streamsize>(bytes))) throw Error("cannot read the file");
-  return text;
 }
 
 }  // namespace penumbra::io_detail

@@ -41,7 +41,4 @@ bool convert_vtk_samples(const std::byte* data, VtkType type, bool big_endian, s
                          std::size_t first, std::size_t count);
 void note_vtk_conversion(VtkType type, std::size_t components, bool exact, std::vector<std::string>& notes);
 
-// The file's first `bytes` bytes (at most its size, checked by the caller).
-std::string read_whole_file(const std::string& path, std::uint64_t bytes);
-
 }  // namespace penumbra::io_detail

@@ -153,6 +153,14 @@ LegacyHeader parse_header(std::string_view text, bool prefix) {
   throw Error("the file ends before its POINT_DATA SCALARS");
 }
 
+// The file's first `bytes` bytes (at most its size, checked by the caller).
+std::string read_file_start(const std::string& path, std::uint64_t bytes) {
+  std::string text(static_cast<std::size_t>(bytes), '\0');
+  std::ifstream in(path, std::ios::binary);
+  if (!in || !in.read(text.data(), static_cast<std::streamsize>(bytes))) throw Error("cannot read the file");
+  return text;
+}
+
 // Reads `bytes` bytes at `offset` of the open file (the caller checked they lie in it).
 void read_at(std::ifstream& in, std::uint64_t offset, std::byte* out, std::size_t bytes) {
   in.seekg(static_cast<std::streamoff>(offset));
@@ -174,7 +182,7 @@ Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info, con
   // The header first; an ASCII file is then read whole (its values have no fixed places), a BINARY one
   // only where its chosen values lie.
   const bool prefix = file_bytes > kLegacyHeaderBytes;
-  std::string text = io_detail::read_whole_file(path, prefix ? kLegacyHeaderBytes : file_bytes);
+  std::string text = read_file_start(path, prefix ? kLegacyHeaderBytes : file_bytes);
   const LegacyHeader h = parse_header(text, prefix);
   if (!h.dims) throw Error("STRUCTURED_POINTS without DIMENSIONS");
   const auto& d = *h.dims;
@@ -229,7 +237,7 @@ Volume load_legacy_vtk_volume(const std::string& path, VolumeFileInfo* info, con
     return volume;
   }
 
-  if (prefix) text = io_detail::read_whole_file(path, file_bytes);
+  if (prefix) text = read_file_start(path, file_bytes);
   if (read) read->bytes_read = file_bytes;
   const std::string_view body = std::string_view(text).substr(h.data_start);
   if (body.size() / 2 + 1 < values) throw Error("ASCII data has " + bytes_str(body.size()) + ", too short: " + need);
