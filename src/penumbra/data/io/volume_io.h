@@ -135,6 +135,20 @@ Volume load_vdb_volume(const std::string& path, const std::string& grid, VolumeF
 bool is_zarr_store(const std::string& path);
 Volume load_zarr_volume(const std::string& path, int level, int channel, VolumeFileInfo* info, std::uint64_t memory_budget = 0,
                         const SliceChooser* choose = nullptr, WindowRead* read = nullptr);
+// A box of one level of an OME-Zarr pyramid: voxels [lo, hi) along x, y, z (index space of that level),
+// placed where they lie (its origin the box's first voxel), only the chunks that hold it read; the value
+// range its own, opacities referring to the finest level's voxel. What a refined view reads
+// (render/view_refinement.h). Error for a box outside the level or a level whose scale reverses an axis.
+Volume load_zarr_box(const std::string& path, int level, int channel, const std::array<std::int64_t, 3>& lo,
+                     const std::array<std::int64_t, 3>& hi, WindowRead* read = nullptr);
+// The grids of an OME-Zarr pyramid's levels (0 the finest) as load_zarr_volume places them; empty for a
+// store that is no pyramid or one whose scales reverse an axis.
+struct ZarrLevelGrid {
+  std::array<int, 3> dims{};
+  Vec3 spacing{1, 1, 1}, origin{0, 0, 0};
+  ScalarType type = ScalarType::UInt8;
+};
+std::vector<ZarrLevelGrid> zarr_level_grids(const std::string& path);
 // HDF5 (hdf5_loader.cpp; .h5, .hdf5, .he5): one numeric dataset (`dataset`, "" = the only one of three or
 // more axes), z y x last, a leading channel axis chosen by `channel`; the filters libhdf5 decodes.
 bool is_hdf5_path(const std::string& path);

@@ -173,8 +173,17 @@ bool is_zarr_store(const std::string& path) {
   return false;
 }
 
-Volume load_zarr_volume(const std::string& path, int level_choice, int channel, VolumeFileInfo* info, std::uint64_t memory_budget,
-                        const SliceChooser* choose, WindowRead* read) {
+namespace {
+
+// Voxels [lo, hi) of a level along x, y, z.
+struct IndexBox {
+  std::array<std::int64_t, 3> lo{}, hi{};
+};
+
+// load_zarr_volume, or with `box` that box of the level `level_choice` names, placed where it lies (not a
+// window of the whole grid).
+Volume load_zarr(const std::string& path, int level_choice, int channel, VolumeFileInfo* info, std::uint64_t memory_budget,
+                 const SliceChooser* choose, WindowRead* read, const IndexBox* box) {
   VolumeFileInfo local;
   VolumeFileInfo& out = info ? *info : local;
   out.format = "zarr";
@@ -290,8 +299,20 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
   const SliceRange chosen_slices = choose ? checked_slices(*choose, whole_dims) : SliceRange{0, whole_dims[2]};
   const bool windowed = choose && chosen.scale[2] > 0;
   const SliceRange slices = windowed ? chosen_slices : SliceRange{0, whole_dims[2]};
+  // the voxels read: a box, the chosen slices, or the whole level
+  IndexBox want{{0, 0, slices.first}, {sel.dims[0], sel.dims[1], std::int64_t{slices.first} + slices.count}};
+  if (box) {
+    for (int a3 = 0; a3 < 3; ++a3)
+      if (box->lo[a3] < 0 || box->hi[a3] > sel.dims[a3] || box->lo[a3] >= box->hi[a3])
+        throw Error("voxels " + std::to_string(box->lo[a3]) + " to " + std::to_string(box->hi[a3] - 1) + " along axis " + std::to_string(a3) +
+                    " of a level of " + std::to_string(sel.dims[a3]));
+    if (chosen.scale[0] <= 0 || chosen.scale[1] <= 0 || chosen.scale[2] <= 0) throw Error("a box of a level whose scale reverses an axis");
+    want = *box;
+  }
+  const std::array<std::int64_t, 3> want_dims{want.hi[0] - want.lo[0], want.hi[1] - want.lo[1], want.hi[2] - want.lo[2]};
   std::atomic<std::uint64_t> bytes_read{0};
-  Volume volume(type, {whole_dims[0], whole_dims[1], slices.count}, {1, 1, 1}, {0, 0, 0}, VoxelFill::Uninitialized);
+  Volume volume(type, {static_cast<int>(want_dims[0]), static_cast<int>(want_dims[1]), static_cast<int>(want_dims[2])}, {1, 1, 1}, {0, 0, 0},
+                VoxelFill::Uninitialized);
   // the chunk grid over the spatial axes (x, y, z), the leading axes fixed to the chunk holding the index
   std::array<std::int64_t, 3> chunk{}, grid{};
   for (int a3 = 0; a3 < 3; ++a3) {
@@ -320,9 +341,14 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
     lead_offset += (sel.fixed[k] % a.chunks[k]) * stride[k];
     lead_index.push_back(sel.fixed[k] / a.chunks[k]);
   }
-  const std::int64_t z_first = slices.first, z_end = static_cast<std::int64_t>(slices.first) + slices.count;
-  const std::int64_t chunk_z0 = z_first / chunk[2], chunk_z1 = z_end > 0 ? (z_end - 1) / chunk[2] + 1 : 0;
-  const std::size_t n_chunks = static_cast<std::size_t>(grid[0] * grid[1] * (chunk_z1 - chunk_z0));
+  // the chunks that hold the box: [c0, c1) along each axis
+  std::array<std::int64_t, 3> first_chunk{}, cn{};
+  for (int a3 = 0; a3 < 3; ++a3) {
+    first_chunk[a3] = want.lo[a3] / chunk[a3];
+    cn[a3] = (want.hi[a3] - 1) / chunk[a3] + 1 - first_chunk[a3];
+  }
+  (void)grid;
+  const std::size_t n_chunks = static_cast<std::size_t>(cn[0] * cn[1] * cn[2]);
   std::atomic<std::size_t> missing{0};
   std::mutex failure_mutex;
   std::optional<std::string> failure;
@@ -337,8 +363,8 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
     };
     parallel_for(n_chunks, [&](std::size_t c0, std::size_t c1) {
       for (std::size_t c = c0; c < c1; ++c) {
-        const std::array<std::int64_t, 3> ci{static_cast<std::int64_t>(c) % grid[0], static_cast<std::int64_t>(c) / grid[0] % grid[1],
-                                             chunk_z0 + static_cast<std::int64_t>(c) / (grid[0] * grid[1])};
+        const auto cc = static_cast<std::int64_t>(c);
+        const std::array<std::int64_t, 3> ci{first_chunk[0] + cc % cn[0], first_chunk[1] + cc / cn[0] % cn[1], first_chunk[2] + cc / (cn[0] * cn[1])};
         std::vector<std::int64_t> index = lead_index;
         index.insert(index.end(), {ci[2], ci[1], ci[0]});
         try {
@@ -348,22 +374,25 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
           const bool present = decoded.has_value();
           if (!present) ++missing;
           const std::vector<std::byte> bytes = present ? std::move(*decoded) : std::vector<std::byte>();
-          const std::int64_t x0 = ci[0] * chunk[0], x1 = std::min(sel.dims[0], (ci[0] + 1) * chunk[0]);
-          for (std::int64_t z = std::max(z_first, ci[2] * chunk[2]); z < std::min(z_end, (ci[2] + 1) * chunk[2]); ++z)
-            for (std::int64_t y = ci[1] * chunk[1]; y < std::min(sel.dims[1], (ci[1] + 1) * chunk[1]); ++y) {
-              const std::size_t row = static_cast<std::size_t>(((z - z_first) * sel.dims[1] + y) * sel.dims[0]);
+          // the part of the chunk inside the box, as rows along x
+          const std::int64_t x0 = std::max(want.lo[0], ci[0] * chunk[0]), x1 = std::min(want.hi[0], (ci[0] + 1) * chunk[0]);
+          for (std::int64_t z = std::max(want.lo[2], ci[2] * chunk[2]); z < std::min(want.hi[2], (ci[2] + 1) * chunk[2]); ++z)
+            for (std::int64_t y = std::max(want.lo[1], ci[1] * chunk[1]); y < std::min(want.hi[1], (ci[1] + 1) * chunk[1]); ++y) {
+              const std::size_t row = static_cast<std::size_t>(((z - want.lo[2]) * want_dims[1] + (y - want.lo[1])) * want_dims[0]);
+              const auto at = [&](std::int64_t x) { return row + static_cast<std::size_t>(x - want.lo[0]); };
               if (!present) {
-                for (std::int64_t x = x0; x < x1; ++x) store(row + static_cast<std::size_t>(x), a.fill);
+                for (std::int64_t x = x0; x < x1; ++x) store(at(x), a.fill);
                 continue;
               }
-              const std::int64_t first = lead_offset + (z - ci[2] * chunk[2]) * stride[rank - 3] + (y - ci[1] * chunk[1]) * stride[rank - 2];
+              const std::int64_t first = lead_offset + (z - ci[2] * chunk[2]) * stride[rank - 3] + (y - ci[1] * chunk[1]) * stride[rank - 2] +
+                                         (x0 - ci[0] * chunk[0]) * stride[rank - 1];
               if (direct) {  // the stored type, little-endian, C order: the row's voxels lie side by side
-                std::memcpy(dst + row + static_cast<std::size_t>(x0), bytes.data() + first * a.dtype.size,
+                std::memcpy(dst + at(x0), bytes.data() + first * a.dtype.size,
                             static_cast<std::size_t>(x1 - x0) * sizeof(T));
                 continue;
               }
               for (std::int64_t x = x0; x < x1; ++x)
-                store(row + static_cast<std::size_t>(x), element(bytes.data() + (first + (x - x0) * stride[rank - 1]) * a.dtype.size, a.dtype));
+                store(at(x), element(bytes.data() + (first + (x - x0) * stride[rank - 1]) * a.dtype.size, a.dtype));
             }
         } catch (const std::exception& e) {
           const std::lock_guard lock(failure_mutex);
@@ -383,7 +412,9 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
   std::string unit;
   if (!pyramid.units.empty() && !pyramid.units.back().empty()) unit = pyramid.units.back();
   if (!unit.empty()) out.notes.push_back("spacing in " + unit + " (the image's unit)");
-  const Affine affine = Affine::diagonal(chosen.scale, chosen.translation);
+  Affine affine = Affine::diagonal(chosen.scale, chosen.translation);
+  if (box)  // the box's first voxel is its index 0
+    for (int a3 = 0; a3 < 3; ++a3) affine.offset[static_cast<std::size_t>(a3)] += static_cast<double>(want.lo[a3]) * chosen.scale[static_cast<std::size_t>(a3)];
   volume = place_volume(std::move(volume), affine, out);  // a window's origin is still the whole grid's here
   if (level_index > 0) {  // opacities refer to the finest level's voxel, so that every level shows the same matter
     const auto& finest = pyramid.levels.front().scale;
@@ -399,6 +430,53 @@ Volume load_zarr_volume(const std::string& path, int level_choice, int channel, 
     volume.set_window(slices.first, whole_dims[2]);
   }
   return volume;
+}
+
+}  // namespace
+
+Volume load_zarr_volume(const std::string& path, int level, int channel, VolumeFileInfo* info, std::uint64_t memory_budget,
+                        const SliceChooser* choose, WindowRead* read) {
+  return load_zarr(path, level, channel, info, memory_budget, choose, read, nullptr);
+}
+
+Volume load_zarr_box(const std::string& path, int level, int channel, const std::array<std::int64_t, 3>& lo, const std::array<std::int64_t, 3>& hi,
+                     WindowRead* read) {
+  const IndexBox box{lo, hi};
+  return load_zarr(path, level, channel, nullptr, 0, nullptr, read, &box);
+}
+
+std::vector<ZarrLevelGrid> zarr_level_grids(const std::string& path) {
+  const fs::path root(path);
+  std::error_code ec;
+  Pyramid pyramid;
+  if (fs::exists(root / "zarr.json", ec)) {
+    const nlohmann::json node = io_detail::read_zarr_json(root / "zarr.json");
+    if (!node.is_object() || io_detail::json_string(node, "node_type", "") != "group") return {};
+    const nlohmann::json& attrs = io_detail::json_field(node, "attributes");
+    const nlohmann::json& ome = attrs.is_object() && attrs.contains("ome") ? attrs["ome"] : attrs;
+    if (!ome.is_object() || !ome.contains("multiscales")) return {};
+    pyramid = read_multiscales(ome, root / "zarr.json");
+  } else if (fs::exists(root / ".zattrs", ec) && !fs::exists(root / ".zarray", ec)) {
+    const nlohmann::json attrs = io_detail::read_zarr_json(root / ".zattrs");
+    if (!attrs.is_object() || !attrs.contains("multiscales")) return {};
+    pyramid = read_multiscales(attrs, root / ".zattrs");
+  }
+  std::vector<ZarrLevelGrid> grids;
+  for (const Level& l : pyramid.levels) {
+    const ZarrArray a = io_detail::read_zarr_array(root / l.path);
+    if (a.shape.size() < 3 || l.scale[0] <= 0 || l.scale[1] <= 0 || l.scale[2] <= 0) return {};
+    ZarrLevelGrid g;
+    for (int a3 = 0; a3 < 3; ++a3) {
+      const std::int64_t n = a.shape[a.shape.size() - 1 - static_cast<std::size_t>(a3)];
+      if (n < 1 || n > std::numeric_limits<int>::max()) return {};
+      g.dims[static_cast<std::size_t>(a3)] = static_cast<int>(n);
+      g.spacing[a3] = static_cast<float>(l.scale[static_cast<std::size_t>(a3)]);
+      g.origin[a3] = static_cast<float>(l.translation[static_cast<std::size_t>(a3)]);
+    }
+    g.type = storage_type(a.dtype);
+    grids.push_back(g);
+  }
+  return grids;
 }
 
 }  // namespace penumbra
