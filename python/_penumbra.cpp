@@ -65,6 +65,12 @@ nlohmann::json frame_stats(const EngineFrame& f, const Renderer& renderer) {
                          {"selected", p.selected_atoms ? nlohmann::json(*p.selected_atoms) : nlohmann::json(nullptr)}});
   std::size_t volume_bytes = 0;
   for (const auto& v : scene.volumes) volume_bytes += v.volume->memory_bytes();
+  // each pyramid drawn from a finer box (render/view_refinement.h), as `penumbra render --stats` lists it
+  nlohmann::json refinement = nlohmann::json::array();
+  for (const RefinementStats& x : r.refinement)
+    refinement.push_back({{"volume", x.volume}, {"opened_level", x.opened_level}, {"level", x.level}, {"dims", x.dims},
+                          {"held_bytes", x.held_bytes}, {"loaded_bytes", x.loaded_bytes}, {"read_bytes", x.read_bytes},
+                          {"evicted_bytes", x.evicted_bytes}, {"load_ms", x.load_ms}});
   nlohmann::json gradients = nlohmann::json::array();
   for (const bool stored : renderer.volume_gradients_stored()) gradients.push_back(stored ? "stored" : "on_the_fly");
   return {{"particles", particles},
@@ -72,8 +78,9 @@ nlohmann::json frame_stats(const EngineFrame& f, const Renderer& renderer) {
            {{"volume", volume_bytes}, {"volume_structures", renderer.volume_structure_memory_bytes()},
             {"shadow", renderer.shadow_memory_bytes()}, {"ambient", renderer.ambient_memory_bytes()}, {"sat", renderer.sat_memory_bytes()},
             {"particles", renderer.particle_memory_bytes()}, {"bvh", renderer.bvh_memory_bytes()},
-            {"light_cache", renderer.light_cache_memory_bytes()}}},
+            {"light_cache", renderer.light_cache_memory_bytes()}, {"refined", renderer.refined_memory_bytes()}}},
           {"gradients", gradients},
+          {"refinement", refinement},
           {"counts", {{"volume_samples", r.volume_samples}, {"volume_shaded_samples", r.volume_shaded_samples}, {"sphere_pixels", r.sphere_pixels},
                       {"ambient_kept", r.ambient_kept}}},
           {"throughput",

@@ -7,7 +7,11 @@ time (its own peak resident set); the image's error is RMSE/PSNR against the in-
         the Visible-Woman-sized ct-body (512×512×1734 uint16, 867 MiB) at budgets of 1/8, 1/4 and 1/2
         of its size and fully in memory; with --file as one NRRD (no pyramid: opened reduced, read a slab
         at a time, volume_reduction.h) instead of the OME-Zarr pyramid
-    scripts/bench_budget.py big --dims 4096 4096 2048 [--budget 4G] [--keep]
+    scripts/bench_budget.py zoom [--size 512]
+        a close view of the same ct-body's head under budgets of 1/8 and 1/4: the pyramid opened coarse,
+        drawn from it alone and refined where the camera looks (render/view_refinement.h), against level 0
+        in memory; then a session (--edits) that pans, backs away and comes back
+    scripts/bench_budget.py big --dims 4096 4096 2048 [--budget 4G] [--keep] [--zoom] [--skip-orbit]
         a procedural ct-body larger than memory (4096×4096×2048 uint16: 64 GiB) converted (time, size,
         peak memory), then opened under the budget: time to the first image and frames per second over
         an orbit; the store is removed unless --keep
@@ -105,6 +109,96 @@ def body(o, cli, out):
     json.dump(rows, open(os.path.join(out, "budget_body_file.json" if o.file else "budget_body.json"), "w"), indent=2)
 
 
+def zoomed_scene(cli, store, out, name, distance, target):
+    """The file's automatic scene (its transfer function, light, floor and CSSM) with the camera moved
+    close: written once from the coarsest level (fast), then the level left to the budget."""
+    written = os.path.join(out, f"{name}_auto.json")
+    subprocess.run([cli, "render", store, "--level", "5", "--width", 16, "--height", 16, "-o", os.path.join(out, f"{name}_auto.png"),
+                    "--write-scene", written], capture_output=True, text=True, check=True)
+    doc = json.load(open(written))
+    doc["volumes"][0]["file"] = os.path.abspath(store)
+    doc["volumes"][0].pop("level", None)
+    doc.pop("memory_budget", None)
+    doc["camera"]["distance"] = distance
+    doc["camera"]["target"] = target
+    path = os.path.join(out, f"{name}.json")
+    json.dump(doc, open(path, "w"), indent=1)
+    return path
+
+
+def refinement_row(stats):
+    r = (stats.get("refinement") or [{}])[0]
+    return {"level": r.get("level"), "box": r.get("dims"), "held_mib": r.get("held_bytes", 0) / 2**20,
+            "read_mib": r.get("read_bytes", 0) / 2**20, "load_ms": r.get("load_ms", 0)}
+
+
+def zoom(o, cli, out):
+    """A close view of the head of the Visible-Woman-sized ct-body under budgets of 1/8 and 1/4 of its
+    size, refined (the visible box from a finer level) and not, against level 0 in memory; then a
+    session (--edits): zoom in, pan a little, back away, come back."""
+    store = os.path.join(o.work, "ct_body.zarr")
+    if not os.path.isdir(store):
+        timed([cli, "convert", "--procedural", '{"name": "ct-body"}', "-o", store, "--unit", "millimeter"])
+    scene = zoomed_scene(cli, store, out, "zoom", 450.0, [0.0, 0.0, 650.0])
+    full_bytes = 512 * 512 * 1734 * 2
+    size = ["--width", o.size, "--height", o.size]
+    ref = os.path.join(out, "zoom_full.png")
+    rows = []
+    cases = [("in memory (level 0)", ["--set", "volumes.0.level=0"]),
+             ("1/8, opened level only", ["--memory-budget", full_bytes // 8, "--set", "volumes.0.refine=false"]),
+             ("1/8, refined", ["--memory-budget", full_bytes // 8]),
+             ("1/4, opened level only", ["--memory-budget", full_bytes // 4, "--set", "volumes.0.refine=false"]),
+             ("1/4, refined", ["--memory-budget", full_bytes // 4])]
+    for label, args in cases:
+        tag = re.sub(r"[^a-z0-9]+", "_", label.lower()).strip("_")
+        image = ref if label.startswith("in memory") else os.path.join(out, f"zoom_{tag}.png")
+        stats_file = os.path.join(out, f"zoom_{tag}.json")
+        seconds, peak, _, _ = timed([cli, "render", scene, *args, *size, "-o", image, "--stats", stats_file])
+        stats = json.load(open(stats_file))
+        rmse, psnr = compare(cli, image, ref)
+        rows.append({"case": label, "dims": stats["volumes"][0]["dims"], "first_image_s": seconds,
+                     "frame_ms": stats["timings_ms"]["total"], "render_ms": stats["timings_ms"]["render"], "peak_mib": peak,
+                     "held_mib": stats.get("memory_budget", {}).get("held", 0) / 2**20, "rmse": rmse, "psnr": psnr,
+                     **refinement_row(stats)})
+    print(f"
+ct-body 512×512×1734 uint16 ({full_bytes / 2**20:.0f} MiB), a close view of the head at {o.size}²")
+    print("| case | level opened | drawn from | held (MiB) | box read (MiB on disk) | process start to PNG (s) | frame (ms) | peak RSS (MiB) | RMSE | PSNR (dB) |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        drawn = f"level {r['level']}: {'×'.join(map(str, r['box']))}" if r["box"] else "the opened level"
+        print(f"| {r['case']} | {'×'.join(map(str, r['dims']))} | {drawn} | {r['held_mib']:.0f} | {r['read_mib']:.1f} | {r['first_image_s']:.1f} | "
+              f"{r['frame_ms']:.0f} | {r['peak_mib']:.0f} | {r['rmse']:.4f} | {r['psnr']} |")
+    session = session_steps(cli, scene, out, ["--memory-budget", full_bytes // 8, *size], [0.0, 0.0, 650.0], 450.0)
+    json.dump({"cases": rows, "session": session}, open(os.path.join(out, "budget_zoom.json"), "w"), indent=2)
+
+
+def session_steps(cli, scene, out, args, target, distance):
+    """--edits: a small pan, backing away, coming back: each step's preview and full-frame latency and what
+    the refinement loaded, read and evicted."""
+    edits = [{"set": {"camera.target": [target[0] + distance * 0.02, target[1], target[2]]}},
+             {"set": {"camera.distance": distance * 8}},
+             {"set": {"camera.distance": distance}}]
+    edits_file = os.path.join(out, "session_edits.json")
+    json.dump(edits, open(edits_file, "w"))
+    stats_file = os.path.join(out, "session.json")
+    timed([cli, "render", scene, *args, "-o", os.path.join(out, "session.png"), "--edits", edits_file, "--stats", stats_file])
+    stats = json.load(open(stats_file))
+    steps = [{"step": "the close view (first frame)", "preview_ms": None, "full_ms": stats["timings_ms"]["total"],
+              "refinement": stats["refinement"]}]
+    for name, e in zip(["a pan of 2 % of the distance", "backing away 8×", "coming back"], stats["edits"]):
+        steps.append({"step": name, "preview_ms": e["preview_ms"], "full_ms": e["full_ms"], "refinement": e["refinement"]})
+    print("
+| step | preview (ms) | full frame (ms) | drawn from | loaded (MiB) | read (MiB) | evicted (MiB) |")
+    print("|---|---|---|---|---|---|---|")
+    for s in steps:
+        r = (s["refinement"] or [{}])[0]
+        drawn = f"level {r['level']}" if r.get("held_bytes") else "the opened level"
+        pv = f"{s['preview_ms']:.0f}" if s["preview_ms"] is not None else "–"
+        print(f"| {s['step']} | {pv} | {s['full_ms']:.0f} | {drawn} | {r.get('loaded_bytes', 0) / 2**20:.1f} | "
+              f"{r.get('read_bytes', 0) / 2**20:.1f} | {r.get('evicted_bytes', 0) / 2**20:.1f} |")
+    return steps
+
+
 def big(o, cli, out):
     store = os.path.join(o.work, "big_body.zarr")
     spec = json.dumps({"name": "ct-body", "dims": o.dims})
@@ -121,6 +215,25 @@ def big(o, cli, out):
     stats = json.load(open(stats_file))
     result["first"] = {"seconds": seconds, "peak_mib": peak, "dims": stats["volumes"][0]["dims"], "frame_ms": stats["timings_ms"]["total"],
                        "held_mib": stats["memory_budget"]["held"] / 2**20}
+    if o.zoom:
+        scene = zoomed_scene(cli, store, out, "big_zoom", 450.0, [0.0, 0.0, 650.0])
+        args = ["--memory-budget", o.budget, "--width", 1024, "--height", 1024]
+        p_seconds, p_peak, _, _ = timed([cli, "render", scene, *args, "--preview", "-o", os.path.join(out, "big_zoom_preview.png")])
+        z_stats = os.path.join(out, "big_zoom.json")
+        z_seconds, z_peak, _, _ = timed([cli, "render", scene, *args, "-o", os.path.join(out, "big_zoom.png"), "--stats", z_stats])
+        zs = json.load(open(z_stats))
+        result["zoom"] = {"preview_s": p_seconds, "refined_s": z_seconds, "peak_mib": max(p_peak, z_peak),
+                          "frame_ms": zs["timings_ms"]["total"], "held_mib": zs["memory_budget"]["held"] / 2**20, **refinement_row(zs),
+                          "session": session_steps(cli, scene, out, args, [0.0, 0.0, 650.0], 450.0)}
+        z = result["zoom"]
+        print(f"\nclose view of the head, 1024²: process start to the preview {z['preview_s']:.1f} s, to the refined frame "
+              f"{z['refined_s']:.1f} s (level {z['level']}, box {'×'.join(map(str, z['box'] or []))}, {z['held_mib']:.0f} MiB held in all, "
+              f"{z['read_mib']:.0f} MiB read in {z['load_ms'] / 1000:.1f} s), peak {z['peak_mib']:.0f} MiB")
+    if o.skip_orbit:
+        json.dump(result, open(os.path.join(out, "budget_big.json"), "w"), indent=2)
+        if not o.keep:
+            shutil.rmtree(store)
+        return
     orbit = os.path.join(out, "orbit.json")
     o_seconds, o_peak, _, _ = timed([cli, "render", store, "--memory-budget", o.budget, "--width", 1024, "--height", 1024,
                                      "-o", os.path.join(out, "orbit.png"), "--orbit", 12, "--stats", orbit])
@@ -240,7 +353,7 @@ def formats(o, cli, out):
 
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("case", choices=["body", "big", "formats"])
+    p.add_argument("case", choices=["body", "zoom", "big", "formats"])
     p.add_argument("--build", default=os.path.join(ROOT, "build", "release"))
     p.add_argument("--out", default=None)
     p.add_argument("--work", default=None, help="where the stores go (default: a temporary folder)")
@@ -248,13 +361,15 @@ def main():
     p.add_argument("--dims", type=int, nargs=3, default=[4096, 4096, 2048])
     p.add_argument("--budget", default="4G")
     p.add_argument("--keep", action="store_true")
+    p.add_argument("--zoom", action="store_true", help="big: also a close view of the head, refined (preview, refined frame, a session)")
+    p.add_argument("--skip-orbit", action="store_true", help="big: no orbit")
     p.add_argument("--file", action="store_true", help="body: the ct-body as one NRRD file, not a pyramid")
     o = p.parse_args()
     cli = os.path.join(o.build, "penumbra")
     out = o.out or tempfile.mkdtemp(prefix="bench_budget_")
     os.makedirs(out, exist_ok=True)
     o.work = o.work or out
-    {"body": body, "big": big, "formats": formats}[o.case](o, cli, out)
+    {"body": body, "zoom": zoom, "big": big, "formats": formats}[o.case](o, cli, out)
     print(f"\n(files in {out})")
 
 

@@ -207,6 +207,7 @@ nlohmann::json replay_edits(Engine& engine, const std::vector<EditStep>& steps, 
     EngineFrame full = engine.render({Quality::Full});
     const double full_ms = since();
     const auto refined = full.rebuilt;  // what the first full frame rebuilt, before idle samples
+    const nlohmann::json refinement = refinement_json(full.frame.refinement);
     while (since() < full_ms + step.idle_ms) full = engine.render({Quality::Full});
     const int samples = full.samples;
     nlohmann::json paths = nlohmann::json::array();
@@ -217,7 +218,8 @@ nlohmann::json replay_edits(Engine& engine, const std::vector<EditStep>& steps, 
                    {"preview_ms", preview_ms},
                    {"full_ms", full_ms},
                    {"preview_divisor", preview.divisor},
-                   {"samples", samples}});
+                   {"samples", samples},
+                   {"refinement", refinement}});
     if (!cancel.is_null()) out.back()["cancel"] = cancel;
     std::fprintf(stderr, "step %zu: %s: preview %.1f ms, full %.1f ms%s\n", i, paths.dump().c_str(), preview_ms, full_ms,
                  samples > 1 ? (", " + std::to_string(samples) + " samples").c_str() : "");

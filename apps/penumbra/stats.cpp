@@ -12,6 +12,15 @@
 
 namespace penumbra::cli {
 
+nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const RefinementStats& r : refinement)
+    out.push_back({{"volume", r.volume}, {"opened_level", r.opened_level}, {"level", r.level}, {"dims", r.dims},
+                   {"held_bytes", r.held_bytes}, {"loaded_bytes", r.loaded_bytes}, {"read_bytes", r.read_bytes},
+                   {"evicted_bytes", r.evicted_bytes}, {"load_ms", r.load_ms}});
+  return out;
+}
+
 nlohmann::json frame_stats(const FrameResult& frame) {
   const IsosurfaceFrameStats& iso = frame.isosurface;
   return {{"timings_ms",
@@ -23,7 +32,8 @@ nlohmann::json frame_stats(const FrameResult& frame) {
           {"ambient_kept", frame.ambient_kept},
           {"sphere_pixels", frame.sphere_pixels},
           {"points", iso.points},
-          {"light_points", iso.light_points}};
+          {"light_points", iso.light_points},
+          {"refinement", refinement_json(frame.refinement)}};
 }
 
 nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const FrameResult& first, int threads) {
@@ -58,7 +68,10 @@ nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const 
                             {"bytes", v.volume->memory_bytes()}});
   }
   if (scene.memory_budget > 0)
-    j["memory_budget"] = {{"budget", scene.memory_budget}, {"held", volume_bytes + renderer.volume_structure_memory_bytes()}};
+    j["memory_budget"] = {{"budget", scene.memory_budget},
+                          {"held", volume_bytes + renderer.volume_structure_memory_bytes() + renderer.refined_memory_bytes()}};
+  j["memory_bytes"]["refined"] = renderer.refined_memory_bytes();
+  j["refinement"] = refinement_json(first.refinement);
   const IsosurfaceFrameStats& iso = first.isosurface;
   j["counts"] = {{"voxels", renderer.voxel_count()}, {"spheres", renderer.sphere_count()}, {"points", iso.points},
                  {"lights", scene.lights.size()}, {"sphere_pixels", first.sphere_pixels},

@@ -19,6 +19,7 @@ struct TransferPoint {
   float value = 0;  // data units
   Rgb color;        // linear RGB in [0, 1]
   float alpha = 0;  // opacity per reference step, in [0, 1]
+  bool operator==(const TransferPoint&) const = default;
 };
 
 class TransferFunction {
@@ -31,6 +32,7 @@ public:
   // Piecewise-linear evaluation; constant beyond the first and last point.
   Rgba evaluate(float value) const;
   const std::vector<TransferPoint>& points() const { return points_; }
+  bool operator==(const TransferFunction&) const = default;
 
 private:
   std::vector<TransferPoint> points_;

@@ -115,6 +115,7 @@ std::vector<std::string> Renderer::structures() const {
   for (std::size_t k = 0; k < volumes_.size(); ++k) {
     const auto i = static_cast<std::size_t>(volume_index_[k]);
     for (const char* what : {"gradients", "minmax", "lut", "empty_space"}) names.push_back(indexed("volumes", i, what));
+    if (k < refined_.size() && refined_[k]) names.push_back(indexed("volumes", i, "refined"));
   }
   for (const auto& [i, tree] : trees_) names.push_back(indexed("volumes", i, "hierarchy"));
   for (std::size_t i = 0; i < isosurfaces_.size(); ++i) {
@@ -332,6 +333,71 @@ std::size_t Renderer::volume_structure_memory_bytes() const {
   return bytes;
 }
 
+std::size_t Renderer::refined_memory_bytes() const {
+  std::size_t bytes = 0;
+  for (const auto& r : refined_)
+    if (r) bytes += r->held_bytes();
+  return bytes;
+}
+
+void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
+  refined_.resize(volumes_.size());
+  std::uint64_t left = scene_.refinement_bytes;
+  float step = volumes_.empty() ? 0.0f : volumes_.front()->full_step;
+  for (std::size_t k = 0; k < volumes_.size(); ++k) {
+    const auto i = static_cast<std::size_t>(volume_index_[k]);
+    const VolumeObject& o = scene_.volumes[i];
+    std::unique_ptr<RefinedVolume>& held = refined_[k];
+    RefinementStats stats;
+    stats.volume = i;
+    auto evict = [&] {
+      if (held) stats.evicted_bytes += held->held_bytes();
+      held.reset();
+    };
+    if (!o.pyramid || o.volume->is_window()) {
+      evict();
+      if (stats.evicted_bytes) frame.refinement.push_back(stats);
+      continue;
+    }
+    const PyramidSource& pyramid = *o.pyramid;
+    stats.opened_level = stats.level = pyramid.opened;
+    const Box3 visible = visible_part(camera, pyramid_bounds(pyramid, *o.volume));
+    const std::optional<RefinementChoice> choice = choose_refinement(camera, pyramid, visible, left, volumes_[k]->gradients_stored());
+    // the box held serves while it covers the view at its level and is at least as fine as wanted
+    const bool keep = choice && held && held->box().level <= choice->box.level &&
+                      held->box().contains(level_box(pyramid, held->box().level, visible)) && held->held_bytes() <= left;
+    if (!keep) {
+      evict();  // before reading the next: never two boxes at once
+      if (choice) {
+        Timer load;
+        WindowRead read;
+        held = std::make_unique<RefinedVolume>(o, *choice, &read);
+        stats.loaded_bytes = held->held_bytes();
+        stats.read_bytes = read.bytes_read;
+        stats.load_ms = load.elapsed_ms();
+        rebuilt(indexed("volumes", i, "refined"), Quality::Full, frame);
+      }
+    } else if (held->follow(o)) {
+      held->prepared().update_lut(held->prepared().full_step);
+      held->prepared().update_empty();
+    }
+    if (held) {
+      stats.level = held->box().level;
+      stats.dims = held->box().dims();
+      stats.held_bytes = held->held_bytes();
+      left -= std::min<std::uint64_t>(left, stats.held_bytes);
+      step = std::min(step, held->step_world());
+    }
+    if (held || stats.evicted_bytes) frame.refinement.push_back(stats);
+  }
+  // one lattice step for every volume of the eye pass: the finest of them
+  for (std::size_t k = 0; k < volumes_.size(); ++k) {
+    PreparedVolume& pv = refined_[k] ? refined_[k]->prepared() : *volumes_[k];
+    if (pv.full_step != step) pv.update_lut(step);
+    pv.use(false);
+  }
+}
+
 std::vector<bool> Renderer::volume_gradients_stored() const {
   std::vector<bool> stored;
   for (const auto& pv : volumes_) stored.push_back(pv->gradients_stored());
@@ -490,6 +556,10 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   update_shadows(lights, request.quality, request.sample, brick ? &*brick : nullptr, frame);
   update_light_cache();
   frame.build_ms = build.elapsed_ms();
+  // a full frame draws pyramids opened coarse from a finer box where the camera looks; a preview (or a
+  // rank's slab) from the opened level
+  const bool refined_frame = request.quality == Quality::Full && !request.slab;
+  if (refined_frame) refine_volumes(camera, frame);
   if (first_frame_) {
     prepare_ms_ = frame.prepare_ms;
     first_frame_ = false;
@@ -583,7 +653,8 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
     }
   } else {
     std::vector<const PreparedVolume*> volume_ptrs;
-    for (const auto& v : volumes_) volume_ptrs.push_back(v.get());
+    for (std::size_t k = 0; k < volumes_.size(); ++k)
+      volume_ptrs.push_back(refined_frame && k < refined_.size() && refined_[k] ? &refined_[k]->prepared() : volumes_[k].get());
     const OpaqueLayer layer{&surfaces.distance, &opaque};
     const TranslucentLayer glass_layer{&glass.distance, &glass_color, &glass_opacity};
     VolumeFrame vf = render_volume_frame(

@@ -30,6 +30,7 @@
 #include "penumbra/render/light_shadows.h"
 #include "penumbra/render/prepared_volume.h"
 #include "penumbra/render/surface_frame.h"
+#include "penumbra/render/view_refinement.h"
 #include "penumbra/render/volume_raycaster.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/lighting/ambient_technique.h"
@@ -91,6 +92,9 @@ struct FrameResult {
   // The structures this frame rebuilt (Structures names, e.g. "volumes.0.lut", "lights.1.shadows").
   std::vector<std::string> rebuilt;
   bool refit = false;  // view-dependent shadow work (light pass, automatic ISSM rings) redone for this view
+  // Full frames of volumes opened coarser than their pyramid's finest level: the finer box each was drawn
+  // from (render/view_refinement.h), what it holds and what this frame loaded and evicted.
+  std::vector<RefinementStats> refinement;
 };
 
 class Renderer {
@@ -126,6 +130,8 @@ public:
   std::size_t bvh_memory_bytes() const;
   // The visible volumes' own structures: gradients (when stored), min/max grids and empty-cell marks.
   std::size_t volume_structure_memory_bytes() const;
+  // What the refined boxes of pyramids (render/view_refinement.h) hold now: voxels and structures.
+  std::size_t refined_memory_bytes() const;
   // Per visible volume (in the scene's order): whether its gradients are stored (false: on the fly).
   std::vector<bool> volume_gradients_stored() const;
   double prepare_ms() const { return prepare_ms_; }  // the first frame's preparation
@@ -139,6 +145,9 @@ private:
   // Rebuilds the stale structures for `quality` (settings_ holds the scene's settings at that quality).
   void prepare(Quality quality, FrameResult& frame);
   void prepare_volumes(FrameResult& frame);
+  // A full frame: each pyramid's box for this view, loaded when the one held does not cover it; the
+  // eye pass's step made the finest of the boxes' and the volumes'.
+  void refine_volumes(const Camera& camera, FrameResult& frame);
   void prepare_particles(FrameResult& frame);
   void prepare_isosurfaces(FrameResult& frame);
   void prepare_casters();
@@ -168,6 +177,7 @@ private:
   Quality building_ = Quality::Full;           // the quality of the frame being prepared
   std::vector<std::unique_ptr<PreparedVolume>> volumes_;  // the visible volumes, one lattice step
   std::vector<int> volume_index_;                         // scene volume of each prepared volume
+  std::vector<std::unique_ptr<RefinedVolume>> refined_;   // per prepared volume: the box full frames draw (or none)
   std::unique_ptr<ShadowCasters> casters_;
   std::unique_ptr<ShadowCasters> occluders_;              // the ambient technique's kinds
   std::unique_ptr<ExtinctionSat> sat_;

@@ -45,6 +45,21 @@ struct ShadowFlags {
 // where they would not fit the scene's memory_budget: the scene reader then chooses for auto).
 constexpr std::size_t kStoredGradientBytes = std::size_t{1} << 30;
 
+// A volume the scene reader opened from an OME-Zarr pyramid at a level coarser than its finest, because
+// memory allowed no finer one for the whole volume: the levels a full frame reads the visible part of
+// the volume from (render/view_refinement.h).
+struct PyramidSource {
+  struct Level {
+    std::array<int, 3> dims{};       // voxels along x, y, z
+    Vec3 spacing{1, 1, 1}, origin{0, 0, 0};  // of the voxel centres, as the level is placed when read
+  };
+  std::string path;                  // the store's folder
+  int channel = -1;                  // volumes[].channel (-1: channel 0)
+  int opened = 0;                    // the level the volume holds
+  std::vector<Level> levels;         // 0 the finest
+  ScalarType type = ScalarType::UInt8;
+};
+
 struct VolumeObject : ShadowFlags {
   std::shared_ptr<const Volume> volume;
   std::string source;                   // file path or "procedural:<name>", for messages and stats
@@ -59,6 +74,9 @@ struct VolumeObject : ShadowFlags {
   // voxels (no memory, slower shading; the same frame), or (Auto) stored up to kStoredGradientBytes.
   enum class Gradients { Auto, Stored, OnTheFly } gradients = Gradients::Auto;
   std::size_t frames = 0;               // volumes[].files: the steps of the series (`volume` is step Scene::time); 0: one volume
+  // volumes[].refine (default true): set when `volume` is a pyramid's level coarser than its finest;
+  // full frames then draw the part in view from a finer level (render/view_refinement.h).
+  std::shared_ptr<const PyramidSource> pyramid;
 
   float step_world() const {
     const Vec3& s = volume->spacing();
@@ -235,6 +253,10 @@ struct Scene {
   // finest level that fits what is left, gradients are computed per sample where storing them would not
   // fit, and a volume that cannot fit is an Error (docs/scene-file.md).
   std::uint64_t memory_budget = 0;
+  // What the refined views of pyramids (VolumeObject::pyramid) may hold together: what memory_budget
+  // leaves after the volumes; without one, a quarter of this machine's memory less what the volumes
+  // hold (the rule that chose their levels). Set by the scene reader.
+  std::uint64_t refinement_bytes = 0;
 
   // The frames every dynamic object holds (the smallest count); 0 when nothing moves.
   std::size_t frame_count() const;

@@ -160,6 +160,24 @@ std::uint64_t budgeted_bytes(const Volume& volume, const std::string& source, bo
   return held;
 }
 
+// The levels of the pyramid at `path` when `opened` is one of them but not the finest (the level is
+// recognised by its grid); nullptr otherwise.
+std::shared_ptr<const PyramidSource> coarser_than_finest(const std::string& path, int channel, const Volume& opened) {
+  const std::vector<ZarrLevelGrid> grids = zarr_level_grids(path);
+  auto source = std::make_shared<PyramidSource>();
+  source->path = path;
+  source->channel = channel;
+  source->opened = -1;
+  for (std::size_t l = 0; l < grids.size(); ++l) {
+    const ZarrLevelGrid& g = grids[l];
+    source->levels.push_back({g.dims, g.spacing, g.origin});
+    if (g.dims == opened.dims() && length(g.spacing - opened.spacing()) <= 1e-4f * length(g.spacing)) source->opened = static_cast<int>(l);
+  }
+  if (source->opened <= 0) return nullptr;
+  source->type = grids.front().type;
+  return source;
+}
+
 }  // namespace
 
 VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const std::string& base_dir, const SceneReadOptions& options,
@@ -172,6 +190,9 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   if (r.has("spacing") && !r.has("array"))
     r.fail("spacing", "is given with 'array' only (a file's spacing is in its header, or in 'raw')");
   std::function<Volume()> load;
+  const bool refine = r.boolean("refine", true);
+  std::string pyramid_path;  // an OME-Zarr store that may refine (VolumeObject::pyramid)
+  int pyramid_channel = -1;
   std::string data_id = data_key(j, base_dir, {"file", "files", "raw", "series", "channel", "level", "dataset", "grid", "procedural", "array", "spacing", "origin"});
   std::string series_id;  // a series: what its first loaded step is cached under (the reference grid and range)
   if (r.has("file") || r.has("files")) {
@@ -196,6 +217,10 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
     }
     const std::string key = r.has("files") ? "files" : "file";
     const auto* reader = options.volume_reader;
+    // a pyramid whose level was chosen by memory (not by 'level'), read whole (not a rank's window): its
+    // finer levels refine full frames where the camera looks
+    if (refine && !reader && !r.has("files") && paths.size() == 1 && lo.level < 0 && is_zarr_store(paths[0]))
+      pyramid_path = paths[0], pyramid_channel = lo.channel;
     load = [&r, paths, lo, key, reader] {
       return with_context(r.key_path(key), [&] { return reader ? (*reader)(paths, lo) : load_volume(paths, lo); });
     };
@@ -288,6 +313,7 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
       if (r.has(key)) r.fail(key, "the volume is not visible ('visible': false): it neither casts nor receives shadows");
   read_shadow_flags(r, v);
   r.finish();
+  if (!pyramid_path.empty() && v.visible) v.pyramid = coarser_than_finest(pyramid_path, pyramid_channel, *volume);
   v.volume = std::move(volume);
   return v;
 }

@@ -1,11 +1,13 @@
 #include "penumbra/scene_io/scene_file.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "penumbra/accel/extinction_sat.h"
 #include "penumbra/core/byte_size.h"
+#include "penumbra/data/io/volume_io.h"
 #include "penumbra/registry/technique_catalog.h"
 #include "penumbra/scene_io/json_reader.h"
 #include "penumbra/scene_io/scene_sections.h"
@@ -180,6 +182,16 @@ Scene build_scene(const nlohmann::json& j, const std::string& base_dir, const Sc
     for (std::size_t i = 0; i < vols.size(); ++i)
       s.volumes.push_back(read_volume(vols[i], "volumes." + std::to_string(i), base_dir, options, s.time,
                                       s.memory_budget > 0 ? &budget_left : nullptr));
+    if (s.memory_budget > 0) s.refinement_bytes = budget_left;
+    else if (std::any_of(s.volumes.begin(), s.volumes.end(), [](const VolumeObject& v) { return v.pyramid != nullptr; })) {
+      std::uint64_t held = 0;  // what chose the levels: a quarter of this machine's memory
+      for (const VolumeObject& v : s.volumes) {
+        const auto& d = v.volume->dims();
+        held += volume_held_bytes({d[0], d[1], d[2]}, v.volume->type());
+      }
+      const std::uint64_t quarter = default_pyramid_budget();
+      s.refinement_bytes = quarter > held ? quarter - held : 0;
+    }
   }
   if (r.has("particles")) {
     const auto& parts = array_at(r, "particles");

@@ -149,6 +149,8 @@ struct ZarrLevelGrid {
   ScalarType type = ScalarType::UInt8;
 };
 std::vector<ZarrLevelGrid> zarr_level_grids(const std::string& path);
+// What a pyramid's level must fit without a memory budget: a quarter of this machine's memory.
+std::uint64_t default_pyramid_budget();
 // HDF5 (hdf5_loader.cpp; .h5, .hdf5, .he5): one numeric dataset (`dataset`, "" = the only one of three or
 // more axes), z y x last, a leading channel axis chosen by `channel`; the filters libhdf5 decodes.
 bool is_hdf5_path(const std::string& path);

@@ -215,7 +215,7 @@ Volume load_zarr(const std::string& path, int level_choice, int channel, VolumeF
     if (level_choice >= 0) {
       level_index = level_choice;
     } else {  // the finest level that fits the budget, or a quarter of the machine's memory
-      const std::uint64_t budget = memory_budget > 0 ? memory_budget : physical_memory() / 4;
+      const std::uint64_t budget = memory_budget > 0 ? memory_budget : default_pyramid_budget();
       const std::string what = memory_budget > 0 ? "the memory budget (" + byte_size_string(budget) + ")"
                                                  : "a quarter of this machine's memory (" + byte_size_string(budget) + ")";
       level_index = -1;
@@ -433,6 +433,8 @@ Volume load_zarr(const std::string& path, int level_choice, int channel, VolumeF
 }
 
 }  // namespace
+
+std::uint64_t default_pyramid_budget() { return physical_memory() / 4; }
 
 Volume load_zarr_volume(const std::string& path, int level, int channel, VolumeFileInfo* info, std::uint64_t memory_budget,
                         const SliceChooser* choose, WindowRead* read) {

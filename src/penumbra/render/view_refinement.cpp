@@ -1,0 +1,155 @@
+#include "penumbra/render/view_refinement.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace penumbra {
+namespace {
+
+float smallest_edge(const Vec3& spacing) { return std::min(spacing.x, std::min(spacing.y, spacing.z)); }
+
+}  // namespace
+
+Box3 visible_part(const Camera& camera, const Box3& box) {
+  Box3 seen;
+  if (box.empty()) return seen;
+  const PrimaryRays rays(camera);
+  const auto w = static_cast<float>(camera.width), h = static_cast<float>(camera.height);
+  // the frustum's four edges, around the image, and its sides' inward normals
+  const std::array<Vec3, 4> edge{rays.direction(0.0f, 0.0f), rays.direction(w, 0.0f), rays.direction(w, h), rays.direction(0.0f, h)};
+  const Vec3 ahead = rays.direction(0.5f * w, 0.5f * h);
+  std::array<Vec3, 4> side{};
+  for (std::size_t i = 0; i < 4; ++i) {
+    side[i] = normalize(cross(edge[i], edge[(i + 1) % 4]));
+    if (dot(side[i], ahead) < 0) side[i] = -side[i];
+  }
+  const Vec3 eye = camera.eye;
+  const float slack = 1e-5f * (box.radius() + length(eye - box.center()));
+  auto in_frustum = [&](const Vec3& p, std::size_t except) {
+    for (std::size_t i = 0; i < 4; ++i)
+      if (i != except && dot(side[i], p - eye) < -slack) return false;
+    return true;
+  };
+  if (box.contains(eye)) seen.extend(eye);
+  for (int c = 0; c < 8; ++c)
+    if (in_frustum(box.corner(c), 4)) seen.extend(box.corner(c));
+  for (const Vec3& d : edge) {
+    float t0 = 0, t1 = 0;
+    if (box.clip(Ray{eye, d}, t0, t1)) {
+      seen.extend(eye + d * t0);
+      seen.extend(eye + d * t1);
+    }
+  }
+  for (int a = 0; a < 8; ++a)
+    for (int bit = 1; bit < 8; bit <<= 1) {
+      if (a & bit) continue;
+      const Vec3 p = box.corner(a), q = box.corner(a | bit);
+      for (std::size_t i = 0; i < 4; ++i) {
+        const float dp = dot(side[i], p - eye), dq = dot(side[i], q - eye);
+        if ((dp < 0) == (dq < 0)) continue;
+        const Vec3 x = p + (q - p) * (dp / (dp - dq));
+        if (in_frustum(x, i)) seen.extend(x);
+      }
+    }
+  if (seen.empty()) return seen;
+  seen.lo = max(seen.lo, box.lo);  // rounding may put a point a hair outside
+  seen.hi = min(seen.hi, box.hi);
+  return seen;
+}
+
+bool LevelBox::contains(const LevelBox& b) const {
+  for (std::size_t a = 0; a < 3; ++a)
+    if (b.lo[a] < lo[a] || b.hi[a] > hi[a]) return false;
+  return level == b.level;
+}
+
+LevelBox level_box(const PyramidSource& pyramid, int level, const Box3& world) {
+  const PyramidSource::Level& l = pyramid.levels.at(static_cast<std::size_t>(level));
+  LevelBox b;
+  b.level = level;
+  for (int a = 0; a < 3; ++a) {
+    const auto n = static_cast<std::int64_t>(l.dims[static_cast<std::size_t>(a)]);
+    const double lo = std::floor((static_cast<double>(world.lo[a]) - l.origin[a]) / l.spacing[a]);
+    const double hi = std::floor((static_cast<double>(world.hi[a]) - l.origin[a]) / l.spacing[a]);
+    // the cells [lo, hi] reach into the box: voxels lo to hi + 1, and the apron
+    std::int64_t first = static_cast<std::int64_t>(std::clamp(lo, -1.0, static_cast<double>(n))) - kRefinementApron;
+    std::int64_t end = static_cast<std::int64_t>(std::clamp(hi, -1.0, static_cast<double>(n))) + 2 + kRefinementApron;
+    first = std::clamp<std::int64_t>(first, 0, n - 1);
+    end = std::clamp<std::int64_t>(end, first + 1, n);
+    if (end - first < 2 && n >= 2) first = std::max<std::int64_t>(0, end - 2), end = first + 2;  // a cell to interpolate in
+    b.lo[static_cast<std::size_t>(a)] = first;
+    b.hi[static_cast<std::size_t>(a)] = end;
+  }
+  return b;
+}
+
+std::uint64_t refined_bytes(const LevelBox& box, ScalarType type, bool gradients) {
+  const std::array<std::int64_t, 3> d{box.hi[0] - box.lo[0], box.hi[1] - box.lo[1], box.hi[2] - box.lo[2]};
+  const auto voxels = static_cast<std::uint64_t>(d[0] * d[1] * d[2]);
+  return volume_held_bytes(d, type) + (gradients ? voxels * kGradientBytesPerVoxel : 0);
+}
+
+std::optional<RefinementChoice> choose_refinement(const Camera& camera, const PyramidSource& pyramid, const Box3& visible,
+                                                  std::uint64_t bytes, bool gradients) {
+  if (visible.empty() || pyramid.opened <= 0) return std::nullopt;
+  const PrimaryRays rays(camera);
+  const float depth = std::max(0.0f, dot(visible.center() - camera.eye, -rays.frame.w));
+  const float pixel = depth * 2.0f * std::tan(radians(camera.fov_deg) * 0.5f) / static_cast<float>(std::max(camera.height, 1));
+  auto edge = [&](int level) { return smallest_edge(pyramid.levels[static_cast<std::size_t>(level)].spacing); };
+  if (edge(pyramid.opened) <= pixel) return std::nullopt;
+  std::optional<RefinementChoice> best;
+  for (int level = pyramid.opened - 1; level >= 0; --level) {
+    const LevelBox box = level_box(pyramid, level, visible);
+    const auto d = box.dims();
+    const bool stored = gradients && refined_bytes(box, pyramid.type, true) <= bytes &&
+                        static_cast<std::uint64_t>(d[0]) * static_cast<std::uint64_t>(d[1]) * static_cast<std::uint64_t>(d[2]) *
+                                kGradientBytesPerVoxel <=
+                            kStoredGradientBytes;
+    if (!stored && refined_bytes(box, pyramid.type, false) > bytes) break;
+    best = RefinementChoice{box, stored};
+    if (edge(level) <= pixel) break;
+  }
+  if (best) {  // a margin where it fits, so that a small camera move stays inside the box
+    const Vec3 margin = visible.extent() * kRefinementMargin;
+    const LevelBox grown = level_box(pyramid, best->box.level, Box3{visible.lo - margin, visible.hi + margin});
+    if (refined_bytes(grown, pyramid.type, best->stored_gradients) <= bytes) best->box = grown;
+  }
+  return best;
+}
+
+Box3 pyramid_bounds(const PyramidSource& pyramid, const Volume& opened) {
+  Box3 b = opened.bounds();
+  const PyramidSource::Level& finest = pyramid.levels.front();
+  const Vec3 last{static_cast<float>(finest.dims[0] - 1), static_cast<float>(finest.dims[1] - 1), static_cast<float>(finest.dims[2] - 1)};
+  b.extend(finest.origin);
+  b.extend(finest.origin + finest.spacing * last);
+  return b;
+}
+
+RefinedVolume::RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read)
+    : box_(choice.box), object_(coarse) {
+  const PyramidSource& pyramid = *coarse.pyramid;
+  Volume box = load_zarr_box(pyramid.path, box_.level, pyramid.channel, box_.lo, box_.hi, read);
+  box.set_value_range(std::min(box.min_value(), coarse.volume->min_value()), std::max(box.max_value(), coarse.volume->max_value()));
+  object_.volume = std::make_shared<const Volume>(std::move(box));
+  object_.pyramid = nullptr;
+  object_.gradients = choice.stored_gradients ? VolumeObject::Gradients::Stored : VolumeObject::Gradients::OnTheFly;
+  prepared_ = std::make_unique<PreparedVolume>(object_);
+}
+
+bool RefinedVolume::follow(const VolumeObject& coarse) {
+  const bool table = !(coarse.transfer_function == object_.transfer_function) || coarse.compositing != object_.compositing;
+  const std::shared_ptr<const Volume> box = object_.volume;
+  const VolumeObject::Gradients gradients = object_.gradients;
+  object_ = coarse;
+  object_.volume = box;
+  object_.pyramid = nullptr;
+  object_.gradients = gradients;
+  return table;
+}
+
+std::uint64_t RefinedVolume::held_bytes() const {
+  return refined_bytes(box_, object_.volume->type(), object_.gradients == VolumeObject::Gradients::Stored);
+}
+
+}  // namespace penumbra

@@ -1,0 +1,108 @@
+// View-dependent refinement of a volume larger than memory (issue 43; paper 002's "interactive
+// exploration of large scale datasets on commodity hardware").
+//
+// A volume the scene reader opened from an OME-Zarr pyramid at a level coarser than its finest
+// (VolumeObject::pyramid: memory allowed no finer level for the whole volume) is drawn, in full-quality
+// frames, from a box of a finer level that covers what the camera sees of it: the bounds of the
+// frustum ∩ the volume's box, with an apron of two voxels for interpolation and central differences.
+// The level is the finest whose box fits what the volumes leave of the budget
+// (Scene::refinement_bytes), and no finer than needed: the first whose voxel is no larger than a pixel
+// at the depth of the box's centre. Previews keep the opened level (they must come at once), and every
+// light structure (shadow maps, CSSM, the SAT, ambient occlusion) keeps being built from the opened
+// level: a refined view sharpens what the eye sees, the shadows stay those of the coarser level.
+// The box is kept while the view stays inside it (a camera move inside a zoomed region reads nothing);
+// a view outside it reads a new box and evicts the old one, and FrameResult::refinement says what was
+// held, loaded, read from disk and evicted.
+//
+// | what                     | where                    | meaning                                          |
+// |--------------------------|--------------------------|--------------------------------------------------|
+// | volumes[].refine         | scene file (default true) | false: full frames draw the opened level        |
+// | memory_budget            | scene file / --memory-budget | what it leaves after the volumes bounds the box |
+// | kRefinementApron = 2     | here                     | voxels of the finer level around the seen part   |
+// | kRefinementMargin = 1/8  | here                     | of the seen part's extent, added on each side    |
+//                                                         where it fits: a small move stays inside the box
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <optional>
+
+#include "penumbra/data/io/volume_io.h"
+#include "penumbra/render/prepared_volume.h"
+#include "penumbra/scene/scene.h"
+
+namespace penumbra {
+
+constexpr int kRefinementApron = 2;
+constexpr float kRefinementMargin = 0.125f;
+
+// The world box of what `camera` sees of `box` (its vertices' bounds of frustum ∩ box: the eye when it
+// lies in the box, the box's corners inside the frustum, the frustum's edges through the box's faces
+// and the box's edges through the frustum's sides); empty when none of it is in view.
+Box3 visible_part(const Camera& camera, const Box3& box);
+
+// A box of one level of a pyramid: voxels [lo, hi) along x, y, z of that level.
+struct LevelBox {
+  int level = 0;
+  std::array<std::int64_t, 3> lo{}, hi{};
+  std::array<int, 3> dims() const {
+    return {static_cast<int>(hi[0] - lo[0]), static_cast<int>(hi[1] - lo[1]), static_cast<int>(hi[2] - lo[2])};
+  }
+  bool contains(const LevelBox& b) const;  // same level, b inside
+};
+
+// The voxels of `level` whose cells reach into `world`, with the apron, within the level.
+LevelBox level_box(const PyramidSource& pyramid, int level, const Box3& world);
+// What a box holds: voxels and macrocells, and stored gradients when `gradients`.
+std::uint64_t refined_bytes(const LevelBox& box, ScalarType type, bool gradients);
+
+// The box a full frame draws `pyramid` from when `visible` (visible_part) is what the camera sees of
+// it: the finest level finer than the opened one whose box fits `bytes` (with stored gradients when
+// `gradients` and they fit, else without), stopping at the first whose voxel is no larger than a pixel
+// at the depth of the visible part's centre; nullopt when the opened level is that fine already,
+// nothing is in view or no finer box fits.
+struct RefinementChoice {
+  LevelBox box;
+  bool stored_gradients = false;
+};
+std::optional<RefinementChoice> choose_refinement(const Camera& camera, const PyramidSource& pyramid, const Box3& visible,
+                                                  std::uint64_t bytes, bool gradients);
+// The world box of a pyramid: its opened level's (`opened`, the volume held) and its finest's together.
+Box3 pyramid_bounds(const PyramidSource& pyramid, const Volume& opened);
+
+// What one full frame's refinement of one volume did (FrameResult::refinement, `--stats`).
+struct RefinementStats {
+  std::size_t volume = 0;  // the scene's volumes[] index
+  int opened_level = 0, level = 0;
+  std::array<int, 3> dims{};
+  std::uint64_t held_bytes = 0;     // what the refined box holds (voxels, macrocells, gradients)
+  std::uint64_t loaded_bytes = 0;   // brought into memory this frame (0: the box held was kept)
+  std::uint64_t read_bytes = 0;     // of them read from the files (compressed)
+  std::uint64_t evicted_bytes = 0;  // a box given up this frame
+  double load_ms = 0;               // reading and preparing the box
+};
+
+// A refined box of one volume, prepared for the eye pass like the volume itself.
+class RefinedVolume {
+public:
+  // Reads `choice` from `coarse.pyramid`; its value range is the union of the box's and the opened
+  // level's (the transfer function's table and the shading weights see the range they saw before).
+  // Its lattice step is the object's step in the box's voxels (the renderer then shares the finest).
+  RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read);
+
+  // Follows the coarse object's edits (transfer function, compositing, step, jitter, flags); true when
+  // the table and the empty cells must be built again (a transfer function or compositing changed).
+  bool follow(const VolumeObject& coarse);
+  const LevelBox& box() const { return box_; }
+  std::uint64_t held_bytes() const;  // refined_bytes of its box: what the budget counts
+  PreparedVolume& prepared() { return *prepared_; }
+  float step_world() const { return object_.step_world(); }  // its own lattice step
+
+private:
+  LevelBox box_;
+  VolumeObject object_;  // the coarse object with the box as its volume
+  std::unique_ptr<PreparedVolume> prepared_;
+};
+
+}  // namespace penumbra

@@ -1,0 +1,311 @@
+// View-dependent refinement (render/view_refinement.h): the seen part of a box against brute force, the
+// level a view asks for, a box of a pyramid's level against the whole level, and full frames of a
+// pyramid opened coarse against the finest level held in memory, with what they load, keep and evict.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "image_check.h"
+#include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/io/zarr_writer.h"
+#include "penumbra/data/procedural.h"
+#include "penumbra/render/renderer.h"
+#include "penumbra/render/view_refinement.h"
+#include "penumbra/scene_io/scene_file.h"
+#include "test_scenes.h"
+
+using namespace penumbra;
+using namespace penumbra::test;
+
+namespace {
+
+// Whether p projects into the camera's image, in front of the eye.
+bool seen_by(const Camera& camera, const Vec3& p) {
+  const PrimaryRays rays(camera);
+  const Vec3 d = p - camera.eye;
+  const float z = -dot(d, rays.frame.w);
+  if (z <= 0) return false;
+  const float px = rays.pixel_x(dot(d, rays.frame.u) / z), py = rays.pixel_y(dot(d, rays.frame.v) / z);
+  return px >= 0 && px <= static_cast<float>(camera.width) && py >= 0 && py <= static_cast<float>(camera.height);
+}
+
+// The bounds of a dense lattice of the box's points that the camera sees.
+Box3 lattice_seen(const Camera& camera, const Box3& box, int n) {
+  Box3 seen;
+  for (int k = 0; k <= n; ++k)
+    for (int j = 0; j <= n; ++j)
+      for (int i = 0; i <= n; ++i) {
+        const Vec3 f{static_cast<float>(i) / static_cast<float>(n), static_cast<float>(j) / static_cast<float>(n), static_cast<float>(k) / static_cast<float>(n)};
+        const Vec3 p = box.lo + box.extent() * f;
+        if (seen_by(camera, p)) seen.extend(p);
+      }
+  return seen;
+}
+
+// The bounds of where a dense grid of the camera's rays (the image's borders included) enter and leave
+// the box: frustum ∩ box is the union of those segments, and a coordinate is extreme at an end of one.
+Box3 ray_segments_seen(const Camera& camera, const Box3& box, int n) {
+  const PrimaryRays rays(camera);
+  Box3 seen;
+  if (box.contains(camera.eye)) seen.extend(camera.eye);
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      const Vec3 d = rays.direction(static_cast<float>(camera.width) * static_cast<float>(i) / static_cast<float>(n),
+                                    static_cast<float>(camera.height) * static_cast<float>(j) / static_cast<float>(n));
+      float t0 = 0, t1 = 0;
+      if (!box.clip(Ray{camera.eye, d}, t0, t1)) continue;
+      seen.extend(camera.eye + d * t0);
+      seen.extend(camera.eye + d * t1);
+    }
+  return seen;
+}
+
+}  // namespace
+
+// The seen part is exact: it holds every point of the box the camera sees, and no lattice point of a
+// fine sampling lies farther than a lattice step inside it (so it is no looser than the sampling).
+TEST(ViewRefinement, SeenPartIsTheBoundsOfFrustumAndBox) {
+  const Box3 box{{-1.0f, -0.5f, -2.0f}, {1.5f, 0.5f, 2.0f}};
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1, 1);
+  int partial = 0, none = 0, inside = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    Camera c;
+    c.width = 64 + trial % 3 * 32;  // wide and tall images too
+    c.height = 64 + trial % 2 * 48;
+    c.fov_deg = 20.0f + static_cast<float>(trial % 5) * 12.0f;
+    const float reach = trial % 4 == 0 ? 0.8f : 6.0f;  // a quarter of the cameras in or near the box
+    c.eye = Vec3{u(rng), u(rng), u(rng)} * reach;
+    c.target = Vec3{u(rng), u(rng), u(rng)} * 1.5f;
+    if (length(c.target - c.eye) < 0.2f) continue;
+    const Box3 part = visible_part(c, box);
+    const Box3 lattice = lattice_seen(c, box, 40), segments = ray_segments_seen(c, box, 400);
+    if (box.contains(c.eye)) ++inside;
+    if (segments.empty()) {
+      ++none;
+      EXPECT_TRUE(lattice.empty());
+      continue;
+    }
+    ASSERT_FALSE(part.empty()) << "trial " << trial;
+    const float slack = 0.01f * box.radius();
+    for (int a = 0; a < 3; ++a) {
+      if (!lattice.empty()) {  // every point seen lies in it
+        EXPECT_LE(part.lo[a], lattice.lo[a] + 1e-4f) << "trial " << trial << " axis " << a;
+        EXPECT_GE(part.hi[a], lattice.hi[a] - 1e-4f) << "trial " << trial << " axis " << a;
+      }
+      EXPECT_NEAR(part.lo[a], segments.lo[a], slack) << "trial " << trial << " axis " << a;  // and it is tight
+      EXPECT_NEAR(part.hi[a], segments.hi[a], slack) << "trial " << trial << " axis " << a;
+    }
+    if (part.extent().x < box.extent().x * 0.99f || part.extent().z < box.extent().z * 0.99f) ++partial;
+  }
+  EXPECT_GT(partial, 10);  // the cases that matter: a part of the box, not all of it
+  EXPECT_GT(inside, 2);
+  // a camera looking away sees nothing
+  Camera away;
+  away.eye = {0, 0, 5};
+  away.target = {0, 0, 10};
+  EXPECT_TRUE(visible_part(away, box).empty());
+}
+
+// The level a view asks for: none while the opened level's voxel is no larger than a pixel, the finest
+// that fits the bytes, never finer than a pixel needs; the box covers the seen part with the apron.
+TEST(ViewRefinement, ChoosesTheCoarsestLevelAsFineAsAPixelThatFits) {
+  PyramidSource p;
+  p.type = ScalarType::UInt16;
+  for (int l = 0; l < 4; ++l) {
+    const int n = 256 >> l;
+    const float s = static_cast<float>(1 << l) / 256.0f;
+    p.levels.push_back({{n, n, n}, {s, s, s}, Vec3{-0.5f, -0.5f, -0.5f} + Vec3{s, s, s} * 0.5f});
+  }
+  p.opened = 3;  // 32³
+  const Box3 box{{-0.5f, -0.5f, -0.5f}, {0.5f, 0.5f, 0.5f}};
+  Camera c;
+  c.width = c.height = 512;
+  c.fov_deg = 30;
+  c.target = {0.3f, 0.3f, 0.3f};
+  auto choose = [&](float distance, std::uint64_t bytes) {
+    c.eye = c.target + normalize(Vec3{1, 0.7f, 0.4f}) * distance;
+    return choose_refinement(c, p, visible_part(c, box), bytes, true);
+  };
+  // far away: a 32³ voxel (1/32) is smaller than a pixel there
+  EXPECT_FALSE(choose(60.0f, ~std::uint64_t{0}).has_value());
+  // near, all the memory wanted: the level whose voxel first fits in a pixel; pixel = d · 2 tan 15° / 512
+  for (const float d : {0.5f, 1.0f, 2.0f}) {
+    const auto choice = choose(d, ~std::uint64_t{0});
+    ASSERT_TRUE(choice.has_value());
+    const Box3 seen = visible_part(c, box);
+    const float pixel = dot(seen.center() - c.eye, normalize(c.target - c.eye)) * 2.0f * std::tan(radians(15.0f)) / 512.0f;
+    const float voxel = p.levels[static_cast<std::size_t>(choice->box.level)].spacing.x;
+    EXPECT_TRUE(voxel <= pixel || choice->box.level == 0) << d;
+    if (choice->box.level + 1 < p.opened) {
+      EXPECT_GT(voxel * 2, pixel) << d;  // the next coarser was not enough
+    }
+    EXPECT_TRUE(choice->stored_gradients);
+    // the box covers the seen part
+    const PyramidSource::Level& l = p.levels[static_cast<std::size_t>(choice->box.level)];
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_LE(l.origin[a] + static_cast<float>(choice->box.lo[static_cast<std::size_t>(a)]) * l.spacing[a], std::max(seen.lo[a], l.origin[a]));
+      EXPECT_GE(l.origin[a] + static_cast<float>(choice->box.hi[static_cast<std::size_t>(a)] - 1) * l.spacing[a],
+                std::min(seen.hi[a], l.origin[a] + static_cast<float>(l.dims[static_cast<std::size_t>(a)] - 1) * l.spacing[a]));
+    }
+  }
+  // close up, bytes for level 1's box but not level 0's: level 1; bytes for nothing finer: none
+  const auto finest = choose(0.5f, ~std::uint64_t{0});
+  ASSERT_TRUE(finest && finest->box.level == 0);
+  const LevelBox level1 = level_box(p, 1, visible_part(c, box));
+  const std::uint64_t bytes = refined_bytes(level1, p.type, false) + 16;
+  const auto fitted = choose(0.5f, bytes);
+  ASSERT_TRUE(fitted.has_value());
+  EXPECT_EQ(fitted->box.level, 1);
+  EXPECT_LE(refined_bytes(fitted->box, p.type, fitted->stored_gradients), bytes);
+  EXPECT_FALSE(fitted->stored_gradients);
+  const LevelBox level2 = level_box(p, 2, visible_part(c, box));
+  EXPECT_FALSE(choose(0.5f, refined_bytes(level2, p.type, false) - 1).has_value());
+}
+
+// A box of a level (load_zarr_box) is that level's voxels, placed where they lie, its chunks only read.
+TEST(ViewRefinement, ABoxOfALevelIsThatLevelsVoxels) {
+  ScratchDir dir;
+  Volume source(ScalarType::UInt16, {37, 30, 26}, {0.5f, 0.75f, 1.25f}, {3, -2, 1});
+  for (std::size_t i = 0; i < source.voxel_count(); ++i) source.set_value(i, static_cast<float>(i * 37 % 4001));
+  source.recompute_range();
+  OmeZarrWriteOptions options;
+  options.chunk = 8;
+  write_ome_zarr(source, dir.file("v.zarr"), options);
+  const std::vector<ZarrLevelGrid> grids = zarr_level_grids(dir.file("v.zarr"));
+  ASSERT_GE(grids.size(), 2u);
+  for (const int level : {0, 1}) {
+    VolumeLoadOptions lo;
+    lo.level = level;
+    const Volume whole = load_volume(dir.file("v.zarr"), lo);
+    EXPECT_EQ(grids[static_cast<std::size_t>(level)].dims, whole.dims());
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_FLOAT_EQ(grids[static_cast<std::size_t>(level)].spacing[a], whole.spacing()[a]);
+      EXPECT_FLOAT_EQ(grids[static_cast<std::size_t>(level)].origin[a], whole.origin()[a]);
+    }
+    const auto& d = whole.dims();
+    for (const auto& [lo3, hi3] : std::vector<std::pair<std::array<std::int64_t, 3>, std::array<std::int64_t, 3>>>{
+             {{3, 5, 7}, {13, 11, 9}}, {{0, 0, 0}, {d[0], d[1], d[2]}}, {{d[0] - 2, 1, 0}, {d[0], 9, 4}}}) {
+      WindowRead read;
+      const Volume box = load_zarr_box(dir.file("v.zarr"), level, -1, lo3, hi3, &read);
+      ASSERT_EQ(box.dims(), (std::array<int, 3>{static_cast<int>(hi3[0] - lo3[0]), static_cast<int>(hi3[1] - lo3[1]), static_cast<int>(hi3[2] - lo3[2])}));
+      EXPECT_FALSE(box.is_window());
+      for (int a = 0; a < 3; ++a)
+        EXPECT_NEAR(box.origin()[a], whole.origin()[a] + static_cast<float>(lo3[static_cast<std::size_t>(a)]) * whole.spacing()[a], 1e-4f);
+      EXPECT_EQ(box.opacity_length(), whole.opacity_length());
+      for (int k = 0; k < box.dims()[2]; ++k)
+        for (int j = 0; j < box.dims()[1]; ++j)
+          for (int i = 0; i < box.dims()[0]; ++i)
+            ASSERT_EQ(box.value(i, j, k), whole.value(i + static_cast<int>(lo3[0]), j + static_cast<int>(lo3[1]), k + static_cast<int>(lo3[2])));
+      EXPECT_GT(read.bytes_read, 0u);
+    }
+  }
+  EXPECT_THROW(load_zarr_box(dir.file("v.zarr"), 0, -1, {0, 0, 0}, {38, 4, 4}), Error);
+  EXPECT_THROW(load_zarr_box(dir.file("v.zarr"), 0, -1, {4, 0, 0}, {4, 4, 4}), Error);
+}
+
+namespace {
+
+// A pyramid of a ball of density 1 with a smaller one of 0.5 beside it (block means keep both values:
+// every level has the finest's value range), 8³ chunks.
+std::string write_ball_pyramid(const ScratchDir& dir, int size) {
+  Volume v(ScalarType::Float32, {size, size, size}, {1.0f / static_cast<float>(size), 1.0f / static_cast<float>(size), 1.0f / static_cast<float>(size)},
+           {-0.5f, -0.5f, -0.5f});
+  for (int k = 0; k < size; ++k)
+    for (int j = 0; j < size; ++j)
+      for (int i = 0; i < size; ++i) {
+        const Vec3 p = v.origin() + v.spacing() * Vec3{static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)};
+        const float big = length(p - Vec3{0.05f, 0.0f, 0.0f}), small = length(p - Vec3{-0.3f, 0.2f, 0.1f});
+        const float density = big < 0.3f ? 1.0f : small < 0.12f ? 0.5f : 0.0f;
+        v.set_value((static_cast<std::size_t>(k) * static_cast<std::size_t>(size) + static_cast<std::size_t>(j)) * static_cast<std::size_t>(size) +
+                        static_cast<std::size_t>(i),
+                    density);
+      }
+  v.recompute_range();
+  OmeZarrWriteOptions options;
+  options.chunk = 8;
+  write_ome_zarr(v, dir.file("ball.zarr"), options);
+  return dir.file("ball.zarr");
+}
+
+nlohmann::json ball_scene(const std::string& store, std::uint64_t budget, bool refine) {
+  nlohmann::json j;
+  nlohmann::json v = {{"file", store}, {"step", 0.5}, {"refine", refine}, {"jitter", false},
+                      {"transfer_function", {{"points", {{0.0, 0.2, 0.4, 0.9, 0.0}, {0.4, 0.2, 0.4, 0.9, 0.0}, {0.5, 0.9, 0.5, 0.2, 0.3}, {1.0, 1.0, 0.9, 0.8, 0.6}}}}}};
+  j["volumes"] = nlohmann::json::array({v});
+  j["lights"] = nlohmann::json::array({{{"type", "directional"}, {"direction", {-0.3, -1.0, -0.5}}}});
+  j["shadows"] = {{"technique", "none"}};
+  j["camera"] = {{"eye", {-0.12, 0.15, 0.8}}, {"target", {-0.22, 0.12, 0.1}}, {"fov_deg", 15}, {"width", 96}, {"height", 96}};
+  if (budget) j["memory_budget"] = budget;
+  return j;
+}
+
+}  // namespace
+
+// A pyramid opened at a coarse level under a budget draws a close view, in full frames, from the
+// finest level: the frame equals the frame of the finest level held whole in memory (the eye pass is
+// exact: same samples, same lattice, same table), where the opened level alone is far from it; a
+// preview stays on the opened level; the box is kept while the view stays in it and given up when the
+// camera backs away, and what it holds stays within what the budget leaves.
+TEST(ViewRefinement, AFullFrameOfACloseViewIsTheFinestLevels) {
+  ScratchDir dir;
+  const std::string store = write_ball_pyramid(dir, 64);
+  const std::uint64_t budget = 1u << 20;  // 64³ float32 is 1 MiB: level 1 (32³, 128 KiB) opens
+  const Scene coarse_scene = build_scene(ball_scene(store, budget, true), "");
+  ASSERT_EQ(coarse_scene.volumes[0].volume->dims()[0], 32);
+  ASSERT_TRUE(coarse_scene.volumes[0].pyramid);
+  EXPECT_EQ(coarse_scene.volumes[0].pyramid->opened, 1);
+  Renderer refined(coarse_scene);
+  const FrameResult full = refined.render();
+  ASSERT_EQ(full.refinement.size(), 1u);
+  const RefinementStats& s = full.refinement.front();
+  EXPECT_EQ(s.opened_level, 1);
+  EXPECT_EQ(s.level, 0);
+  EXPECT_GT(s.loaded_bytes, 0u);
+  EXPECT_GT(s.read_bytes, 0u);
+  EXPECT_EQ(s.held_bytes, s.loaded_bytes);
+  EXPECT_LE(s.held_bytes, coarse_scene.refinement_bytes);
+  EXPECT_LT(s.dims[0] * s.dims[1] * s.dims[2], 64 * 64 * 64);  // a part of the level, not all of it
+  EXPECT_NE(std::find(full.rebuilt.begin(), full.rebuilt.end(), "volumes.0.refined"), full.rebuilt.end());
+
+  const Image in_memory = Renderer(build_scene(ball_scene(store, 0, true), "")).render().image;
+  const Image opened_only = Renderer(build_scene(ball_scene(store, budget, false), "")).render().image;
+  FailureImages keep;
+  keep.add("refined", full.image, in_memory);
+  keep.add("opened", opened_only, in_memory);
+  const ImageDifference refined_error = compare_images(full.image, in_memory), opened_error = compare_images(opened_only, in_memory);
+  EXPECT_LT(refined_error.max_abs, 1e-4) << "rmse " << refined_error.rmse;
+  EXPECT_GT(opened_error.rmse, 0.01);  // what refinement is for
+  EXPECT_TRUE(non_trivial(full.image));
+
+  // a preview draws the opened level and loads nothing
+  FrameRequest preview;
+  preview.quality = Quality::Preview;
+  preview.preview_divisor = 1;
+  const FrameResult p = refined.render(preview);
+  EXPECT_TRUE(p.refinement.empty());
+  Renderer unrefined(build_scene(ball_scene(store, budget, false), ""));
+  (void)unrefined.render();
+  const Image opened_preview = unrefined.render(preview).image;
+  keep.add("preview", p.image, opened_preview);
+  EXPECT_EQ(compare_images(p.image, opened_preview).max_abs, 0.0);
+  // the same view again: the box is kept
+  const FrameResult again = refined.render();
+  ASSERT_EQ(again.refinement.size(), 1u);
+  EXPECT_EQ(again.refinement.front().loaded_bytes, 0u);
+  EXPECT_EQ(again.refinement.front().held_bytes, s.held_bytes);
+  EXPECT_LT(compare_images(again.image, in_memory).max_abs, 1e-4);
+  // a small turn stays inside the box (its margin)
+  Camera turned = coarse_scene.camera.orbited(0.02f);
+  const FrameResult small_turn = refined.render(turned, coarse_scene.lights);
+  ASSERT_EQ(small_turn.refinement.size(), 1u);
+  EXPECT_EQ(small_turn.refinement.front().loaded_bytes, 0u);
+  // backing away: the opened level is enough, the box is given up
+  Camera far = coarse_scene.camera;
+  far.eye = far.target + (far.eye - far.target) * 40.0f;
+  const FrameResult backed = refined.render(far, coarse_scene.lights);
+  ASSERT_EQ(backed.refinement.size(), 1u);
+  EXPECT_EQ(backed.refinement.front().evicted_bytes, s.held_bytes);
+  EXPECT_EQ(backed.refinement.front().held_bytes, 0u);
+  EXPECT_EQ(refined.refined_memory_bytes(), 0u);
+}
