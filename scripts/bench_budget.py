@@ -113,7 +113,7 @@ def zoomed_scene(cli, store, out, name, distance, target):
     """The file's automatic scene (its transfer function, light, floor and CSSM) with the camera moved
     close: written once from the coarsest level (fast), then the level left to the budget."""
     written = os.path.join(out, f"{name}_auto.json")
-    subprocess.run([cli, "render", store, "--level", "5", "--width", 16, "--height", 16, "-o", os.path.join(out, f"{name}_auto.png"),
+    subprocess.run([cli, "render", store, "--level", "5", "--width", "16", "--height", "16", "-o", os.path.join(out, f"{name}_auto.png"),
                     "--write-scene", written], capture_output=True, text=True, check=True)
     doc = json.load(open(written))
     doc["volumes"][0]["file"] = os.path.abspath(store)
@@ -128,7 +128,7 @@ def zoomed_scene(cli, store, out, name, distance, target):
 
 def refinement_row(stats):
     r = (stats.get("refinement") or [{}])[0]
-    return {"level": r.get("level"), "box": r.get("dims"), "held_mib": r.get("held_bytes", 0) / 2**20,
+    return {"level": r.get("level"), "box": r.get("dims"), "box_mib": r.get("held_bytes", 0) / 2**20,
             "read_mib": r.get("read_bytes", 0) / 2**20, "load_ms": r.get("load_ms", 0)}
 
 
@@ -160,8 +160,7 @@ def zoom(o, cli, out):
                      "frame_ms": stats["timings_ms"]["total"], "render_ms": stats["timings_ms"]["render"], "peak_mib": peak,
                      "held_mib": stats.get("memory_budget", {}).get("held", 0) / 2**20, "rmse": rmse, "psnr": psnr,
                      **refinement_row(stats)})
-    print(f"
-ct-body 512×512×1734 uint16 ({full_bytes / 2**20:.0f} MiB), a close view of the head at {o.size}²")
+    print(f"\nct-body 512×512×1734 uint16 ({full_bytes / 2**20:.0f} MiB), a close view of the head at {o.size}²")
     print("| case | level opened | drawn from | held (MiB) | box read (MiB on disk) | process start to PNG (s) | frame (ms) | peak RSS (MiB) | RMSE | PSNR (dB) |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
@@ -187,8 +186,7 @@ def session_steps(cli, scene, out, args, target, distance):
               "refinement": stats["refinement"]}]
     for name, e in zip(["a pan of 2 % of the distance", "backing away 8×", "coming back"], stats["edits"]):
         steps.append({"step": name, "preview_ms": e["preview_ms"], "full_ms": e["full_ms"], "refinement": e["refinement"]})
-    print("
-| step | preview (ms) | full frame (ms) | drawn from | loaded (MiB) | read (MiB) | evicted (MiB) |")
+    print("\n| step | preview (ms) | full frame (ms) | drawn from | loaded (MiB) | read (MiB) | evicted (MiB) |")
     print("|---|---|---|---|---|---|---|")
     for s in steps:
         r = (s["refinement"] or [{}])[0]

@@ -123,9 +123,9 @@ TEST(ViewRefinement, ChoosesTheCoarsestLevelAsFineAsAPixelThatFits) {
   c.width = c.height = 512;
   c.fov_deg = 30;
   c.target = {0.3f, 0.3f, 0.3f};
-  auto choose = [&](float distance, std::uint64_t bytes) {
+  auto choose = [&](float distance, std::uint64_t bytes, bool cut = false) {
     c.eye = c.target + normalize(Vec3{1, 0.7f, 0.4f}) * distance;
-    return choose_refinement(c, p, visible_part(c, box), bytes, true);
+    return choose_refinement(c, p, box, bytes, true, cut);
   };
   // far away: a 32³ voxel (1/32) is smaller than a pixel there
   EXPECT_FALSE(choose(60.0f, ~std::uint64_t{0}).has_value());
@@ -133,7 +133,11 @@ TEST(ViewRefinement, ChoosesTheCoarsestLevelAsFineAsAPixelThatFits) {
   for (const float d : {0.5f, 1.0f, 2.0f}) {
     const auto choice = choose(d, ~std::uint64_t{0});
     ASSERT_TRUE(choice.has_value());
-    const Box3 seen = visible_part(c, box);
+    const Box3 seen = choice->seen;
+    for (int a = 0; a < 3; ++a) {  // all of it: the opened level's voxel is larger than a pixel up to depth 30
+      EXPECT_FLOAT_EQ(seen.lo[a], visible_part(c, box).lo[a]);
+      EXPECT_FLOAT_EQ(seen.hi[a], visible_part(c, box).hi[a]);
+    }
     const float pixel = dot(seen.center() - c.eye, normalize(c.target - c.eye)) * 2.0f * std::tan(radians(15.0f)) / 512.0f;
     const float voxel = p.levels[static_cast<std::size_t>(choice->box.level)].spacing.x;
     EXPECT_TRUE(voxel <= pixel || choice->box.level == 0) << d;
@@ -161,6 +165,29 @@ TEST(ViewRefinement, ChoosesTheCoarsestLevelAsFineAsAPixelThatFits) {
   EXPECT_FALSE(fitted->stored_gradients);
   const LevelBox level2 = level_box(p, 2, visible_part(c, box));
   EXPECT_FALSE(choose(0.5f, refined_bytes(level2, p.type, false) - 1).has_value());
+  // a third of what level 0's box of the whole view needs: without cutting, a coarser level; cutting,
+  // level 0 for the near part of the view
+  const LevelBox level0 = level_box(p, 0, visible_part(c, box));
+  const std::uint64_t third = refined_bytes(level0, p.type, false) / 3;
+  const auto uncut = choose(0.5f, third, false), cut = choose(0.5f, third, true);
+  ASSERT_TRUE(uncut && cut);
+  EXPECT_GT(uncut->box.level, 0);
+  EXPECT_EQ(cut->box.level, 0);
+  EXPECT_LE(refined_bytes(cut->box, p.type, cut->stored_gradients), third);
+  const Vec3 ahead = normalize(c.target - c.eye);
+  auto depths = [&](const Box3& b) {
+    float lo = kInfinity, hi = -kInfinity;
+    for (int k = 0; k < 8; ++k) {
+      lo = std::min(lo, dot(b.corner(k) - c.eye, ahead));
+      hi = std::max(hi, dot(b.corner(k) - c.eye, ahead));
+    }
+    return std::make_pair(lo, hi);
+  };
+  const auto [whole_near, whole_far] = depths(visible_part(c, box));
+  const auto [cut_near, cut_far] = depths(cut->seen);
+  EXPECT_NEAR(cut_near, whole_near, 1e-4f);  // from the front of the view
+  EXPECT_LT(cut_far, whole_far - 0.1f);      // to a depth before its back
+  EXPECT_GT(cut_far, whole_near + 0.25f * (whole_far - whole_near) - 1e-3f);
 }
 
 // A box of a level (load_zarr_box) is that level's voxels, placed where they lie, its chunks only read.
@@ -308,4 +335,33 @@ TEST(ViewRefinement, AFullFrameOfACloseViewIsTheFinestLevels) {
   EXPECT_EQ(backed.refinement.front().evicted_bytes, s.held_bytes);
   EXPECT_EQ(backed.refinement.front().held_bytes, 0u);
   EXPECT_EQ(refined.refined_memory_bytes(), 0u);
+}
+
+// A wide, deep view whose finest box does not fit what the budget leaves: the near part of the view is
+// drawn from the finest level, the rest from the opened level on the same lattice; the frame is nearer
+// the finest level's in memory than the opened level's frame is.
+TEST(ViewRefinement, TheNearPartOfADeepViewIsRefinedWhereTheWholeDoesNotFit) {
+  ScratchDir dir;
+  const std::string store = write_ball_pyramid(dir, 64);
+  auto deep = [&](std::uint64_t budget, bool refine) {
+    nlohmann::json j = ball_scene(store, budget, refine);
+    j["camera"] = {{"eye", {-0.3, 0.1, 0.9}}, {"target", {0.1, 0.0, -0.5}}, {"fov_deg", 40}, {"width", 96}, {"height", 96}};
+    return build_scene(j, "");
+  };
+  const Scene scene = deep(1u << 20, true);
+  Renderer renderer(scene);
+  const FrameResult full = renderer.render();
+  ASSERT_EQ(full.refinement.size(), 1u);
+  const RefinementStats& s = full.refinement.front();
+  EXPECT_EQ(s.level, 0);
+  EXPECT_LE(s.held_bytes, scene.refinement_bytes);
+  EXPECT_LT(s.dims[2], 64);  // the near part only: the box stops before the volume's far side
+  const Image in_memory = Renderer(deep(0, true)).render().image;
+  const Image opened = Renderer(deep(1u << 20, false)).render().image;
+  FailureImages keep;
+  keep.add("refined", full.image, in_memory);
+  keep.add("opened", opened, in_memory);
+  const double refined_error = compare_images(full.image, in_memory).rmse, opened_error = compare_images(opened, in_memory).rmse;
+  EXPECT_LT(refined_error, 0.5 * opened_error) << refined_error << " against " << opened_error;
+  EXPECT_GT(refined_error, 0.0);  // the far part is the opened level's
 }

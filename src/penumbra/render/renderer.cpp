@@ -361,11 +361,13 @@ void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
     }
     const PyramidSource& pyramid = *o.pyramid;
     stats.opened_level = stats.level = pyramid.opened;
-    const Box3 visible = visible_part(camera, pyramid_bounds(pyramid, *o.volume));
-    const std::optional<RefinementChoice> choice = choose_refinement(camera, pyramid, visible, left, volumes_[k]->gradients_stored());
-    // the box held serves while it covers the view at its level and is at least as fine as wanted
+    // one volume may be refined in its near part only (the ray caster draws the rest from the opened
+    // level); beside others the box replaces the volume in the eye pass, so it must hold all it shows
+    const std::optional<RefinementChoice> choice = choose_refinement(camera, pyramid, pyramid_bounds(pyramid, *o.volume), left,
+                                                                     volumes_[k]->gradients_stored(), volumes_.size() == 1);
+    // the box held serves while it covers the part wanted at its level and is at least as fine
     const bool keep = choice && held && held->box().level <= choice->box.level &&
-                      held->box().contains(level_box(pyramid, held->box().level, visible)) && held->held_bytes() <= left;
+                      held->box().contains(level_box(pyramid, held->box().level, choice->seen)) && held->held_bytes() <= left;
     if (!keep) {
       evict();  // before reading the next: never two boxes at once
       if (choice) {
@@ -390,12 +392,13 @@ void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
     }
     if (held || stats.evicted_bytes) frame.refinement.push_back(stats);
   }
-  // one lattice step for every volume of the eye pass: the finest of them
-  for (std::size_t k = 0; k < volumes_.size(); ++k) {
-    PreparedVolume& pv = refined_[k] ? refined_[k]->prepared() : *volumes_[k];
-    if (pv.full_step != step) pv.update_lut(step);
-    pv.use(false);
-  }
+  // one lattice step for every volume of the eye pass (and the opened levels around a box): the finest
+  for (std::size_t k = 0; k < volumes_.size(); ++k)
+    for (PreparedVolume* pv : {volumes_[k].get(), refined_[k] ? &refined_[k]->prepared() : nullptr}) {
+      if (!pv) continue;
+      if (pv->full_step != step) pv->update_lut(step);
+      pv->use(false);
+    }
 }
 
 std::vector<bool> Renderer::volume_gradients_stored() const {
@@ -652,14 +655,17 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
       if (a >= 0.5f) frame.depth[p] = glass.distance[p];
     }
   } else {
+    // a refined box: inside the one volume's opened level, or in the place of a volume beside others
+    auto refined_box = [&](std::size_t k) { return refined_frame && k < refined_.size() && refined_[k] ? &refined_[k]->prepared() : nullptr; };
+    const PreparedVolume* inside = volumes_.size() == 1 ? refined_box(0) : nullptr;
     std::vector<const PreparedVolume*> volume_ptrs;
     for (std::size_t k = 0; k < volumes_.size(); ++k)
-      volume_ptrs.push_back(refined_frame && k < refined_.size() && refined_[k] ? &refined_[k]->prepared() : volumes_[k].get());
+      volume_ptrs.push_back(!inside && refined_box(k) ? refined_box(k) : volumes_[k].get());
     const OpaqueLayer layer{&surfaces.distance, &opaque};
     const TranslucentLayer glass_layer{&glass.distance, &glass_color, &glass_opacity};
     VolumeFrame vf = render_volume_frame(
         RayCastInputs{&scene_, &camera, volume_ptrs, lights, shadow_ptrs, ambient_.get(), light_cache_.get(), light_slot_,
-                      &layer, glass.points.empty() ? nullptr : &glass_layer, request.sample, request.slab ? &*request.slab : nullptr});
+                      &layer, glass.points.empty() ? nullptr : &glass_layer, request.sample, request.slab ? &*request.slab : nullptr, inside});
     frame.image = std::move(vf.image);
     frame.volume_samples = vf.samples;
     frame.volume_shaded_samples = vf.shaded_samples;

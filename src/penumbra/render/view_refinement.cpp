@@ -10,14 +10,14 @@ float smallest_edge(const Vec3& spacing) { return std::min(spacing.x, std::min(s
 
 }  // namespace
 
-Box3 visible_part(const Camera& camera, const Box3& box) {
+Box3 visible_part(const Camera& camera, const Box3& box, float far) {
   Box3 seen;
   if (box.empty()) return seen;
   const PrimaryRays rays(camera);
   const auto w = static_cast<float>(camera.width), h = static_cast<float>(camera.height);
   // the frustum's four edges, around the image, and its sides' inward normals
   const std::array<Vec3, 4> edge{rays.direction(0.0f, 0.0f), rays.direction(w, 0.0f), rays.direction(w, h), rays.direction(0.0f, h)};
-  const Vec3 ahead = rays.direction(0.5f * w, 0.5f * h);
+  const Vec3 ahead = -rays.frame.w;  // depth is measured along it
   std::array<Vec3, 4> side{};
   for (std::size_t i = 0; i < 4; ++i) {
     side[i] = normalize(cross(edge[i], edge[(i + 1) % 4]));
@@ -25,17 +25,18 @@ Box3 visible_part(const Camera& camera, const Box3& box) {
   }
   const Vec3 eye = camera.eye;
   const float slack = 1e-5f * (box.radius() + length(eye - box.center()));
+  // inside every side but `except` (4: none) and nearer than `far` (unless `except` is 5, the far plane)
   auto in_frustum = [&](const Vec3& p, std::size_t except) {
     for (std::size_t i = 0; i < 4; ++i)
       if (i != except && dot(side[i], p - eye) < -slack) return false;
-    return true;
+    return except == 5 || dot(ahead, p - eye) <= far + slack;
   };
   if (box.contains(eye)) seen.extend(eye);
   for (int c = 0; c < 8; ++c)
     if (in_frustum(box.corner(c), 4)) seen.extend(box.corner(c));
-  for (const Vec3& d : edge) {
+  for (const Vec3& d : edge) {  // the frustum's edges, up to the far plane
     float t0 = 0, t1 = 0;
-    if (box.clip(Ray{eye, d}, t0, t1)) {
+    if (box.clip(Ray{eye, d}, t0, t1, 0.0f, far / dot(d, ahead))) {
       seen.extend(eye + d * t0);
       seen.extend(eye + d * t1);
     }
@@ -44,11 +45,12 @@ Box3 visible_part(const Camera& camera, const Box3& box) {
     for (int bit = 1; bit < 8; bit <<= 1) {
       if (a & bit) continue;
       const Vec3 p = box.corner(a), q = box.corner(a | bit);
-      for (std::size_t i = 0; i < 4; ++i) {
-        const float dp = dot(side[i], p - eye), dq = dot(side[i], q - eye);
-        if ((dp < 0) == (dq < 0)) continue;
+      for (std::size_t i = 0; i < 5; ++i) {  // the box's edges through the sides and the far plane
+        const float dp = i < 4 ? dot(side[i], p - eye) : far - dot(ahead, p - eye);
+        const float dq = i < 4 ? dot(side[i], q - eye) : far - dot(ahead, q - eye);
+        if ((dp < 0) == (dq < 0) || !std::isfinite(dp - dq)) continue;
         const Vec3 x = p + (q - p) * (dp / (dp - dq));
-        if (in_frustum(x, i)) seen.extend(x);
+        if (in_frustum(x, i == 4 ? 5 : i)) seen.extend(x);
       }
     }
   if (seen.empty()) return seen;
@@ -89,30 +91,66 @@ std::uint64_t refined_bytes(const LevelBox& box, ScalarType type, bool gradients
   return volume_held_bytes(d, type) + (gradients ? voxels * kGradientBytesPerVoxel : 0);
 }
 
-std::optional<RefinementChoice> choose_refinement(const Camera& camera, const PyramidSource& pyramid, const Box3& visible,
-                                                  std::uint64_t bytes, bool gradients) {
-  if (visible.empty() || pyramid.opened <= 0) return std::nullopt;
+std::optional<RefinementChoice> choose_refinement(const Camera& camera, const PyramidSource& pyramid, const Box3& volume_box,
+                                                  std::uint64_t bytes, bool gradients, bool cut_depth) {
+  if (pyramid.opened <= 0) return std::nullopt;
   const PrimaryRays rays(camera);
-  const float depth = std::max(0.0f, dot(visible.center() - camera.eye, -rays.frame.w));
-  const float pixel = depth * 2.0f * std::tan(radians(camera.fov_deg) * 0.5f) / static_cast<float>(std::max(camera.height, 1));
+  const Vec3 ahead = -rays.frame.w;
+  const float per_depth = 2.0f * std::tan(radians(camera.fov_deg) * 0.5f) / static_cast<float>(std::max(camera.height, 1));  // a pixel's size
   auto edge = [&](int level) { return smallest_edge(pyramid.levels[static_cast<std::size_t>(level)].spacing); };
-  if (edge(pyramid.opened) <= pixel) return std::nullopt;
+  // beyond this depth the opened level's voxel is no larger than a pixel: nothing there to refine
+  const float enough = edge(pyramid.opened) / per_depth;
+  const Box3 visible = visible_part(camera, volume_box, enough);
+  if (visible.empty()) return std::nullopt;
+  float near = kInfinity, far = 0;
+  for (int c = 0; c < 8; ++c) {
+    const float d = dot(visible.corner(c) - camera.eye, ahead);
+    near = std::min(near, d);
+    far = std::max(far, d);
+  }
+  near = std::max(near, 0.0f);
+  far = std::min(far, enough);
+  const float pixel = std::max(0.0f, dot(visible.center() - camera.eye, ahead)) * per_depth;
+  // the level's box of `seen` (grown by the margin when `margin`) when it fits the bytes
+  auto fit = [&](const Box3& seen, int level, bool margin) -> std::optional<RefinementChoice> {
+    const Vec3 m = margin ? seen.extent() * kRefinementMargin : Vec3{0, 0, 0};
+    const LevelBox box = level_box(pyramid, level, Box3{seen.lo - m, seen.hi + m});
+    const auto d = box.dims();
+    const std::uint64_t voxels = static_cast<std::uint64_t>(d[0]) * static_cast<std::uint64_t>(d[1]) * static_cast<std::uint64_t>(d[2]);
+    const bool stored = gradients && refined_bytes(box, pyramid.type, true) <= bytes && voxels * kGradientBytesPerVoxel <= kStoredGradientBytes;
+    if (!stored && refined_bytes(box, pyramid.type, false) > bytes) return std::nullopt;
+    return RefinementChoice{box, stored, seen};
+  };
+  // the margin is kept where it fits, so that a small camera move stays inside the box
   std::optional<RefinementChoice> best;
   for (int level = pyramid.opened - 1; level >= 0; --level) {
-    const LevelBox box = level_box(pyramid, level, visible);
-    const auto d = box.dims();
-    const bool stored = gradients && refined_bytes(box, pyramid.type, true) <= bytes &&
-                        static_cast<std::uint64_t>(d[0]) * static_cast<std::uint64_t>(d[1]) * static_cast<std::uint64_t>(d[2]) *
-                                kGradientBytesPerVoxel <=
-                            kStoredGradientBytes;
-    if (!stored && refined_bytes(box, pyramid.type, false) > bytes) break;
-    best = RefinementChoice{box, stored};
-    if (edge(level) <= pixel) break;
-  }
-  if (best) {  // a margin where it fits, so that a small camera move stays inside the box
-    const Vec3 margin = visible.extent() * kRefinementMargin;
-    const LevelBox grown = level_box(pyramid, best->box.level, Box3{visible.lo - margin, visible.hi + margin});
-    if (refined_bytes(grown, pyramid.type, best->stored_gradients) <= bytes) best->box = grown;
+    std::optional<RefinementChoice> whole = fit(visible, level, true);
+    if (!whole) whole = fit(visible, level, false);
+    if (whole) {
+      best = whole;
+      if (edge(level) <= pixel) break;
+      continue;
+    }
+    // the near part of the view that fits, with its margin if it can (at least a quarter of the view's
+    // depth); the rest stays on the opened level
+    float lo = near + 0.25f * (far - near), hi = far;
+    std::optional<RefinementChoice> part;
+    bool margin = true;
+    if (cut_depth) {
+      part = fit(visible_part(camera, volume_box, lo), level, true);
+      if (!part) part = fit(visible_part(camera, volume_box, lo), level, margin = false);
+    }
+    for (int i = 0; part && i < 12; ++i) {
+      const float mid = 0.5f * (lo + hi);
+      if (const auto deeper = fit(visible_part(camera, volume_box, mid), level, margin)) {
+        part = deeper;
+        lo = mid;
+      } else {
+        hi = mid;
+      }
+    }
+    if (part) best = part;
+    break;
   }
   return best;
 }

@@ -4,10 +4,13 @@
 // A volume the scene reader opened from an OME-Zarr pyramid at a level coarser than its finest
 // (VolumeObject::pyramid: memory allowed no finer level for the whole volume) is drawn, in full-quality
 // frames, from a box of a finer level that covers what the camera sees of it: the bounds of the
-// frustum ∩ the volume's box, with an apron of two voxels for interpolation and central differences.
-// The level is the finest whose box fits what the volumes leave of the budget
-// (Scene::refinement_bytes), and no finer than needed: the first whose voxel is no larger than a pixel
-// at the depth of the box's centre. Previews keep the opened level (they must come at once), and every
+// frustum ∩ the volume's box up to the depth where the opened level's voxel is as small as a pixel,
+// with an apron of two voxels for interpolation and central differences. The level is the finest whose
+// box fits what the volumes leave of the budget (Scene::refinement_bytes), and no finer than needed:
+// the first whose voxel is no larger than a pixel at the depth of the part's centre. Where the finer
+// level's box of the whole part does not fit (a deep view along a long volume), the near part that fits
+// is refined and the ray caster draws the rest from the opened level on the same lattice (one visible
+// volume; beside others the box replaces the volume and must hold all it shows). Previews keep the opened level (they must come at once), and every
 // light structure (shadow maps, CSSM, the SAT, ambient occlusion) keeps being built from the opened
 // level: a refined view sharpens what the eye sees, the shadows stay those of the coarser level.
 // The box is kept while the view stays inside it (a camera move inside a zoomed region reads nothing);
@@ -37,10 +40,11 @@ namespace penumbra {
 constexpr int kRefinementApron = 2;
 constexpr float kRefinementMargin = 0.125f;
 
-// The world box of what `camera` sees of `box` (its vertices' bounds of frustum ∩ box: the eye when it
-// lies in the box, the box's corners inside the frustum, the frustum's edges through the box's faces
-// and the box's edges through the frustum's sides); empty when none of it is in view.
-Box3 visible_part(const Camera& camera, const Box3& box);
+// The world box of what `camera` sees of `box` no deeper than `far` (along the view direction): the
+// bounds of frustum ∩ box, exact — the vertices of the intersection of the two convex bodies: the eye
+// when it lies in the box, the box's corners inside the frustum, the frustum's edges through the box's
+// faces and the box's edges through the frustum's sides and far plane. Empty when none of it is seen.
+Box3 visible_part(const Camera& camera, const Box3& box, float far = kInfinity);
 
 // A box of one level of a pyramid: voxels [lo, hi) along x, y, z of that level.
 struct LevelBox {
@@ -57,17 +61,20 @@ LevelBox level_box(const PyramidSource& pyramid, int level, const Box3& world);
 // What a box holds: voxels and macrocells, and stored gradients when `gradients`.
 std::uint64_t refined_bytes(const LevelBox& box, ScalarType type, bool gradients);
 
-// The box a full frame draws `pyramid` from when `visible` (visible_part) is what the camera sees of
-// it: the finest level finer than the opened one whose box fits `bytes` (with stored gradients when
-// `gradients` and they fit, else without), stopping at the first whose voxel is no larger than a pixel
-// at the depth of the visible part's centre; nullopt when the opened level is that fine already,
-// nothing is in view or no finer box fits.
+// The box a full frame draws `pyramid` (its world box `volume_box`) from for `camera`: the part of the
+// volume in view up to the depth where the opened level's voxel is as small as a pixel, from the finest
+// level finer than the opened one whose box of it fits `bytes` (with stored gradients when `gradients`
+// and they fit, else without), stopping at the first level whose voxel is no larger than a pixel at the
+// part's centre. Where a level's box of the whole part does not fit, `cut_depth` takes the nearest part
+// that does (at least a quarter of its depth; the ray caster draws the rest from the opened level).
+// nullopt when the opened level is fine enough, nothing is in view or no finer box fits.
 struct RefinementChoice {
   LevelBox box;
   bool stored_gradients = false;
+  Box3 seen;  // the world part the box covers (before its margin)
 };
-std::optional<RefinementChoice> choose_refinement(const Camera& camera, const PyramidSource& pyramid, const Box3& visible,
-                                                  std::uint64_t bytes, bool gradients);
+std::optional<RefinementChoice> choose_refinement(const Camera& camera, const PyramidSource& pyramid, const Box3& volume_box,
+                                                  std::uint64_t bytes, bool gradients, bool cut_depth);
 // The world box of a pyramid: its opened level's (`opened`, the volume held) and its finest's together.
 Box3 pyramid_bounds(const PyramidSource& pyramid, const Volume& opened);
 

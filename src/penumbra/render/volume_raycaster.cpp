@@ -283,12 +283,25 @@ VolumeFrame render_volume_frame(const RayCastInputs& in) {
         const float t_surface = in.opaque ? (*in.opaque->distance)[pixel] : kInfinity;
         float& half = out.half_depth[pixel];
         // the volumes' colour (premultiplied) and opacity over [t_start, t_end]
+        auto one = [&](const PreparedVolume& pv, float t_start, float t_end, Rgb& color) {
+          return pv.volume->with_voxel_type([&](auto type) {
+            return in.owned ? trace_one<decltype(type), true>(pv, shader, ray, jitter, t_start, t_end, batch, color, half, counts)
+                            : trace_one<decltype(type), false>(pv, shader, ray, jitter, t_start, t_end, batch, color, half, counts);
+          });
+        };
         auto trace = [&](float t_start, float t_end, Rgb& color) {
-          if (in.volumes.size() == 1)
-            return in.volumes.front()->volume->with_voxel_type([&](auto type) {
-              return in.owned ? trace_one<decltype(type), true>(*in.volumes.front(), shader, ray, jitter, t_start, t_end, batch, color, half, counts)
-                              : trace_one<decltype(type), false>(*in.volumes.front(), shader, ray, jitter, t_start, t_end, batch, color, half, counts);
-            });
+          float b0 = 0, b1 = 0;
+          if (in.volumes.size() == 1 && in.refined && in.refined->span(ray, b0, b1, t_start, t_end)) {
+            // the opened level in front of the box, the box, the opened level behind it: one lattice
+            Rgb front(0.0f), box(0.0f), back(0.0f);
+            const float a_front = b0 > t_start ? one(*in.volumes.front(), t_start, std::nextafter(b0, -kInfinity), front) : 0.0f;
+            const float a_box = a_front < kEarlyTermination ? one(*in.refined, b0, b1, box) : 0.0f;
+            const float clear = (1 - a_front) * (1 - a_box);
+            const float a_back = 1 - clear < kEarlyTermination ? one(*in.volumes.front(), std::nextafter(b1, kInfinity), t_end, back) : 0.0f;
+            color += front + box * (1 - a_front) + back * clear;
+            return 1 - clear * (1 - a_back);
+          }
+          if (in.volumes.size() == 1) return one(*in.volumes.front(), t_start, t_end, color);
           if (in.volumes.empty()) return 0.0f;
           return trace_many(in.volumes, shader, ray, jitter, t_start, t_end, batch, overlap, color, half, counts);
         };

@@ -65,6 +65,9 @@ struct RayCastInputs {
   const TranslucentLayer* translucent = nullptr;
   std::uint32_t sample = 0;  // accumulation sample: 0 the batch frame; others move every pixel's jitter
   const SampleSlab* owned = nullptr;  // a brick's samples only; null: every sample
+  // One volume: a finer box of it (render/view_refinement.h), drawn where a ray crosses it, the volume
+  // before and behind it on the same lattice; null: none.
+  const PreparedVolume* refined = nullptr;
 };
 
 struct VolumeFrame {
