@@ -217,7 +217,7 @@ def big(o, cli, out):
         scene = zoomed_scene(cli, store, out, "big_zoom", 450.0, [0.0, 0.0, 650.0])
         args = ["--memory-budget", o.budget, "--width", 1024, "--height", 1024]
         p_seconds, p_peak, _, _ = timed([cli, "render", scene, *args, "--preview", "-o", os.path.join(out, "big_zoom_preview.png")])
-        z_stats = os.path.join(out, "big_zoom.json")
+        z_stats = os.path.join(out, "big_zoom_stats.json")
         z_seconds, z_peak, _, _ = timed([cli, "render", scene, *args, "-o", os.path.join(out, "big_zoom.png"), "--stats", z_stats])
         zs = json.load(open(z_stats))
         result["zoom"] = {"preview_s": p_seconds, "refined_s": z_seconds, "peak_mib": max(p_peak, z_peak),
