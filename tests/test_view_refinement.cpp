@@ -13,6 +13,7 @@
 #include "penumbra/render/view_refinement.h"
 #include "penumbra/scene_io/scene_file.h"
 #include "test_scenes.h"
+#include "test_volume_io_util.h"
 
 using namespace penumbra;
 using namespace penumbra::test;
@@ -193,12 +194,7 @@ TEST(ViewRefinement, ChoosesTheCoarsestLevelAsFineAsAPixelThatFits) {
 // A box of a level (load_zarr_box) is that level's voxels, placed where they lie, its chunks only read.
 TEST(ViewRefinement, ABoxOfALevelIsThatLevelsVoxels) {
   ScratchDir dir;
-  Volume source(ScalarType::UInt16, {37, 30, 26}, {0.5f, 0.75f, 1.25f}, {3, -2, 1});
-  for (std::size_t i = 0; i < source.voxel_count(); ++i) source.set_value(i, static_cast<float>(i * 37 % 4001));
-  source.recompute_range();
-  OmeZarrWriteOptions options;
-  options.chunk = 8;
-  write_ome_zarr(source, dir.file("v.zarr"), options);
+  write_numbered_pyramid(dir.file("v.zarr"), {37, 30, 26});
   const std::vector<ZarrLevelGrid> grids = zarr_level_grids(dir.file("v.zarr"));
   ASSERT_GE(grids.size(), 2u);
   for (const int level : {0, 1}) {

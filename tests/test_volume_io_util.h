@@ -19,10 +19,22 @@
 #include <vector>
 
 #include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/io/zarr_writer.h"
 
 namespace penumbra::test {
 
 // True when one of the loader's notes contains `part`.
+// An OME-Zarr pyramid of 8³ chunks written at `path` from a uint16 volume of `dims` whose voxel i holds
+// i·37 mod 4001 (spacing 0.5, 0.75, 1.25; origin 3, −2, 1): every voxel tells where it came from.
+inline void write_numbered_pyramid(const std::string& path, const std::array<int, 3>& dims) {
+  Volume source(ScalarType::UInt16, dims, {0.5f, 0.75f, 1.25f}, {3, -2, 1});
+  for (std::size_t i = 0; i < source.voxel_count(); ++i) source.set_value(i, static_cast<float>(i * 37 % 4001));
+  source.recompute_range();
+  OmeZarrWriteOptions options;
+  options.chunk = 8;
+  write_ome_zarr(source, path, options);
+}
+
 inline bool has_note(const VolumeFileInfo& info, const std::string& part) {
   return std::any_of(info.notes.begin(), info.notes.end(), [&](const std::string& n) { return n.find(part) != std::string::npos; });
 }

@@ -254,12 +254,7 @@ TEST(VolumeWindow, GzipWindowsContinueWhereTheLastEndedAndAnyOrderIsRight) {
 // chosen slices, at the level chosen, and the window is the whole level's slices.
 TEST(VolumeWindow, ZarrStoresReadOnlyTheChunksOfTheChosenSlices) {
   ScratchDir dir;
-  Volume source(ScalarType::UInt16, {13, 10, 40}, {0.5f, 0.75f, 1.25f}, {3, -2, 1});
-  for (std::size_t i = 0; i < source.voxel_count(); ++i) source.set_value(i, static_cast<float>(i * 37 % 4001));
-  source.recompute_range();
-  OmeZarrWriteOptions options;
-  options.chunk = 8;
-  write_ome_zarr(source, dir.file("v.zarr"), options);
+  write_numbered_pyramid(dir.file("v.zarr"), {13, 10, 40});
   for (const int level : {0, 1}) {
     SCOPED_TRACE("level " + std::to_string(level));
     VolumeLoadOptions lo;

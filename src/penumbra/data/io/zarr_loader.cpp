@@ -175,6 +175,29 @@ bool is_zarr_store(const std::string& path) {
 
 namespace {
 
+// The OME-Zarr pyramid at `root` (0.5: zarr.json's attributes.ome; 0.4: .zattrs); no levels when
+// `root` is the folder of one array; Error for a group without "multiscales".
+Pyramid read_pyramid(const fs::path& root) {
+  std::error_code ec;
+  if (fs::exists(root / "zarr.json", ec)) {  // Zarr v3: an array, or a group (an OME-Zarr 0.5 image)
+    const nlohmann::json node = io_detail::read_zarr_json(root / "zarr.json");
+    if (!node.is_object()) throw Error((root / "zarr.json").string() + ": expected a JSON object");
+    if (io_detail::json_string(node, "node_type", "") != "group") return {};
+    const nlohmann::json& attrs = io_detail::json_field(node, "attributes");
+    const nlohmann::json& ome = attrs.is_object() && attrs.contains("ome") ? attrs["ome"] : attrs;
+    if (!ome.is_object() || !ome.contains("multiscales"))
+      throw Error("a Zarr group without \"multiscales\" in its zarr.json attributes (expected an OME-Zarr 0.5 image, or the folder of one array)");
+    return read_multiscales(ome, root / "zarr.json");
+  }
+  if (fs::exists(root / ".zattrs", ec) && !fs::exists(root / ".zarray", ec)) {
+    const nlohmann::json attrs = io_detail::read_zarr_json(root / ".zattrs");
+    if (!attrs.is_object() || !attrs.contains("multiscales"))
+      throw Error("a Zarr group without \"multiscales\" in its .zattrs (expected an OME-Zarr image, or the folder of one array)");
+    return read_multiscales(attrs, root / ".zattrs");
+  }
+  return {};
+}
+
 // Voxels [lo, hi) of a level along x, y, z.
 struct IndexBox {
   std::array<std::int64_t, 3> lo{}, hi{};
@@ -188,27 +211,10 @@ Volume load_zarr(const std::string& path, int level_choice, int channel, VolumeF
   VolumeFileInfo& out = info ? *info : local;
   out.format = "zarr";
   const fs::path root(path);
-  std::error_code ec;
-  Pyramid pyramid;
   fs::path array_folder = root;
   Level chosen;
   int level_index = 0;
-  if (fs::exists(root / "zarr.json", ec)) {  // Zarr v3: an array, or a group (an OME-Zarr 0.5 image)
-    const nlohmann::json node = io_detail::read_zarr_json(root / "zarr.json");
-    if (!node.is_object()) throw Error((root / "zarr.json").string() + ": expected a JSON object");
-    if (io_detail::json_string(node, "node_type", "") == "group") {
-      const nlohmann::json& attrs = io_detail::json_field(node, "attributes");
-      const nlohmann::json& ome = attrs.is_object() && attrs.contains("ome") ? attrs["ome"] : attrs;
-      if (!ome.is_object() || !ome.contains("multiscales"))
-        throw Error("a Zarr group without \"multiscales\" in its zarr.json attributes (expected an OME-Zarr 0.5 image, or the folder of one array)");
-      pyramid = read_multiscales(ome, root / "zarr.json");
-    }
-  } else if (fs::exists(root / ".zattrs", ec) && !fs::exists(root / ".zarray", ec)) {
-    const nlohmann::json attrs = io_detail::read_zarr_json(root / ".zattrs");
-    if (!attrs.is_object() || !attrs.contains("multiscales"))
-      throw Error("a Zarr group without \"multiscales\" in its .zattrs (expected an OME-Zarr image, or the folder of one array)");
-    pyramid = read_multiscales(attrs, root / ".zattrs");
-  }
+  const Pyramid pyramid = read_pyramid(root);
   if (!pyramid.levels.empty()) {
     const int n = static_cast<int>(pyramid.levels.size());
     if (level_choice >= n) throw Error("'level' " + std::to_string(level_choice) + ": the pyramid has " + std::to_string(n) + " levels (0 to " + std::to_string(n - 1) + ")");
@@ -449,20 +455,7 @@ Volume load_zarr_box(const std::string& path, int level, int channel, const std:
 
 std::vector<ZarrLevelGrid> zarr_level_grids(const std::string& path) {
   const fs::path root(path);
-  std::error_code ec;
-  Pyramid pyramid;
-  if (fs::exists(root / "zarr.json", ec)) {
-    const nlohmann::json node = io_detail::read_zarr_json(root / "zarr.json");
-    if (!node.is_object() || io_detail::json_string(node, "node_type", "") != "group") return {};
-    const nlohmann::json& attrs = io_detail::json_field(node, "attributes");
-    const nlohmann::json& ome = attrs.is_object() && attrs.contains("ome") ? attrs["ome"] : attrs;
-    if (!ome.is_object() || !ome.contains("multiscales")) return {};
-    pyramid = read_multiscales(ome, root / "zarr.json");
-  } else if (fs::exists(root / ".zattrs", ec) && !fs::exists(root / ".zarray", ec)) {
-    const nlohmann::json attrs = io_detail::read_zarr_json(root / ".zattrs");
-    if (!attrs.is_object() || !attrs.contains("multiscales")) return {};
-    pyramid = read_multiscales(attrs, root / ".zattrs");
-  }
+  const Pyramid pyramid = read_pyramid(root);
   std::vector<ZarrLevelGrid> grids;
   for (const Level& l : pyramid.levels) {
     const ZarrArray a = io_detail::read_zarr_array(root / l.path);
