@@ -377,3 +377,139 @@ TEST(ViewRefinement, TheNearPartOfADeepViewIsRefinedWhereTheWholeDoesNotFit) {
     EXPECT_LE(refined_alpha, opened_alpha) << "summed opacity differences";
   }
 }
+
+namespace {
+
+// A 48³ field of two smooth balls (density 1 at their centres): one at voxel 20 inside the box
+// [10, 30)³, one at voxel 38 outside it.
+float two_balls(int i, int j, int k, bool inner, bool outer) {
+  auto ball = [&](float c, float radius) {
+    const float dx = static_cast<float>(i) - c, dy = static_cast<float>(j) - c, dz = static_cast<float>(k) - c;
+    return std::clamp(1.0f - (dx * dx + dy * dy + dz * dz) / (radius * radius), 0.0f, 1.0f);
+  };
+  return (inner ? ball(20, 6) : 0.0f) + (outer ? ball(38, 5) : 0.0f);
+}
+
+Volume ball_grid(std::array<int, 3> lo, std::array<int, 3> hi, bool inner, bool outer) {
+  const float s = 1.0f / 48.0f;
+  Volume v(ScalarType::Float32, {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]}, {s, s, s},
+           {static_cast<float>(lo[0]) * s, static_cast<float>(lo[1]) * s, static_cast<float>(lo[2]) * s});
+  std::size_t n = 0;
+  for (int k = lo[2]; k < hi[2]; ++k)
+    for (int j = lo[1]; j < hi[1]; ++j)
+      for (int i = lo[0]; i < hi[0]; ++i) v.set_value(n++, two_balls(i, j, k, inner, outer));
+  v.set_value_range(0, 1);  // one table for all three grids
+  return v;
+}
+
+VolumeObject casting(const Volume& v) {
+  VolumeObject o;
+  o.volume = std::make_shared<const Volume>(v);
+  o.transfer_function = TransferFunction({{0.0f, Rgb(1.0f), 0.0f}, {0.05f, Rgb(1.0f), 0.0f}, {1.0f, Rgb(0.8f, 0.5f, 0.3f), 0.2f}});
+  return o;
+}
+
+}  // namespace
+
+// The casters' march over a volume with a refined box classifies a segment in the box where its
+// midpoint lies there and in the opened level elsewhere, on one lattice: with the box cut from the
+// whole grid and the opened grid lacking what the box holds (its macrocells empty there), every light
+// ray's transmittance equals the whole grid's — exactly, so no segment is skipped into the box or past
+// it, and none is classified in the wrong grid.
+TEST(ViewRefinement, CastersReadTheRefinedBoxWhereItLies) {
+  const Volume whole = ball_grid({0, 0, 0}, {48, 48, 48}, true, true);
+  const Volume opened = ball_grid({0, 0, 0}, {48, 48, 48}, false, true);  // the inner ball only in the box
+  const Volume box = ball_grid({10, 10, 10}, {30, 30, 30}, true, true);
+  Scene whole_scene, refined_scene;
+  whole_scene.volumes = {casting(whole)};
+  refined_scene.volumes = {casting(opened)};
+  const VolumeObject box_object = casting(box);
+  const MacrocellGrid whole_grid(whole), opened_grid(opened), box_grid(box);
+  const MacrocellGrid* whole_grids[] = {&whole_grid};
+  const MacrocellGrid* opened_grids[] = {&opened_grid};
+  const ShadowCasters::FinerBox finer[] = {{&box_object, &box_grid}};
+  const ShadowCasters reference(whole_scene, whole_grids), refined(refined_scene, opened_grids, finer),
+      unrefined(refined_scene, opened_grids);
+  ASSERT_EQ(reference.step(), refined.step());
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  int through_box = 0;
+  double unrefined_error = 0;
+  for (int n = 0; n < 2000; ++n) {
+    // rays from outside the grid through a point near the inner ball, the outer ball or anywhere
+    const Vec3 via = n % 3 == 0 ? Vec3{u(rng), u(rng), u(rng)} : Vec3{20.0f / 48, 20.0f / 48, 20.0f / 48} + Vec3{u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f} * 0.3f;
+    const Vec3 dir = normalize(Vec3{u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f});
+    const Ray ray{via - dir * 2.0f, dir};
+    const Rgb expected = reference.transmittance(ray, 0.0f, 4.0f);
+    const Rgb got = refined.transmittance(ray, 0.0f, 4.0f);
+    for (int c = 0; c < 3; ++c) ASSERT_NEAR(got[c], expected[c], 1e-6f) << "ray " << n << " channel " << c;
+    float b0, b1;
+    if (box.bounds().clip(ray, b0, b1, 0.0f, 4.0f) && expected.max_component() < 0.99f) ++through_box;
+    unrefined_error += std::abs(unrefined.transmittance(ray, 0.0f, 4.0f).g - expected.g);
+  }
+  EXPECT_GT(through_box, 500);        // many rays were shadowed in the box
+  EXPECT_GT(unrefined_error, 50.0);   // without the box the inner ball casts nothing
+}
+
+// A full frame of a refined view casts from the box: the matter of a pyramid lying all in view (a ball
+// shadowed by a smaller one, nothing elsewhere), exact ray-traced shadows, the frame equals the finest
+// level's in memory — the eye's samples and their shadow rays alike — where shadows cast from the opened
+// level do not; a preview that moves the light casts from the opened level, the next full frame from
+// the box again.
+TEST(ViewRefinement, AFullFrameCastsFromTheRefinedBox) {
+  ScratchDir dir;
+  const int size = 64;
+  Volume v(ScalarType::Float32, {size, size, size}, {1.0f / size, 1.0f / size, 1.0f / size}, {-0.5f, -0.5f, -0.5f});
+  const Vec3 big{0.2f, 0.2f, 0.2f}, small{0.3f, 0.28f, 0.25f};
+  std::size_t n = 0;
+  for (int k = 0; k < size; ++k)
+    for (int j = 0; j < size; ++j)
+      for (int i = 0; i < size; ++i) {
+        const Vec3 p = v.origin() + v.spacing() * Vec3{static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)};
+        v.set_value(n++, length(p - big) < 0.08f ? 1.0f : length(p - small) < 0.04f ? 0.5f : 0.0f);
+      }
+  v.recompute_range();
+  OmeZarrWriteOptions options;
+  options.chunk = 8;
+  write_ome_zarr(v, dir.file("pair.zarr"), options);
+  auto scene = [&](std::uint64_t budget, bool refine) {
+    nlohmann::json j = ball_scene(dir.file("pair.zarr"), budget, refine);
+    const Vec3 l = normalize(big - small);
+    j["lights"] = nlohmann::json::array({{{"type", "directional"}, {"direction", {l.x, l.y, l.z}}}});
+    j["shadows"] = {{"technique", "ray_traced"}};
+    j["camera"] = {{"eye", {0.22, 0.22, 1.2}}, {"target", {0.22, 0.22, 0.22}}, {"fov_deg", 20}, {"width", 96}, {"height", 96}};
+    return build_scene(j, "");
+  };
+  const std::uint64_t budget = 1u << 20;  // level 1 opens
+  const Scene coarse_scene = scene(budget, true);
+  ASSERT_EQ(coarse_scene.volumes[0].pyramid->opened, 1);
+  Renderer refined(coarse_scene);
+  const FrameResult full = refined.render();
+  ASSERT_EQ(full.refinement.size(), 1u);
+  EXPECT_EQ(full.refinement.front().level, 0);
+  EXPECT_NE(std::find(full.rebuilt.begin(), full.rebuilt.end(), "casters.refined"), full.rebuilt.end());
+  const Image in_memory = Renderer(scene(0, true)).render().image;
+  const Image opened_only = Renderer(scene(budget, false)).render().image;
+  FailureImages keep;
+  keep.add("refined", full.image, in_memory);
+  const ImageDifference refined_error = compare_images(full.image, in_memory), opened_error = compare_images(opened_only, in_memory);
+  EXPECT_LT(refined_error.max_abs, 1e-4) << "rmse " << refined_error.rmse;
+  EXPECT_GT(opened_error.rmse, 0.01);
+  EXPECT_TRUE(non_trivial(full.image));
+
+  // a preview with the light moved builds its shadows from the opened level
+  std::vector<Light> moved = coarse_scene.lights;
+  moved[0].direction = normalize(moved[0].direction + Vec3{0.05f, 0.0f, 0.0f});
+  FrameRequest preview;
+  preview.quality = Quality::Preview;
+  preview.preview_divisor = 1;
+  const FrameResult p = refined.render(coarse_scene.camera, moved, preview);
+  EXPECT_NE(std::find(p.rebuilt.begin(), p.rebuilt.end(), "lights.0.shadows"), p.rebuilt.end());
+  EXPECT_EQ(std::find(p.rebuilt.begin(), p.rebuilt.end(), "casters.refined"), p.rebuilt.end());
+  // the next full frame builds them from the box again, keeping the box and its casters
+  const FrameResult again = refined.render(coarse_scene.camera, coarse_scene.lights);
+  EXPECT_NE(std::find(again.rebuilt.begin(), again.rebuilt.end(), "lights.0.shadows"), again.rebuilt.end());
+  EXPECT_EQ(std::find(again.rebuilt.begin(), again.rebuilt.end(), "casters.refined"), again.rebuilt.end());
+  EXPECT_EQ(again.refinement.front().loaded_bytes, 0u);
+  EXPECT_LT(compare_images(again.image, in_memory).max_abs, 1e-4);
+}

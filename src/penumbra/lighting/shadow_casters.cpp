@@ -14,17 +14,29 @@ CastingVolume::CastingVolume(const VolumeObject& o, const MacrocellGrid& g, floa
       achromatic(o.compositing == Compositing::Extinction),
       clip(clip_planes) {}
 
-ShadowCasters::ShadowCasters(const Scene& scene, std::span<const MacrocellGrid* const> grids) {
+ShadowCasters::ShadowCasters(const Scene& scene, std::span<const MacrocellGrid* const> grids, std::span<const FinerBox> finer) {
   const float steps_in_voxels = light_step_voxels(scene.shadows.params);
-  // one lattice for every volume: the finest of their voxels
+  const auto casts = [&](std::size_t i) { return i < grids.size() && grids[i] && scene.volumes[i].casts_shadows; };
+  const auto finer_of = [&](std::size_t i) { return i < finer.size() && finer[i].object ? &finer[i] : nullptr; };
+  // one lattice for every volume: the finest of their voxels (a refined box's among them)
   float voxel = kInfinity;
   for (std::size_t i = 0; i < scene.volumes.size(); ++i)
-    if (i < grids.size() && grids[i] && scene.volumes[i].casts_shadows) voxel = std::min(voxel, scene.volumes[i].voxel_step());
+    if (casts(i)) {
+      voxel = std::min(voxel, scene.volumes[i].voxel_step());
+      if (const FinerBox* f = finer_of(i)) voxel = std::min(voxel, f->object->voxel_step());
+    }
   if (voxel < kInfinity) step_ = steps_in_voxels * voxel;
   for (std::size_t i = 0; i < scene.volumes.size(); ++i)
-    if (i < grids.size() && grids[i] && scene.volumes[i].casts_shadows)
-      volumes_.push_back(std::make_shared<const CastingVolume>(scene.volumes[i], *grids[i], step_,
-                                                             scene.clip_planes_for(scene.volumes[i].clip)));
+    if (casts(i)) {
+      const ClipPlanes clip = scene.clip_planes_for(scene.volumes[i].clip);
+      auto cv = std::make_shared<CastingVolume>(scene.volumes[i], *grids[i], step_, clip);
+      if (const FinerBox* f = finer_of(i)) {
+        if (f->object->volume->type() != scene.volumes[i].volume->type())
+          throw Error("volumes[" + std::to_string(i) + "]: a refined box's voxel type differs from its opened level's");
+        cv->finer = std::make_shared<const CastingVolume>(*f->object, *f->grid, step_, clip);
+      }
+      volumes_.push_back(std::move(cv));
+    }
   for (const Plane& p : scene.planes)
     if (p.casts_shadows) planes_.push_back(p);
   update_bounds();

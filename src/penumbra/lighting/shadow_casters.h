@@ -13,6 +13,13 @@
 // copy restricted to those kinds (restricted_to), and the product over the techniques of a light covers
 // every caster once. The extinction techniques also read the volume's 3D summed area table from here,
 // once the renderer has attached it.
+//
+// A volume drawn from a refined box of a finer pyramid level (render/view_refinement.h) casts from that
+// box where it has one (CastingVolume::finer): a segment whose midpoint lies in the box is classified
+// in the box's voxels, the rest in the opened level's, on one lattice as fine as the box's voxel. So
+// every technique that marches the casters (shadow maps, the deep shadow map, the CSSM, ray-traced
+// shadows and ambient occlusion, the isosurface light pass) is refined where the camera looks; what
+// reads the extinction SAT keeps the opened level.
 #pragma once
 
 #include <cmath>
@@ -59,6 +66,9 @@ struct CastingVolume {
   std::vector<std::uint8_t> empty;
   bool achromatic;
   ClipPlanes clip;  // the scene's clip planes when the volume is clipped, else none
+  // A box of a finer level of the same volume (same voxel type), classified where a segment's midpoint
+  // lies in it; null when the volume is not refined.
+  std::shared_ptr<const CastingVolume> finer;
 
   // The part [t0, t1] of r within [tmin, tmax] inside the box and kept by the clip planes.
   bool span(const Ray& r, float& t0, float& t1, float tmin, float tmax) const {
@@ -88,7 +98,13 @@ class ShadowCasters {
 public:
   // The scene's casting volumes (grids[i] is the macrocell grid of scene.volumes[i]; null for volumes
   // that are not drawn) and planes. Spheres and isosurfaces are added by the renderer.
-  ShadowCasters(const Scene& scene, std::span<const MacrocellGrid* const> grids);
+  // `finer[i]`, where given, is a refined box of scene.volumes[i] with its macrocells: that volume casts
+  // from it where it lies, and the lattice is as fine as its voxel.
+  struct FinerBox {
+    const VolumeObject* object = nullptr;
+    const MacrocellGrid* grid = nullptr;
+  };
+  ShadowCasters(const Scene& scene, std::span<const MacrocellGrid* const> grids, std::span<const FinerBox> finer = {});
   void set_spheres(const CastingSpheres& spheres);
   void add_isosurface(const IsosurfaceRaycaster& raycaster, const GridTree& tree, std::uint32_t object,
                       const ClipPlanes& clip = ClipPlanes());
@@ -180,14 +196,27 @@ private:
   // One volume: the voxel type is decided once per ray, so that sampling inlines in the loop.
   template <class Visit>
   void march_one(const CastingVolume& cv, const Ray& r, float t_begin, float t_end, float t_from, Visit& visit) const {
-    cv.volume->with_voxel_type([&](auto type) { march_one_as<decltype(type)>(cv, r, t_begin, t_end, t_from, visit); });
+    cv.volume->with_voxel_type([&](auto type) {
+      float f0 = 0, f1 = 0;
+      if (cv.finer && cv.finer->box.clip(r, f0, f1, t_begin, t_end))
+        march_one_as<decltype(type), true>(cv, r, t_begin, t_end, t_from, f0, f1, visit);
+      else
+        march_one_as<decltype(type), false>(cv, r, t_begin, t_end, t_from, 0, 0, visit);
+    });
   }
-  template <class T, class Visit>
-  void march_one_as(const CastingVolume& cv, const Ray& r, float t_begin, float t_end, float t_from, Visit& visit) const {
+  // kFiner: the ray crosses cv.finer's box over [f0, f1]; a segment whose midpoint lies there is
+  // classified in the box (empty space is skipped in each by its own cells, never past the other's start).
+  template <class T, bool kFiner, class Visit>
+  void march_one_as(const CastingVolume& cv, const Ray& r, float t_begin, float t_end, float t_from, float f0, float f1,
+                    Visit& visit) const {
     float t0, t1;
     if (!cv.span(r, t0, t1, t_begin, t_end)) return;
     const EmptySpaceSkipper skipper(*cv.volume, *cv.grid, cv.empty);
+    const CastingVolume* finer = kFiner ? cv.finer.get() : nullptr;
+    const std::optional<EmptySpaceSkipper> finer_skipper =
+        kFiner ? std::optional<EmptySpaceSkipper>(std::in_place, *finer->volume, *finer->grid, finer->empty) : std::nullopt;
     std::size_t last_cell = SIZE_MAX;
+    bool last_in_finer = false;
     std::int64_t k = static_cast<std::int64_t>(std::floor(std::max(t0, t_from) / step_));
     while (true) {
       float seg0, seg1;
@@ -195,19 +224,24 @@ private:
       if (seg1 <= seg0) { ++k; continue; }
       const float tm = 0.5f * (seg0 + seg1);
       const Vec3 p = r.at(tm);
-      const Vec3 v = cv.volume->to_voxel(p);
-      const TrilinearCell tc = cv.volume->trilinear_cell(v);  // shared by the macrocell and the value
-      const std::size_t cell = skipper.cell_of(tc);
-      if (cell != last_cell) {
+      const bool in_finer = kFiner && tm >= f0 && tm <= f1;
+      const CastingVolume& at = in_finer ? *finer : cv;
+      const EmptySpaceSkipper& sk = in_finer ? *finer_skipper : skipper;
+      const Vec3 v = at.volume->to_voxel(p);
+      const TrilinearCell tc = at.volume->trilinear_cell(v);  // shared by the macrocell and the value
+      const std::size_t cell = sk.cell_of(tc);
+      if (cell != last_cell || in_finer != last_in_finer) {
         last_cell = cell;
-        if (skipper.empty(cell)) {  // empty cell: continue with the segment that holds the cell's exit
-          const float t_skip = skipper.cell_exit(r, tm, v);
+        last_in_finer = in_finer;
+        if (sk.empty(cell)) {  // empty cell: continue with the segment that holds the cell's exit
+          float t_skip = sk.cell_exit(r, tm, v);
+          if (kFiner) t_skip = in_finer ? std::min(t_skip, f1) : tm < f0 ? std::min(t_skip, f0) : t_skip;
           k = std::max(k + 1, static_cast<std::int64_t>(std::floor(t_skip / step_)));
           last_cell = SIZE_MAX;
           continue;
         }
       }
-      const Rgba s = cv.lut.lookup(cv.volume->template sample_cell_as<T>(tc));
+      const Rgba s = at.lut.lookup(at.volume->template sample_cell_as<T>(tc));
       if (s.a > 0) {
         const float a = part_opacity(s.a, seg1 - seg0);
         if (!visit(MediumSegment{k, tm, seg0, seg1, a, cv.achromatic ? Rgb(0.0f) : s.rgb})) return;
@@ -249,6 +283,26 @@ private:
           skip_to = std::min(skip_to, a0);
           continue;
         }
+        float f0 = 0, f1 = 0;
+        const bool crosses_finer = cv.finer && cv.finer->box.clip(r, f0, f1, tm, t1);
+        if (crosses_finer && f0 <= tm) {  // inside the refined box: classified there
+          const CastingVolume& fine = *cv.finer;
+          const Vec3 v = fine.volume->to_voxel(p);
+          const EmptySpaceSkipper skipper(*fine.volume, *fine.grid, fine.empty);
+          const std::size_t cell = skipper.cell_of(v);
+          if (skipper.empty(cell)) {
+            skip_to = std::min({skip_to, skipper.cell_exit(r, tm, v), f1});
+            continue;
+          }
+          occupied = true;
+          const Rgba s = fine.lut.lookup(fine.volume->sample_voxel(v));
+          if (s.a <= 0) continue;
+          const float a = part_opacity(s.a, len);
+          pass *= Rgb(1.0f) - (Rgb(1.0f) - (fine.achromatic ? Rgb(0.0f) : s.rgb)) * a;
+          clear *= 1 - a;
+          continue;
+        }
+        if (crosses_finer) skip_to = std::min(skip_to, f0);  // never skip past the box's start
         const Vec3 v = cv.volume->to_voxel(p);
         const EmptySpaceSkipper skipper(*cv.volume, *cv.grid, cv.empty);
         const std::size_t cell = skipper.cell_of(v);

@@ -129,6 +129,7 @@ std::vector<std::string> Renderer::structures() const {
   }
   if (bvh_) names.push_back("bvh");
   if (casters_) names.push_back("casters");
+  if (refined_casters_) names.push_back("casters.refined");
   if (sat_) names.push_back("sat");
   if (ambient_) names.push_back("ambient");
   for (std::size_t i = 0; i < shadows_.size(); ++i)
@@ -299,10 +300,10 @@ void Renderer::prepare_isosurfaces(FrameResult& frame) {
   }
 }
 
-void Renderer::prepare_casters() {
+std::unique_ptr<ShadowCasters> Renderer::make_casters(std::span<const ShadowCasters::FinerBox> finer) const {
   std::vector<const MacrocellGrid*> grids(scene_.volumes.size(), nullptr);
   for (std::size_t k = 0; k < volumes_.size(); ++k) grids[static_cast<std::size_t>(volume_index_[k])] = &volumes_[k]->grid;
-  casters_ = std::make_unique<ShadowCasters>(settings_, grids);
+  auto casters = std::make_unique<ShadowCasters>(settings_, grids, finer);
   // spheres split over the ranks (FrameRequest::own_spheres): every rank fits its light structures to
   // the box of all of them, though it may hold no casting sphere
   const bool split = frame_brick_ && frame_brick_->own_spheres && (casting_kinds(scene_) & kind_bit(ObjectKind::Spheres));
@@ -311,13 +312,33 @@ void Renderer::prepare_casters() {
     const SphereBvh* bvh = casting_particles_ == particles_ ? bvh_.get() : casting_bvh_.get();
     Box3 bounds = casting_particles_ ? casting_particles_->bounds() : Box3{};
     if (split) bounds = combined_bounds(bounds, *frame_brick_->reduction);
-    casters_->set_spheres(CastingSpheres{casting_particles_ ? casting_particles_.get() : &kNoSpheres, bvh, bounds});
+    casters->set_spheres(CastingSpheres{casting_particles_ ? casting_particles_.get() : &kNoSpheres, bvh, bounds});
   }
   for (std::size_t i = 0; i < isosurfaces_.size(); ++i)
     if (scene_.isosurfaces[i].casts_shadows)
-      casters_->add_isosurface(isosurfaces_[i]->raycaster, *isosurfaces_[i]->tree, static_cast<std::uint32_t>(i),
-                               scene_.clip_planes_for(scene_.isosurfaces[i].clip));
-  if (sat_) casters_->attach_extinction_sat(sat_.get());
+      casters->add_isosurface(isosurfaces_[i]->raycaster, *isosurfaces_[i]->tree, static_cast<std::uint32_t>(i),
+                              scene_.clip_planes_for(scene_.isosurfaces[i].clip));
+  if (sat_) casters->attach_extinction_sat(sat_.get());
+  return casters;
+}
+
+bool Renderer::update_refined_casters() {
+  std::vector<ShadowCasters::FinerBox> finer(scene_.volumes.size());
+  bool any = false;
+  for (std::size_t k = 0; k < refined_.size() && k < volumes_.size(); ++k)
+    if (refined_[k]) {
+      finer[static_cast<std::size_t>(volume_index_[k])] = {&refined_[k]->object(), &refined_[k]->prepared().grid};
+      any = true;
+    }
+  if (!any) {
+    const bool had = refined_casters_ != nullptr;
+    refined_casters_.reset();
+    return had;
+  }
+  if (refined_casters_ && !refined_changed_) return false;
+  refined_casters_ = make_casters(finer);
+  refined_changed_ = false;
+  return true;
 }
 
 std::size_t Renderer::voxel_count() const {
@@ -351,7 +372,7 @@ void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
     RefinementStats stats;
     stats.volume = i;
     auto evict = [&] {
-      if (held) stats.evicted_bytes += held->held_bytes();
+      if (held) stats.evicted_bytes += held->held_bytes(), refined_changed_ = true;
       held.reset();
     };
     if (!o.pyramid || o.volume->is_window()) {
@@ -374,6 +395,7 @@ void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
         Timer load;
         WindowRead read;
         held = std::make_unique<RefinedVolume>(o, *choice, &read);
+        refined_changed_ = true;
         stats.loaded_bytes = held->held_bytes();
         stats.read_bytes = read.bytes_read;
         stats.load_ms = load.elapsed_ms();
@@ -411,7 +433,7 @@ std::size_t Renderer::bvh_memory_bytes() const {
   return (bvh_ ? bvh_->memory_bytes() : 0) + (casting_bvh_ ? casting_bvh_->memory_bytes() : 0);
 }
 
-void Renderer::prepare(Quality quality, FrameResult& frame) {
+void Renderer::prepare(Quality quality, const Camera* refine_for, FrameResult& frame) {
   settings_ = quality == Quality::Preview ? preview_settings(scene_, full_shadow_ms_) : scene_;
   building_ = quality;
   // a full frame rebuilds what a preview built coarser
@@ -423,6 +445,7 @@ void Renderer::prepare(Quality quality, FrameResult& frame) {
   Timer prep;
   prepare_volumes(frame);
   check_cancelled();
+  if (refine_for) refine_volumes(*refine_for, frame);
   prepare_particles(frame);
   prepare_isosurfaces(frame);
   frame.prepare_ms = prep.elapsed_ms() - frame.bvh_ms;
@@ -450,11 +473,21 @@ void Renderer::prepare(Quality quality, FrameResult& frame) {
     }
     stale_.erase("sat");
   }
-  if (stale("casters") || !casters_) {
-    prepare_casters();
-    rebuilt("casters", quality, frame);
+  const auto light_structures_stale = [&] {
     stale_.insert("ambient");
     for (std::size_t l = 0; l < scene_.lights.size(); ++l) stale_.insert(indexed("lights", l, "shadows"));
+  };
+  if (stale("casters") || !casters_) {
+    casters_ = make_casters({});
+    refined_casters_.reset();
+    rebuilt("casters", quality, frame);
+    light_structures_stale();
+  }
+  // a full frame casts from the refined boxes held (a preview from the opened levels, keeping what a
+  // full frame built while nothing it casts changes)
+  if (quality == Quality::Full && update_refined_casters()) {
+    if (refined_casters_) rebuilt("casters.refined", quality, frame);
+    light_structures_stale();
   }
   if (stale("ambient")) {
     // a technique that keeps what it built (particle_ao's cones under ambient.reuse) is built again
@@ -466,7 +499,7 @@ void Renderer::prepare(Quality quality, FrameResult& frame) {
     if (ambient) {
       Timer t;
       // the ambient technique's occluders: every object of its kinds, casting or not
-      occluders_ = std::make_unique<ShadowCasters>(casters_->restricted_to(ambient_occluders(scene_)));
+      occluders_ = std::make_unique<ShadowCasters>(frame_casters().restricted_to(ambient_occluders(scene_)));
       // a distributed frame: a technique that combines over bricks builds from this brick's share
       if (frame_brick_ && ambient->combines_over_bricks()) *occluders_ = occluders_->restricted_to_brick(*frame_brick_);
       ambient->build(*occluders_);
@@ -504,7 +537,7 @@ void Renderer::update_shadows(const std::vector<Light>& lights, Quality quality,
     const bool have = i < shadows_.size();
     if (have && !stale(name) && same_shadow_geometry(built_for_[i], lights[i]) && (!seeded || seed_of_[i] == seed)) continue;
     Timer t;
-    auto s = std::make_unique<LightShadows>(*settings, *casters_, lights[i], brick);
+    auto s = std::make_unique<LightShadows>(*settings, frame_casters(), lights[i], brick);
     if (quality == Quality::Full) full_shadow_ms_of_[i] = t.elapsed_ms();
     if (have) {
       shadows_[i] = std::move(s);
@@ -553,16 +586,15 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   if (request.reduction != nullptr && (request.slab || request.own_spheres))
     brick = ShadowBrick{request.slab.value_or(SampleSlab{}), request.reduction, request.own_spheres};
   frame_brick_ = brick ? &*brick : nullptr;
-  prepare(request.quality, frame);
+  // a full frame draws pyramids opened coarse from a finer box where the camera looks, and casts from it;
+  // a preview (or a rank's slab) from the opened level
+  const bool refined_frame = request.quality == Quality::Full && !request.slab;
+  prepare(request.quality, refined_frame ? &camera : nullptr, frame);
   frame_brick_ = nullptr;
   Timer build;
   update_shadows(lights, request.quality, request.sample, brick ? &*brick : nullptr, frame);
   update_light_cache();
   frame.build_ms = build.elapsed_ms();
-  // a full frame draws pyramids opened coarse from a finer box where the camera looks; a preview (or a
-  // rank's slab) from the opened level
-  const bool refined_frame = request.quality == Quality::Full && !request.slab;
-  if (refined_frame) refine_volumes(camera, frame);
   if (first_frame_) {
     prepare_ms_ = frame.prepare_ms;
     first_frame_ = false;

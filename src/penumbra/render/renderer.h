@@ -143,14 +143,22 @@ public:
 
 private:
   // Rebuilds the stale structures for `quality` (settings_ holds the scene's settings at that quality).
-  void prepare(Quality quality, FrameResult& frame);
+  // `refine_for`: a full frame's camera, for which the pyramids' boxes are chosen (null: none).
+  void prepare(Quality quality, const Camera* refine_for, FrameResult& frame);
   void prepare_volumes(FrameResult& frame);
   // A full frame: each pyramid's box for this view, loaded when the one held does not cover it; the
   // eye pass's step made the finest of the boxes' and the volumes'.
   void refine_volumes(const Camera& camera, FrameResult& frame);
+  // The casters over the opened levels, or with `finer` the refined boxes where the volumes have them.
+  std::unique_ptr<ShadowCasters> make_casters(std::span<const ShadowCasters::FinerBox> finer) const;
+  // A full frame's casters: refined_casters_ built (or dropped) for the boxes held; true when changed.
+  bool update_refined_casters();
+  // The casters this frame's light structures are built from: a full frame's refined ones where held.
+  const ShadowCasters& frame_casters() const {
+    return building_ == Quality::Full && refined_casters_ ? *refined_casters_ : *casters_;
+  }
   void prepare_particles(FrameResult& frame);
   void prepare_isosurfaces(FrameResult& frame);
-  void prepare_casters();
   void update_shadows(const std::vector<Light>& lights, Quality quality, std::uint32_t sample, const ShadowBrick* brick,
                       FrameResult& frame);
   void update_light_cache();
@@ -179,6 +187,10 @@ private:
   std::vector<int> volume_index_;                         // scene volume of each prepared volume
   std::vector<std::unique_ptr<RefinedVolume>> refined_;   // per prepared volume: the box full frames draw (or none)
   std::unique_ptr<ShadowCasters> casters_;
+  // casters_ with the refined boxes (full frames' light structures; null when no box is held or casters_
+  // changed since); refined_changed_: a box was loaded or given up since they were built
+  std::unique_ptr<ShadowCasters> refined_casters_;
+  bool refined_changed_ = false;
   std::unique_ptr<ShadowCasters> occluders_;              // the ambient technique's kinds
   std::unique_ptr<ExtinctionSat> sat_;
   const ShadowBrick* frame_brick_ = nullptr;  // during prepare(): the frame's brick (its SAT summed over bricks)

@@ -10,9 +10,11 @@
 // the first whose voxel is no larger than a pixel at the depth of the part's centre. Where the finer
 // level's box of the whole part does not fit (a deep view along a long volume), the near part that fits
 // is refined and the ray caster draws the rest from the opened level on the same lattice (one visible
-// volume; beside others the box replaces the volume and must hold all it shows). Previews keep the opened level (they must come at once), and every
-// light structure (shadow maps, CSSM, the SAT, ambient occlusion) keeps being built from the opened
-// level: a refined view sharpens what the eye sees, the shadows stay those of the coarser level.
+// volume; beside others the box replaces the volume and must hold all it shows). Previews keep the opened level (they must come at once).
+// A full frame's light structures that march the volume (shadow maps, the deep shadow map, the CSSM,
+// ray-traced shadows and ambient occlusion) cast from the box where it lies and from the opened level
+// elsewhere (ShadowCasters' CastingVolume::finer), on a lattice as fine as the box's voxel; what reads
+// the extinction SAT (cone shadows, volume ambient occlusion, the light cache) keeps the opened level.
 // The box is kept while the view stays inside it (a camera move inside a zoomed region reads nothing);
 // a view outside it reads a new box and evicts the old one, and FrameResult::refinement says what was
 // held, loaded, read from disk and evicted.
@@ -104,6 +106,7 @@ public:
   const LevelBox& box() const { return box_; }
   std::uint64_t held_bytes() const;  // refined_bytes of its box: what the budget counts
   PreparedVolume& prepared() { return *prepared_; }
+  const VolumeObject& object() const { return object_; }  // the coarse object with the box as its volume
   float step_world() const { return object_.step_world(); }  // its own lattice step
 
 private:
