@@ -3,9 +3,13 @@
 // pyramid opened coarse against the finest level held in memory, with what they load, keep and evict.
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <random>
+#include <thread>
 
 #include "image_check.h"
+#include "penumbra/core/cancel.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/io/zarr_writer.h"
 #include "penumbra/data/procedural.h"
@@ -512,4 +516,37 @@ TEST(ViewRefinement, AFullFrameCastsFromTheRefinedBox) {
   EXPECT_EQ(std::find(again.rebuilt.begin(), again.rebuilt.end(), "casters.refined"), again.rebuilt.end());
   EXPECT_EQ(again.refinement.front().loaded_bytes, 0u);
   EXPECT_LT(compare_images(again.image, in_memory).max_abs, 1e-4);
+}
+
+// A full frame cancelled at any moment — before, while or after its box is read — leaves nothing half
+// held: the next full frame is the uncancelled frame, and the box it holds is the one the view needs.
+TEST(ViewRefinement, ACancelledRefinementLeavesTheNextFrameWhole) {
+  ScratchDir dir;
+  const std::string store = write_ball_pyramid(dir, 64);
+  const Scene scene = build_scene(ball_scene(store, 1u << 20, true), "");
+  const FrameResult expected = Renderer(scene).render();
+  ASSERT_EQ(expected.refinement.size(), 1u);
+  int cancelled = 0;
+  for (const int delay_us : {0, 200, 1000, 3000, 10000, 30000, 100000}) {
+    Renderer renderer(scene);
+    std::atomic<bool> flag{false};
+    FrameRequest request;
+    request.cancel = &flag;
+    std::thread canceller([&] {
+      std::this_thread::sleep_for(std::chrono::microseconds(delay_us));
+      flag = true;
+    });
+    try {
+      (void)renderer.render(scene.camera, scene.lights, request);
+    } catch (const Cancelled&) {
+      ++cancelled;
+    }
+    canceller.join();
+    const FrameResult next = renderer.render();
+    EXPECT_LT(compare_images(next.image, expected.image).max_abs, 1e-6) << "cancelled after " << delay_us << " µs";
+    ASSERT_EQ(next.refinement.size(), 1u);
+    EXPECT_EQ(next.refinement.front().held_bytes, expected.refinement.front().held_bytes);
+    EXPECT_LE(renderer.refined_memory_bytes(), scene.refinement_bytes);
+  }
+  EXPECT_GT(cancelled, 0);  // at least the frame cancelled at once
 }

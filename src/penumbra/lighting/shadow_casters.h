@@ -18,7 +18,7 @@
 // box where it has one (CastingVolume::finer): a segment whose midpoint lies in the box is classified
 // in the box's voxels, the rest in the opened level's, on one lattice as fine as the box's voxel. So
 // every technique that marches the casters (shadow maps, the deep shadow map, the CSSM, ray-traced
-// shadows and ambient occlusion, the isosurface light pass) is refined where the camera looks; what
+// shadows and ambient occlusion) is refined where the camera looks; what
 // reads the extinction SAT keeps the opened level.
 #pragma once
 

@@ -27,6 +27,7 @@
 
 #include "penumbra/core/byte_size.h"
 #include "penumbra/core/error.h"
+#include "penumbra/core/cancel.h"
 #include "penumbra/core/parallel.h"
 #include "penumbra/data/io/byte_order.h"
 #include "penumbra/data/io/file_checks.h"
@@ -369,6 +370,7 @@ Volume load_zarr(const std::string& path, int level_choice, int channel, VolumeF
     };
     parallel_for(n_chunks, [&](std::size_t c0, std::size_t c1) {
       for (std::size_t c = c0; c < c1; ++c) {
+        if (cancel_requested()) return;  // a frame cancelled while its box is read stops within a chunk
         const auto cc = static_cast<std::int64_t>(c);
         const std::array<std::int64_t, 3> ci{first_chunk[0] + cc % cn[0], first_chunk[1] + cc / cn[0] % cn[1], first_chunk[2] + cc / (cn[0] * cn[1])};
         std::vector<std::int64_t> index = lead_index;
