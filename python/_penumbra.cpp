@@ -66,11 +66,7 @@ nlohmann::json frame_stats(const EngineFrame& f, const Renderer& renderer) {
   std::size_t volume_bytes = 0;
   for (const auto& v : scene.volumes) volume_bytes += v.volume->memory_bytes();
   // each pyramid drawn from a finer box (render/view_refinement.h), as `penumbra render --stats` lists it
-  nlohmann::json refinement = nlohmann::json::array();
-  for (const RefinementStats& x : r.refinement)
-    refinement.push_back({{"volume", x.volume}, {"opened_level", x.opened_level}, {"level", x.level}, {"dims", x.dims},
-                          {"held_bytes", x.held_bytes}, {"loaded_bytes", x.loaded_bytes}, {"read_bytes", x.read_bytes},
-                          {"evicted_bytes", x.evicted_bytes}, {"load_ms", x.load_ms}});
+  const nlohmann::json refinement = refinement_json(r.refinement);
   nlohmann::json gradients = nlohmann::json::array();
   for (const bool stored : renderer.volume_gradients_stored()) gradients.push_back(stored ? "stored" : "on_the_fly");
   return {{"particles", particles},

@@ -12,15 +12,6 @@
 
 namespace penumbra::cli {
 
-nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement) {
-  nlohmann::json out = nlohmann::json::array();
-  for (const RefinementStats& r : refinement)
-    out.push_back({{"volume", r.volume}, {"opened_level", r.opened_level}, {"level", r.level}, {"dims", r.dims},
-                   {"held_bytes", r.held_bytes}, {"loaded_bytes", r.loaded_bytes}, {"read_bytes", r.read_bytes},
-                   {"evicted_bytes", r.evicted_bytes}, {"load_ms", r.load_ms}});
-  return out;
-}
-
 nlohmann::json frame_stats(const FrameResult& frame) {
   const IsosurfaceFrameStats& iso = frame.isosurface;
   return {{"timings_ms",

@@ -11,9 +11,6 @@
 namespace penumbra::cli {
 
 nlohmann::json frame_stats(const FrameResult& frame);
-// Each refined volume of a full frame (render/view_refinement.h): the level and box it was drawn from,
-// what that box holds and what the frame loaded, read and evicted.
-nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement);
 nlohmann::json render_stats(const Scene& scene, const Renderer& renderer, const FrameResult& first, int threads);
 void write_json_file(const std::string& path, const nlohmann::json& j);  // via a temporary file + rename
 

@@ -9,11 +9,12 @@ import json
 import math
 import os
 import struct
+import subprocess
 import time
 
 import pytest
 
-from test_viewer_browser import By, Keys, ActionChains, Viewer, chrome, console_errors, js, wait, wait_loaded, SCENE  # noqa: F401
+from test_viewer_browser import By, Keys, ActionChains, CLI, Viewer, chrome, console_errors, js, wait, wait_loaded, SCENE  # noqa: F401
 
 STATE = "window.penumbraViewer.state"
 
@@ -189,6 +190,26 @@ def test_refining_shows_its_progress_and_hides_when_done(session):
          and js(d, "document.getElementById('progress').hidden"), "the progress did not end hidden at 16 samples")
     seen = js(driver, "window.progressSeen")
     assert any(s.startswith("refining ") and s.endswith("/16") for s in seen), seen
+
+
+def test_a_pyramid_under_a_budget_says_which_finer_level_it_draws(tmp_path):
+    """An OME-Zarr pyramid opened at level 1 under a small memory budget, looked at closely: the full frame
+    draws the part in view from level 0, and the stats say so (the frame message carries what it held)."""
+    subprocess.run([CLI, "convert", "--procedural", json.dumps({"name": "ct-body", "dims": [64, 64, 96]}), "-o",
+                    str(tmp_path / "body.zarr"), "--chunk", "16"], check=True, capture_output=True)
+    scene = {"volumes": [{"file": "body.zarr"}], "memory_budget": 600000,
+             "camera": {"direction": [0.45, 0.4, 1.0], "distance": 450, "target": [0, 0, 650], "width": 160, "height": 120}}
+    with opened_page(tmp_path, scene) as driver:
+        stats = driver.find_element(By.ID, "stats")
+        wait(driver, lambda d: "level 0 box" in stats.text, "the stats do not name the finer level drawn")
+        line = next(x for x in stats.text.splitlines() if "level 0 box" in x)
+        assert line.startswith("level 0 box ") and line.endswith(" of level 1"), line
+        held = stats.text.splitlines()[stats.text.splitlines().index(line) + 1]
+        assert held.startswith("  held ") and held.split()[2] == "MB", held
+        frame = js(driver, "window.penumbraViewer.lastFrame")
+        r = frame["refinement"][0]
+        assert (r["opened_level"], r["level"]) == (1, 0) and 0 < r["held_bytes"] <= 600000, r
+        assert console_errors(driver) == []
 
 
 def test_undo_and_redo_restore_edits(session):

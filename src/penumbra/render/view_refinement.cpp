@@ -164,6 +164,15 @@ Box3 pyramid_bounds(const PyramidSource& pyramid, const Volume& opened) {
   return b;
 }
 
+nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const RefinementStats& r : refinement)
+    out.push_back({{"volume", r.volume}, {"opened_level", r.opened_level}, {"level", r.level}, {"dims", r.dims},
+                   {"held_bytes", r.held_bytes}, {"loaded_bytes", r.loaded_bytes}, {"read_bytes", r.read_bytes},
+                   {"evicted_bytes", r.evicted_bytes}, {"load_ms", r.load_ms}});
+  return out;
+}
+
 RefinedVolume::RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read)
     : box_(choice.box), object_(coarse) {
   const PyramidSource& pyramid = *coarse.pyramid;

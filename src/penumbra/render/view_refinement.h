@@ -32,6 +32,9 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/render/prepared_volume.h"
@@ -91,6 +94,11 @@ struct RefinementStats {
   std::uint64_t evicted_bytes = 0;  // a box given up this frame
   double load_ms = 0;               // reading and preparing the box
 };
+
+// Each refined volume of a frame as `--stats`, the Python stats and the viewer's frame message list it:
+// [{"volume", "opened_level", "level", "dims", "held_bytes", "loaded_bytes", "read_bytes",
+//   "evicted_bytes", "load_ms"}, ...].
+nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement);
 
 // A refined box of one volume, prepared for the eye pass like the volume itself.
 class RefinedVolume {

@@ -4,6 +4,7 @@
 
 #include <fstream>
 
+#include "penumbra/render/view_refinement.h"
 #include "penumbra/viewer/jpeg.h"
 
 namespace penumbra {
@@ -33,7 +34,9 @@ FrameMessage frame_message(const EngineFrame& f, Quality quality, const Scene& s
             {"view_width", scene.camera.width}, {"view_height", scene.camera.height},
             {"divisor", f.divisor},   {"rebuilt", rebuilt},
             {"edits", f.edits},       {"memory_mb", resident_mb()},
-            {"time", scene.time},     {"max_samples", max_samples}};
+            {"time", scene.time},     {"max_samples", max_samples},
+            // each pyramid drawn from a finer box where the camera looks (render/view_refinement.h)
+            {"refinement", refinement_json(f.frame.refinement)}};
   return m;
 }
 

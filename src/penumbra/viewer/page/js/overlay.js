@@ -1,4 +1,5 @@
-// What lies over the view: the stats (frame time, quality, size, what was rebuilt, the connection),
+// What lies over the view: the stats (frame time, quality, size, the finer level a pyramid is drawn
+// from, what was rebuilt, the connection),
 // the refinement's progress ("refining k/16" and a bar), the banner while the connection is down, and
 // the error banner.
 
@@ -23,6 +24,7 @@ export function renderStats() {
     const mem = typeof f.memory_mb === "number" ? "  " + Math.round(f.memory_mb) + " MB" : "";
     const reduced = f.divisor > 1 ? " at 1/" + f.divisor : "";
     lines.push((f.view_width || f.width) + "×" + (f.view_height || f.height) + reduced + mem);
+    for (const line of refinementLines(f.refinement)) lines.push(line);
   }
   if (lastRebuilt) {
     lines.push("rebuilt: " + lastRebuilt.map((r) => r.structure + (r.cause ? " (" + r.cause + ")" : "")).join(", "));
@@ -30,6 +32,26 @@ export function renderStats() {
   const stats = $("stats");
   stats.textContent = lines.join("\n") + (lines.length ? "\n" : "");
   stats.append(el("span", { class: connection === "connected" ? "" : "bad" }, connection));
+}
+
+/**
+ * A full frame of a pyramid opened coarse under the memory budget draws the part in view from a finer
+ * level (docs/engine.md "Refined views"): which level and box, what it holds, and what this frame read.
+ */
+export function refinementLines(refinement) {
+  if (!Array.isArray(refinement)) return [];
+  const mb = (bytes) => (bytes / 1048576).toFixed(bytes < 10485760 ? 1 : 0) + " MB";
+  const lines = [];
+  for (const r of refinement) {
+    const volume = refinement.length > 1 ? "volume " + r.volume + " " : "";
+    if (r.held_bytes > 0) {
+      lines.push(volume + "level " + r.level + " box " + r.dims.join("×") + " of level " + r.opened_level);
+      lines.push("  held " + mb(r.held_bytes) + (r.loaded_bytes > 0 ? ", read " + mb(r.read_bytes) + " in " + Math.round(r.load_ms) + " ms" : ""));
+    } else if (r.evicted_bytes > 0) {
+      lines.push(volume + "level " + r.opened_level + ": finer box given up (" + mb(r.evicted_bytes) + ")");
+    }
+  }
+  return lines;
 }
 
 /** The progress of the accumulation: shown while a full frame has fewer samples than the server takes. */
