@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <filesystem>
 #include <random>
 #include <thread>
 
@@ -549,4 +550,37 @@ TEST(ViewRefinement, ACancelledRefinementLeavesTheNextFrameWhole) {
     EXPECT_LE(renderer.refined_memory_bytes(), scene.refinement_bytes);
   }
   EXPECT_GT(cancelled, 0);  // at least the frame cancelled at once
+}
+
+// A box given up takes what casts from it along: when reading the next box fails (its chunks cut short
+// on disk), the frame is an error naming the chunk, nothing refined is held, and a preview with
+// ray-traced shadows (which march the casters at every lookup) draws the opened level, as a renderer
+// that never refined does.
+TEST(ViewRefinement, AFailedReadLeavesTheOpenedLevelsLightStructures) {
+  ScratchDir dir;
+  const std::string store = write_ball_pyramid(dir, 64);
+  nlohmann::json j = ball_scene(store, 1u << 20, true);
+  j["shadows"] = {{"technique", "ray_traced"}};
+  const Scene scene = build_scene(j, "");
+  Renderer refined(scene);
+  ASSERT_GT(refined.render().refinement.at(0).loaded_bytes, 0u);
+  // every chunk of level 0 cut to one byte: the box held stays usable, the next one cannot be read
+  for (const auto& e : std::filesystem::recursive_directory_iterator(std::filesystem::path(store) / "0"))
+    if (e.is_regular_file() && e.path().filename().string()[0] != '.' && e.path().filename() != "zarr.json")
+      std::filesystem::resize_file(e.path(), 1);
+  Camera other = scene.camera;
+  other.target = Vec3{0.2f, -0.1f, 0.1f};
+  other.eye = other.target + Vec3{0.3f, 0.2f, 0.6f};
+  EXPECT_THROW((void)refined.render(other, scene.lights), Error);
+  EXPECT_EQ(refined.refined_memory_bytes(), 0u);
+  FrameRequest preview;
+  preview.quality = Quality::Preview;
+  preview.preview_divisor = 1;
+  const FrameResult p = refined.render(other, scene.lights, preview);
+  j["volumes"][0]["refine"] = false;
+  Renderer unrefined(build_scene(j, ""));
+  (void)unrefined.render(other, scene.lights);
+  const Image expected = unrefined.render(other, scene.lights, preview).image;
+  EXPECT_EQ(compare_images(p.image, expected).max_abs, 0.0);
+  EXPECT_TRUE(non_trivial(p.image));
 }

@@ -322,6 +322,11 @@ std::unique_ptr<ShadowCasters> Renderer::make_casters(std::span<const ShadowCast
   return casters;
 }
 
+void Renderer::light_structures_stale() {
+  stale_.insert("ambient");
+  for (std::size_t l = 0; l < scene_.lights.size(); ++l) stale_.insert(indexed("lights", l, "shadows"));
+}
+
 bool Renderer::update_refined_casters() {
   std::vector<ShadowCasters::FinerBox> finer(scene_.volumes.size());
   bool any = false;
@@ -372,7 +377,12 @@ void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
     RefinementStats stats;
     stats.volume = i;
     auto evict = [&] {
-      if (held) stats.evicted_bytes += held->held_bytes(), refined_changed_ = true;
+      if (!held) return;
+      stats.evicted_bytes += held->held_bytes();
+      // what casts from the box goes with it, now: a read that fails or is cancelled next leaves no
+      // light structure pointing into the box (a preview then builds them from the opened level)
+      refined_casters_.reset();
+      light_structures_stale();
       held.reset();
     };
     if (!o.pyramid || o.volume->is_window()) {
@@ -387,7 +397,7 @@ void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
     const std::optional<RefinementChoice> choice = choose_refinement(camera, pyramid, pyramid_bounds(pyramid, *o.volume), left,
                                                                      volumes_[k]->gradients_stored(), volumes_.size() == 1);
     // the box held serves while it covers the part wanted at its level and is at least as fine
-    const bool keep = choice && held && held->box().level <= choice->box.level &&
+    const bool keep = choice && held && held->reads(pyramid) && held->box().level <= choice->box.level &&
                       held->box().contains(level_box(pyramid, held->box().level, choice->seen)) && held->held_bytes() <= left;
     if (!keep) {
       evict();  // before reading the next: never two boxes at once
@@ -473,10 +483,6 @@ void Renderer::prepare(Quality quality, const Camera* refine_for, FrameResult& f
     }
     stale_.erase("sat");
   }
-  const auto light_structures_stale = [&] {
-    stale_.insert("ambient");
-    for (std::size_t l = 0; l < scene_.lights.size(); ++l) stale_.insert(indexed("lights", l, "shadows"));
-  };
   if (stale("casters") || !casters_) {
     casters_ = make_casters({});
     refined_casters_.reset();

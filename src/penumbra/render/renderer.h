@@ -153,6 +153,8 @@ private:
   std::unique_ptr<ShadowCasters> make_casters(std::span<const ShadowCasters::FinerBox> finer) const;
   // A full frame's casters: refined_casters_ built (or dropped) for the boxes held; true when changed.
   bool update_refined_casters();
+  // The ambient technique and every light's shadows, to be built again (the casters changed).
+  void light_structures_stale();
   // The casters this frame's light structures are built from: a full frame's refined ones where held.
   const ShadowCasters& frame_casters() const {
     return building_ == Quality::Full && refined_casters_ ? *refined_casters_ : *casters_;
@@ -188,7 +190,7 @@ private:
   std::vector<std::unique_ptr<RefinedVolume>> refined_;   // per prepared volume: the box full frames draw (or none)
   std::unique_ptr<ShadowCasters> casters_;
   // casters_ with the refined boxes (full frames' light structures; null when no box is held or casters_
-  // changed since); refined_changed_: a box was loaded or given up since they were built
+  // changed since; dropped with a box given up); refined_changed_: a box was loaded since they were built
   std::unique_ptr<ShadowCasters> refined_casters_;
   bool refined_changed_ = false;
   std::unique_ptr<ShadowCasters> occluders_;              // the ambient technique's kinds

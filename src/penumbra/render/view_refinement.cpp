@@ -174,7 +174,7 @@ nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement) {
 }
 
 RefinedVolume::RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read)
-    : box_(choice.box), object_(coarse) {
+    : box_(choice.box), path_(coarse.pyramid->path), channel_(coarse.pyramid->channel), object_(coarse) {
   const PyramidSource& pyramid = *coarse.pyramid;
   Volume box = load_zarr_box(pyramid.path, box_.level, pyramid.channel, box_.lo, box_.hi, read);
   box.set_value_range(std::min(box.min_value(), coarse.volume->min_value()), std::max(box.max_value(), coarse.volume->max_value()));

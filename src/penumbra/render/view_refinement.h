@@ -32,6 +32,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -112,6 +113,9 @@ public:
   // the table and the empty cells must be built again (a transfer function or compositing changed).
   bool follow(const VolumeObject& coarse);
   const LevelBox& box() const { return box_; }
+  // Whether the box was read from this pyramid's store and channel (a volume's file edited to another
+  // store of the same grid must not keep the old store's box).
+  bool reads(const PyramidSource& pyramid) const { return pyramid.path == path_ && pyramid.channel == channel_; }
   std::uint64_t held_bytes() const;  // refined_bytes of its box: what the budget counts
   PreparedVolume& prepared() { return *prepared_; }
   const VolumeObject& object() const { return object_; }  // the coarse object with the box as its volume
@@ -119,6 +123,8 @@ public:
 
 private:
   LevelBox box_;
+  std::string path_;  // the store and channel it was read from
+  int channel_ = -1;
   VolumeObject object_;  // the coarse object with the box as its volume
   std::unique_ptr<PreparedVolume> prepared_;
 };
