@@ -236,7 +236,7 @@ namespace {
 
 // A pyramid of a ball of density 1 with a smaller one of 0.5 beside it (block means keep both values:
 // every level has the finest's value range), 8³ chunks.
-std::string write_ball_pyramid(const ScratchDir& dir, int size) {
+std::string write_ball_pyramid(const ScratchDir& dir, int size, float small_density = 0.5f, const std::string& name = "ball.zarr") {
   Volume v(ScalarType::Float32, {size, size, size}, {1.0f / static_cast<float>(size), 1.0f / static_cast<float>(size), 1.0f / static_cast<float>(size)},
            {-0.5f, -0.5f, -0.5f});
   for (int k = 0; k < size; ++k)
@@ -244,7 +244,7 @@ std::string write_ball_pyramid(const ScratchDir& dir, int size) {
       for (int i = 0; i < size; ++i) {
         const Vec3 p = v.origin() + v.spacing() * Vec3{static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)};
         const float big = length(p - Vec3{0.05f, 0.0f, 0.0f}), small = length(p - Vec3{-0.3f, 0.2f, 0.1f});
-        const float density = big < 0.3f ? 1.0f : small < 0.12f ? 0.5f : 0.0f;
+        const float density = big < 0.3f ? 1.0f : small < 0.12f ? small_density : 0.0f;
         v.set_value((static_cast<std::size_t>(k) * static_cast<std::size_t>(size) + static_cast<std::size_t>(j)) * static_cast<std::size_t>(size) +
                         static_cast<std::size_t>(i),
                     density);
@@ -252,8 +252,8 @@ std::string write_ball_pyramid(const ScratchDir& dir, int size) {
   v.recompute_range();
   OmeZarrWriteOptions options;
   options.chunk = 8;
-  write_ome_zarr(v, dir.file("ball.zarr"), options);
-  return dir.file("ball.zarr");
+  write_ome_zarr(v, dir.file(name), options);
+  return dir.file(name);
 }
 
 nlohmann::json ball_scene(const std::string& store, std::uint64_t budget, bool refine) {
@@ -583,4 +583,21 @@ TEST(ViewRefinement, AFailedReadLeavesTheOpenedLevelsLightStructures) {
   const Image expected = unrefined.render(other, scene.lights, preview).image;
   EXPECT_EQ(compare_images(p.image, expected).max_abs, 0.0);
   EXPECT_TRUE(non_trivial(p.image));
+}
+
+// A volume's data replaced by another pyramid of the same grid (Renderer::apply_edit with the volume's
+// structures stale, as a caller that keeps its renderer does): the box read from the first store is not
+// kept for the second; the next full frame is the second store's finest level.
+TEST(ViewRefinement, AnotherStoreOfTheSameGridIsReadAnew) {
+  ScratchDir dir;
+  const std::string first = write_ball_pyramid(dir, 64), second = write_ball_pyramid(dir, 64, 0.8f, "other.zarr");
+  Renderer renderer(build_scene(ball_scene(first, 1u << 20, true), ""));
+  ASSERT_GT(renderer.render().refinement.at(0).loaded_bytes, 0u);
+  renderer.apply_edit(build_scene(ball_scene(second, 1u << 20, true), ""),
+                      {"volumes.0.gradients", "volumes.0.minmax", "volumes.0.lut", "volumes.0.empty_space", "casters"});
+  const FrameResult f = renderer.render();
+  ASSERT_EQ(f.refinement.size(), 1u);
+  EXPECT_GT(f.refinement.front().loaded_bytes, 0u);
+  const Image expected = Renderer(build_scene(ball_scene(second, 0, true), "")).render().image;
+  EXPECT_LT(compare_images(f.image, expected).max_abs, 1e-4);
 }
