@@ -228,6 +228,28 @@ TEST(ViewRefinement, ABoxOfALevelIsThatLevelsVoxels) {
       EXPECT_GT(read.bytes_read, 0u);
     }
   }
+  // a box read beside one held before takes the chunks inside that one from it: the same voxels, fewer read
+  for (const auto& [held_lo, held_hi] : std::vector<std::pair<std::array<std::int64_t, 3>, std::array<std::int64_t, 3>>>{
+           {{0, 0, 0}, {24, 22, 17}}, {{5, 3, 2}, {37, 30, 26}}, {{8, 8, 8}, {16, 16, 16}}, {{30, 0, 0}, {37, 6, 5}}}) {
+    const Volume before = load_zarr_box(dir.file("v.zarr"), 0, -1, held_lo, held_hi);
+    const HeldBox held{held_lo, held_hi, &before};
+    const std::array<std::int64_t, 3> lo3{6, 4, 3}, hi3{33, 27, 24};
+    WindowRead fresh_read, lent_read;
+    const Volume fresh = load_zarr_box(dir.file("v.zarr"), 0, -1, lo3, hi3, &fresh_read);
+    const Volume lent = load_zarr_box(dir.file("v.zarr"), 0, -1, lo3, hi3, &lent_read, &held);
+    ASSERT_EQ(lent.dims(), fresh.dims());
+    for (std::size_t n = 0; n < fresh.voxel_count(); ++n) ASSERT_EQ(lent.value(n), fresh.value(n)) << "voxel " << n;
+    EXPECT_EQ(lent.min_value(), fresh.min_value());
+    EXPECT_EQ(lent.max_value(), fresh.max_value());
+    EXPECT_EQ(fresh_read.bytes_reused, 0u);
+    if (held_lo[0] == 30) {  // it holds no whole chunk part of the new box: all read
+      EXPECT_EQ(lent_read.bytes_reused, 0u);
+      EXPECT_EQ(lent_read.bytes_read, fresh_read.bytes_read);
+    } else {
+      EXPECT_GT(lent_read.bytes_reused, 0u);
+      EXPECT_LT(lent_read.bytes_read, fresh_read.bytes_read);
+    }
+  }
   EXPECT_THROW(load_zarr_box(dir.file("v.zarr"), 0, -1, {0, 0, 0}, {38, 4, 4}), Error);
   EXPECT_THROW(load_zarr_box(dir.file("v.zarr"), 0, -1, {4, 0, 0}, {4, 4, 4}), Error);
 }
@@ -600,4 +622,40 @@ TEST(ViewRefinement, AnotherStoreOfTheSameGridIsReadAnew) {
   EXPECT_GT(f.refinement.front().loaded_bytes, 0u);
   const Image expected = Renderer(build_scene(ball_scene(second, 0, true), "")).render().image;
   EXPECT_LT(compare_images(f.image, expected).max_abs, 1e-4);
+}
+
+// A view that moves past its box's margin, the budget holding the old box and the new one together:
+// the new box takes the chunks both hold from the old one (read less), and the frame is still the
+// finest level's in memory.
+TEST(ViewRefinement, ANewBoxTakesTheOverlapFromTheBoxHeld) {
+  ScratchDir dir;
+  const std::string store = write_ball_pyramid(dir, 64);
+  auto narrow = [&](std::uint64_t budget) {  // a narrow view: a box of a fifth of what the budget leaves
+    nlohmann::json j = ball_scene(store, budget, true);
+    j["camera"]["fov_deg"] = 7;
+    return build_scene(j, "");
+  };
+  const Scene scene = narrow(1u << 20);
+  Renderer renderer(scene);
+  const FrameResult first = renderer.render();
+  ASSERT_EQ(first.refinement.size(), 1u);
+  ASSERT_LE(2 * first.refinement.front().held_bytes, scene.refinement_bytes);  // room for two
+  Camera moved = scene.camera;
+  const Vec3 shift{0.04f, 0.0f, 0.0f};
+  moved.eye = moved.eye + shift;
+  moved.target = moved.target + shift;
+  const FrameResult f = renderer.render(moved, scene.lights);
+  ASSERT_EQ(f.refinement.size(), 1u);
+  const RefinementStats& r = f.refinement.front();
+  EXPECT_GT(r.loaded_bytes, 0u) << "the pan must leave the box";
+  EXPECT_GT(r.reused_bytes, 0u);
+  EXPECT_EQ(r.evicted_bytes, first.refinement.front().held_bytes);
+  Renderer fresh(scene);
+  const FrameResult alone = fresh.render(moved, scene.lights);
+  EXPECT_LT(r.read_bytes, alone.refinement.at(0).read_bytes);
+  EXPECT_EQ(alone.refinement.at(0).reused_bytes, 0u);
+  EXPECT_EQ(renderer.refined_memory_bytes(), r.held_bytes);
+  const Image in_memory = Renderer(narrow(0)).render(moved, scene.lights).image;
+  EXPECT_LT(compare_images(f.image, in_memory).max_abs, 1e-4);
+  EXPECT_EQ(compare_images(f.image, alone.image).max_abs, 0.0);
 }

@@ -400,14 +400,22 @@ void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
     const bool keep = choice && held && held->reads(pyramid) && held->box().level <= choice->box.level &&
                       held->box().contains(level_box(pyramid, held->box().level, choice->seen)) && held->held_bytes() <= left;
     if (!keep) {
-      evict();  // before reading the next: never two boxes at once
+      // the box held lends the new one its overlap when both fit what is left at once (same level and
+      // store); otherwise it is given up before the next is read: never over the budget
+      const bool lend = choice && held && held->reads(pyramid) && held->box().level == choice->box.level &&
+                        held->held_bytes() + refined_bytes(choice->box, o.volume->type(), choice->stored_gradients) <= left &&
+                        overlaps(held->box(), choice->box);
+      if (!lend) evict();
       if (choice) {
         Timer load;
         WindowRead read;
-        held = std::make_unique<RefinedVolume>(o, *choice, &read);
+        std::unique_ptr<RefinedVolume> next = std::make_unique<RefinedVolume>(o, *choice, &read, held.get());
+        evict();
+        held = std::move(next);
         refined_changed_ = true;
         stats.loaded_bytes = held->held_bytes();
         stats.read_bytes = read.bytes_read;
+        stats.reused_bytes = read.bytes_reused;
         stats.load_ms = load.elapsed_ms();
         rebuilt(indexed("volumes", i, "refined"), Quality::Full, frame);
       }

@@ -65,6 +65,12 @@ bool LevelBox::contains(const LevelBox& b) const {
   return level == b.level;
 }
 
+bool overlaps(const LevelBox& a, const LevelBox& b) {
+  for (std::size_t k = 0; k < 3; ++k)
+    if (a.hi[k] <= b.lo[k] || b.hi[k] <= a.lo[k]) return false;
+  return a.level == b.level;
+}
+
 LevelBox level_box(const PyramidSource& pyramid, int level, const Box3& world) {
   const PyramidSource::Level& l = pyramid.levels.at(static_cast<std::size_t>(level));
   LevelBox b;
@@ -168,15 +174,18 @@ nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement) {
   nlohmann::json out = nlohmann::json::array();
   for (const RefinementStats& r : refinement)
     out.push_back({{"volume", r.volume}, {"opened_level", r.opened_level}, {"level", r.level}, {"dims", r.dims},
-                   {"held_bytes", r.held_bytes}, {"loaded_bytes", r.loaded_bytes}, {"read_bytes", r.read_bytes},
+                   {"held_bytes", r.held_bytes}, {"loaded_bytes", r.loaded_bytes}, {"read_bytes", r.read_bytes}, {"reused_bytes", r.reused_bytes},
                    {"evicted_bytes", r.evicted_bytes}, {"load_ms", r.load_ms}});
   return out;
 }
 
-RefinedVolume::RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read)
+RefinedVolume::RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read, const RefinedVolume* previous)
     : box_(choice.box), path_(coarse.pyramid->path), channel_(coarse.pyramid->channel), object_(coarse) {
   const PyramidSource& pyramid = *coarse.pyramid;
-  Volume box = load_zarr_box(pyramid.path, box_.level, pyramid.channel, box_.lo, box_.hi, read);
+  std::optional<HeldBox> held;
+  if (previous && previous->reads(pyramid) && previous->box_.level == box_.level)
+    held = HeldBox{previous->box_.lo, previous->box_.hi, previous->object_.volume.get()};
+  Volume box = load_zarr_box(pyramid.path, box_.level, pyramid.channel, box_.lo, box_.hi, read, held ? &*held : nullptr);
   box.set_value_range(std::min(box.min_value(), coarse.volume->min_value()), std::max(box.max_value(), coarse.volume->max_value()));
   object_.volume = std::make_shared<const Volume>(std::move(box));
   object_.pyramid = nullptr;

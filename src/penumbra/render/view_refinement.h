@@ -16,8 +16,9 @@
 // elsewhere (ShadowCasters' CastingVolume::finer), on a lattice as fine as the box's voxel; what reads
 // the extinction SAT (cone shadows, volume ambient occlusion, the light cache) keeps the opened level.
 // The box is kept while the view stays inside it (a camera move inside a zoomed region reads nothing);
-// a view outside it reads a new box and evicts the old one, and FrameResult::refinement says what was
-// held, loaded, read from disk and evicted.
+// a view outside it reads a new box and evicts the old one — taking from the old one the chunks both
+// hold when the two fit the budget together, else after giving it up — and FrameResult::refinement
+// says what was held, loaded, read from disk, reused and evicted.
 //
 // | what                     | where                    | meaning                                          |
 // |--------------------------|--------------------------|--------------------------------------------------|
@@ -61,6 +62,7 @@ struct LevelBox {
   }
   bool contains(const LevelBox& b) const;  // same level, b inside
 };
+bool overlaps(const LevelBox& a, const LevelBox& b);  // same level, sharing voxels
 
 // The voxels of `level` whose cells reach into `world`, with the apron, within the level.
 LevelBox level_box(const PyramidSource& pyramid, int level, const Box3& world);
@@ -91,7 +93,8 @@ struct RefinementStats {
   std::array<int, 3> dims{};
   std::uint64_t held_bytes = 0;     // what the refined box holds (voxels, macrocells, gradients)
   std::uint64_t loaded_bytes = 0;   // brought into memory this frame (0: the box held was kept)
-  std::uint64_t read_bytes = 0;     // of them read from the files (compressed)
+  std::uint64_t read_bytes = 0;     // read from the files for them (compressed)
+  std::uint64_t reused_bytes = 0;   // of their voxels, copied from the box held before (it overlapped)
   std::uint64_t evicted_bytes = 0;  // a box given up this frame
   double load_ms = 0;               // reading and preparing the box
 };
@@ -107,7 +110,9 @@ public:
   // Reads `choice` from `coarse.pyramid`; its value range is the union of the box's and the opened
   // level's (the transfer function's table and the shading weights see the range they saw before).
   // Its lattice step is the object's step in the box's voxels (the renderer then shares the finest).
-  RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read);
+  // `previous`: a box of the same level and store held until now, whose voxels the new box takes where
+  // they overlap instead of reading their chunks.
+  RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read, const RefinedVolume* previous = nullptr);
 
   // Follows the coarse object's edits (transfer function, compositing, step, jitter, flags); true when
   // the table and the empty cells must be built again (a transfer function or compositing changed).

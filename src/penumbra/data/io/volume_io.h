@@ -77,6 +77,7 @@ using SliceChooser = std::function<SliceRange(const std::array<int, 3>& dims)>;
 // What reading part of a volume cost.
 struct WindowRead {
   std::uint64_t bytes_read = 0;  // from the file(s)
+  std::uint64_t bytes_reused = 0;  // voxels copied from a box held before (load_zarr_box), not read
   bool whole = false;            // read whole and then cut: a format or encoding that cannot seek to a slice
 };
 // The chosen slices, checked against the grid (Error naming them when they do not lie in it).
@@ -139,8 +140,14 @@ Volume load_zarr_volume(const std::string& path, int level, int channel, VolumeF
 // placed where they lie (its origin the box's first voxel), only the chunks that hold it read; the value
 // range its own, opacities referring to the finest level's voxel. What a refined view reads
 // (render/view_refinement.h). Error for a box outside the level or a level whose scale reverses an axis.
+// `held`: a box of the same level already in memory (the one a refined view held before): the chunks
+// whose part of the new box lies inside it are copied from it instead of read (`read->bytes_reused`).
+struct HeldBox {
+  std::array<std::int64_t, 3> lo{}, hi{};  // its voxels [lo, hi) of the level
+  const Volume* voxels = nullptr;          // dense, of the level's type
+};
 Volume load_zarr_box(const std::string& path, int level, int channel, const std::array<std::int64_t, 3>& lo,
-                     const std::array<std::int64_t, 3>& hi, WindowRead* read = nullptr);
+                     const std::array<std::int64_t, 3>& hi, WindowRead* read = nullptr, const HeldBox* held = nullptr);
 // The grids of an OME-Zarr pyramid's levels (0 the finest) as load_zarr_volume places them; empty for a
 // store that is no pyramid or one whose scales reverse an axis.
 struct ZarrLevelGrid {

@@ -207,7 +207,7 @@ struct IndexBox {
 // load_zarr_volume, or with `box` that box of the level `level_choice` names, placed where it lies (not a
 // window of the whole grid).
 Volume load_zarr(const std::string& path, int level_choice, int channel, VolumeFileInfo* info, std::uint64_t memory_budget,
-                 const SliceChooser* choose, WindowRead* read, const IndexBox* box) {
+                 const SliceChooser* choose, WindowRead* read, const IndexBox* box, const HeldBox* held = nullptr) {
   VolumeFileInfo local;
   VolumeFileInfo& out = info ? *info : local;
   out.format = "zarr";
@@ -317,7 +317,8 @@ Volume load_zarr(const std::string& path, int level_choice, int channel, VolumeF
     want = *box;
   }
   const std::array<std::int64_t, 3> want_dims{want.hi[0] - want.lo[0], want.hi[1] - want.lo[1], want.hi[2] - want.lo[2]};
-  std::atomic<std::uint64_t> bytes_read{0};
+  std::atomic<std::uint64_t> bytes_read{0}, bytes_reused{0};
+  if (held && (!box || !held->voxels || held->voxels->type() != type || held->voxels->is_bricked())) held = nullptr;
   Volume volume(type, {static_cast<int>(want_dims[0]), static_cast<int>(want_dims[1]), static_cast<int>(want_dims[2])}, {1, 1, 1}, {0, 0, 0},
                 VoxelFill::Uninitialized);
   // the chunk grid over the spatial axes (x, y, z), the leading axes fixed to the chunk holding the index
@@ -373,6 +374,23 @@ Volume load_zarr(const std::string& path, int level_choice, int channel, VolumeF
         if (cancel_requested()) return;  // a frame cancelled while its box is read stops within a chunk
         const auto cc = static_cast<std::int64_t>(c);
         const std::array<std::int64_t, 3> ci{first_chunk[0] + cc % cn[0], first_chunk[1] + cc / cn[0] % cn[1], first_chunk[2] + cc / (cn[0] * cn[1])};
+        // the part of the chunk inside the box
+        const std::array<std::int64_t, 3> part_lo{std::max(want.lo[0], ci[0] * chunk[0]), std::max(want.lo[1], ci[1] * chunk[1]),
+                                                  std::max(want.lo[2], ci[2] * chunk[2])};
+        const std::array<std::int64_t, 3> part_hi{std::min(want.hi[0], (ci[0] + 1) * chunk[0]), std::min(want.hi[1], (ci[1] + 1) * chunk[1]),
+                                                  std::min(want.hi[2], (ci[2] + 1) * chunk[2])};
+        if (held && part_lo[0] >= held->lo[0] && part_lo[1] >= held->lo[1] && part_lo[2] >= held->lo[2] && part_hi[0] <= held->hi[0] &&
+            part_hi[1] <= held->hi[1] && part_hi[2] <= held->hi[2]) {  // in memory already: copied, not read
+          const T* src = held->voxels->data_as<T>();
+          const std::int64_t hx = held->hi[0] - held->lo[0], hy = held->hi[1] - held->lo[1];
+          for (std::int64_t z = part_lo[2]; z < part_hi[2]; ++z)
+            for (std::int64_t y = part_lo[1]; y < part_hi[1]; ++y)
+              std::memcpy(dst + ((z - want.lo[2]) * want_dims[1] + (y - want.lo[1])) * want_dims[0] + (part_lo[0] - want.lo[0]),
+                          src + ((z - held->lo[2]) * hy + (y - held->lo[1])) * hx + (part_lo[0] - held->lo[0]),
+                          static_cast<std::size_t>(part_hi[0] - part_lo[0]) * sizeof(T));
+          bytes_reused += static_cast<std::uint64_t>((part_hi[0] - part_lo[0]) * (part_hi[1] - part_lo[1]) * (part_hi[2] - part_lo[2])) * sizeof(T);
+          continue;
+        }
         std::vector<std::int64_t> index = lead_index;
         index.insert(index.end(), {ci[2], ci[1], ci[0]});
         try {
@@ -383,9 +401,9 @@ Volume load_zarr(const std::string& path, int level_choice, int channel, VolumeF
           if (!present) ++missing;
           const std::vector<std::byte> bytes = present ? std::move(*decoded) : std::vector<std::byte>();
           // the part of the chunk inside the box, as rows along x
-          const std::int64_t x0 = std::max(want.lo[0], ci[0] * chunk[0]), x1 = std::min(want.hi[0], (ci[0] + 1) * chunk[0]);
-          for (std::int64_t z = std::max(want.lo[2], ci[2] * chunk[2]); z < std::min(want.hi[2], (ci[2] + 1) * chunk[2]); ++z)
-            for (std::int64_t y = std::max(want.lo[1], ci[1] * chunk[1]); y < std::min(want.hi[1], (ci[1] + 1) * chunk[1]); ++y) {
+          const std::int64_t x0 = part_lo[0], x1 = part_hi[0];
+          for (std::int64_t z = part_lo[2]; z < part_hi[2]; ++z)
+            for (std::int64_t y = part_lo[1]; y < part_hi[1]; ++y) {
               const std::size_t row = static_cast<std::size_t>(((z - want.lo[2]) * want_dims[1] + (y - want.lo[1])) * want_dims[0]);
               const auto at = [&](std::int64_t x) { return row + static_cast<std::size_t>(x - want.lo[0]); };
               if (!present) {
@@ -429,7 +447,10 @@ Volume load_zarr(const std::string& path, int level_choice, int channel, VolumeF
     volume.set_opacity_length(static_cast<float>(std::min({std::abs(finest[0]), std::abs(finest[1]), std::abs(finest[2])})));
   }
   volume.recompute_range();  // rejects NaN voxels (a NaN fill value of missing chunks too) and gives the range
-  if (read) read->bytes_read = bytes_read.load();
+  if (read) {
+    read->bytes_read = bytes_read.load();
+    read->bytes_reused = bytes_reused.load();
+  }
   if (choose && !windowed && chosen_slices.count < whole_dims[2]) {
     if (read) read->whole = true;
     volume = volume.window_z(chosen_slices.first, chosen_slices.count);
@@ -450,9 +471,9 @@ Volume load_zarr_volume(const std::string& path, int level, int channel, VolumeF
 }
 
 Volume load_zarr_box(const std::string& path, int level, int channel, const std::array<std::int64_t, 3>& lo, const std::array<std::int64_t, 3>& hi,
-                     WindowRead* read) {
+                     WindowRead* read, const HeldBox* held) {
   const IndexBox box{lo, hi};
-  return load_zarr(path, level, channel, nullptr, 0, nullptr, read, &box);
+  return load_zarr(path, level, channel, nullptr, 0, nullptr, read, &box, held);
 }
 
 std::vector<ZarrLevelGrid> zarr_level_grids(const std::string& path) {
