@@ -476,6 +476,24 @@ TEST(ViewRefinement, CastersReadTheRefinedBoxWhereItLies) {
   }
   EXPECT_GT(through_box, 500);        // many rays were shadowed in the box
   EXPECT_GT(unrefined_error, 50.0);   // without the box the inner ball casts nothing
+
+  // beside a second volume (the march over several, the outer ball alone in a grid overlapping the
+  // box): the same, exactly
+  const Volume second = ball_grid({16, 16, 16}, {48, 48, 48}, false, true);
+  whole_scene.volumes.push_back(casting(second));
+  refined_scene.volumes.push_back(casting(second));
+  const MacrocellGrid second_grid(second);
+  const MacrocellGrid* whole_two[] = {&whole_grid, &second_grid};
+  const MacrocellGrid* opened_two[] = {&opened_grid, &second_grid};
+  const ShadowCasters::FinerBox finer_two[] = {{&box_object, &box_grid}, {}};
+  const ShadowCasters reference_two(whole_scene, whole_two), refined_two(refined_scene, opened_two, finer_two);
+  for (int n = 0; n < 2000; ++n) {
+    const Vec3 via = Vec3{20.0f / 48, 20.0f / 48, 20.0f / 48} + Vec3{u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f} * 0.5f;
+    const Vec3 dir = normalize(Vec3{u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f});
+    const Ray ray{via - dir * 2.0f, dir};
+    const Rgb expected = reference_two.transmittance(ray, 0.0f, 4.0f), got = refined_two.transmittance(ray, 0.0f, 4.0f);
+    for (int c = 0; c < 3; ++c) ASSERT_NEAR(got[c], expected[c], 1e-6f) << "two volumes, ray " << n << " channel " << c;
+  }
 }
 
 // A full frame of a refined view casts from the box: the matter of a pyramid lying all in view (a ball

@@ -283,38 +283,25 @@ private:
           skip_to = std::min(skip_to, a0);
           continue;
         }
+        // inside a refined box the segment is classified there; before it, never skipped past its start
         float f0 = 0, f1 = 0;
         const bool crosses_finer = cv.finer && cv.finer->box.clip(r, f0, f1, tm, t1);
-        if (crosses_finer && f0 <= tm) {  // inside the refined box: classified there
-          const CastingVolume& fine = *cv.finer;
-          const Vec3 v = fine.volume->to_voxel(p);
-          const EmptySpaceSkipper skipper(*fine.volume, *fine.grid, fine.empty);
-          const std::size_t cell = skipper.cell_of(v);
-          if (skipper.empty(cell)) {
-            skip_to = std::min({skip_to, skipper.cell_exit(r, tm, v), f1});
-            continue;
-          }
-          occupied = true;
-          const Rgba s = fine.lut.lookup(fine.volume->sample_voxel(v));
-          if (s.a <= 0) continue;
-          const float a = part_opacity(s.a, len);
-          pass *= Rgb(1.0f) - (Rgb(1.0f) - (fine.achromatic ? Rgb(0.0f) : s.rgb)) * a;
-          clear *= 1 - a;
-          continue;
-        }
-        if (crosses_finer) skip_to = std::min(skip_to, f0);  // never skip past the box's start
-        const Vec3 v = cv.volume->to_voxel(p);
-        const EmptySpaceSkipper skipper(*cv.volume, *cv.grid, cv.empty);
+        const bool in_finer = crosses_finer && f0 <= tm;
+        const CastingVolume& at = in_finer ? *cv.finer : cv;
+        if (crosses_finer && !in_finer) skip_to = std::min(skip_to, f0);
+        const Vec3 v = at.volume->to_voxel(p);
+        const EmptySpaceSkipper skipper(*at.volume, *at.grid, at.empty);
         const std::size_t cell = skipper.cell_of(v);
         if (skipper.empty(cell)) {
-          skip_to = std::min(skip_to, skipper.cell_exit(r, tm, v));
+          const float exit = skipper.cell_exit(r, tm, v);
+          skip_to = std::min(skip_to, in_finer ? std::min(exit, f1) : exit);
           continue;
         }
         occupied = true;
-        const Rgba s = cv.lut.lookup(cv.volume->sample_voxel(v));
+        const Rgba s = at.lut.lookup(at.volume->sample_voxel(v));
         if (s.a <= 0) continue;
         const float a = part_opacity(s.a, len);
-        pass *= Rgb(1.0f) - (Rgb(1.0f) - (cv.achromatic ? Rgb(0.0f) : s.rgb)) * a;
+        pass *= Rgb(1.0f) - (Rgb(1.0f) - (at.achromatic ? Rgb(0.0f) : s.rgb)) * a;
         clear *= 1 - a;
       }
       if (!occupied) {
