@@ -605,24 +605,47 @@ TEST(ViewRefinement, AFailedReadLeavesTheOpenedLevelsLightStructures) {
   Renderer refined(scene);
   ASSERT_GT(refined.render().refinement.at(0).loaded_bytes, 0u);
   // every chunk of level 0 cut to one byte: the box held stays usable, the next one cannot be read
-  for (const auto& e : std::filesystem::recursive_directory_iterator(std::filesystem::path(store) / "0"))
+  const std::filesystem::path level0 = std::filesystem::path(store) / "0", whole = dir.path() / "level0-whole";
+  std::filesystem::copy(level0, whole, std::filesystem::copy_options::recursive);
+  for (const auto& e : std::filesystem::recursive_directory_iterator(level0))
     if (e.is_regular_file() && e.path().filename().string()[0] != '.' && e.path().filename() != "zarr.json")
       std::filesystem::resize_file(e.path(), 1);
   Camera other = scene.camera;
   other.target = Vec3{0.2f, -0.1f, 0.1f};
   other.eye = other.target + Vec3{0.3f, 0.2f, 0.6f};
-  EXPECT_THROW((void)refined.render(other, scene.lights), Error);
+  j["volumes"][0]["refine"] = false;
+  Renderer unrefined(build_scene(j, ""));
+  // the full frame draws the opened level, with its light structures, and says which chunk failed
+  const FrameResult failed = refined.render(other, scene.lights);
+  ASSERT_EQ(failed.refinement.size(), 1u);
+  EXPECT_NE(failed.refinement[0].error.find("chunk"), std::string::npos) << failed.refinement[0].error;
+  EXPECT_EQ(failed.refinement[0].held_bytes, 0u);
+  EXPECT_GT(failed.refinement[0].evicted_bytes, 0u);
   EXPECT_EQ(refined.refined_memory_bytes(), 0u);
+  EXPECT_EQ(compare_images(failed.image, unrefined.render(other, scene.lights).image).max_abs, 0.0);
+  EXPECT_EQ(refinement_json(failed.refinement)[0]["error"], failed.refinement[0].error);
   FrameRequest preview;
   preview.quality = Quality::Preview;
   preview.preview_divisor = 1;
   const FrameResult p = refined.render(other, scene.lights, preview);
-  j["volumes"][0]["refine"] = false;
-  Renderer unrefined(build_scene(j, ""));
-  (void)unrefined.render(other, scene.lights);
   const Image expected = unrefined.render(other, scene.lights, preview).image;
   EXPECT_EQ(compare_images(p.image, expected).max_abs, 0.0);
   EXPECT_TRUE(non_trivial(p.image));
+  // a view inside the box that failed is not read again (the chunks mended now would be read if it
+  // were): it reports the same error; a view that needs another box reads it, from the mended chunks
+  std::filesystem::remove_all(level0);
+  std::filesystem::copy(whole, level0, std::filesystem::copy_options::recursive);
+  Camera pan = other;
+  pan.eye = pan.eye + Vec3{0.002f, 0, 0};
+  pan.target = pan.target + Vec3{0.002f, 0, 0};
+  const FrameResult again = refined.render(pan, scene.lights);
+  ASSERT_EQ(again.refinement.size(), 1u);
+  EXPECT_EQ(again.refinement[0].error, failed.refinement[0].error);
+  EXPECT_EQ(again.refinement[0].loaded_bytes, 0u);
+  const FrameResult elsewhere = refined.render(scene.camera, scene.lights);
+  ASSERT_EQ(elsewhere.refinement.size(), 1u);
+  EXPECT_TRUE(elsewhere.refinement[0].error.empty());
+  EXPECT_GT(elsewhere.refinement[0].loaded_bytes, 0u);
 }
 
 // A volume's data replaced by another pyramid of the same grid (Renderer::apply_edit with the volume's

@@ -71,6 +71,13 @@ std::vector<std::string> size_overrides(const RenderOptions& o) {
 
 namespace {
 
+// A refined box that could not be read (a corrupt chunk) is the command's error: the opened level drawn
+// in its place would pass for the finer data (the viewer and Python draw it, the error in their stats).
+void require_refined(const FrameResult& frame) {
+  for (const auto& r : frame.refinement)
+    if (!r.error.empty()) throw Error("volumes." + std::to_string(r.volume) + ": " + r.error);
+}
+
 // PNG and PFM hold the picture over the scene's background. EXR holds linear colour with premultiplied
 // alpha (nothing behind the data: alpha 0, to composite over anything) and, with --depth, the distance
 // along each primary ray (Z; +infinity where nothing is hit).
@@ -205,6 +212,7 @@ nlohmann::json replay_edits(Engine& engine, const std::vector<EditStep>& steps, 
     const EngineFrame preview = engine.render({Quality::Preview});
     const double preview_ms = since();
     EngineFrame full = engine.render({Quality::Full});
+    require_refined(full.frame);
     const double full_ms = since();
     const auto refined = full.rebuilt;  // what the first full frame rebuilt, before idle samples
     const nlohmann::json refinement = refinement_json(full.frame.refinement);
@@ -282,6 +290,7 @@ void run_render(const RenderOptions& o) {
     if (const auto edits = orbits.edits(f, frames); !edits.empty()) engine.edit(edits);
     EngineFrame ef = engine.render({o.preview ? Quality::Preview : Quality::Full, o.accumulate > 1});
     const FrameResult frame = ef.frame;  // the first sample's stats
+    require_refined(frame);
     for (int k = 1; k < o.accumulate; ++k) ef = engine.render({Quality::Full, true});
     const std::string path = sequence ? frame_path(o.output, f) : o.output;
     if (steps.empty()) write_output(path, ef, engine.scene(), o.depth);

@@ -455,6 +455,9 @@ class Renderer:
             self._refresh_changed_volumes()
         out = np.empty((self._engine.height, self._engine.width, 4), dtype=np.dtype(dtype))
         self.stats = json.loads(self._engine.render_into(out, quality == "preview", bool(accumulate), bool(transparent)))
+        for r in self.stats.get("refinement", []):
+            if "error" in r:  # a finer box that could not be read: the frame shows the opened level there
+                warnings.warn(f"volumes.{r['volume']}: {r['error']}; drawn from the opened level {r['opened_level']}", stacklevel=3)
         frame = out.view(Image)
         frame._encoding = "srgb8" if out.dtype == np.uint8 else "linear"
         return frame

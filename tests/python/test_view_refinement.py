@@ -5,6 +5,7 @@ that covers it; the frame is the finest level's frame held in memory, the refine
 the budget leaves, and --stats says what was loaded, read and evicted as the camera moves."""
 import json
 import os
+import shutil
 import subprocess
 
 import numpy as np
@@ -163,9 +164,9 @@ def test_refine_false_and_an_explicit_level_draw_the_level_opened(store, tmp_pat
     assert stats["refinement"] == []
 
 
-def test_shadows_keep_the_opened_level(store, tmp_path):
-    """The light structures stay on the opened level: the refined frame with CSSM shadows is closer to the
-    finest level's than the opened level's frame is, not equal to it."""
+def test_shadows_are_cast_from_the_refined_box(store, tmp_path):
+    """The CSSM of a full frame is built from the box where it lies (from the opened level elsewhere):
+    the refined frame with CSSM shadows is much closer to the finest level's than the opened level's is."""
     path, shapes = store
     budget = held_bytes(shapes[1], 2) + 4 * int(np.prod(shapes[1])) + 550_000
     refined, stats = render(tmp_path, scene(path, EYE, TARGET, budget=budget, shadows="cssm"), "cssm_refined")
@@ -174,3 +175,32 @@ def test_shadows_keep_the_opened_level(store, tmp_path):
     opened, _ = render(tmp_path, scene(path, EYE, TARGET, budget=budget, refine=False, shadows="cssm"), "cssm_opened")
     rmse = lambda a: float(np.sqrt(((a - finest) ** 2).mean()))  # noqa: E731
     assert rmse(refined) < 0.5 * rmse(opened), (rmse(refined), rmse(opened))
+
+
+def test_a_corrupt_chunk_of_the_finer_level(store, tmp_path):
+    """Level 0's chunks cut short (as a copy interrupted would leave them): `penumbra render` exits 1 naming
+    the volume, the box and the chunk, and writes no image; the Python renderer draws the opened level
+    there with a warning and the error in its stats, as the viewer does."""
+    path, shapes = store
+    broken = tmp_path / "broken.zarr"
+    shutil.copytree(path, broken)
+    for chunk in (broken / "0").iterdir():
+        if not chunk.name.startswith("."):
+            chunk.write_bytes(chunk.read_bytes()[:5])
+    budget = held_bytes(shapes[1], 2) + 4 * int(np.prod(shapes[1])) + 550_000
+    doc = scene(broken, EYE, TARGET, budget=budget)
+    (tmp_path / "broken.json").write_text(json.dumps(doc))
+    r = subprocess.run([CLI, "render", str(tmp_path / "broken.json"), "-o", str(tmp_path / "broken.png")],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 1, r.stderr
+    assert "volumes.0: level 0 box " in r.stderr and "chunk" in r.stderr and "broken.zarr" in r.stderr, r.stderr
+    assert not (tmp_path / "broken.png").exists()
+
+    penumbra = pytest.importorskip("penumbra")
+    renderer = penumbra.Renderer(penumbra.Scene(doc))
+    with pytest.warns(UserWarning, match="volumes.0: level 0 box .*chunk.*; drawn from the opened level 1"):
+        image = renderer.render(dtype="float32")
+    [x] = renderer.stats["refinement"]
+    assert "chunk" in x["error"] and x["held_bytes"] == 0 and x["level"] == 1
+    opened = penumbra.Renderer(penumbra.Scene(scene(broken, EYE, TARGET, budget=budget, refine=False))).render(dtype="float32")
+    assert np.array_equal(np.asarray(image), np.asarray(opened))

@@ -212,6 +212,26 @@ def test_a_pyramid_under_a_budget_says_which_finer_level_it_draws(tmp_path):
         assert console_errors(driver) == []
 
 
+def test_a_finer_level_that_cannot_be_read_is_named_over_the_coarser_frame(tmp_path):
+    """The same pyramid with level 0's chunks cut short: full frames still arrive, drawn from level 1, and
+    the stats over the view name the box and the chunk that failed."""
+    subprocess.run([CLI, "convert", "--procedural", json.dumps({"name": "ct-body", "dims": [64, 64, 96]}), "-o",
+                    str(tmp_path / "body.zarr"), "--chunk", "16"], check=True, capture_output=True)
+    for chunk in (tmp_path / "body.zarr" / "0").rglob("*"):
+        if chunk.is_file() and not chunk.name.startswith(".") and chunk.name != "zarr.json":
+            chunk.write_bytes(chunk.read_bytes()[:3])
+    scene = {"volumes": [{"file": "body.zarr"}], "memory_budget": 600000,
+             "camera": {"direction": [0.45, 0.4, 1.0], "distance": 450, "target": [0, 0, 650], "width": 160, "height": 120}}
+    with opened_page(tmp_path, scene) as driver:
+        stats = driver.find_element(By.ID, "stats")
+        wait(driver, lambda d: "level 1 shown: level 0 box" in stats.text, "the stats do not say the finer box failed")
+        line = next(x for x in stats.text.splitlines() if "level 1 shown" in x)
+        assert "chunk" in line and "body.zarr" in line, line
+        frame = js(driver, "window.penumbraViewer.lastFrame")
+        assert frame["quality"] == "full" and frame["refinement"][0]["held_bytes"] == 0, frame
+        assert console_errors(driver) == []
+
+
 def test_undo_and_redo_restore_edits(session):
     server, driver = session
     field = driver.find_element(By.XPATH, "//div[@id='shadows']//label[text()='resolution']/following-sibling::input")

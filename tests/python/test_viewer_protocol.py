@@ -180,16 +180,13 @@ def test_edits_come_back_as_state_and_frames_to_every_client(viewer):
             s = receive(ws, "state")
             if s["document"]["lights"][0]["direction"] == [0.4, -1, 0.1]:
                 break
-    while True:  # the edit's preview says what it rebuilt and why
+    # the edit's preview says what it rebuilt and why; a frame not yet sent is replaced by a newer one
+    # (by design), which then carries its edits and rebuilds: under load the preview's report can come
+    # with the edit's full frame
+    frame, _ = receive(a, "frame")
+    while "lights.0.direction" not in frame["edits"]:
         frame, _ = receive(a, "frame")
-        if "lights.0.direction" in frame["edits"]:
-            assert frame["quality"] == "preview"
-            assert {"structure": "lights.0.shadows", "cause": "lights.0.direction"} in frame["rebuilt"]
-            break
-        # a frame not yet sent is replaced by a newer one (by design): under load the preview can be
-        # replaced by the edit's first full frame, the only full frame of one sample after the edit
-        if frame["quality"] == "full" and frame["samples"] == 1:
-            break
+    assert {"structure": "lights.0.shadows", "cause": "lights.0.direction"} in frame["rebuilt"]
     while frame["quality"] != "full":
         frame, _ = receive(a, "frame")
     a.send(json.dumps({"type": "resize", "width": 64, "height": 32}))
@@ -208,10 +205,12 @@ def test_an_edit_without_preview_is_answered_by_its_full_frame_alone(viewer):
         frame, _ = receive(ws, "frame")
     for fov in (31, 32, 33):  # a playback step: the page waits for its full frame anyway
         ws.send(json.dumps({"type": "edit", "set": {"camera.fov_deg": fov}, "preview": False}))
-        while True:
+        while True:  # no preview comes: every frame is full, the edit's first one included
             frame, _ = receive(ws, "frame")
+            assert frame["quality"] == "full", frame
+            # a frame this client had not read yet when the next was made hands its edits on to that
+            # one (docs/viewer.md): under load the edit can arrive with its second sample
             if "camera.fov_deg" in frame["edits"]:
-                assert frame["quality"] == "full" and frame["samples"] == 1, frame
                 break
     ws.send(json.dumps({"type": "edit", "set": {"camera.fov_deg": 34}, "preview": "no"}))
     assert receive(ws, "error")["message"] == 'edit: "preview" must be true or false'

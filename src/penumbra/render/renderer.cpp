@@ -368,6 +368,7 @@ std::size_t Renderer::refined_memory_bytes() const {
 
 void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
   refined_.resize(volumes_.size());
+  refine_failures_.resize(volumes_.size());
   std::uint64_t left = scene_.refinement_bytes;
   float step = volumes_.empty() ? 0.0f : volumes_.front()->full_step;
   for (std::size_t k = 0; k < volumes_.size(); ++k) {
@@ -399,7 +400,12 @@ void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
     // the box held serves while it covers the part wanted at its level and is at least as fine
     const bool keep = choice && held && held->reads(pyramid) && held->box().level <= choice->box.level &&
                       held->box().contains(level_box(pyramid, held->box().level, choice->seen)) && held->held_bytes() <= left;
-    if (!keep) {
+    std::optional<FailedRefinement>& failed = refine_failures_[k];
+    if (!keep && choice && failed && failed->covers(pyramid, *choice)) {
+      // a box that could not be read is not read again for views inside it: the opened level draws them
+      evict();
+      stats.error = failed->error;
+    } else if (!keep) {
       // the box held lends the new one its overlap when both fit what is left at once (same level and
       // store); otherwise it is given up before the next is read: never over the budget
       const bool lend = choice && held && held->reads(pyramid) && held->box().level == choice->box.level &&
@@ -409,8 +415,21 @@ void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
       if (choice) {
         Timer load;
         WindowRead read;
-        std::unique_ptr<RefinedVolume> next = std::make_unique<RefinedVolume>(o, *choice, &read, held.get());
+        std::unique_ptr<RefinedVolume> next;
+        try {
+          next = std::make_unique<RefinedVolume>(o, *choice, &read, held.get());
+        } catch (const Error& e) {  // a chunk cut short, corrupt, unreadable: the frame draws the opened level
+          evict();
+          const std::array<int, 3> d = choice->box.dims();
+          failed = FailedRefinement{choice->box, pyramid.path, pyramid.channel,
+                                    "level " + std::to_string(choice->box.level) + " box " + std::to_string(d[0]) + "x" +
+                                        std::to_string(d[1]) + "x" + std::to_string(d[2]) + ": " + e.what()};
+          stats.error = failed->error;
+          frame.refinement.push_back(stats);
+          continue;
+        }
         evict();
+        failed.reset();
         held = std::move(next);
         refined_changed_ = true;
         stats.loaded_bytes = held->held_bytes();
@@ -430,7 +449,7 @@ void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
       left -= std::min<std::uint64_t>(left, stats.held_bytes);
       step = std::min(step, held->step_world());
     }
-    if (held || stats.evicted_bytes) frame.refinement.push_back(stats);
+    if (held || stats.evicted_bytes || !stats.error.empty()) frame.refinement.push_back(stats);
   }
   // one lattice step for every volume of the eye pass (and the opened levels around a box): the finest
   for (std::size_t k = 0; k < volumes_.size(); ++k)

@@ -188,6 +188,7 @@ private:
   std::vector<std::unique_ptr<PreparedVolume>> volumes_;  // the visible volumes, one lattice step
   std::vector<int> volume_index_;                         // scene volume of each prepared volume
   std::vector<std::unique_ptr<RefinedVolume>> refined_;   // per prepared volume: the box full frames draw (or none)
+  std::vector<std::optional<FailedRefinement>> refine_failures_;  // per prepared volume: the last box whose read failed
   std::unique_ptr<ShadowCasters> casters_;
   // casters_ with the refined boxes (full frames' light structures; null when no box is held or casters_
   // changed since; dropped with a box given up); refined_changed_: a box was loaded since they were built

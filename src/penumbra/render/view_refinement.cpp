@@ -176,7 +176,14 @@ nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement) {
     out.push_back({{"volume", r.volume}, {"opened_level", r.opened_level}, {"level", r.level}, {"dims", r.dims},
                    {"held_bytes", r.held_bytes}, {"loaded_bytes", r.loaded_bytes}, {"read_bytes", r.read_bytes}, {"reused_bytes", r.reused_bytes},
                    {"evicted_bytes", r.evicted_bytes}, {"load_ms", r.load_ms}});
+  for (std::size_t i = 0; i < refinement.size(); ++i)
+    if (!refinement[i].error.empty()) out[i]["error"] = refinement[i].error;
   return out;
+}
+
+bool FailedRefinement::covers(const PyramidSource& pyramid, const RefinementChoice& choice) const {
+  return path == pyramid.path && channel == pyramid.channel && box.level == choice.box.level &&
+         box.contains(level_box(pyramid, box.level, choice.seen));
 }
 
 RefinedVolume::RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read, const RefinedVolume* previous)

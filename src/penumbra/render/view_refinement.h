@@ -97,11 +97,23 @@ struct RefinementStats {
   std::uint64_t reused_bytes = 0;   // of their voxels, copied from the box held before (it overlapped)
   std::uint64_t evicted_bytes = 0;  // a box given up this frame
   double load_ms = 0;               // reading and preparing the box
+  std::string error;  // the box the view needs could not be read (why: the chunk and the fault); the
+                      // frame draws the opened level there, and views inside that box do not try again
+};
+
+// A box whose read failed: views whose part lies inside it draw the opened level and report `error`
+// without reading again (a corrupt chunk does not mend itself; another store, level or part is tried).
+struct FailedRefinement {
+  LevelBox box;
+  std::string path;
+  int channel = 0;
+  std::string error;
+  bool covers(const PyramidSource& pyramid, const RefinementChoice& choice) const;
 };
 
 // Each refined volume of a frame as `--stats`, the Python stats and the viewer's frame message list it:
 // [{"volume", "opened_level", "level", "dims", "held_bytes", "loaded_bytes", "read_bytes",
-//   "evicted_bytes", "load_ms"}, ...].
+//   "reused_bytes", "evicted_bytes", "load_ms"[, "error"]}, ...] ("error" only where a read failed).
 nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement);
 
 // A refined box of one volume, prepared for the eye pass like the volume itself.

@@ -1,6 +1,36 @@
 #include "penumbra/viewer/client_queue.h"
 
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+
 namespace penumbra {
+
+namespace {
+
+// `newer`'s header with the edits and rebuilds of `older`, a frame it replaces unsent, in front of its
+// own (each once); `newer` itself when `older` reported neither.
+ClientQueue::Text with_reports_of(const std::string& older, ClientQueue::Text newer) {
+  const nlohmann::json old_meta = nlohmann::json::parse(older);
+  auto reported = [&](const char* key) { return old_meta.contains(key) && !old_meta[key].empty(); };
+  if (!reported("edits") && !reported("rebuilt")) return newer;
+  nlohmann::json meta = nlohmann::json::parse(*newer);
+  for (const char* key : {"edits", "rebuilt"}) {
+    if (!reported(key)) continue;
+    nlohmann::json merged = old_meta[key];
+    for (const auto& item : meta.value(key, nlohmann::json::array()))
+      if (std::find(merged.begin(), merged.end(), item) == merged.end()) merged.push_back(item);
+    meta[key] = std::move(merged);
+  }
+  return std::make_shared<const std::string>(meta.dump());
+}
+
+}  // namespace
+
+void ClientQueue::push_frame(Text meta, Text jpeg) {
+  if (frame_) meta = with_reports_of(*frame_->meta, std::move(meta));
+  frame_ = Frame{std::move(meta), std::move(jpeg)};
+}
 
 void ClientQueue::push_error(Text error) {
   if (errors_.size() == kMaxErrors) errors_.pop_front();

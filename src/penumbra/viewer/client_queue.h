@@ -4,6 +4,9 @@
 // as of the answers to probes (the value under the pointer: only the latest pointer matters), and of
 // error replies at most kMaxErrors (the oldest are dropped). So at most one message in flight, one
 // state, one frame (header and JPEG), one probe answer and kMaxErrors errors are held per client.
+// A frame replaced before it went passes on what only it reported: the paths edited since the frame
+// before ("edits") and what they rebuilt ("rebuilt") are merged into the newer frame's header, so a
+// client learns of every edit's first frame and its rebuilds even when it reads too slowly to see it.
 #pragma once
 
 #include <cstddef>
@@ -24,7 +27,8 @@ public:
   static constexpr std::size_t kMaxErrors = 16;
 
   void push_state(Text state) { state_ = Message{std::move(state), false}; }
-  void push_frame(Text meta, Text jpeg) { frame_ = Frame{std::move(meta), std::move(jpeg)}; }
+  // `meta` is the frame's JSON header (docs/viewer.md, the "frame" message).
+  void push_frame(Text meta, Text jpeg);
   void push_error(Text error);
   void push_probe(Text answer) { probe_ = Message{std::move(answer), false}; }
 

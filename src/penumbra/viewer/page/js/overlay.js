@@ -36,7 +36,8 @@ export function renderStats() {
 
 /**
  * A full frame of a pyramid opened coarse under the memory budget draws the part in view from a finer
- * level (docs/engine.md "Refined views"): which level and box, what it holds, and what this frame read.
+ * level (docs/engine.md "Refined views"): which level and box, what it holds, and what this frame read,
+ * or why the box could not be read.
  */
 export function refinementLines(refinement) {
   if (!Array.isArray(refinement)) return [];
@@ -44,7 +45,9 @@ export function refinementLines(refinement) {
   const lines = [];
   for (const r of refinement) {
     const volume = refinement.length > 1 ? "volume " + r.volume + " " : "";
-    if (r.held_bytes > 0) {
+    if (r.error) {  // the finer box could not be read: this frame shows the opened level there
+      lines.push(volume + "level " + r.opened_level + " shown: " + r.error);
+    } else if (r.held_bytes > 0) {
       lines.push(volume + "level " + r.level + " box " + r.dims.join("×") + " of level " + r.opened_level);
       lines.push("  held " + mb(r.held_bytes) + (r.loaded_bytes > 0 ? ", read " + mb(r.read_bytes) + " in " + Math.round(r.load_ms) + " ms" : ""));
     } else if (r.evicted_bytes > 0) {
