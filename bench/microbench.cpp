@@ -86,6 +86,31 @@ BENCHMARK_CAPTURE(BM_ShadowQuery, shadow_map, "shadow_map");
 BENCHMARK_CAPTURE(BM_ShadowQuery, deep_shadow_map, "deep_shadow_map");
 BENCHMARK_CAPTURE(BM_ShadowQuery, cssm, "cssm");
 
+// The ISSM's generation (paper 003 §3) for a million spheres scattered in id order, as shuffled atoms or
+// particles are: a parallel light, a 1024² map. Binning, the nearest-first fill of each tile, the map
+// written; what a light drag rebuilds every frame (docs/BENCHMARKS.md, issue 42).
+void BM_IssmBuild(benchmark::State& state) {
+  static const ParticleSet spheres = [] {
+    ParticleSet ps;
+    for (std::uint64_t i = 0; i < 1000000; ++i)
+      ps.spheres.push_back({{uniform_float(11, i, 0) - 0.5f, uniform_float(11, i, 1) - 0.5f, uniform_float(11, i, 2) - 0.5f}, 0.004f});
+    return ps;
+  }();
+  static const Scene empty;
+  ShadowCasters casters(empty, {});
+  casters.set_spheres(CastingSpheres{&spheres, nullptr, spheres.bounds()});
+  ShadowSettings s;
+  s.technique = "issm";
+  s.params.set("resolution", 1024);
+  auto issm = make_shadow_technique(s);
+  Light light;
+  light.type = LightType::Directional;
+  light.direction = normalize(Vec3{-0.45f, -0.8f, -0.4f});
+  for (auto _ : state) issm->build(casters, light);
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(spheres.size()));
+}
+BENCHMARK(BM_IssmBuild)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 // Ceiling 1: one pass over 256 MiB of uint16 voxels on every core (a sum, so nothing is skipped).
 void BM_CeilingVolumeReadBandwidth(benchmark::State& state) {
   static const std::vector<std::uint16_t> voxels(std::size_t{128} << 20, 7);

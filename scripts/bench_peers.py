@@ -125,7 +125,11 @@ def tachyon_scene(path, centres, radius, colour_index):
     """Tachyon's .dat scene: the same camera (Tachyon's ZOOM 1 spans a vertical half-height of 1/2 at
     distance 1, so zoom = 0.5 / tan(fov_y / 2)), the directional light and one texture per palette
     colour (Tachyon shades the colours as given and writes them unencoded: penumbra gets them as
-    sRGB bytes, so both show the same colours)."""
+    sRGB bytes, so both show the same colours). Tachyon's camera is left-handed (its image is the
+    mirror of a right-handed camera's), so the scene is written mirrored in x: the pictures then match."""
+    def mirror(v):
+        return (-v[0], v[1], v[2])
+
     view = np.subtract(TARGET, EYE)
     view = view / np.linalg.norm(view)
     up = np.subtract(UP, np.dot(UP, view) * view)  # Tachyon takes UPDIR as given: orthogonal to VIEWDIR
@@ -134,12 +138,13 @@ def tachyon_scene(path, centres, radius, colour_index):
     with open(path, "w") as f:
         f.write(f"BEGIN_SCENE\nRESOLUTION {WIDTH} {HEIGHT}\n")
         f.write(f"CAMERA\n ZOOM {zoom:.6f}\n ASPECTRATIO 1.0\n ANTIALIASING 0\n RAYDEPTH 4\n")
-        f.write(" CENTER {:.6f} {:.6f} {:.6f}\n VIEWDIR {:.6f} {:.6f} {:.6f}\n UPDIR {:.6f} {:.6f} {:.6f}\nEND_CAMERA\n".format(*EYE, *view, *up))
+        f.write(" CENTER {:.6f} {:.6f} {:.6f}\n VIEWDIR {:.6f} {:.6f} {:.6f}\n UPDIR {:.6f} {:.6f} {:.6f}\nEND_CAMERA\n".format(
+            *mirror(EYE), *mirror(view), *mirror(up)))
         f.write("BACKGROUND 1 1 1\n")
-        f.write("DIRECTIONAL_LIGHT DIRECTION {:.6f} {:.6f} {:.6f} COLOR 1 1 1\n".format(*LIGHT))
+        f.write("DIRECTIONAL_LIGHT DIRECTION {:.6f} {:.6f} {:.6f} COLOR 1 1 1\n".format(*mirror(LIGHT)))
         for k, c in enumerate(PALETTE):
             f.write(f"TEXDEF c{k} AMBIENT {AMBIENT} DIFFUSE {DIFFUSE} SPECULAR 0 OPACITY 1 COLOR {c[0]:.4f} {c[1]:.4f} {c[2]:.4f} TEXFUNC 0\n")
-        lines = [f"SPHERE CENTER {x:.6f} {y:.6f} {z:.6f} RAD {radius:.6f} c{k}\n" for (x, y, z), k in zip(centres.tolist(), colour_index.tolist())]
+        lines = [f"SPHERE CENTER {-x:.6f} {y:.6f} {z:.6f} RAD {radius:.6f} c{k}\n" for (x, y, z), k in zip(centres.tolist(), colour_index.tolist())]
         f.writelines(lines)
         f.write("END_SCENE\n")
 
