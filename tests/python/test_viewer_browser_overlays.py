@@ -229,6 +229,8 @@ def test_a_finer_level_that_cannot_be_read_is_named_over_the_coarser_frame(tmp_p
         assert "chunk" in line and "body.zarr" in line, line
         frame = js(driver, "window.penumbraViewer.lastFrame")
         assert frame["quality"] == "full" and frame["refinement"][0]["held_bytes"] == 0, frame
+        # the chunk is named below the data root, never with the server's own folders
+        assert str(tmp_path) not in json.dumps(frame), frame
         assert console_errors(driver) == []
 
 

@@ -584,6 +584,8 @@ void ViewerServer::Impl::render_frame(Quality quality, bool accumulate) {
   FrameMessage message = frame_message(f, quality, engine.scene(), timer.elapsed_ms(), options.max_samples);
   const auto jpeg = std::make_shared<const std::string>(std::move(message.jpeg));
   nlohmann::json& meta = message.meta;
+  for (auto& r : meta["refinement"])  // a failed box read names its chunk: the data root never shown
+    if (r.contains("error")) r["error"] = viewer_security::without_root(r["error"].get<std::string>(), data_root);
   Text meta_text;
   {
     std::lock_guard lock(mutex);
