@@ -192,6 +192,18 @@ def test_refining_shows_its_progress_and_hides_when_done(session):
     assert any(s.startswith("refining ") and s.endswith("/16") for s in seen), seen
 
 
+def shown_with(needle):
+    """A wait condition: the frame shown and the stats' lines, read in one script (a preview that comes
+    next replaces both), with the first line holding `needle`; False while none does."""
+    def condition(driver):
+        frame, text = driver.execute_script(
+            "return [window.penumbraViewer.lastFrame, document.getElementById('stats').textContent]")
+        lines = text.splitlines()
+        found = [x for x in lines if needle in x]
+        return (frame, lines, found[0]) if found else False
+    return condition
+
+
 def test_a_pyramid_under_a_budget_says_which_finer_level_it_draws(tmp_path):
     """An OME-Zarr pyramid opened at level 1 under a small memory budget, looked at closely: the full frame
     draws the part in view from level 0, and the stats say so (the frame message carries what it held)."""
@@ -200,13 +212,10 @@ def test_a_pyramid_under_a_budget_says_which_finer_level_it_draws(tmp_path):
     scene = {"volumes": [{"file": "body.zarr"}], "memory_budget": 600000,
              "camera": {"direction": [0.45, 0.4, 1.0], "distance": 450, "target": [0, 0, 650], "width": 160, "height": 120}}
     with opened_page(tmp_path, scene) as driver:
-        stats = driver.find_element(By.ID, "stats")
-        wait(driver, lambda d: "level 0 box" in stats.text, "the stats do not name the finer level drawn")
-        line = next(x for x in stats.text.splitlines() if "level 0 box" in x)
+        frame, lines, line = wait(driver, shown_with("level 0 box"), "the stats do not name the finer level drawn")
         assert line.startswith("level 0 box ") and line.endswith(" of level 1"), line
-        held = stats.text.splitlines()[stats.text.splitlines().index(line) + 1]
+        held = lines[lines.index(line) + 1]
         assert held.startswith("  held ") and held.split()[2] == "MB", held
-        frame = js(driver, "window.penumbraViewer.lastFrame")
         r = frame["refinement"][0]
         assert (r["opened_level"], r["level"]) == (1, 0) and 0 < r["held_bytes"] <= 600000, r
         assert console_errors(driver) == []
@@ -223,11 +232,8 @@ def test_a_finer_level_that_cannot_be_read_is_named_over_the_coarser_frame(tmp_p
     scene = {"volumes": [{"file": "body.zarr"}], "memory_budget": 600000,
              "camera": {"direction": [0.45, 0.4, 1.0], "distance": 450, "target": [0, 0, 650], "width": 160, "height": 120}}
     with opened_page(tmp_path, scene) as driver:
-        stats = driver.find_element(By.ID, "stats")
-        wait(driver, lambda d: "level 1 shown: level 0 box" in stats.text, "the stats do not say the finer box failed")
-        line = next(x for x in stats.text.splitlines() if "level 1 shown" in x)
+        frame, _, line = wait(driver, shown_with("level 1 shown: level 0 box"), "the stats do not say the finer box failed")
         assert "chunk" in line and "body.zarr" in line, line
-        frame = js(driver, "window.penumbraViewer.lastFrame")
         assert frame["quality"] == "full" and frame["refinement"][0]["held_bytes"] == 0, frame
         # the chunk is named below the data root, never with the server's own folders
         assert str(tmp_path) not in json.dumps(frame), frame
