@@ -425,18 +425,18 @@ void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
                                     "level " + std::to_string(choice->box.level) + " box " + std::to_string(d[0]) + "x" +
                                         std::to_string(d[1]) + "x" + std::to_string(d[2]) + ": " + e.what()};
           stats.error = failed->error;
-          frame.refinement.push_back(stats);
-          continue;
         }
-        evict();
-        failed.reset();
-        held = std::move(next);
-        refined_changed_ = true;
-        stats.loaded_bytes = held->held_bytes();
-        stats.read_bytes = read.bytes_read;
-        stats.reused_bytes = read.bytes_reused;
-        stats.load_ms = load.elapsed_ms();
-        rebuilt(indexed("volumes", i, "refined"), Quality::Full, frame);
+        if (next) {
+          evict();
+          failed.reset();
+          held = std::move(next);
+          refined_changed_ = true;
+          stats.loaded_bytes = held->held_bytes();
+          stats.read_bytes = read.bytes_read;
+          stats.reused_bytes = read.bytes_reused;
+          stats.load_ms = load.elapsed_ms();
+          rebuilt(indexed("volumes", i, "refined"), Quality::Full, frame);
+        }
       }
     } else if (held->follow(o)) {
       held->prepared().update_lut(held->prepared().full_step);

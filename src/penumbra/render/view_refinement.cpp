@@ -172,12 +172,13 @@ Box3 pyramid_bounds(const PyramidSource& pyramid, const Volume& opened) {
 
 nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement) {
   nlohmann::json out = nlohmann::json::array();
-  for (const RefinementStats& r : refinement)
-    out.push_back({{"volume", r.volume}, {"opened_level", r.opened_level}, {"level", r.level}, {"dims", r.dims},
-                   {"held_bytes", r.held_bytes}, {"loaded_bytes", r.loaded_bytes}, {"read_bytes", r.read_bytes}, {"reused_bytes", r.reused_bytes},
-                   {"evicted_bytes", r.evicted_bytes}, {"load_ms", r.load_ms}});
-  for (std::size_t i = 0; i < refinement.size(); ++i)
-    if (!refinement[i].error.empty()) out[i]["error"] = refinement[i].error;
+  for (const RefinementStats& r : refinement) {
+    nlohmann::json entry = {{"volume", r.volume}, {"opened_level", r.opened_level}, {"level", r.level}, {"dims", r.dims},
+                            {"held_bytes", r.held_bytes}, {"loaded_bytes", r.loaded_bytes}, {"read_bytes", r.read_bytes},
+                            {"reused_bytes", r.reused_bytes}, {"evicted_bytes", r.evicted_bytes}, {"load_ms", r.load_ms}};
+    if (!r.error.empty()) entry["error"] = r.error;
+    out.push_back(std::move(entry));
+  }
   return out;
 }
 
