@@ -7,10 +7,11 @@ time (its own peak resident set); the image's error is RMSE/PSNR against the in-
         the Visible-Woman-sized ct-body (512×512×1734 uint16, 867 MiB) at budgets of 1/8, 1/4 and 1/2
         of its size and fully in memory; with --file as one NRRD (no pyramid: opened reduced, read a slab
         at a time, volume_reduction.h) instead of the OME-Zarr pyramid
-    scripts/bench_budget.py zoom [--size 512]
+    scripts/bench_budget.py zoom [--size 512] [--file]
         a close view of the same ct-body's head under budgets of 1/8 and 1/4: the pyramid opened coarse,
         drawn from it alone and refined where the camera looks (render/view_refinement.h), against level 0
-        in memory; then a session (--edits) that pans, backs away and comes back
+        in memory; then a session (--edits) that pans, backs away and comes back; with --file the ct-body
+        as one NRRD (opened reduced and refined from the file's slices) instead of the pyramid
     scripts/bench_budget.py big --dims 4096 4096 2048 [--budget 4G] [--keep] [--zoom] [--skip-orbit]
         a procedural ct-body larger than memory (4096×4096×2048 uint16: 64 GiB) converted (time, size,
         peak memory), then opened under the budget: time to the first image and frames per second over
@@ -140,11 +141,20 @@ def zoom(o, cli, out):
     if not os.path.isdir(store):
         timed([cli, "convert", "--procedural", '{"name": "ct-body"}', "-o", store, "--unit", "millimeter"])
     scene = zoomed_scene(cli, store, out, "zoom", 450.0, [0.0, 0.0, 650.0])
+    in_memory = ["--set", "volumes.0.level=0"]
+    if o.file:  # the same scene with the pyramid's level 0 as one NRRD
+        source = os.path.join(o.work, "ct_body.nrrd")
+        if not os.path.isfile(source):
+            nrrd_of_level0(store, source)
+        doc = json.load(open(scene))
+        doc["volumes"][0]["file"] = os.path.abspath(source)
+        json.dump(doc, open(scene, "w"), indent=1)
+        in_memory = []
     full_bytes = 512 * 512 * 1734 * 2
     size = ["--width", o.size, "--height", o.size]
     ref = os.path.join(out, "zoom_full.png")
     rows = []
-    cases = [("in memory (level 0)", ["--set", "volumes.0.level=0"]),
+    cases = [("in memory (level 0)", in_memory),
              ("1/8, opened level only", ["--memory-budget", full_bytes // 8, "--set", "volumes.0.refine=false"]),
              ("1/8, refined", ["--memory-budget", full_bytes // 8]),
              ("1/4, opened level only", ["--memory-budget", full_bytes // 4, "--set", "volumes.0.refine=false"]),
@@ -168,7 +178,7 @@ def zoom(o, cli, out):
         print(f"| {r['case']} | {'×'.join(map(str, r['dims']))} | {drawn} | {r['held_mib']:.0f} | {r['read_mib']:.1f} | {r['first_image_s']:.1f} | "
               f"{r['frame_ms']:.0f} | {r['peak_mib']:.0f} | {r['rmse']:.4f} | {r['psnr']} |")
     session = session_steps(cli, scene, out, ["--memory-budget", full_bytes // 8, *size], [0.0, 0.0, 650.0], 450.0)
-    json.dump({"cases": rows, "session": session}, open(os.path.join(out, "budget_zoom.json"), "w"), indent=2)
+    json.dump({"cases": rows, "session": session}, open(os.path.join(out, "budget_zoom_file.json" if o.file else "budget_zoom.json"), "w"), indent=2)
 
 
 def session_steps(cli, scene, out, args, target, distance):
@@ -361,7 +371,7 @@ def main():
     p.add_argument("--keep", action="store_true")
     p.add_argument("--zoom", action="store_true", help="big: also a close view of the head, refined (preview, refined frame, a session)")
     p.add_argument("--skip-orbit", action="store_true", help="big: no orbit")
-    p.add_argument("--file", action="store_true", help="body: the ct-body as one NRRD file, not a pyramid")
+    p.add_argument("--file", action="store_true", help="body, zoom: the ct-body as one NRRD file, not a pyramid")
     o = p.parse_args()
     cli = os.path.join(o.build, "penumbra")
     out = o.out or tempfile.mkdtemp(prefix="bench_budget_")

@@ -200,7 +200,7 @@ TEST(ViewRefinement, ChoosesTheCoarsestLevelAsFineAsAPixelThatFits) {
 TEST(ViewRefinement, ABoxOfALevelIsThatLevelsVoxels) {
   ScratchDir dir;
   write_numbered_pyramid(dir.file("v.zarr"), {37, 30, 26});
-  const std::vector<ZarrLevelGrid> grids = zarr_level_grids(dir.file("v.zarr"));
+  const std::vector<LevelGrid> grids = zarr_level_grids(dir.file("v.zarr"));
   ASSERT_GE(grids.size(), 2u);
   for (const int level : {0, 1}) {
     VolumeLoadOptions lo;

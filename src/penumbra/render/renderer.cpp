@@ -421,7 +421,7 @@ void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
         } catch (const Error& e) {  // a chunk cut short, corrupt, unreadable: the frame draws the opened level
           evict();
           const std::array<int, 3> d = choice->box.dims();
-          failed = FailedRefinement{choice->box, pyramid.path, pyramid.channel,
+          failed = FailedRefinement{choice->box, pyramid.key,
                                     "level " + std::to_string(choice->box.level) + " box " + std::to_string(d[0]) + "x" +
                                         std::to_string(d[1]) + "x" + std::to_string(d[2]) + ": " + e.what()};
           stats.error = failed->error;

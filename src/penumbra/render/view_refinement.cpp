@@ -183,17 +183,17 @@ nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement) {
 }
 
 bool FailedRefinement::covers(const PyramidSource& pyramid, const RefinementChoice& choice) const {
-  return path == pyramid.path && channel == pyramid.channel && box.level == choice.box.level &&
+  return key == pyramid.key && box.level == choice.box.level &&
          box.contains(level_box(pyramid, box.level, choice.seen));
 }
 
 RefinedVolume::RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read, const RefinedVolume* previous)
-    : box_(choice.box), path_(coarse.pyramid->path), channel_(coarse.pyramid->channel), object_(coarse) {
+    : box_(choice.box), key_(coarse.pyramid->key), object_(coarse) {
   const PyramidSource& pyramid = *coarse.pyramid;
   std::optional<HeldBox> held;
   if (previous && previous->reads(pyramid) && previous->box_.level == box_.level)
     held = HeldBox{previous->box_.lo, previous->box_.hi, previous->object_.volume.get()};
-  Volume box = load_zarr_box(pyramid.path, box_.level, pyramid.channel, box_.lo, box_.hi, read, held ? &*held : nullptr);
+  Volume box = pyramid.read_box(box_.level, box_.lo, box_.hi, read, held ? &*held : nullptr);
   box.set_value_range(std::min(box.min_value(), coarse.volume->min_value()), std::max(box.max_value(), coarse.volume->max_value()));
   object_.volume = std::make_shared<const Volume>(std::move(box));
   object_.pyramid = nullptr;

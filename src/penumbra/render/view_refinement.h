@@ -1,8 +1,9 @@
 // View-dependent refinement of a volume larger than memory (issue 43; paper 002's "interactive
 // exploration of large scale datasets on commodity hardware").
 //
-// A volume the scene reader opened from an OME-Zarr pyramid at a level coarser than its finest
-// (VolumeObject::pyramid: memory allowed no finer level for the whole volume) is drawn, in full-quality
+// A volume the scene reader opened from an OME-Zarr pyramid at a level coarser than its finest, or from a
+// file without levels read reduced (VolumeObject::pyramid: memory allowed no finer grid for the whole
+// volume; a file's levels are its reductions by powers of two, data/io/volume_reduction.h) is drawn, in full-quality
 // frames, from a box of a finer level that covers what the camera sees of it: the bounds of the
 // frustum ∩ the volume's box up to the depth where the opened level's voxel is as small as a pixel,
 // with an apron of two voxels for interpolation and central differences. The level is the finest whose
@@ -105,8 +106,7 @@ struct RefinementStats {
 // without reading again (a corrupt chunk does not mend itself; another store, level or part is tried).
 struct FailedRefinement {
   LevelBox box;
-  std::string path;
-  int channel = 0;
+  std::string key;  // PyramidSource::key
   std::string error;
   bool covers(const PyramidSource& pyramid, const RefinementChoice& choice) const;
 };
@@ -132,7 +132,7 @@ public:
   const LevelBox& box() const { return box_; }
   // Whether the box was read from this pyramid's store and channel (a volume's file edited to another
   // store of the same grid must not keep the old store's box).
-  bool reads(const PyramidSource& pyramid) const { return pyramid.path == path_ && pyramid.channel == channel_; }
+  bool reads(const PyramidSource& pyramid) const { return pyramid.key == key_; }
   std::uint64_t held_bytes() const;  // refined_bytes of its box: what the budget counts
   PreparedVolume& prepared() { return *prepared_; }
   const VolumeObject& object() const { return object_; }  // the coarse object with the box as its volume
@@ -140,8 +140,7 @@ public:
 
 private:
   LevelBox box_;
-  std::string path_;  // the store and channel it was read from
-  int channel_ = -1;
+  std::string key_;  // the source it was read from (PyramidSource::key)
   VolumeObject object_;  // the coarse object with the box as its volume
   std::unique_ptr<PreparedVolume> prepared_;
 };

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -12,6 +13,7 @@
 #include "penumbra/core/clip_planes.h"
 #include "penumbra/core/color.h"
 #include "penumbra/core/math.h"
+#include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/particles.h"
 #include "penumbra/data/transfer_function.h"
 #include "penumbra/data/volume.h"
@@ -45,19 +47,28 @@ struct ShadowFlags {
 // where they would not fit the scene's memory_budget: the scene reader then chooses for auto).
 constexpr std::size_t kStoredGradientBytes = std::size_t{1} << 30;
 
-// A volume the scene reader opened from an OME-Zarr pyramid at a level coarser than its finest, because
-// memory allowed no finer one for the whole volume: the levels a full frame reads the visible part of
-// the volume from (render/view_refinement.h).
+// A volume the scene reader opened coarser than its data, because memory allowed no finer grid for the
+// whole volume — an OME-Zarr pyramid's coarser level, or a file without levels read reduced
+// (data/io/volume_reduction.h) — and the levels a full frame reads the visible part of it from
+// (render/view_refinement.h).
 struct PyramidSource {
   struct Level {
     std::array<int, 3> dims{};       // voxels along x, y, z
     Vec3 spacing{1, 1, 1}, origin{0, 0, 0};  // of the voxel centres, as the level is placed when read
   };
-  std::string path;                  // the store's folder
-  int channel = -1;                  // volumes[].channel (-1: channel 0)
+  std::string path;                  // the store's folder or the file, for messages
+  std::string key;                   // the file and what reads it (channel, dataset, series, layout): a box read
+                                     // from one source is never taken for another's
   int opened = 0;                    // the level the volume holds
   std::vector<Level> levels;         // 0 the finest
   ScalarType type = ScalarType::UInt8;
+  // Reads voxels [lo, hi) of a level, placed where they lie (origin: the box's first voxel), its value
+  // range its own, opacities referring to the finest level's voxel; `held` a box of the same level in
+  // memory whose voxels it may take instead of reading them (data/io/volume_io.h). Error naming what
+  // could not be read.
+  std::function<Volume(int level, const std::array<std::int64_t, 3>& lo, const std::array<std::int64_t, 3>& hi, WindowRead* read,
+                       const HeldBox* held)>
+      read_box;
 };
 
 struct VolumeObject : ShadowFlags {
@@ -74,8 +85,8 @@ struct VolumeObject : ShadowFlags {
   // voxels (no memory, slower shading; the same frame), or (Auto) stored up to kStoredGradientBytes.
   enum class Gradients { Auto, Stored, OnTheFly } gradients = Gradients::Auto;
   std::size_t frames = 0;               // volumes[].files: the steps of the series (`volume` is step Scene::time); 0: one volume
-  // volumes[].refine (default true): set when `volume` is a pyramid's level coarser than its finest;
-  // full frames then draw the part in view from a finer level (render/view_refinement.h).
+  // volumes[].refine (default true): set when `volume` is a pyramid's level coarser than its finest or a
+  // file read reduced; full frames then draw the part in view from a finer level (render/view_refinement.h).
   std::shared_ptr<const PyramidSource> pyramid;
 
   float step_world() const {

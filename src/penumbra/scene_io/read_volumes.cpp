@@ -8,6 +8,7 @@
 
 #include "penumbra/core/byte_size.h"
 #include "penumbra/data/io/volume_io.h"
+#include "penumbra/data/io/volume_reduction.h"
 #include "penumbra/data/procedural.h"
 #include "penumbra/data/transfer_function_choice.h"
 
@@ -160,21 +161,34 @@ std::uint64_t budgeted_bytes(const Volume& volume, const std::string& source, bo
   return held;
 }
 
-// The levels of the pyramid at `path` when `opened` is one of them but not the finest (the level is
-// recognised by its grid); nullptr otherwise.
-std::shared_ptr<const PyramidSource> coarser_than_finest(const std::string& path, int channel, const Volume& opened) {
-  const std::vector<ZarrLevelGrid> grids = zarr_level_grids(path);
+// The levels `opened` is one of: those of the OME-Zarr pyramid at `path` when `opened` is one of them but
+// not the finest (recognised by its grid), or the file's reductions when it was read reduced under the
+// budget (volume_reduction.h); nullptr otherwise. `origin` (the scene's) moves the finest level's first
+// voxel there and every level with it, so that a coarser level and its finer boxes lie where the data at
+// full resolution would.
+std::shared_ptr<const PyramidSource> refinement_levels(const std::string& path, const VolumeLoadOptions& options, const Volume& opened,
+                                                       const std::string& key, const std::optional<Vec3>& origin) {
+  const bool store = is_zarr_store(path);
+  const std::vector<LevelGrid> grids = store ? zarr_level_grids(path) : reduced_level_grids(path, options, opened);
   auto source = std::make_shared<PyramidSource>();
   source->path = path;
-  source->channel = channel;
+  source->key = key;
   source->opened = -1;
   for (std::size_t l = 0; l < grids.size(); ++l) {
-    const ZarrLevelGrid& g = grids[l];
+    const LevelGrid& g = grids[l];
     source->levels.push_back({g.dims, g.spacing, g.origin});
     if (g.dims == opened.dims() && length(g.spacing - opened.spacing()) <= 1e-4f * length(g.spacing)) source->opened = static_cast<int>(l);
   }
   if (source->opened <= 0) return nullptr;
   source->type = grids.front().type;
+  const Vec3 shift = origin ? *origin - source->levels.front().origin : Vec3{0, 0, 0};
+  for (PyramidSource::Level& l : source->levels) l.origin += shift;
+  source->read_box = [path, options, store, shift](int level, const std::array<std::int64_t, 3>& lo, const std::array<std::int64_t, 3>& hi,
+                                                   WindowRead* read, const HeldBox* held) {
+    Volume box = store ? load_zarr_box(path, level, options.channel, lo, hi, read, held) : load_reduced_box(path, options, level, lo, hi, read, held);
+    box.set_origin(box.origin() + shift);
+    return box;
+  };
   return source;
 }
 
@@ -191,8 +205,9 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
     r.fail("spacing", "is given with 'array' only (a file's spacing is in its header, or in 'raw')");
   std::function<Volume()> load;
   const bool refine = r.boolean("refine", true);
-  std::string pyramid_path;  // an OME-Zarr store that may refine (VolumeObject::pyramid)
-  int pyramid_channel = -1;
+  // a store or a file that may open coarser than its data, read so: its levels (VolumeObject::pyramid)
+  std::optional<VolumeLoadOptions> leveled;
+  bool refinable = false;  // full frames may refine it
   std::string data_id = data_key(j, base_dir, {"file", "files", "raw", "series", "channel", "level", "dataset", "grid", "procedural", "array", "spacing", "origin"});
   std::string series_id;  // a series: what its first loaded step is cached under (the reference grid and range)
   if (r.has("file") || r.has("files")) {
@@ -217,10 +232,13 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
     }
     const std::string key = r.has("files") ? "files" : "file";
     const auto* reader = options.volume_reader;
-    // a pyramid whose level was chosen by memory (not by 'level'), read whole (not a rank's window): its
-    // finer levels refine full frames where the camera looks
-    if (refine && !reader && !r.has("files") && paths.size() == 1 && lo.level < 0 && is_zarr_store(paths[0]))
-      pyramid_path = paths[0], pyramid_channel = lo.channel;
+    // a pyramid, or a file that may be read reduced under the budget (one step of a series too), read
+    // whole (not a rank's window): its levels place it; where memory chose the level (not 'level'),
+    // finer levels refine full frames
+    if (!reader && paths.size() == 1 && (is_zarr_store(paths[0]) || (budget_left && reads_slices_in_part(paths, lo)))) {
+      leveled = lo;
+      refinable = refine && lo.level < 0;
+    }
     load = [&r, paths, lo, key, reader] {
       return with_context(r.key_path(key), [&] { return reader ? (*reader)(paths, lo) : load_volume(paths, lo); });
     };
@@ -253,9 +271,18 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
     data_id += "@" + std::to_string(reinterpret_cast<std::uintptr_t>(array.get()));  // replaced data is new data
     v.source = "array:" + r.required_string("array");
   }
+  // the levels, found once per data (a file read reduced reads its header for them)
+  std::optional<std::shared_ptr<const PyramidSource>> levels;
+  auto find_levels = [&](const Volume& opened) {
+    if (!levels) levels = with_context(r.key_path("file"), [&] { return refinement_levels(v.source, *leveled, opened, data_id, origin); });
+    return *levels;
+  };
   auto load_placed = [&] {
     Volume vol = load();
-    if (origin) vol.set_origin(*origin);
+    if (origin) {  // a level coarser than the data moves with the data's first voxel
+      const std::shared_ptr<const PyramidSource> pyramid = leveled ? find_levels(vol) : nullptr;
+      vol.set_origin(pyramid ? pyramid->levels[static_cast<std::size_t>(pyramid->opened)].origin : *origin);
+    }
     return vol;
   };
   const std::shared_ptr<Volume> volume = options.cache ? options.cache->volume(data_id, load_placed) : std::make_shared<Volume>(load_placed());
@@ -313,7 +340,8 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
       if (r.has(key)) r.fail(key, "the volume is not visible ('visible': false): it neither casts nor receives shadows");
   read_shadow_flags(r, v);
   r.finish();
-  if (!pyramid_path.empty() && v.visible) v.pyramid = coarser_than_finest(pyramid_path, pyramid_channel, *volume);
+  if (refinable && v.visible)
+    v.pyramid = options.cache ? options.cache->pyramid(data_id, [&] { return find_levels(*volume); }) : find_levels(*volume);
   v.volume = std::move(volume);
   return v;
 }

@@ -68,6 +68,14 @@ const nlohmann::json& SceneDataCache::chosen_transfer_function(const std::string
   return tf;
 }
 
+std::shared_ptr<const PyramidSource> SceneDataCache::pyramid(const std::string& key,
+                                                            const std::function<std::shared_ptr<const PyramidSource>()>& find) {
+  used_.insert("y" + key);
+  auto found = pyramids_.find(key);
+  if (found == pyramids_.end()) found = pyramids_.emplace(key, find()).first;
+  return found->second;
+}
+
 void SceneDataCache::set_transfer_function_chooser(std::function<nlohmann::json(const Volume&)> chooser) {
   chooser_ = std::move(chooser);
   transfer_functions_.clear();
@@ -87,6 +95,7 @@ void SceneDataCache::drop_unused() {
   std::erase_if(selected_atoms_, [&](const auto& e) { return !used_.count("n" + e.first); });
   std::erase_if(selected_indices_, [&](const auto& e) { return !used_.count("i" + e.first); });
   std::erase_if(series_, [&](const auto& e) { return !used_.count("s" + e.first); });
+  std::erase_if(pyramids_, [&](const auto& e) { return !used_.count("y" + e.first); });
   used_.clear();
 }
 

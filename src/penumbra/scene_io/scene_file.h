@@ -66,6 +66,9 @@ public:
   const SeriesGrid& series(const std::string& key, const Volume& step, const std::string& file);
   // The transfer function chosen from a volume's data (data/transfer_function_choice.h), once per data.
   const nlohmann::json& chosen_transfer_function(const std::string& key, const Volume& volume);
+  // The levels a volume cached under `key` refines from (VolumeObject::pyramid; nullptr: none), found once
+  // per data (a file read reduced reads its header for them).
+  std::shared_ptr<const PyramidSource> pyramid(const std::string& key, const std::function<std::shared_ptr<const PyramidSource>()>& find);
   // Chooses transfer functions with `chooser` from now on (forgetting those chosen before): for data
   // that one process holds only part of (a distributed volume, chosen from the whole grid's histogram).
   void set_transfer_function_chooser(std::function<nlohmann::json(const Volume&)> chooser);
@@ -85,6 +88,7 @@ private:
   std::map<std::string, std::shared_ptr<const std::vector<std::uint32_t>>> selected_indices_;
   std::map<std::string, SeriesGrid> series_;
   std::map<std::string, nlohmann::json> transfer_functions_;
+  std::map<std::string, std::shared_ptr<const PyramidSource>> pyramids_;
   std::function<nlohmann::json(const Volume&)> chooser_;  // empty: choose_transfer_function
   std::set<std::string> used_;
 };

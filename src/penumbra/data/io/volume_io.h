@@ -148,14 +148,15 @@ struct HeldBox {
 };
 Volume load_zarr_box(const std::string& path, int level, int channel, const std::array<std::int64_t, 3>& lo,
                      const std::array<std::int64_t, 3>& hi, WindowRead* read = nullptr, const HeldBox* held = nullptr);
-// The grids of an OME-Zarr pyramid's levels (0 the finest) as load_zarr_volume places them; empty for a
-// store that is no pyramid or one whose scales reverse an axis.
-struct ZarrLevelGrid {
+// The grid of one level of a pyramid (0 the finest), as its reader places it.
+struct LevelGrid {
   std::array<int, 3> dims{};
   Vec3 spacing{1, 1, 1}, origin{0, 0, 0};
   ScalarType type = ScalarType::UInt8;
 };
-std::vector<ZarrLevelGrid> zarr_level_grids(const std::string& path);
+// The grids of an OME-Zarr pyramid's levels as load_zarr_volume places them; empty for a store that is no
+// pyramid or one whose scales reverse an axis.
+std::vector<LevelGrid> zarr_level_grids(const std::string& path);
 // What a pyramid's level must fit without a memory budget: a quarter of this machine's memory.
 std::uint64_t default_pyramid_budget();
 // HDF5 (hdf5_loader.cpp; .h5, .hdf5, .he5): one numeric dataset (`dataset`, "" = the only one of three or

@@ -476,14 +476,14 @@ Volume load_zarr_box(const std::string& path, int level, int channel, const std:
   return load_zarr(path, level, channel, nullptr, 0, nullptr, read, &box, held);
 }
 
-std::vector<ZarrLevelGrid> zarr_level_grids(const std::string& path) {
+std::vector<LevelGrid> zarr_level_grids(const std::string& path) {
   const fs::path root(path);
   const Pyramid pyramid = read_pyramid(root);
-  std::vector<ZarrLevelGrid> grids;
+  std::vector<LevelGrid> grids;
   for (const Level& l : pyramid.levels) {
     const ZarrArray a = io_detail::read_zarr_array(root / l.path);
     if (a.shape.size() < 3 || l.scale[0] <= 0 || l.scale[1] <= 0 || l.scale[2] <= 0) return {};
-    ZarrLevelGrid g;
+    LevelGrid g;
     for (int a3 = 0; a3 < 3; ++a3) {
       const std::int64_t n = a.shape[a.shape.size() - 1 - static_cast<std::size_t>(a3)];
       if (n < 1 || n > std::numeric_limits<int>::max()) return {};
