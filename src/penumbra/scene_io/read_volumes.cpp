@@ -2,6 +2,7 @@
 // volume or an array held in memory) and the isosurfaces drawn from them (docs/scene-file.md).
 #include "penumbra/scene_io/scene_sections.h"
 
+#include <algorithm>
 #include <cctype>
 #include <filesystem>
 #include <optional>
@@ -169,6 +170,10 @@ std::uint64_t budgeted_bytes(const Volume& volume, const std::string& source, bo
 std::shared_ptr<const PyramidSource> refinement_levels(const std::string& path, const VolumeLoadOptions& options, const Volume& opened,
                                                        const std::string& key, const std::optional<Vec3>& origin) {
   const bool store = is_zarr_store(path);
+  // a file read at full resolution has no coarser level (its opacities refer to its own voxel; a reduced
+  // one's to the file's smaller one): its header is not read again
+  const Vec3& s = opened.spacing();
+  if (!store && opened.opacity_length() >= std::min({s.x, s.y, s.z})) return nullptr;
   const std::vector<LevelGrid> grids = store ? zarr_level_grids(path) : reduced_level_grids(path, options, opened);
   auto source = std::make_shared<PyramidSource>();
   source->path = path;
