@@ -245,3 +245,91 @@ TEST(ReducedRefinement, EachStepOfASeriesIsRefinedFromItsFile) {
   EXPECT_LT(compare_images(f1.image, expected1).max_abs, 1e-4);
   EXPECT_GT(compare_images(expected1, expected0).rmse, 0.005) << "the steps differ where the camera looks";
 }
+
+namespace {
+
+// The balls' isosurface at 0.75 (the volume hidden), seen close.
+nlohmann::json ball_isosurface_scene(const std::string& file, std::uint64_t budget, bool refine) {
+  nlohmann::json j = ball_file_scene(file, budget, refine);
+  j["volumes"][0]["visible"] = false;
+  j["volumes"][0].erase("transfer_function");
+  j["isosurfaces"] = nlohmann::json::array({{{"volume", 0}, {"value", 0.75}, {"color", {0.9, 0.8, 0.6}}}});
+  j["shadows"] = {{"technique", "none"}};
+  return j;
+}
+
+}  // namespace
+
+// The isosurface of a hidden volume opened reduced is drawn, in full frames, from a box of the file
+// where the camera looks (its own box: the volume draws none) and from the reduced volume around it; the
+// frame is near the file's in memory where the reduced surface alone is not; a preview extracts from the
+// reduced volume; backing away gives the box up. (With the reduced surface not kept out of the box, its
+// points there compete with the box's and this fails.)
+TEST(ReducedRefinement, AnIsosurfaceIsExtractedFromTheRefinedBox) {
+  ScratchDir dir;
+  const std::string file = write_ball_nrrd(dir, 64);
+  const std::uint64_t budget = 1u << 20;
+  const Scene scene = build_scene(ball_isosurface_scene(file, budget, true), "");
+  ASSERT_TRUE(scene.volumes[0].pyramid);
+  Renderer refined(scene);
+  const FrameResult full = refined.render();
+  ASSERT_EQ(full.refinement.size(), 1u);
+  const RefinementStats& s = full.refinement.front();
+  EXPECT_EQ(s.level, 0);
+  EXPECT_GT(s.held_bytes, 0u);
+  EXPECT_LE(s.held_bytes, scene.refinement_bytes);
+  EXPECT_EQ(refined.refined_memory_bytes(), s.held_bytes);
+  EXPECT_NE(std::find(full.rebuilt.begin(), full.rebuilt.end(), "volumes.0.refined_hierarchy"), full.rebuilt.end());
+  const Image in_memory = Renderer(build_scene(ball_isosurface_scene(file, 0, true), "")).render().image;
+  const Image opened_only = Renderer(build_scene(ball_isosurface_scene(file, budget, false), "")).render().image;
+  FailureImages keep;
+  keep.add("refined", full.image, in_memory);
+  keep.add("opened", opened_only, in_memory);
+  const ImageDifference refined_error = compare_images(full.image, in_memory), opened_error = compare_images(opened_only, in_memory);
+  EXPECT_LT(refined_error.rmse, 2e-3) << refined_error.rmse << " against the reduced surface's " << opened_error.rmse;
+  EXPECT_GT(opened_error.rmse, 0.01);
+  EXPECT_TRUE(non_trivial(full.image));
+  // a preview extracts from the reduced volume
+  FrameRequest preview;
+  preview.quality = Quality::Preview;
+  preview.preview_divisor = 1;
+  const FrameResult p = refined.render(preview);
+  Renderer unrefined(build_scene(ball_isosurface_scene(file, budget, false), ""));
+  (void)unrefined.render();
+  EXPECT_EQ(compare_images(p.image, unrefined.render(preview).image).max_abs, 0.0);
+  // backing away: the box is given up
+  Camera far = scene.camera;
+  far.eye = far.target + (far.eye - far.target) * 40.0f;
+  const FrameResult backed = refined.render(far, scene.lights);
+  ASSERT_EQ(backed.refinement.size(), 1u);
+  EXPECT_EQ(backed.refinement.front().evicted_bytes, s.held_bytes);
+  EXPECT_EQ(refined.refined_memory_bytes(), 0u);
+}
+
+// A visible volume and its isosurface: the isosurface takes the volume's refined box (one box read,
+// one refinement entry; the hierarchy over it, like the opened level's, is not counted in the budget).
+TEST(ReducedRefinement, AnIsosurfaceSharesTheVisibleVolumesBox) {
+  ScratchDir dir;
+  const std::string file = write_ball_nrrd(dir, 64);
+  auto both = [&](std::uint64_t budget) {
+    nlohmann::json j = ball_file_scene(file, budget, true);
+    j["isosurfaces"] = nlohmann::json::array({{{"volume", 0}, {"value", 0.75}, {"color", {0.9, 0.8, 0.6}}}});
+    j["shadows"] = {{"technique", "none"}};
+    return build_scene(j, "");
+  };
+  const Scene scene = both(1u << 20);
+  Renderer renderer(scene);
+  const FrameResult full = renderer.render();
+  ASSERT_EQ(full.refinement.size(), 1u);
+  EXPECT_EQ(full.refinement.front().level, 0);
+  EXPECT_NE(std::find(full.rebuilt.begin(), full.rebuilt.end(), "volumes.0.refined_hierarchy"), full.rebuilt.end());
+  EXPECT_EQ(renderer.refined_memory_bytes(), full.refinement.front().held_bytes);
+  const Image in_memory = Renderer(both(0)).render().image;
+  FailureImages keep;
+  keep.add("both", full.image, in_memory);
+  EXPECT_LT(compare_images(full.image, in_memory).rmse, 2e-3);
+  // the same view again: nothing read, the hierarchy kept
+  const FrameResult again = renderer.render();
+  EXPECT_EQ(std::find(again.rebuilt.begin(), again.rebuilt.end(), "volumes.0.refined_hierarchy"), again.rebuilt.end());
+  EXPECT_EQ(again.refinement.at(0).loaded_bytes, 0u);
+}

@@ -106,6 +106,7 @@ private:
       return false;
     }
     const Box3 box{world(lo), world(hi)};
+    if (options_.exclude && options_.exclude->contains(box.lo) && options_.exclude->contains(box.hi)) return false;  // drawn by another pass
     const TileRect r = project(box, extent);
     if (!any_visible(r)) {
       ++stats.visibility_pruned;
@@ -221,7 +222,10 @@ private:
         const Ray ray = view_.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f);
         float t0, t1;
         if (!box.clip(ray, t0, t1) || (options_.clip && !options_.clip->keep(ray, t0, t1))) continue;
-        const float t = first_crossing_in_cell(volume_, c, iso_, ray, t0, t1);
+        float e0 = t1, e1 = t1;  // the part of [t0, t1] inside the excluded box: searched around
+        if (options_.exclude && !options_.exclude->clip(ray, e0, e1, t0, t1)) e0 = e1 = t1;
+        float t = first_crossing_in_cell(volume_, c, iso_, ray, t0, e0);
+        if (t == kInfinity && e1 < t1) t = first_crossing_in_cell(volume_, c, iso_, ray, e1, t1);
         if (t < kInfinity) emit(ray.at(t), x, y);
       }
   }
@@ -262,6 +266,7 @@ private:
 
   void emit(const Vec3& p, int x, int y, const Vec3* gradient = nullptr, float error = 0) {
     if (options_.clip && options_.clip->removes(p)) return;  // cut away: the pixel stays open
+    if (options_.exclude && options_.exclude->contains(p)) return;  // another pass draws it
     IsoPoint q;
     q.position = p;
     q.error = error;

@@ -34,6 +34,10 @@ struct ExtractionOptions {
   // Clip planes that cut the surface (core/clip_planes.h): points they remove are not emitted, so the
   // pixel stays open for the kept surface behind them.
   const ClipPlanes* clip = nullptr;
+  // A box whose surface another pass draws (a refined box of a finer level, render/view_refinement.h):
+  // no point inside it is emitted (nodes inside it are skipped), and a pixel's ray through a larger cell
+  // looks for the surface before the box and behind it, so the two passes meet at the box's faces.
+  const Box3* exclude = nullptr;
   int tile = 64;           // tile side in pixels
 };
 

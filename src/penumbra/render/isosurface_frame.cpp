@@ -12,13 +12,14 @@ PreparedIsosurface::PreparedIsosurface(std::shared_ptr<const GridTree> t, const 
     : object(&o), tree(std::move(t)), raycaster(*tree, o.value) {}
 
 IsoPoints isosurface_eye_points(const Camera& camera, PreparedIsosurface& iso, IsosurfaceFrameStats& stats,
-                                const ClipPlanes& clip) {
+                                const ClipPlanes& clip, const Box3* exclude) {
   const IsosurfaceObject& o = *iso.object;
   switch (o.method) {
     case IsosurfaceMethod::Points: {
       ExtractionOptions options;
       options.collapse = o.collapse;
       options.clip = clip.empty() ? nullptr : &clip;
+      options.exclude = exclude;
       Extraction e = extract_points(*iso.tree, o.value, ViewProjection::from_camera(camera), options);
       stats.extract_ms = e.stats.ms;
       stats.extraction = e.stats;

@@ -49,8 +49,9 @@ struct IsosurfaceFrameStats {
 };
 
 // The eye pass alone: the isosurface's visible points for `camera` by the object's method; `clip`: the
-// planes that cut it (what they remove is not drawn, and the surface behind shows).
+// planes that cut it (what they remove is not drawn, and the surface behind shows); `exclude` (the
+// `points` method only): a box whose surface a refined pass draws (ExtractionOptions::exclude).
 IsoPoints isosurface_eye_points(const Camera& camera, PreparedIsosurface& iso, IsosurfaceFrameStats& stats,
-                                const ClipPlanes& clip = ClipPlanes());
+                                const ClipPlanes& clip = ClipPlanes(), const Box3* exclude = nullptr);
 
 }  // namespace penumbra

@@ -118,6 +118,7 @@ std::vector<std::string> Renderer::structures() const {
     if (k < refined_.size() && refined_[k]) names.push_back(indexed("volumes", i, "refined"));
   }
   for (const auto& [i, tree] : trees_) names.push_back(indexed("volumes", i, "hierarchy"));
+  for (const auto& [i, r] : refined_surfaces_) names.push_back(indexed("volumes", i, "refined_hierarchy"));
   for (std::size_t i = 0; i < isosurfaces_.size(); ++i) {
     names.push_back(indexed("isosurfaces", i, "surface"));
     if (isosurfaces_[i]->mesh) names.push_back(indexed("isosurfaces", i, "mesh"));
@@ -363,10 +364,16 @@ std::size_t Renderer::refined_memory_bytes() const {
   std::size_t bytes = 0;
   for (const auto& r : refined_)
     if (r) bytes += r->held_bytes();
+  for (const auto& [i, r] : refined_surfaces_) bytes += r.held_bytes();
   return bytes;
 }
 
-void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
+std::uint64_t Renderer::RefinedSurfaces::held_bytes() const {
+  // over a visible volume's box the hierarchy is, like the opened level's, outside the budget
+  return own_voxels ? voxels->memory_bytes() + tree->memory_bytes() : 0;
+}
+
+std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
   refined_.resize(volumes_.size());
   refine_failures_.resize(volumes_.size());
   std::uint64_t left = scene_.refinement_bytes;
@@ -458,6 +465,105 @@ void Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
       if (pv->full_step != step) pv->update_lut(step);
       pv->use(false);
     }
+  return left;
+}
+
+void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, FrameResult& frame) {
+  std::map<std::size_t, std::vector<std::size_t>> wanted;  // volume → its isosurfaces that extract points
+  for (std::size_t s = 0; s < scene_.isosurfaces.size(); ++s) {
+    const IsosurfaceObject& o = scene_.isosurfaces[s];
+    const VolumeObject& v = scene_.volumes[o.volume];
+    if (o.method == IsosurfaceMethod::Points && v.pyramid && !v.volume->is_window()) wanted[o.volume].push_back(s);
+  }
+  for (auto it = refined_surfaces_.begin(); it != refined_surfaces_.end();) {  // a volume no longer wanted gives its box up
+    if (wanted.count(it->first)) {
+      ++it;
+      continue;
+    }
+    RefinementStats stats;
+    stats.volume = it->first;
+    stats.evicted_bytes = it->second.held_bytes();
+    if (stats.evicted_bytes && it->second.own_voxels) frame.refinement.push_back(stats);
+    it = refined_surfaces_.erase(it);
+  }
+  for (const auto& [i, surfaces] : wanted) {
+    const VolumeObject& o = scene_.volumes[i];
+    const PyramidSource& pyramid = *o.pyramid;
+    const RefinedVolume* drawn = nullptr;  // the visible volume's box, when this frame draws one
+    for (std::size_t k = 0; k < volumes_.size() && k < refined_.size(); ++k)
+      if (static_cast<std::size_t>(volume_index_[k]) == i && refined_[k]) drawn = refined_[k].get();
+    RefinementStats stats;
+    stats.volume = i;
+    stats.opened_level = stats.level = pyramid.opened;
+    auto found = refined_surfaces_.find(i);
+    auto evict = [&] {
+      if (found == refined_surfaces_.end()) return;
+      if (found->second.own_voxels) stats.evicted_bytes += found->second.held_bytes();
+      refined_surfaces_.erase(found);
+      found = refined_surfaces_.end();
+    };
+    if (drawn) {  // the hierarchy over the box the eye pass draws the volume from
+      if (found == refined_surfaces_.end() || found->second.voxels != drawn->object().volume) {
+        evict();
+        RefinedSurfaces r{drawn->box(), pyramid.key, drawn->object().volume, false, std::make_shared<const GridTree>(*drawn->object().volume), {}};
+        found = refined_surfaces_.emplace(i, std::move(r)).first;
+        rebuilt(indexed("volumes", i, "refined_hierarchy"), Quality::Full, frame);
+      }
+    } else {
+      // its own box: voxels and the hierarchy's ~0.14 bytes a voxel from what is left
+      const double voxel = static_cast<double>(scalar_size(pyramid.type));
+      const auto for_voxels = static_cast<std::uint64_t>(static_cast<double>(left) * voxel / (voxel + 0.15));
+      const std::optional<RefinementChoice> choice =
+          choose_refinement(camera, pyramid, pyramid_bounds(pyramid, *o.volume), for_voxels, false, true);
+      const bool keep = choice && found != refined_surfaces_.end() && found->second.own_voxels && found->second.key == pyramid.key &&
+                        found->second.box.level <= choice->box.level &&
+                        found->second.box.contains(level_box(pyramid, found->second.box.level, choice->seen)) &&
+                        found->second.held_bytes() <= left;
+      auto failed = surface_refine_failures_.find(i);
+      if (keep) {
+      } else if (choice && failed != surface_refine_failures_.end() && failed->second.covers(pyramid, *choice)) {
+        evict();
+        stats.error = failed->second.error;
+      } else {
+        evict();
+        if (choice) {
+          Timer load;
+          WindowRead read;
+          try {
+            auto voxels = std::make_shared<const Volume>(pyramid.read_box(choice->box.level, choice->box.lo, choice->box.hi, &read, nullptr));
+            auto tree = std::make_shared<const GridTree>(*voxels);
+            RefinedSurfaces r{choice->box, pyramid.key, std::move(voxels), true, std::move(tree), {}};
+            found = refined_surfaces_.emplace(i, std::move(r)).first;
+            if (failed != surface_refine_failures_.end()) surface_refine_failures_.erase(failed);
+            stats.loaded_bytes = found->second.held_bytes();
+            stats.read_bytes = read.bytes_read;
+            stats.load_ms = load.elapsed_ms();
+            rebuilt(indexed("volumes", i, "refined_hierarchy"), Quality::Full, frame);
+          } catch (const Error& e) {  // the isosurfaces keep the opened level
+            const std::array<int, 3> d = choice->box.dims();
+            FailedRefinement f{choice->box, pyramid.key,
+                               "level " + std::to_string(choice->box.level) + " box " + std::to_string(d[0]) + "x" + std::to_string(d[1]) +
+                                   "x" + std::to_string(d[2]) + ": " + e.what()};
+            stats.error = f.error;
+            surface_refine_failures_.insert_or_assign(i, std::move(f));
+          }
+        }
+      }
+    }
+    if (found != refined_surfaces_.end()) {
+      RefinedSurfaces& r = found->second;
+      r.surfaces.clear();  // cheap: the hierarchy is shared; the objects may have been edited
+      for (std::size_t s : surfaces) r.surfaces[s] = std::make_unique<PreparedIsosurface>(r.tree, scene_.isosurfaces[s]);
+      if (r.own_voxels) {
+        stats.level = r.box.level;
+        stats.dims = r.box.dims();
+        stats.held_bytes = r.held_bytes();
+        left -= std::min<std::uint64_t>(left, stats.held_bytes);
+      }
+    }
+    const bool listed = std::any_of(frame.refinement.begin(), frame.refinement.end(), [&](const RefinementStats& s) { return s.volume == i; });
+    if (!listed && (stats.held_bytes || stats.evicted_bytes || !stats.error.empty())) frame.refinement.push_back(stats);
+  }
 }
 
 std::vector<bool> Renderer::volume_gradients_stored() const {
@@ -482,9 +588,10 @@ void Renderer::prepare(Quality quality, const Camera* refine_for, FrameResult& f
   Timer prep;
   prepare_volumes(frame);
   check_cancelled();
-  if (refine_for) refine_volumes(*refine_for, frame);
+  const std::uint64_t left = refine_for ? refine_volumes(*refine_for, frame) : 0;
   prepare_particles(frame);
   prepare_isosurfaces(frame);
+  if (refine_for) refine_isosurfaces(*refine_for, left, frame);
   frame.prepare_ms = prep.elapsed_ms() - frame.bvh_ms;
   check_cancelled();
   // the structures that hang off each other: SAT → casters → ambient and every light's shadows
@@ -649,7 +756,23 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   for (std::size_t s = 0; s < isosurfaces_.size(); ++s) {
     IsosurfaceFrameStats one;
     const bool had_mesh = isosurfaces_[s]->mesh != nullptr;
-    eye[s] = penumbra::isosurface_eye_points(camera, *isosurfaces_[s], one, scene_.clip_planes_for(scene_.isosurfaces[s].clip));
+    const ClipPlanes clip = scene_.clip_planes_for(scene_.isosurfaces[s].clip);
+    // a full frame draws the surface inside a refined box from the box, and the opened level around it
+    const auto refined = refined_frame ? refined_surfaces_.find(scene_.isosurfaces[s].volume) : refined_surfaces_.end();
+    PreparedIsosurface* finer = nullptr;
+    Box3 inside;
+    if (refined != refined_surfaces_.end() && refined->second.surfaces.count(s)) {
+      finer = refined->second.surfaces.at(s).get();
+      inside = refined->second.voxels->bounds();
+    }
+    eye[s] = penumbra::isosurface_eye_points(camera, *isosurfaces_[s], one, clip, finer ? &inside : nullptr);
+    if (finer) {
+      IsosurfaceFrameStats fine;
+      const IsoPoints more = penumbra::isosurface_eye_points(camera, *finer, fine, clip);
+      eye[s].insert(eye[s].end(), more.begin(), more.end());
+      one.extract_ms += fine.extract_ms;
+      one.extraction.add(fine.extraction);
+    }
     if (!had_mesh && isosurfaces_[s]->mesh) rebuilt(indexed("isosurfaces", s, "mesh"), Quality::Full, frame);
     frame.isosurface.add(one);
     frame.isosurface.points += eye[s].size();

@@ -148,7 +148,12 @@ private:
   void prepare_volumes(FrameResult& frame);
   // A full frame: each pyramid's box for this view, loaded when the one held does not cover it; the
   // eye pass's step made the finest of the boxes' and the volumes'.
-  void refine_volumes(const Camera& camera, FrameResult& frame);
+  // Returns what the budget leaves after the boxes.
+  std::uint64_t refine_volumes(const Camera& camera, FrameResult& frame);
+  // A full frame: for each volume opened coarse whose isosurfaces extract points, a box of a finer level
+  // where the camera looks (the visible volume's box when it has one, else its own, from what `left`
+  // leaves), its min/max hierarchy and those isosurfaces prepared over it.
+  void refine_isosurfaces(const Camera& camera, std::uint64_t left, FrameResult& frame);
   // The casters over the opened levels, or with `finer` the refined boxes where the volumes have them.
   std::unique_ptr<ShadowCasters> make_casters(std::span<const ShadowCasters::FinerBox> finer) const;
   // A full frame's casters: refined_casters_ built (or dropped) for the boxes held; true when changed.
@@ -189,6 +194,19 @@ private:
   std::vector<int> volume_index_;                         // scene volume of each prepared volume
   std::vector<std::unique_ptr<RefinedVolume>> refined_;   // per prepared volume: the box full frames draw (or none)
   std::vector<std::optional<FailedRefinement>> refine_failures_;  // per prepared volume: the last box whose read failed
+  // A refined box of a volume opened coarse for its isosurfaces' eye pass: the box's voxels (its own, or
+  // the visible volume's refined box), their hierarchy and each of the volume's isosurfaces over it.
+  struct RefinedSurfaces {
+    LevelBox box;
+    std::string key;  // PyramidSource::key
+    std::shared_ptr<const Volume> voxels;
+    bool own_voxels = false;  // read for the isosurfaces (else the refined volume's, counted there)
+    std::shared_ptr<const GridTree> tree;
+    std::map<std::size_t, std::unique_ptr<PreparedIsosurface>> surfaces;  // by scene isosurface
+    std::uint64_t held_bytes() const;  // what the budget counts: its own box's voxels and hierarchy
+  };
+  std::map<std::size_t, RefinedSurfaces> refined_surfaces_;            // by scene volume
+  std::map<std::size_t, FailedRefinement> surface_refine_failures_;  // by scene volume: the last box whose read failed
   std::unique_ptr<ShadowCasters> casters_;
   // casters_ with the refined boxes (full frames' light structures; null when no box is held or casters_
   // changed since; dropped with a box given up); refined_changed_: a box was loaded since they were built

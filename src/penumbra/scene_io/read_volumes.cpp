@@ -345,7 +345,7 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
       if (r.has(key)) r.fail(key, "the volume is not visible ('visible': false): it neither casts nor receives shadows");
   read_shadow_flags(r, v);
   r.finish();
-  if (refinable && v.visible)
+  if (refinable)  // a hidden volume's isosurfaces refine too
     v.pyramid = options.cache ? options.cache->pyramid(data_id, [&] { return find_levels(*volume); }) : find_levels(*volume);
   v.volume = std::move(volume);
   return v;
