@@ -12,6 +12,10 @@ time (its own peak resident set); the image's error is RMSE/PSNR against the in-
         drawn from it alone and refined where the camera looks (render/view_refinement.h), against level 0
         in memory; then a session (--edits) that pans, backs away and comes back; with --file the ct-body
         as one NRRD (opened reduced and refined from the file's slices) instead of the pyramid
+    scripts/bench_budget.py iso [--size 512] [--file]
+        the same close view of the head as an isosurface (bone, 1400, points with light-pass shadows; the
+        volume hidden): opened coarse, extracted from it alone and refined from a box of a finer level
+        where the camera looks, against level 0 in memory (with --file: the ct-body as one NRRD)
     scripts/bench_budget.py big --dims 4096 4096 2048 [--budget 4G] [--keep] [--zoom] [--skip-orbit]
         a procedural ct-body larger than memory (4096×4096×2048 uint16: 64 GiB) converted (time, size,
         peak memory), then opened under the budget: time to the first image and frames per second over
@@ -179,6 +183,58 @@ def zoom(o, cli, out):
               f"{r['frame_ms']:.0f} | {r['peak_mib']:.0f} | {r['rmse']:.4f} | {r['psnr']} |")
     session = session_steps(cli, scene, out, ["--memory-budget", full_bytes // 8, *size], [0.0, 0.0, 650.0], 450.0)
     json.dump({"cases": rows, "session": session}, open(os.path.join(out, "budget_zoom_file.json" if o.file else "budget_zoom.json"), "w"), indent=2)
+
+
+def iso(o, cli, out):
+    """The close view of the head as the bone isosurface of a hidden volume: the pyramid (or the file)
+    opened coarse under 1/8 and 1/4 of its size, the surface extracted from the opened level alone and
+    refined from a box where the camera looks, against level 0 in memory."""
+    store = os.path.join(o.work, "ct_body.zarr")
+    if not os.path.isdir(store):
+        timed([cli, "convert", "--procedural", '{"name": "ct-body"}', "-o", store, "--unit", "millimeter"])
+    scene = zoomed_scene(cli, store, out, "iso", 450.0, [0.0, 0.0, 650.0])
+    doc = json.load(open(scene))
+    in_memory = ["--set", "volumes.0.level=0"]
+    if o.file:
+        source = os.path.join(o.work, "ct_body.nrrd")
+        if not os.path.isfile(source):
+            nrrd_of_level0(store, source)
+        doc["volumes"][0]["file"] = os.path.abspath(source)
+        in_memory = []
+    doc["volumes"][0] = {"file": doc["volumes"][0]["file"], "visible": False}
+    doc["isosurfaces"] = [{"value": 1400, "method": "points", "color": [0.93, 0.89, 0.80]}]
+    doc["shadows"] = {"technique": "light_pass", "resolution": 512}
+    json.dump(doc, open(scene, "w"), indent=1)
+    full_bytes = 512 * 512 * 1734 * 2
+    size = ["--width", o.size, "--height", o.size]
+    ref = os.path.join(out, "iso_full.png")
+    rows = []
+    cases = [("in memory (level 0)", in_memory),
+             ("1/8, opened level only", ["--memory-budget", full_bytes // 8, "--set", "volumes.0.refine=false"]),
+             ("1/8, refined", ["--memory-budget", full_bytes // 8]),
+             ("1/4, opened level only", ["--memory-budget", full_bytes // 4, "--set", "volumes.0.refine=false"]),
+             ("1/4, refined", ["--memory-budget", full_bytes // 4])]
+    for label, args in cases:
+        tag = re.sub(r"[^a-z0-9]+", "_", label.lower()).strip("_")
+        image = ref if label.startswith("in memory") else os.path.join(out, f"iso_{tag}.png")
+        stats_file = os.path.join(out, f"iso_{tag}.json")
+        seconds, peak, _, _ = timed([cli, "render", scene, *args, *size, "-o", image, "--stats", stats_file])
+        stats = json.load(open(stats_file))
+        rmse, psnr = compare(cli, image, ref)
+        rows.append({"case": label, "dims": stats["volumes"][0]["dims"], "first_image_s": seconds,
+                     "frame_ms": stats["timings_ms"]["total"], "extract_ms": stats["timings_ms"].get("extract"),
+                     "peak_mib": peak, "held_mib": stats.get("memory_budget", {}).get("held", 0) / 2**20, "rmse": rmse, "psnr": psnr,
+                     **refinement_row(stats)})
+    print(f"\nct-body 512×512×1734 uint16 ({full_bytes / 2**20:.0f} MiB) {'as one NRRD' if o.file else 'as an OME-Zarr pyramid'}, "
+          f"bone isosurface (points, light-pass shadows), a close view of the head at {o.size}²")
+    print("| case | level opened | extracted from | held (MiB) | box read (MiB) | box load (ms) | start to PNG (s) | frame (ms) | eye pass (ms) | peak RSS (MiB) | RMSE | PSNR (dB) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        drawn = f"level {r['level']}: {'×'.join(map(str, r['box']))} + the opened level" if r["box"] else "the opened level"
+        extract = f"{r['extract_ms']:.0f}" if r["extract_ms"] is not None else "–"
+        print(f"| {r['case']} | {'×'.join(map(str, r['dims']))} | {drawn} | {r['held_mib']:.0f} | {r['read_mib']:.1f} | {r['load_ms']:.0f} | "
+              f"{r['first_image_s']:.1f} | {r['frame_ms']:.0f} | {extract} | {r['peak_mib']:.0f} | {r['rmse']:.4f} | {r['psnr']} |")
+    json.dump(rows, open(os.path.join(out, "budget_iso_file.json" if o.file else "budget_iso.json"), "w"), indent=2)
 
 
 def session_steps(cli, scene, out, args, target, distance):
@@ -361,7 +417,7 @@ def formats(o, cli, out):
 
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("case", choices=["body", "zoom", "big", "formats"])
+    p.add_argument("case", choices=["body", "zoom", "iso", "big", "formats"])
     p.add_argument("--build", default=os.path.join(ROOT, "build", "release"))
     p.add_argument("--out", default=None)
     p.add_argument("--work", default=None, help="where the stores go (default: a temporary folder)")
@@ -377,7 +433,7 @@ def main():
     out = o.out or tempfile.mkdtemp(prefix="bench_budget_")
     os.makedirs(out, exist_ok=True)
     o.work = o.work or out
-    {"body": body, "zoom": zoom, "big": big, "formats": formats}[o.case](o, cli, out)
+    {"body": body, "zoom": zoom, "iso": iso, "big": big, "formats": formats}[o.case](o, cli, out)
     print(f"\n(files in {out})")
 
 
