@@ -350,14 +350,26 @@ TEST(ViewRefinement, AFullFrameOfACloseViewIsTheFinestLevels) {
   const FrameResult small_turn = refined.render(turned, coarse_scene.lights);
   ASSERT_EQ(small_turn.refinement.size(), 1u);
   EXPECT_EQ(small_turn.refinement.front().loaded_bytes, 0u);
-  // backing away: the opened level is enough, the box is given up
+  // backing away: the opened level is enough; the box is no longer drawn but kept (the budget holds it)
   Camera far = coarse_scene.camera;
   far.eye = far.target + (far.eye - far.target) * 40.0f;
   const FrameResult backed = refined.render(far, coarse_scene.lights);
   ASSERT_EQ(backed.refinement.size(), 1u);
-  EXPECT_EQ(backed.refinement.front().evicted_bytes, s.held_bytes);
+  EXPECT_EQ(backed.refinement.front().evicted_bytes, 0u);
   EXPECT_EQ(backed.refinement.front().held_bytes, 0u);
-  EXPECT_EQ(refined.refined_memory_bytes(), 0u);
+  EXPECT_EQ(backed.refinement.front().kept_bytes, s.held_bytes);
+  EXPECT_EQ(refined.refined_memory_bytes(), s.held_bytes);
+  const Image far_expected = unrefined.render(far, coarse_scene.lights).image;
+  EXPECT_EQ(compare_images(backed.image, far_expected).max_abs, 0.0);
+  // coming back: drawn from the box kept, nothing read
+  const FrameResult back = refined.render(coarse_scene.camera, coarse_scene.lights);
+  ASSERT_EQ(back.refinement.size(), 1u);
+  EXPECT_EQ(back.refinement.front().loaded_bytes, 0u);
+  EXPECT_EQ(back.refinement.front().read_bytes, 0u);
+  EXPECT_EQ(back.refinement.front().held_bytes, s.held_bytes);
+  EXPECT_EQ(back.refinement.front().kept_bytes, 0u);
+  EXPECT_NE(std::find(back.rebuilt.begin(), back.rebuilt.end(), "volumes.0.refined"), back.rebuilt.end());
+  EXPECT_LT(compare_images(back.image, in_memory).max_abs, 1e-4);
 }
 
 // A wide, deep view whose finest box does not fit what the budget leaves: the near part of the view is
@@ -690,13 +702,57 @@ TEST(ViewRefinement, ANewBoxTakesTheOverlapFromTheBoxHeld) {
   const RefinementStats& r = f.refinement.front();
   EXPECT_GT(r.loaded_bytes, 0u) << "the pan must leave the box";
   EXPECT_GT(r.reused_bytes, 0u);
-  EXPECT_EQ(r.evicted_bytes, first.refinement.front().held_bytes);
+  EXPECT_EQ(r.evicted_bytes, 0u);  // the first box is kept beside the new one
+  EXPECT_EQ(r.kept_bytes, first.refinement.front().held_bytes);
   Renderer fresh(scene);
   const FrameResult alone = fresh.render(moved, scene.lights);
   EXPECT_LT(r.read_bytes, alone.refinement.at(0).read_bytes);
   EXPECT_EQ(alone.refinement.at(0).reused_bytes, 0u);
-  EXPECT_EQ(renderer.refined_memory_bytes(), r.held_bytes);
+  EXPECT_EQ(renderer.refined_memory_bytes(), r.held_bytes + r.kept_bytes);
   const Image in_memory = Renderer(narrow(0)).render(moved, scene.lights).image;
   EXPECT_LT(compare_images(f.image, in_memory).max_abs, 1e-4);
   EXPECT_EQ(compare_images(f.image, alone.image).max_abs, 0.0);
+  // back to the first view: drawn from a box in memory (the new one covers it too), nothing read
+  const FrameResult back = renderer.render(scene.camera, scene.lights);
+  EXPECT_EQ(back.refinement.at(0).loaded_bytes, 0u);
+  EXPECT_LT(compare_images(back.image, Renderer(narrow(0)).render().image).max_abs, 1e-4);
+}
+
+// Views that move on past the boxes a budget can keep: the least recently drawn box is given up first
+// (never over the budget), a view back to a box still kept reads nothing, and one back to a box given
+// up reads it again.
+TEST(ViewRefinement, TheLeastRecentlyDrawnBoxIsGivenUpFirst) {
+  ScratchDir dir;
+  const std::string store = write_ball_pyramid(dir, 64);
+  nlohmann::json j = ball_scene(store, 1u << 20, true);
+  j["camera"]["fov_deg"] = 5;
+  Scene scene = build_scene(j, "");
+  auto view = [&](float dx) {
+    Camera c = scene.camera;
+    c.eye = c.eye + Vec3{dx, 0, 0};
+    c.target = c.target + Vec3{dx, 0, 0};
+    return c;
+  };
+  const std::uint64_t box = Renderer(scene).render().refinement.at(0).held_bytes;
+  ASSERT_GT(box, 0u);
+  scene.refinement_bytes = box * 5 / 2;  // two boxes and a half: the box drawn and one kept
+  Renderer renderer(scene);
+  const std::array<float, 3> at{0.0f, 0.12f, 0.24f};  // views whose boxes do not overlap
+  for (float dx : at) {
+    const FrameResult f = renderer.render(view(dx), scene.lights);
+    ASSERT_EQ(f.refinement.size(), 1u);
+    EXPECT_GT(f.refinement[0].loaded_bytes, 0u);
+    EXPECT_LE(renderer.refined_memory_bytes(), scene.refinement_bytes);
+  }
+  // A, B, C drawn: A given up when C was read, B kept
+  const FrameResult b = renderer.render(view(at[1]), scene.lights);
+  EXPECT_EQ(b.refinement.at(0).loaded_bytes, 0u) << "B was kept";
+  const FrameResult a = renderer.render(view(at[0]), scene.lights);
+  EXPECT_GT(a.refinement.at(0).loaded_bytes, 0u) << "A was given up";
+  EXPECT_GT(a.refinement.at(0).evicted_bytes, 0u) << "C, the least recently drawn, makes room";
+  EXPECT_LE(renderer.refined_memory_bytes(), scene.refinement_bytes);
+  nlohmann::json whole = ball_scene(store, 0, true);
+  whole["camera"]["fov_deg"] = 5;
+  const Image expected = Renderer(build_scene(whole, "")).render(view(at[0]), scene.lights).image;
+  EXPECT_LT(compare_images(a.image, expected).max_abs, 1e-4);
 }

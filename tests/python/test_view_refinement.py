@@ -132,14 +132,15 @@ def test_the_box_is_kept_while_the_view_stays_in_it(store, tmp_path):
     budget = held_bytes(shapes[1], 2) + 4 * int(np.prod(shapes[1])) + 550_000
     edits = [{"set": {"camera.target": [12.2, 14.0, 12.0]}},   # a small pan: inside the box's margin
              {"set": {"camera.eye": [14.0, 16.0, -400.0]}},    # far away: the opened level is enough
-             {"set": {"camera.eye": EYE}}]                      # back: read again
+             {"set": {"camera.eye": EYE}}]                      # back: drawn from the box kept
     (tmp_path / "edits.json").write_text(json.dumps(edits))
     _, stats = render(tmp_path, scene(path, EYE, TARGET, budget=budget), "orbit", "--edits", str(tmp_path / "edits.json"))
     first, pan, away, back = [s["refinement"] for s in [stats] + stats["edits"]]
     assert first[0]["loaded_bytes"] > 0
     assert pan[0]["loaded_bytes"] == 0 and pan[0]["held_bytes"] == first[0]["held_bytes"]
-    assert away[0]["evicted_bytes"] == first[0]["held_bytes"] and away[0]["held_bytes"] == 0
-    assert back[0]["loaded_bytes"] > 0 and back[0]["level"] == 0
+    assert away[0]["held_bytes"] == 0 and away[0]["kept_bytes"] == first[0]["held_bytes"] and away[0]["evicted_bytes"] == 0
+    assert back[0]["loaded_bytes"] == 0 and back[0]["read_bytes"] == 0 and back[0]["level"] == 0
+    assert back[0]["held_bytes"] == first[0]["held_bytes"] and back[0]["kept_bytes"] == 0
 
 
 def test_python_stats_say_what_was_refined(store):

@@ -364,6 +364,8 @@ std::size_t Renderer::refined_memory_bytes() const {
   std::size_t bytes = 0;
   for (const auto& r : refined_)
     if (r) bytes += r->held_bytes();
+  for (const auto& kept : kept_)
+    for (const KeptBox& k : kept) bytes += k.box->held_bytes();
   for (const auto& [i, r] : refined_surfaces_) bytes += r.held_bytes();
   return bytes;
 }
@@ -373,79 +375,126 @@ std::uint64_t Renderer::RefinedSurfaces::held_bytes() const {
   return own_voxels ? voxels->memory_bytes() + tree->memory_bytes() : 0;
 }
 
+namespace {
+
+// The frame's refinement entry of a scene volume, added when it has none yet.
+RefinementStats& refinement_entry(FrameResult& frame, std::size_t volume) {
+  for (RefinementStats& s : frame.refinement)
+    if (s.volume == volume) return s;
+  frame.refinement.emplace_back().volume = volume;
+  return frame.refinement.back();
+}
+
+}  // namespace
+
+void Renderer::give_up_kept_boxes(std::uint64_t room, FrameResult& frame) {
+  while (refined_memory_bytes() + room > scene_.refinement_bytes) {
+    std::size_t vk = kept_.size(), at = 0;  // the least recently drawn
+    for (std::size_t k = 0; k < kept_.size(); ++k)
+      for (std::size_t n = 0; n < kept_[k].size(); ++n)
+        if (vk == kept_.size() || kept_[k][n].drawn < kept_[vk][at].drawn) vk = k, at = n;
+    if (vk == kept_.size()) return;
+    refinement_entry(frame, static_cast<std::size_t>(volume_index_[vk])).evicted_bytes += kept_[vk][at].box->held_bytes();
+    kept_[vk].erase(kept_[vk].begin() + static_cast<std::ptrdiff_t>(at));
+  }
+}
+
 std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame) {
   refined_.resize(volumes_.size());
   refine_failures_.resize(volumes_.size());
-  std::uint64_t left = scene_.refinement_bytes;
+  kept_.resize(volumes_.size());
+  ++refine_calls_;
+  std::uint64_t left = scene_.refinement_bytes;  // what the boxes drawn leave
   float step = volumes_.empty() ? 0.0f : volumes_.front()->full_step;
   for (std::size_t k = 0; k < volumes_.size(); ++k) {
     const auto i = static_cast<std::size_t>(volume_index_[k]);
     const VolumeObject& o = scene_.volumes[i];
     std::unique_ptr<RefinedVolume>& held = refined_[k];
-    RefinementStats stats;
-    stats.volume = i;
-    auto evict = [&] {
-      if (!held) return;
-      stats.evicted_bytes += held->held_bytes();
-      // what casts from the box goes with it, now: a read that fails or is cancelled next leaves no
-      // light structure pointing into the box (a preview then builds them from the opened level)
+    std::vector<KeptBox>& kept = kept_[k];
+    RefinementStats& stats = refinement_entry(frame, i);
+    // the box drawn is drawn no more: what casts from it goes now (a read that fails or is cancelled
+    // next leaves no light structure pointing into it; a preview then builds them from the opened level)
+    auto undraw = [&] {
       refined_casters_.reset();
       light_structures_stale();
-      held.reset();
     };
-    if (!o.pyramid || o.volume->is_window()) {
-      evict();
-      if (stats.evicted_bytes) frame.refinement.push_back(stats);
-      continue;
+    auto set_aside = [&] {  // kept, most recently drawn, for a view that comes back
+      if (!held) return;
+      undraw();
+      kept.insert(kept.begin(), KeptBox{std::move(held), refine_calls_ - 1});
+    };
+    // boxes of another store (the file was edited) or of a volume no longer refined are given up
+    const PyramidSource* pyramid_of = o.pyramid && !o.volume->is_window() ? o.pyramid.get() : nullptr;
+    if (held && (!pyramid_of || !held->reads(*pyramid_of))) {
+      undraw();
+      stats.evicted_bytes += held->held_bytes();
+      held.reset();
     }
-    const PyramidSource& pyramid = *o.pyramid;
+    std::erase_if(kept, [&](const KeptBox& b) {
+      if (pyramid_of && b.box->reads(*pyramid_of)) return false;
+      stats.evicted_bytes += b.box->held_bytes();
+      return true;
+    });
+    if (!pyramid_of) continue;
+    const PyramidSource& pyramid = *pyramid_of;
     stats.opened_level = stats.level = pyramid.opened;
     // one volume may be refined in its near part only (the ray caster draws the rest from the opened
     // level); beside others the box replaces the volume in the eye pass, so it must hold all it shows
     const std::optional<RefinementChoice> choice = choose_refinement(camera, pyramid, pyramid_bounds(pyramid, *o.volume), left,
                                                                      volumes_[k]->gradients_stored(), volumes_.size() == 1);
-    // the box held serves while it covers the part wanted at its level and is at least as fine
-    const bool keep = choice && held && held->reads(pyramid) && held->box().level <= choice->box.level &&
-                      held->box().contains(level_box(pyramid, held->box().level, choice->seen)) && held->held_bytes() <= left;
+    // a box serves while it covers the part wanted at its level and is at least as fine
+    auto serves = [&](const RefinedVolume& box) {
+      return choice && box.box().level <= choice->box.level && box.box().contains(level_box(pyramid, box.box().level, choice->seen)) &&
+             box.held_bytes() <= left;
+    };
+    const bool keep = held && serves(*held);
+    const auto again = std::find_if(kept.begin(), kept.end(), [&](const KeptBox& b) { return serves(*b.box); });
     std::optional<FailedRefinement>& failed = refine_failures_[k];
-    if (!keep && choice && failed && failed->covers(pyramid, *choice)) {
-      // a box that could not be read is not read again for views inside it: the opened level draws them
-      evict();
-      stats.error = failed->error;
-    } else if (!keep) {
-      // the box held lends the new one its overlap when both fit what is left at once (same level and
-      // store); otherwise it is given up before the next is read: never over the budget
-      const bool lend = choice && held && held->reads(pyramid) && held->box().level == choice->box.level &&
-                        held->held_bytes() + refined_bytes(choice->box, o.volume->type(), choice->stored_gradients) <= left &&
-                        overlaps(held->box(), choice->box);
-      if (!lend) evict();
-      if (choice) {
-        Timer load;
-        WindowRead read;
-        std::unique_ptr<RefinedVolume> next;
-        try {
-          next = std::make_unique<RefinedVolume>(o, *choice, &read, held.get());
-        } catch (const Error& e) {  // a chunk cut short, corrupt, unreadable: the frame draws the opened level
-          evict();
-          const std::array<int, 3> d = choice->box.dims();
-          failed = FailedRefinement{choice->box, pyramid.key,
-                                    "level " + std::to_string(choice->box.level) + " box " + std::to_string(d[0]) + "x" +
-                                        std::to_string(d[1]) + "x" + std::to_string(d[2]) + ": " + e.what()};
-          stats.error = failed->error;
-        }
-        if (next) {
-          evict();
-          failed.reset();
-          held = std::move(next);
-          refined_changed_ = true;
-          stats.loaded_bytes = held->held_bytes();
-          stats.read_bytes = read.bytes_read;
-          stats.reused_bytes = read.bytes_reused;
-          stats.load_ms = load.elapsed_ms();
-          rebuilt(indexed("volumes", i, "refined"), Quality::Full, frame);
-        }
+    bool follow = keep;
+    if (keep) {
+      // the box drawn serves this view too: nothing to read
+    } else if (again != kept.end()) {
+      // a box drawn before serves again: drawn from memory, the one drawn until now set aside
+      std::unique_ptr<RefinedVolume> back = std::move(again->box);
+      kept.erase(again);
+      set_aside();
+      held = std::move(back);
+      refined_changed_ = true;
+      follow = true;
+      rebuilt(indexed("volumes", i, "refined"), Quality::Full, frame);
+    } else if (!choice || (failed && failed->covers(pyramid, *choice))) {
+      // the opened level is fine enough here (or nothing is in view), or the box could not be read
+      // before and is not read again for views inside it: the opened level draws them
+      set_aside();
+      if (choice) stats.error = failed->error;
+    } else {
+      // the box drawn is set aside; boxes kept give way, least recently drawn first, until the new one
+      // fits the budget; the most recent one of the same level that overlaps it lends its voxels there
+      set_aside();
+      give_up_kept_boxes(refined_bytes(choice->box, o.volume->type(), choice->stored_gradients), frame);
+      const auto lender = std::find_if(kept.begin(), kept.end(), [&](const KeptBox& b) {
+        return b.box->box().level == choice->box.level && overlaps(b.box->box(), choice->box);
+      });
+      Timer load;
+      WindowRead read;
+      try {
+        held = std::make_unique<RefinedVolume>(o, *choice, &read, lender == kept.end() ? nullptr : lender->box.get());
+        failed.reset();
+        refined_changed_ = true;
+        stats.loaded_bytes = held->held_bytes();
+        stats.read_bytes = read.bytes_read;
+        stats.reused_bytes = read.bytes_reused;
+        stats.load_ms = load.elapsed_ms();
+        rebuilt(indexed("volumes", i, "refined"), Quality::Full, frame);
+      } catch (const Error& e) {  // a chunk cut short, corrupt, unreadable: the frame draws the opened level
+        const std::array<int, 3> d = choice->box.dims();
+        failed = FailedRefinement{choice->box, pyramid.key,
+                                  "level " + std::to_string(choice->box.level) + " box " + std::to_string(d[0]) + "x" +
+                                      std::to_string(d[1]) + "x" + std::to_string(d[2]) + ": " + e.what()};
+        stats.error = failed->error;
       }
-    } else if (held->follow(o)) {
+    }
+    if (follow && held->follow(o)) {  // the table and empty cells follow a transfer function edited meanwhile
       held->prepared().update_lut(held->prepared().full_step);
       held->prepared().update_empty();
     }
@@ -456,8 +505,15 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
       left -= std::min<std::uint64_t>(left, stats.held_bytes);
       step = std::min(step, held->step_world());
     }
-    if (held || stats.evicted_bytes || !stats.error.empty()) frame.refinement.push_back(stats);
   }
+  give_up_kept_boxes(0, frame);  // the boxes drawn and the kept ones within the budget
+  for (RefinementStats& s : frame.refinement)
+    for (std::size_t k = 0; k < volumes_.size(); ++k)
+      if (static_cast<std::size_t>(volume_index_[k]) == s.volume)
+        for (const KeptBox& b : kept_[k]) s.kept_bytes += b.box->held_bytes();
+  std::erase_if(frame.refinement, [](const RefinementStats& s) {
+    return !s.held_bytes && !s.evicted_bytes && !s.kept_bytes && s.error.empty();
+  });
   // one lattice step for every volume of the eye pass (and the opened levels around a box): the finest
   for (std::size_t k = 0; k < volumes_.size(); ++k)
     for (PreparedVolume* pv : {volumes_[k].get(), refined_[k] ? &refined_[k]->prepared() : nullptr}) {
@@ -521,12 +577,14 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
                         found->second.held_bytes() <= left;
       auto failed = surface_refine_failures_.find(i);
       if (keep) {
+        // the box held serves this view too
       } else if (choice && failed != surface_refine_failures_.end() && failed->second.covers(pyramid, *choice)) {
         evict();
         stats.error = failed->second.error;
       } else {
         evict();
         if (choice) {
+          give_up_kept_boxes(refined_bytes(choice->box, pyramid.type, false) * 6 / 5, frame);  // with the hierarchy
           Timer load;
           WindowRead read;
           try {

@@ -154,6 +154,9 @@ private:
   // where the camera looks (the visible volume's box when it has one, else its own, from what `left`
   // leaves), its min/max hierarchy and those isosurfaces prepared over it.
   void refine_isosurfaces(const Camera& camera, std::uint64_t left, FrameResult& frame);
+  // Gives up kept boxes, least recently drawn first, until `room` more bytes fit the refinement budget
+  // beside everything refined that is held; what each volume gave up goes to its refinement entry.
+  void give_up_kept_boxes(std::uint64_t room, FrameResult& frame);
   // The casters over the opened levels, or with `finer` the refined boxes where the volumes have them.
   std::unique_ptr<ShadowCasters> make_casters(std::span<const ShadowCasters::FinerBox> finer) const;
   // A full frame's casters: refined_casters_ built (or dropped) for the boxes held; true when changed.
@@ -194,6 +197,14 @@ private:
   std::vector<int> volume_index_;                         // scene volume of each prepared volume
   std::vector<std::unique_ptr<RefinedVolume>> refined_;   // per prepared volume: the box full frames draw (or none)
   std::vector<std::optional<FailedRefinement>> refine_failures_;  // per prepared volume: the last box whose read failed
+  // Boxes drawn before and set aside, kept while the budget holds them with the boxes drawn, so that a
+  // view that comes back reads nothing; the least recently drawn is given up first.
+  struct KeptBox {
+    std::unique_ptr<RefinedVolume> box;
+    std::uint64_t drawn = 0;  // the refine_volumes call that drew it last
+  };
+  std::vector<std::vector<KeptBox>> kept_;  // per prepared volume
+  std::uint64_t refine_calls_ = 0;
   // A refined box of a volume opened coarse for its isosurfaces' eye pass: the box's voxels (its own, or
   // the visible volume's refined box), their hierarchy and each of the volume's isosurfaces over it.
   struct RefinedSurfaces {

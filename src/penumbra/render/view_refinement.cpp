@@ -175,7 +175,8 @@ nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement) {
   for (const RefinementStats& r : refinement) {
     nlohmann::json entry = {{"volume", r.volume}, {"opened_level", r.opened_level}, {"level", r.level}, {"dims", r.dims},
                             {"held_bytes", r.held_bytes}, {"loaded_bytes", r.loaded_bytes}, {"read_bytes", r.read_bytes},
-                            {"reused_bytes", r.reused_bytes}, {"evicted_bytes", r.evicted_bytes}, {"load_ms", r.load_ms}};
+                            {"reused_bytes", r.reused_bytes}, {"evicted_bytes", r.evicted_bytes}, {"kept_bytes", r.kept_bytes},
+                            {"load_ms", r.load_ms}};
     if (!r.error.empty()) entry["error"] = r.error;
     out.push_back(std::move(entry));
   }

@@ -96,7 +96,8 @@ struct RefinementStats {
   std::uint64_t loaded_bytes = 0;   // brought into memory this frame (0: the box held was kept)
   std::uint64_t read_bytes = 0;     // read from the files for them (compressed)
   std::uint64_t reused_bytes = 0;   // of their voxels, copied from the box held before (it overlapped)
-  std::uint64_t evicted_bytes = 0;  // a box given up this frame
+  std::uint64_t evicted_bytes = 0;  // boxes given up this frame
+  std::uint64_t kept_bytes = 0;     // boxes drawn before, kept in memory for views that come back
   double load_ms = 0;               // reading and preparing the box
   std::string error;  // the box the view needs could not be read (why: the chunk and the fault); the
                       // frame draws the opened level there, and views inside that box do not try again
@@ -113,7 +114,7 @@ struct FailedRefinement {
 
 // Each refined volume of a frame as `--stats`, the Python stats and the viewer's frame message list it:
 // [{"volume", "opened_level", "level", "dims", "held_bytes", "loaded_bytes", "read_bytes",
-//   "reused_bytes", "evicted_bytes", "load_ms"[, "error"]}, ...] ("error" only where a read failed).
+//   "reused_bytes", "evicted_bytes", "kept_bytes", "load_ms"[, "error"]}, ...] ("error" only where a read failed).
 nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement);
 
 // A refined box of one volume, prepared for the eye pass like the volume itself.

@@ -49,7 +49,10 @@ export function refinementLines(refinement) {
       lines.push(volume + "level " + r.opened_level + " shown: " + r.error);
     } else if (r.held_bytes > 0) {
       lines.push(volume + "level " + r.level + " box " + r.dims.join("×") + " of level " + r.opened_level);
-      lines.push("  held " + mb(r.held_bytes) + (r.loaded_bytes > 0 ? ", read " + mb(r.read_bytes) + " in " + Math.round(r.load_ms) + " ms" : ""));
+      lines.push("  held " + mb(r.held_bytes) + (r.loaded_bytes > 0 ? ", read " + mb(r.read_bytes) + " in " + Math.round(r.load_ms) + " ms" : "") +
+                 (r.kept_bytes > 0 ? ", " + mb(r.kept_bytes) + " kept" : ""));
+    } else if (r.kept_bytes > 0) {
+      lines.push(volume + "level " + r.opened_level + " (" + mb(r.kept_bytes) + " of finer boxes kept)");
     } else if (r.evicted_bytes > 0) {
       lines.push(volume + "level " + r.opened_level + ": finer box given up (" + mb(r.evicted_bytes) + ")");
     }
