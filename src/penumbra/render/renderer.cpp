@@ -404,6 +404,9 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
   refine_failures_.resize(volumes_.size());
   kept_.resize(volumes_.size());
   ++refine_calls_;
+  // one entry per refined volume at most: the references to them below stay valid while boxes given up
+  // for one volume add entries for others
+  frame.refinement.reserve(frame.refinement.size() + volumes_.size());
   std::uint64_t left = scene_.refinement_bytes;  // what the boxes drawn leave
   float step = volumes_.empty() ? 0.0f : volumes_.front()->full_step;
   for (std::size_t k = 0; k < volumes_.size(); ++k) {
