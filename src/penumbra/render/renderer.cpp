@@ -545,7 +545,9 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
     if (stats.evicted_bytes && it->second.own_voxels) frame.refinement.push_back(stats);
     it = refined_surfaces_.erase(it);
   }
-  for (const auto& [i, surfaces] : wanted) {
+  for (const auto& entry : wanted) {
+    const std::size_t i = entry.first;  // (a structured binding cannot be captured by clang 14's lambdas)
+    const std::vector<std::size_t>& surfaces = entry.second;
     const VolumeObject& o = scene_.volumes[i];
     const PyramidSource& pyramid = *o.pyramid;
     const RefinedVolume* drawn = nullptr;  // the visible volume's box, when this frame draws one
