@@ -75,7 +75,7 @@ TEST(ReducedRefinement, ABoxOfAReductionIsThatPartOfTheWholeReduction) {
     EXPECT_TRUE(reduced_level_grids(file, VolumeLoadOptions{}, whole).size() == 1u) << "the file itself is its level 0";
     auto check_box = [&](int level, const Volume& reference, const std::array<std::int64_t, 3>& lo, const std::array<std::int64_t, 3>& hi) {
       WindowRead read;
-      const Volume box = load_reduced_box(file, budget, level, lo, hi, &read);
+      const Volume box = load_reduced_box(file, budget, levels[0], level, lo, hi, &read);
       ASSERT_EQ(box.dims(), (std::array<int, 3>{static_cast<int>(hi[0] - lo[0]), static_cast<int>(hi[1] - lo[1]), static_cast<int>(hi[2] - lo[2])}));
       for (int a = 0; a < 3; ++a)
         EXPECT_NEAR(box.origin()[a], reference.origin()[a] + static_cast<float>(lo[static_cast<std::size_t>(a)]) * reference.spacing()[a], 1e-4f);
@@ -94,25 +94,27 @@ TEST(ReducedRefinement, ABoxOfAReductionIsThatPartOfTheWholeReduction) {
     check_box(0, whole, {dims[0] - 2, 0, dims[2] - 3}, {dims[0], dims[1], dims[2]});
     // a box held that covers the new one in x and y: the slices both hold are copied, the rest read
     const std::array<std::int64_t, 3> lo{4, 3, 6}, hi{30, 25, 22};
-    const Volume before = load_reduced_box(file, budget, 0, {2, 1, 0}, {33, 28, 14});
+    const Volume before = load_reduced_box(file, budget, levels[0], 0, {2, 1, 0}, {33, 28, 14});
     const HeldBox held{{2, 1, 0}, {33, 28, 14}, &before};
     WindowRead fresh_read, lent_read;
-    const Volume fresh = load_reduced_box(file, budget, 0, lo, hi, &fresh_read);
-    const Volume lent = load_reduced_box(file, budget, 0, lo, hi, &lent_read, &held);
+    const Volume fresh = load_reduced_box(file, budget, levels[0], 0, lo, hi, &fresh_read);
+    const Volume lent = load_reduced_box(file, budget, levels[0], 0, lo, hi, &lent_read, &held);
     for (std::size_t n = 0; n < fresh.voxel_count(); ++n) ASSERT_EQ(lent.value(n), fresh.value(n)) << "voxel " << n;
     EXPECT_EQ(lent.min_value(), fresh.min_value());
     EXPECT_EQ(lent.max_value(), fresh.max_value());
     EXPECT_EQ(lent_read.bytes_reused, std::uint64_t{8} * 26 * 22 * scalar_size(whole.type()));  // slices 6..13
     EXPECT_EQ(fresh_read.bytes_reused, 0u);
-    if (file.find("gzip") == std::string::npos) EXPECT_LT(lent_read.bytes_read, fresh_read.bytes_read);
+    if (file.find("gzip") == std::string::npos) {
+      EXPECT_LT(lent_read.bytes_read, fresh_read.bytes_read);
+    }
     // one that does not cover x: everything is read
-    const Volume narrow = load_reduced_box(file, budget, 0, {10, 1, 0}, {33, 28, 14});
+    const Volume narrow = load_reduced_box(file, budget, levels[0], 0, {10, 1, 0}, {33, 28, 14});
     const HeldBox narrow_held{{10, 1, 0}, {33, 28, 14}, &narrow};
     WindowRead narrow_read;
-    (void)load_reduced_box(file, budget, 0, lo, hi, &narrow_read, &narrow_held);
+    (void)load_reduced_box(file, budget, levels[0], 0, lo, hi, &narrow_read, &narrow_held);
     EXPECT_EQ(narrow_read.bytes_reused, 0u);
-    EXPECT_THROW(load_reduced_box(file, budget, 0, {0, 0, 0}, {dims[0] + 1, 4, 4}), Error);
-    EXPECT_THROW(load_reduced_box(file, budget, 0, {4, 0, 0}, {4, 4, 4}), Error);
+    EXPECT_THROW(load_reduced_box(file, budget, levels[0], 0, {0, 0, 0}, {dims[0] + 1, 4, 4}), Error);
+    EXPECT_THROW(load_reduced_box(file, budget, levels[0], 0, {4, 0, 0}, {4, 4, 4}), Error);
   }
 }
 

@@ -188,9 +188,12 @@ std::shared_ptr<const PyramidSource> refinement_levels(const std::string& path, 
   source->type = grids.front().type;
   const Vec3 shift = origin ? *origin - source->levels.front().origin : Vec3{0, 0, 0};
   for (PyramidSource::Level& l : source->levels) l.origin += shift;
-  source->read_box = [path, options, store, shift](int level, const std::array<std::int64_t, 3>& lo, const std::array<std::int64_t, 3>& hi,
-                                                   WindowRead* read, const HeldBox* held) {
-    Volume box = store ? load_zarr_box(path, level, options.channel, lo, hi, read, held) : load_reduced_box(path, options, level, lo, hi, read, held);
+  // a file's grid as its header gives it, read once here rather than for every box
+  source->read_box = [path, options, store, shift, file_level = grids.front()](int level, const std::array<std::int64_t, 3>& lo,
+                                                                               const std::array<std::int64_t, 3>& hi, WindowRead* read,
+                                                                               const HeldBox* held) {
+    Volume box = store ? load_zarr_box(path, level, options.channel, lo, hi, read, held)
+                       : load_reduced_box(path, options, file_level, level, lo, hi, read, held);
     box.set_origin(box.origin() + shift);
     return box;
   };

@@ -30,15 +30,10 @@ std::string dims_text(const std::array<int, 3>& d) {
   return std::to_string(d[0]) + "×" + std::to_string(d[1]) + "×" + std::to_string(d[2]);
 }
 
-// The file's grid and voxel type, from its header and one slice; nullopt for a layout read only whole
-// (an NRRD whose z is another file axis).
-struct FileGrid {
-  std::array<int, 3> dims{};
-  ScalarType type = ScalarType::UInt8;
-  Vec3 spacing, origin;
-};
-std::optional<FileGrid> file_grid(const std::string& path, const VolumeLoadOptions& unbudgeted) {
-  FileGrid g;
+// The file's grid and voxel type (its level 0), from its header and one slice; nullopt for a layout read
+// only whole (an NRRD whose z is another file axis).
+std::optional<LevelGrid> file_grid(const std::string& path, const VolumeLoadOptions& unbudgeted) {
+  LevelGrid g;
   WindowRead read;
   const Volume first = load_volume_window({path}, unbudgeted, [&](const std::array<int, 3>& d) {
     g.dims = d;
@@ -57,7 +52,7 @@ struct Reduction {
   std::array<std::int64_t, 3> dims{};
   Vec3 spacing, origin;
 };
-Reduction reduction(const FileGrid& g, int f) {
+Reduction reduction(const LevelGrid& g, int f) {
   Reduction r;
   r.k = factors(g.dims, f);
   r.dims = reduced_dims(g.dims, r.k);
@@ -78,7 +73,7 @@ VolumeLoadOptions without_budget(const VolumeLoadOptions& options) {
 // file a slab of whole blocks at a time: each the mean of its block, summed in z, y, x order in double
 // (the same arithmetic for the whole reduction and for any box of it, so that a box equals that part of
 // the whole exactly). Returns the bytes read.
-std::uint64_t read_block_means(const std::string& path, const VolumeLoadOptions& unbudgeted, const FileGrid& g, const Reduction& r,
+std::uint64_t read_block_means(const std::string& path, const VolumeLoadOptions& unbudgeted, const LevelGrid& g, const Reduction& r,
                                const std::array<std::int64_t, 3>& lo, const std::array<std::int64_t, 3>& hi, std::int64_t z_lo,
                                std::int64_t z_hi, Volume& out) {
   const std::array<int, 3>& k = r.k;
@@ -131,7 +126,7 @@ std::optional<Volume> load_reduced_to_fit(const std::string& path, const VolumeL
   // a Zarr store chooses among its own levels (zarr_loader.cpp)
   if (options.memory_budget == 0 || is_zarr_store(path) || !reads_slices_in_part({path}, options)) return std::nullopt;
   const VolumeLoadOptions unbudgeted = without_budget(options);
-  const std::optional<FileGrid> grid = file_grid(path, unbudgeted);
+  const std::optional<LevelGrid> grid = file_grid(path, unbudgeted);
   if (!grid) return std::nullopt;
   const std::array<int, 3>& dims = grid->dims;
   const ScalarType type = grid->type;
@@ -166,7 +161,7 @@ std::optional<Volume> load_reduced_to_fit(const std::string& path, const VolumeL
 
 std::vector<LevelGrid> reduced_level_grids(const std::string& path, const VolumeLoadOptions& options, const Volume& opened) {
   if (is_zarr_store(path) || !reads_slices_in_part({path}, options)) return {};
-  const std::optional<FileGrid> grid = file_grid(path, without_budget(options));
+  const std::optional<LevelGrid> grid = file_grid(path, without_budget(options));
   if (!grid || grid->type != opened.type()) return {};
   std::vector<LevelGrid> levels;
   const int longest = std::max({grid->dims[0], grid->dims[1], grid->dims[2]});
@@ -179,14 +174,12 @@ std::vector<LevelGrid> reduced_level_grids(const std::string& path, const Volume
   }
 }
 
-Volume load_reduced_box(const std::string& path, const VolumeLoadOptions& options, int level, const std::array<std::int64_t, 3>& lo,
-                        const std::array<std::int64_t, 3>& hi, WindowRead* read, const HeldBox* held) {
+Volume load_reduced_box(const std::string& path, const VolumeLoadOptions& options, const LevelGrid& file_level, int level,
+                        const std::array<std::int64_t, 3>& lo, const std::array<std::int64_t, 3>& hi, WindowRead* read, const HeldBox* held) {
   return with_context(path, [&] {
     const VolumeLoadOptions unbudgeted = without_budget(options);
-    const std::optional<FileGrid> grid = file_grid(path, unbudgeted);
-    if (!grid) throw Error("a layout read only whole has no boxes to read");
     if (level < 0 || level > 30) throw Error("level " + std::to_string(level) + " (expected 0 to 30)");
-    const Reduction r = reduction(*grid, 1 << level);
+    const Reduction r = reduction(file_level, 1 << level);
     for (std::size_t a = 0; a < 3; ++a)
       if (lo[a] < 0 || hi[a] > r.dims[a] || lo[a] >= hi[a])
         throw Error("box [" + std::to_string(lo[0]) + "," + std::to_string(lo[1]) + "," + std::to_string(lo[2]) + ")-(" +
@@ -195,20 +188,20 @@ Volume load_reduced_box(const std::string& path, const VolumeLoadOptions& option
                     std::to_string(r.dims[2]) + " voxels");
     const std::array<int, 3> d{static_cast<int>(hi[0] - lo[0]), static_cast<int>(hi[1] - lo[1]), static_cast<int>(hi[2] - lo[2])};
     const Vec3 origin = r.origin + r.spacing * Vec3(static_cast<float>(lo[0]), static_cast<float>(lo[1]), static_cast<float>(lo[2]));
-    Volume out(grid->type, d, r.spacing, origin, VoxelFill::Uninitialized);
+    Volume out(file_level.type, d, r.spacing, origin, VoxelFill::Uninitialized);
     // slices of the box that a box held before covers in x and y are copied from it; the rest is read
     std::int64_t copy_lo = lo[2], copy_hi = lo[2];
-    if (held && held->voxels && held->voxels->type() == grid->type && !held->voxels->is_bricked() && held->lo[0] <= lo[0] &&
+    if (held && held->voxels && held->voxels->type() == file_level.type && !held->voxels->is_bricked() && held->lo[0] <= lo[0] &&
         held->hi[0] >= hi[0] && held->lo[1] <= lo[1] && held->hi[1] >= hi[1]) {
       copy_lo = std::max(lo[2], held->lo[2]);
       copy_hi = std::min(hi[2], held->hi[2]);
       if (copy_lo >= copy_hi) copy_lo = copy_hi = lo[2];
     }
     std::uint64_t bytes_read = 0, bytes_reused = 0;
-    if (copy_lo > lo[2]) bytes_read += read_block_means(path, unbudgeted, *grid, r, lo, hi, lo[2], copy_lo, out);
-    if (copy_hi < hi[2]) bytes_read += read_block_means(path, unbudgeted, *grid, r, lo, hi, std::max(copy_hi, lo[2]), hi[2], out);
+    if (copy_lo > lo[2]) bytes_read += read_block_means(path, unbudgeted, file_level, r, lo, hi, lo[2], copy_lo, out);
+    if (copy_hi < hi[2]) bytes_read += read_block_means(path, unbudgeted, file_level, r, lo, hi, std::max(copy_hi, lo[2]), hi[2], out);
     if (copy_hi > copy_lo) {
-      const std::size_t size = scalar_size(grid->type);
+      const std::size_t size = scalar_size(file_level.type);
       const std::int64_t hx = held->hi[0] - held->lo[0], hy = held->hi[1] - held->lo[1];
       const std::byte* src = held->voxels->data();
       std::byte* dst = out.data();
@@ -224,7 +217,7 @@ Volume load_reduced_box(const std::string& path, const VolumeLoadOptions& option
       read->bytes_reused = bytes_reused;
     }
     out.recompute_range();
-    const Vec3& s = grid->spacing;
+    const Vec3& s = file_level.spacing;
     out.set_opacity_length(std::min({std::abs(s.x), std::abs(s.y), std::abs(s.z)}));
     return out;
   });

@@ -27,13 +27,15 @@ std::optional<Volume> load_reduced_to_fit(const std::string& path, const VolumeL
 // the reduction places them; empty when `opened` is no reduction of the file (or the file reads only
 // whole). What a refined view of the file chooses among (render/view_refinement.h).
 std::vector<LevelGrid> reduced_level_grids(const std::string& path, const VolumeLoadOptions& options, const Volume& opened);
-// Voxels [lo, hi) of level `level` of the file (as reduced_level_grids numbers them), placed where they
+// Voxels [lo, hi) of level `level` of the file (as reduced_level_grids numbers them; `file_level` its
+// level 0, so that the header is not read again for each box), placed where they
 // lie: each the mean of its block, computed as load_reduced_to_fit computes it (so a box equals that
 // part of the opened level exactly), from the slices of the file under the box, read a slab at a time.
 // `held`: a box of the same level in memory whose x and y cover this one's: the slices both hold are
 // copied from it (`read->bytes_reused`) and only the others read. Error naming the file for a box
 // outside the level.
-Volume load_reduced_box(const std::string& path, const VolumeLoadOptions& options, int level, const std::array<std::int64_t, 3>& lo,
-                        const std::array<std::int64_t, 3>& hi, WindowRead* read = nullptr, const HeldBox* held = nullptr);
+Volume load_reduced_box(const std::string& path, const VolumeLoadOptions& options, const LevelGrid& file_level, int level,
+                        const std::array<std::int64_t, 3>& lo, const std::array<std::int64_t, 3>& hi, WindowRead* read = nullptr,
+                        const HeldBox* held = nullptr);
 
 }  // namespace penumbra
