@@ -445,11 +445,7 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
     // level); beside others the box replaces the volume in the eye pass, so it must hold all it shows
     const std::optional<RefinementChoice> choice = choose_refinement(camera, pyramid, pyramid_bounds(pyramid, *o.volume), left,
                                                                      volumes_[k]->gradients_stored(), volumes_.size() == 1);
-    // a box serves while it covers the part wanted at its level and is at least as fine
-    auto serves = [&](const RefinedVolume& box) {
-      return choice && box.box().level <= choice->box.level && box.box().contains(level_box(pyramid, box.box().level, choice->seen)) &&
-             box.held_bytes() <= left;
-    };
+    auto serves = [&](const RefinedVolume& box) { return box_serves(box.box(), box.held_bytes(), pyramid, choice, left); };
     const bool keep = held && serves(*held);
     const auto again = std::find_if(kept.begin(), kept.end(), [&](const KeptBox& b) { return serves(*b.box); });
     std::optional<FailedRefinement>& failed = refine_failures_[k];
@@ -478,23 +474,14 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
       const auto lender = std::find_if(kept.begin(), kept.end(), [&](const KeptBox& b) {
         return b.box->box().level == choice->box.level && overlaps(b.box->box(), choice->box);
       });
-      Timer load;
-      WindowRead read;
-      try {
-        held = std::make_unique<RefinedVolume>(o, *choice, &read, lender == kept.end() ? nullptr : lender->box.get());
-        failed.reset();
+      const RefinedVolume* lends = lender == kept.end() ? nullptr : lender->box.get();
+      const bool read = read_refinement_box(*choice, pyramid.key, [&](WindowRead& window) {
+        held = std::make_unique<RefinedVolume>(o, *choice, &window, lends);
+        return held->held_bytes();
+      }, stats, failed);
+      if (read) {  // (else the frame draws the opened level)
         refined_changed_ = true;
-        stats.loaded_bytes = held->held_bytes();
-        stats.read_bytes = read.bytes_read;
-        stats.reused_bytes = read.bytes_reused;
-        stats.load_ms = load.elapsed_ms();
         rebuilt(indexed("volumes", i, "refined"), Quality::Full, frame);
-      } catch (const Error& e) {  // a chunk cut short, corrupt, unreadable: the frame draws the opened level
-        const std::array<int, 3> d = choice->box.dims();
-        failed = FailedRefinement{choice->box, pyramid.key,
-                                  "level " + std::to_string(choice->box.level) + " box " + std::to_string(d[0]) + "x" +
-                                      std::to_string(d[1]) + "x" + std::to_string(d[2]) + ": " + e.what()};
-        stats.error = failed->error;
       }
     }
     if (follow && held->follow(o)) {  // the table and empty cells follow a transfer function edited meanwhile
@@ -576,40 +563,26 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
       const auto for_voxels = static_cast<std::uint64_t>(static_cast<double>(left) * voxel / (voxel + 0.15));
       const std::optional<RefinementChoice> choice =
           choose_refinement(camera, pyramid, pyramid_bounds(pyramid, *o.volume), for_voxels, false, true);
-      const bool keep = choice && found != refined_surfaces_.end() && found->second.own_voxels && found->second.key == pyramid.key &&
-                        found->second.box.level <= choice->box.level &&
-                        found->second.box.contains(level_box(pyramid, found->second.box.level, choice->seen)) &&
-                        found->second.held_bytes() <= left;
-      auto failed = surface_refine_failures_.find(i);
+      const bool keep = found != refined_surfaces_.end() && found->second.own_voxels && found->second.key == pyramid.key &&
+                        box_serves(found->second.box, found->second.held_bytes(), pyramid, choice, left);
+      std::optional<FailedRefinement>& failed = surface_refine_failures_[i];
       if (keep) {
         // the box held serves this view too
-      } else if (choice && failed != surface_refine_failures_.end() && failed->second.covers(pyramid, *choice)) {
+      } else if (choice && failed && failed->covers(pyramid, *choice)) {
         evict();
-        stats.error = failed->second.error;
+        stats.error = failed->error;
       } else {
         evict();
         if (choice) {
           give_up_kept_boxes(refined_bytes(choice->box, pyramid.type, false) * 6 / 5, frame);  // with the hierarchy
-          Timer load;
-          WindowRead read;
-          try {
-            auto voxels = std::make_shared<const Volume>(pyramid.read_box(choice->box.level, choice->box.lo, choice->box.hi, &read, nullptr));
+          const bool read = read_refinement_box(*choice, pyramid.key, [&](WindowRead& window) {
+            auto voxels = std::make_shared<const Volume>(pyramid.read_box(choice->box.level, choice->box.lo, choice->box.hi, &window, nullptr));
             auto tree = std::make_shared<const GridTree>(*voxels);
             RefinedSurfaces r{choice->box, pyramid.key, std::move(voxels), true, std::move(tree), {}};
             found = refined_surfaces_.emplace(i, std::move(r)).first;
-            if (failed != surface_refine_failures_.end()) surface_refine_failures_.erase(failed);
-            stats.loaded_bytes = found->second.held_bytes();
-            stats.read_bytes = read.bytes_read;
-            stats.load_ms = load.elapsed_ms();
-            rebuilt(indexed("volumes", i, "refined_hierarchy"), Quality::Full, frame);
-          } catch (const Error& e) {  // the isosurfaces keep the opened level
-            const std::array<int, 3> d = choice->box.dims();
-            FailedRefinement f{choice->box, pyramid.key,
-                               "level " + std::to_string(choice->box.level) + " box " + std::to_string(d[0]) + "x" + std::to_string(d[1]) +
-                                   "x" + std::to_string(d[2]) + ": " + e.what()};
-            stats.error = f.error;
-            surface_refine_failures_.insert_or_assign(i, std::move(f));
-          }
+            return found->second.held_bytes();
+          }, stats, failed);
+          if (read) rebuilt(indexed("volumes", i, "refined_hierarchy"), Quality::Full, frame);  // (else the isosurfaces keep the opened level)
         }
       }
     }

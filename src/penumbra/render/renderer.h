@@ -217,7 +217,7 @@ private:
     std::uint64_t held_bytes() const;  // what the budget counts: its own box's voxels and hierarchy
   };
   std::map<std::size_t, RefinedSurfaces> refined_surfaces_;            // by scene volume
-  std::map<std::size_t, FailedRefinement> surface_refine_failures_;  // by scene volume: the last box whose read failed
+  std::map<std::size_t, std::optional<FailedRefinement>> surface_refine_failures_;  // by scene volume: the last box whose read failed
   std::unique_ptr<ShadowCasters> casters_;
   // casters_ with the refined boxes (full frames' light structures; null when no box is held or casters_
   // changed since; dropped with a box given up); refined_changed_: a box was loaded since they were built

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "penumbra/core/error.h"
+#include "penumbra/core/timer.h"
+
 namespace penumbra {
 namespace {
 
@@ -186,6 +189,32 @@ nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement) {
 bool FailedRefinement::covers(const PyramidSource& pyramid, const RefinementChoice& choice) const {
   return key == pyramid.key && box.level == choice.box.level &&
          box.contains(level_box(pyramid, box.level, choice.seen));
+}
+
+bool box_serves(const LevelBox& held, std::uint64_t held_bytes, const PyramidSource& pyramid, const std::optional<RefinementChoice>& choice,
+                std::uint64_t left) {
+  return choice && held.level <= choice->box.level && held.contains(level_box(pyramid, held.level, choice->seen)) && held_bytes <= left;
+}
+
+bool read_refinement_box(const RefinementChoice& choice, const std::string& key, const std::function<std::uint64_t(WindowRead&)>& read,
+                         RefinementStats& stats, std::optional<FailedRefinement>& failed) {
+  const Timer load;
+  WindowRead window;
+  try {
+    stats.loaded_bytes = read(window);
+  } catch (const Error& e) {
+    const std::array<int, 3> d = choice.box.dims();
+    failed = FailedRefinement{choice.box, key,
+                              "level " + std::to_string(choice.box.level) + " box " + std::to_string(d[0]) + "x" + std::to_string(d[1]) + "x" +
+                                  std::to_string(d[2]) + ": " + e.what()};
+    stats.error = failed->error;
+    return false;
+  }
+  failed.reset();
+  stats.read_bytes = window.bytes_read;
+  stats.reused_bytes = window.bytes_reused;
+  stats.load_ms = load.elapsed_ms();
+  return true;
 }
 
 RefinedVolume::RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read, const RefinedVolume* previous)

@@ -32,6 +32,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -111,6 +112,17 @@ struct FailedRefinement {
   std::string error;
   bool covers(const PyramidSource& pyramid, const RefinementChoice& choice) const;
 };
+
+// Whether a box held (`held`, holding `held_bytes`) serves a view that chose `choice`: it covers the part
+// wanted at its own level, is at least as fine, and still fits `left`.
+bool box_serves(const LevelBox& held, std::uint64_t held_bytes, const PyramidSource& pyramid, const std::optional<RefinementChoice>& choice,
+                std::uint64_t left);
+
+// Reads the box `choice` names by `read` (which fills the WindowRead and returns the bytes it then holds),
+// recording the bytes and the time in `stats` and clearing `failed`; a read that fails (a chunk cut short,
+// corrupt, unreadable) leaves `failed` naming the box and the fault, in `stats.error` too, and returns false.
+bool read_refinement_box(const RefinementChoice& choice, const std::string& key, const std::function<std::uint64_t(WindowRead&)>& read,
+                         RefinementStats& stats, std::optional<FailedRefinement>& failed);
 
 // Each refined volume of a frame as `--stats`, the Python stats and the viewer's frame message list it:
 // [{"volume", "opened_level", "level", "dims", "held_bytes", "loaded_bytes", "read_bytes",
