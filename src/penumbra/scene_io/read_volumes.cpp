@@ -281,8 +281,9 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
   }
   // the levels, found once per data (a file read reduced reads its header for them)
   std::optional<std::shared_ptr<const PyramidSource>> levels;
+  const std::string source_key = r.has("file") ? "file" : r.has("files") ? "files" : r.has("procedural") ? "procedural" : "array";
   auto find_levels = [&](const Volume& opened) {
-    if (!levels) levels = with_context(r.key_path("file"), [&] { return refinement_levels(v.source, *leveled, opened, data_id, origin); });
+    if (!levels) levels = with_context(r.key_path(source_key), [&] { return refinement_levels(v.source, *leveled, opened, data_id, origin); });
     return *levels;
   };
   auto load_placed = [&] {
@@ -294,7 +295,6 @@ VolumeObject read_volume(const nlohmann::json& j, const std::string& path, const
     return vol;
   };
   const std::shared_ptr<Volume> volume = options.cache ? options.cache->volume(data_id, load_placed) : std::make_shared<Volume>(load_placed());
-  const std::string source_key = r.has("file") ? "file" : r.has("files") ? "files" : r.has("procedural") ? "procedural" : "array";
   if (budget_left) *budget_left -= with_context(r.key_path(source_key), [&] { return budgeted_bytes(*volume, v.source, source_key == "file" || source_key == "files", *budget_left); });
   // A series keeps the grid and value range of the first step it loaded: every step must share that
   // grid, and the transfer function reads that range, so colours hold still while the data change.
