@@ -11,19 +11,11 @@ import numpy as np
 import pytest
 
 import penumbra
+from cli_outputs import read_pfm
 
 CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
 ROOT = os.environ.get("PENUMBRA_ROOT", os.path.join(os.path.dirname(__file__), "..", ".."))
 DATA = os.environ.get("PENUMBRA_DATA_DIR", os.path.join(ROOT, "..", "shared", "data"))
-
-
-def read_pfm(path):
-    with open(path, "rb") as f:
-        assert f.readline().strip() == b"PF"
-        w, h = map(int, f.readline().split())
-        assert float(f.readline()) < 0
-        data = np.frombuffer(f.read(), dtype="<f4").reshape(h, w, 3)
-    return data[::-1]
 
 
 def cli_render(tmp_path, document):

@@ -12,14 +12,9 @@ import pytest
 zarr = pytest.importorskip("zarr")  # Debian python3-zarr
 
 import penumbra  # noqa: E402
+from cli_outputs import held_bytes  # noqa: E402
 
 CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
-
-
-def held_bytes(shape, itemsize):
-    """volume_held_bytes: the voxels and 9 bytes per macrocell of 8 cells (max(1, ceil((n - 1) / 8)) per axis)."""
-    cells = int(np.prod([max(1, (n - 1 + 7) // 8) for n in shape]))
-    return int(np.prod(shape)) * itemsize + 9 * cells
 
 
 def nrrd(path, array):

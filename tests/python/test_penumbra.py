@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import penumbra
+from cli_outputs import read_pfm
 
 CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
 ROOT = os.environ.get("PENUMBRA_ROOT", os.path.join(os.path.dirname(__file__), "..", ".."))
@@ -25,15 +26,6 @@ def small_scene(technique="cssm"):
         "shadows": {"technique": technique, "resolution": 64},
         "camera": {"width": 40, "height": 32},
     }
-
-
-def read_pfm(path):
-    with open(path, "rb") as f:
-        assert f.readline().strip() == b"PF"
-        w, h = map(int, f.readline().split())
-        assert float(f.readline()) < 0  # little-endian
-        data = np.frombuffer(f.read(), dtype="<f4").reshape(h, w, 3)
-    return data[::-1]  # PFM rows run bottom to top
 
 
 def test_dict_scene_renders_what_the_cli_renders_from_the_same_file(tmp_path):

@@ -10,6 +10,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from cli_outputs import held_bytes, read_pfm
 
 CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
 SHAPE = (40, 72, 64)  # z, y, x
@@ -45,19 +46,6 @@ def write_tiff(path, data):
 
 
 WRITERS = {"nii.gz": write_nifti, "h5": write_hdf5, "tif": write_tiff}
-
-
-def held_bytes(shape, itemsize):
-    cells = int(np.prod([max(1, (n - 1 + 7) // 8) for n in shape]))
-    return int(np.prod(shape)) * itemsize + 9 * cells
-
-
-def read_pfm(path):
-    with open(path, "rb") as f:
-        assert f.readline().strip() == b"PF"
-        w, h = map(int, f.readline().split())
-        scale = float(f.readline())
-        return np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4").reshape(h, w, 3)
 
 
 def bounds(path):

@@ -10,6 +10,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from cli_outputs import held_bytes, read_pfm
 
 zarr = pytest.importorskip("zarr")  # Debian python3-zarr
 numcodecs = pytest.importorskip("numcodecs")
@@ -58,19 +59,6 @@ def store(tmp_path_factory):
                                   "axes": [{"name": "c", "type": "channel"}] + [{"name": n, "type": "space"} for n in "zyx"],
                                   "datasets": datasets}]
     return path, [l.shape[1:] for l in levels]
-
-
-def held_bytes(shape, itemsize):
-    cells = int(np.prod([max(1, (n - 1 + 7) // 8) for n in shape]))
-    return int(np.prod(shape)) * itemsize + 9 * cells
-
-
-def read_pfm(path):
-    with open(path, "rb") as f:
-        assert f.readline().strip() == b"PF"
-        w, h = map(int, f.readline().split())
-        scale = float(f.readline())
-        return np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4").reshape(h, w, 3)
 
 
 def scene(path, eye, target, budget=None, level=None, refine=True, shadows="none"):

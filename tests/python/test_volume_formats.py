@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import penumbra
+from cli_outputs import read_pfm
 
 CLI = os.environ.get("PENUMBRA_CLI", "penumbra")
 ROOT = os.environ.get("PENUMBRA_ROOT", os.path.join(os.path.dirname(__file__), "..", ".."))
@@ -119,14 +120,6 @@ def test_info_and_render_open_each_format(name, needle, tmp_path):
     r = subprocess.run([CLI, "render", path, "-o", str(out), "--width", "96", "--height", "64"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert read_pfm(out).std() > 0.01, "the picture shows something"
-
-
-def read_pfm(path):
-    data = open(path, "rb").read()
-    header, width_height, scale, rest = data.split(b"\n", 3)
-    w, h = map(int, width_height.split())
-    assert header == b"PF"
-    return np.frombuffer(rest, dtype="<f4" if float(scale) < 0 else ">f4").reshape(h, w, 3)
 
 
 def test_series_and_channel_options_reach_the_reader_and_are_refused_where_they_mean_nothing(tmp_path):
