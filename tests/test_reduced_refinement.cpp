@@ -7,6 +7,7 @@
 
 #include <filesystem>
 
+#include "ball_volumes.h"
 #include "image_check.h"
 #include "penumbra/data/io/volume_io.h"
 #include "penumbra/data/io/volume_reduction.h"
@@ -120,18 +121,11 @@ TEST(ReducedRefinement, ABoxOfAReductionIsThatPartOfTheWholeReduction) {
 
 namespace {
 
-// A ball of density 1 and a smaller one of 0.5 (the frame of test_view_refinement's pyramid) in an NRRD.
+// The balls (ball_volumes.h) in an NRRD.
 std::string write_ball_nrrd(const ScratchDir& dir, int size, const std::string& name = "ball.nrrd", float small_density = 0.5f) {
-  std::vector<float> voxels(static_cast<std::size_t>(size) * size * size);
-  const float h = 1.0f / static_cast<float>(size);
-  for (int k = 0; k < size; ++k)
-    for (int j = 0; j < size; ++j)
-      for (int i = 0; i < size; ++i) {
-        const Vec3 p = Vec3{-0.5f, -0.5f, -0.5f} + Vec3{static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)} * h;
-        const float big = length(p - Vec3{0.05f, 0.0f, 0.0f}), small = length(p - Vec3{-0.3f, 0.2f, 0.1f});
-        voxels[(static_cast<std::size_t>(k) * size + j) * size + i] = big < 0.3f ? 1.0f : small < 0.12f ? small_density : 0.0f;
-      }
-  const std::string s = std::to_string(h);
+  const Volume v = ball_volume(size, small_density);
+  const std::vector<float> voxels(v.data_as<float>(), v.data_as<float>() + v.voxel_count());
+  const std::string s = std::to_string(v.spacing().x);
   const std::string header = "type: float\ndimension: 3\nsizes: " + std::to_string(size) + " " + std::to_string(size) + " " +
                              std::to_string(size) + "\nendian: little\nspace: left-posterior-superior\nspace directions: (" + s + ",0,0) (0," +
                              s + ",0) (0,0," + s + ")\nspace origin: (-0.5,-0.5,-0.5)\nencoding: raw\n";
@@ -140,15 +134,7 @@ std::string write_ball_nrrd(const ScratchDir& dir, int size, const std::string& 
 }
 
 nlohmann::json ball_file_scene(const std::string& file, std::uint64_t budget, bool refine) {
-  nlohmann::json j;
-  nlohmann::json v = {{"file", file}, {"step", 0.5}, {"refine", refine}, {"jitter", false},
-                      {"transfer_function", {{"points", {{0.0, 0.2, 0.4, 0.9, 0.0}, {0.4, 0.2, 0.4, 0.9, 0.0}, {0.5, 0.9, 0.5, 0.2, 0.3}, {1.0, 1.0, 0.9, 0.8, 0.6}}}}}};
-  j["volumes"] = nlohmann::json::array({v});
-  j["lights"] = nlohmann::json::array({{{"type", "directional"}, {"direction", {-0.3, -1.0, -0.5}}}});
-  j["shadows"] = {{"technique", "ray_traced"}};
-  j["camera"] = {{"eye", {-0.12, 0.15, 0.8}}, {"target", {-0.22, 0.12, 0.1}}, {"fov_deg", 15}, {"width", 96}, {"height", 96}};
-  if (budget) j["memory_budget"] = budget;
-  return j;
+  return ball_view_scene(file, budget, refine, "ray_traced");
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <random>
 #include <thread>
 
+#include "ball_volumes.h"
 #include "image_check.h"
 #include "penumbra/core/cancel.h"
 #include "penumbra/data/io/volume_io.h"
@@ -256,39 +257,15 @@ TEST(ViewRefinement, ABoxOfALevelIsThatLevelsVoxels) {
 
 namespace {
 
-// A pyramid of a ball of density 1 with a smaller one of 0.5 beside it (block means keep both values:
-// every level has the finest's value range), 8³ chunks.
+// The balls (ball_volumes.h) as a pyramid of 8³ chunks.
 std::string write_ball_pyramid(const ScratchDir& dir, int size, float small_density = 0.5f, const std::string& name = "ball.zarr") {
-  Volume v(ScalarType::Float32, {size, size, size}, {1.0f / static_cast<float>(size), 1.0f / static_cast<float>(size), 1.0f / static_cast<float>(size)},
-           {-0.5f, -0.5f, -0.5f});
-  for (int k = 0; k < size; ++k)
-    for (int j = 0; j < size; ++j)
-      for (int i = 0; i < size; ++i) {
-        const Vec3 p = v.origin() + v.spacing() * Vec3{static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)};
-        const float big = length(p - Vec3{0.05f, 0.0f, 0.0f}), small = length(p - Vec3{-0.3f, 0.2f, 0.1f});
-        const float density = big < 0.3f ? 1.0f : small < 0.12f ? small_density : 0.0f;
-        v.set_value((static_cast<std::size_t>(k) * static_cast<std::size_t>(size) + static_cast<std::size_t>(j)) * static_cast<std::size_t>(size) +
-                        static_cast<std::size_t>(i),
-                    density);
-      }
-  v.recompute_range();
   OmeZarrWriteOptions options;
   options.chunk = 8;
-  write_ome_zarr(v, dir.file(name), options);
+  write_ome_zarr(ball_volume(size, small_density), dir.file(name), options);
   return dir.file(name);
 }
 
-nlohmann::json ball_scene(const std::string& store, std::uint64_t budget, bool refine) {
-  nlohmann::json j;
-  nlohmann::json v = {{"file", store}, {"step", 0.5}, {"refine", refine}, {"jitter", false},
-                      {"transfer_function", {{"points", {{0.0, 0.2, 0.4, 0.9, 0.0}, {0.4, 0.2, 0.4, 0.9, 0.0}, {0.5, 0.9, 0.5, 0.2, 0.3}, {1.0, 1.0, 0.9, 0.8, 0.6}}}}}};
-  j["volumes"] = nlohmann::json::array({v});
-  j["lights"] = nlohmann::json::array({{{"type", "directional"}, {"direction", {-0.3, -1.0, -0.5}}}});
-  j["shadows"] = {{"technique", "none"}};
-  j["camera"] = {{"eye", {-0.12, 0.15, 0.8}}, {"target", {-0.22, 0.12, 0.1}}, {"fov_deg", 15}, {"width", 96}, {"height", 96}};
-  if (budget) j["memory_budget"] = budget;
-  return j;
-}
+nlohmann::json ball_scene(const std::string& store, std::uint64_t budget, bool refine) { return ball_view_scene(store, budget, refine, "none"); }
 
 }  // namespace
 
