@@ -42,6 +42,7 @@ import time
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+FULL_BYTES = 512 * 512 * 1734 * 2  # ct-body's level 0, uint16
 
 
 def timed(args):
@@ -89,11 +90,10 @@ def body(o, cli, out):
         source, full = os.path.join(o.work, "ct_body.nrrd"), []
         if not os.path.isfile(source):
             nrrd_of_level0(store, source)
-    full_bytes = 512 * 512 * 1734 * 2
     rows = []
     ref = os.path.join(out, "budget_full.png")
-    cases = [("in memory (level 0)", full), ("1/2", ["--memory-budget", str(full_bytes // 2)]),
-             ("1/4", ["--memory-budget", str(full_bytes // 4)]), ("1/8", ["--memory-budget", str(full_bytes // 8)])]
+    cases = [("in memory (level 0)", full), ("1/2", ["--memory-budget", str(FULL_BYTES // 2)]),
+             ("1/4", ["--memory-budget", str(FULL_BYTES // 4)]), ("1/8", ["--memory-budget", str(FULL_BYTES // 8)])]
     for label, args in cases:
         image = ref if label.startswith("in memory") else os.path.join(out, f"budget_{label.replace('/', 'of')}.png")
         stats_file = os.path.join(out, "stats.json")
@@ -104,7 +104,7 @@ def body(o, cli, out):
                      "gradients": "stored" if stats["memory_bytes"]["volume_structures"] >= 4 * stats["counts"]["voxels"] else "on the fly",
                      "first_image_s": seconds, "frame_ms": stats["timings_ms"]["total"], "prepare_ms": stats["timings_ms"]["prepare"],
                      "peak_mib": peak, "rmse": rmse, "psnr": psnr})
-    print(f"\nct-body 512×512×1734 uint16 ({full_bytes / 2**20:.0f} MiB) {'as one NRRD' if o.file else 'as an OME-Zarr pyramid'}, "
+    print(f"\nct-body 512×512×1734 uint16 ({FULL_BYTES / 2**20:.0f} MiB) {'as one NRRD' if o.file else 'as an OME-Zarr pyramid'}, "
           f"{o.size}² frame, default scene of the file")
     print("| budget | level dims | held (MiB) | gradients | first image (s) | frame (ms) | peak RSS (MiB) | RMSE | PSNR (dB) |")
     print("|---|---|---|---|---|---|---|---|---|")
@@ -137,51 +137,67 @@ def refinement_row(stats):
             "read_mib": r.get("read_bytes", 0) / 2**20, "load_ms": r.get("load_ms", 0)}
 
 
-def zoom(o, cli, out):
-    """A close view of the head of the Visible-Woman-sized ct-body under budgets of 1/8 and 1/4 of its
-    size, refined (the visible box from a finer level) and not, against level 0 in memory; then a
-    session (--edits): zoom in, pan a little, back away, come back."""
+def head_close_view(o, cli, out, name):
+    """The automatic scene of ct-body's pyramid (converted once) with the camera close to the head; with
+    --file it reads level 0 as one NRRD instead. Returns the scene's path and the arguments that hold
+    level 0 in memory."""
     store = os.path.join(o.work, "ct_body.zarr")
     if not os.path.isdir(store):
         timed([cli, "convert", "--procedural", '{"name": "ct-body"}', "-o", store, "--unit", "millimeter"])
-    scene = zoomed_scene(cli, store, out, "zoom", 450.0, [0.0, 0.0, 650.0])
-    in_memory = ["--set", "volumes.0.level=0"]
-    if o.file:  # the same scene with the pyramid's level 0 as one NRRD
-        source = os.path.join(o.work, "ct_body.nrrd")
-        if not os.path.isfile(source):
-            nrrd_of_level0(store, source)
-        doc = json.load(open(scene))
-        doc["volumes"][0]["file"] = os.path.abspath(source)
-        json.dump(doc, open(scene, "w"), indent=1)
-        in_memory = []
-    full_bytes = 512 * 512 * 1734 * 2
+    scene = zoomed_scene(cli, store, out, name, 450.0, [0.0, 0.0, 650.0])
+    if not o.file:
+        return scene, ["--set", "volumes.0.level=0"]
+    source = os.path.join(o.work, "ct_body.nrrd")
+    if not os.path.isfile(source):
+        nrrd_of_level0(store, source)
+    doc = json.load(open(scene))
+    doc["volumes"][0]["file"] = os.path.abspath(source)
+    json.dump(doc, open(scene, "w"), indent=1)
+    return scene, []
+
+
+def budget_cases(o, cli, out, name, scene, in_memory):
+    """`scene` rendered with level 0 in memory, then under budgets of 1/8 and 1/4 of it, drawn from the
+    opened level only and refined: for each a row of its label, the volume's dims, the seconds from
+    process start to PNG, the frame's stats, the peak RSS, what is held and the error against level 0."""
     size = ["--width", o.size, "--height", o.size]
-    ref = os.path.join(out, "zoom_full.png")
+    ref = os.path.join(out, f"{name}_full.png")
     rows = []
     cases = [("in memory (level 0)", in_memory),
-             ("1/8, opened level only", ["--memory-budget", full_bytes // 8, "--set", "volumes.0.refine=false"]),
-             ("1/8, refined", ["--memory-budget", full_bytes // 8]),
-             ("1/4, opened level only", ["--memory-budget", full_bytes // 4, "--set", "volumes.0.refine=false"]),
-             ("1/4, refined", ["--memory-budget", full_bytes // 4])]
+             ("1/8, opened level only", ["--memory-budget", FULL_BYTES // 8, "--set", "volumes.0.refine=false"]),
+             ("1/8, refined", ["--memory-budget", FULL_BYTES // 8]),
+             ("1/4, opened level only", ["--memory-budget", FULL_BYTES // 4, "--set", "volumes.0.refine=false"]),
+             ("1/4, refined", ["--memory-budget", FULL_BYTES // 4])]
     for label, args in cases:
         tag = re.sub(r"[^a-z0-9]+", "_", label.lower()).strip("_")
-        image = ref if label.startswith("in memory") else os.path.join(out, f"zoom_{tag}.png")
-        stats_file = os.path.join(out, f"zoom_{tag}.json")
+        image = ref if label.startswith("in memory") else os.path.join(out, f"{name}_{tag}.png")
+        stats_file = os.path.join(out, f"{name}_{tag}.json")
         seconds, peak, _, _ = timed([cli, "render", scene, *args, *size, "-o", image, "--stats", stats_file])
         stats = json.load(open(stats_file))
         rmse, psnr = compare(cli, image, ref)
         rows.append({"case": label, "dims": stats["volumes"][0]["dims"], "first_image_s": seconds,
-                     "frame_ms": stats["timings_ms"]["total"], "render_ms": stats["timings_ms"]["render"], "peak_mib": peak,
+                     "frame_ms": stats["timings_ms"]["total"], "render_ms": stats["timings_ms"]["render"],
+                     "extract_ms": stats["timings_ms"].get("extract"), "peak_mib": peak,
                      "held_mib": stats.get("memory_budget", {}).get("held", 0) / 2**20, "rmse": rmse, "psnr": psnr,
                      **refinement_row(stats)})
-    print(f"\nct-body 512×512×1734 uint16 ({full_bytes / 2**20:.0f} MiB), a close view of the head at {o.size}²")
+    return rows
+
+
+def zoom(o, cli, out):
+    """A close view of the head of the Visible-Woman-sized ct-body under budgets of 1/8 and 1/4 of its
+    size, refined (the visible box from a finer level) and not, against level 0 in memory; then a
+    session (--edits): zoom in, pan a little, back away, come back."""
+    scene, in_memory = head_close_view(o, cli, out, "zoom")
+    rows = budget_cases(o, cli, out, "zoom", scene, in_memory)
+    print(f"\nct-body 512×512×1734 uint16 ({FULL_BYTES / 2**20:.0f} MiB), a close view of the head at {o.size}²")
     print("| case | level opened | drawn from | held (MiB) | box read (MiB on disk) | process start to PNG (s) | frame (ms) | peak RSS (MiB) | RMSE | PSNR (dB) |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         drawn = f"level {r['level']}: {'×'.join(map(str, r['box']))}" if r["box"] else "the opened level"
         print(f"| {r['case']} | {'×'.join(map(str, r['dims']))} | {drawn} | {r['held_mib']:.0f} | {r['read_mib']:.1f} | {r['first_image_s']:.1f} | "
               f"{r['frame_ms']:.0f} | {r['peak_mib']:.0f} | {r['rmse']:.4f} | {r['psnr']} |")
-    session = session_steps(cli, scene, out, ["--memory-budget", full_bytes // 8, *size], [0.0, 0.0, 650.0], 450.0)
+    session = session_steps(cli, scene, out, ["--memory-budget", FULL_BYTES // 8, "--width", o.size, "--height", o.size],
+                            [0.0, 0.0, 650.0], 450.0)
     json.dump({"cases": rows, "session": session}, open(os.path.join(out, "budget_zoom_file.json" if o.file else "budget_zoom.json"), "w"), indent=2)
 
 
@@ -189,43 +205,14 @@ def iso(o, cli, out):
     """The close view of the head as the bone isosurface of a hidden volume: the pyramid (or the file)
     opened coarse under 1/8 and 1/4 of its size, the surface extracted from the opened level alone and
     refined from a box where the camera looks, against level 0 in memory."""
-    store = os.path.join(o.work, "ct_body.zarr")
-    if not os.path.isdir(store):
-        timed([cli, "convert", "--procedural", '{"name": "ct-body"}', "-o", store, "--unit", "millimeter"])
-    scene = zoomed_scene(cli, store, out, "iso", 450.0, [0.0, 0.0, 650.0])
+    scene, in_memory = head_close_view(o, cli, out, "iso")
     doc = json.load(open(scene))
-    in_memory = ["--set", "volumes.0.level=0"]
-    if o.file:
-        source = os.path.join(o.work, "ct_body.nrrd")
-        if not os.path.isfile(source):
-            nrrd_of_level0(store, source)
-        doc["volumes"][0]["file"] = os.path.abspath(source)
-        in_memory = []
     doc["volumes"][0] = {"file": doc["volumes"][0]["file"], "visible": False}
     doc["isosurfaces"] = [{"value": 1400, "method": "points", "color": [0.93, 0.89, 0.80]}]
     doc["shadows"] = {"technique": "light_pass", "resolution": 512}
     json.dump(doc, open(scene, "w"), indent=1)
-    full_bytes = 512 * 512 * 1734 * 2
-    size = ["--width", o.size, "--height", o.size]
-    ref = os.path.join(out, "iso_full.png")
-    rows = []
-    cases = [("in memory (level 0)", in_memory),
-             ("1/8, opened level only", ["--memory-budget", full_bytes // 8, "--set", "volumes.0.refine=false"]),
-             ("1/8, refined", ["--memory-budget", full_bytes // 8]),
-             ("1/4, opened level only", ["--memory-budget", full_bytes // 4, "--set", "volumes.0.refine=false"]),
-             ("1/4, refined", ["--memory-budget", full_bytes // 4])]
-    for label, args in cases:
-        tag = re.sub(r"[^a-z0-9]+", "_", label.lower()).strip("_")
-        image = ref if label.startswith("in memory") else os.path.join(out, f"iso_{tag}.png")
-        stats_file = os.path.join(out, f"iso_{tag}.json")
-        seconds, peak, _, _ = timed([cli, "render", scene, *args, *size, "-o", image, "--stats", stats_file])
-        stats = json.load(open(stats_file))
-        rmse, psnr = compare(cli, image, ref)
-        rows.append({"case": label, "dims": stats["volumes"][0]["dims"], "first_image_s": seconds,
-                     "frame_ms": stats["timings_ms"]["total"], "extract_ms": stats["timings_ms"].get("extract"),
-                     "peak_mib": peak, "held_mib": stats.get("memory_budget", {}).get("held", 0) / 2**20, "rmse": rmse, "psnr": psnr,
-                     **refinement_row(stats)})
-    print(f"\nct-body 512×512×1734 uint16 ({full_bytes / 2**20:.0f} MiB) {'as one NRRD' if o.file else 'as an OME-Zarr pyramid'}, "
+    rows = budget_cases(o, cli, out, "iso", scene, in_memory)
+    print(f"\nct-body 512×512×1734 uint16 ({FULL_BYTES / 2**20:.0f} MiB) {'as one NRRD' if o.file else 'as an OME-Zarr pyramid'}, "
           f"bone isosurface (points, light-pass shadows), a close view of the head at {o.size}²")
     print("| case | level opened | extracted from | held (MiB) | box read (MiB) | box load (ms) | start to PNG (s) | frame (ms) | eye pass (ms) | peak RSS (MiB) | RMSE | PSNR (dB) |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
