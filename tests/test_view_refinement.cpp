@@ -733,3 +733,57 @@ TEST(ViewRefinement, TheLeastRecentlyDrawnBoxIsGivenUpFirst) {
   const Image expected = Renderer(build_scene(whole, "")).render(view(at[0]), scene.lights).image;
   EXPECT_LT(compare_images(a.image, expected).max_abs, 1e-4);
 }
+
+// Two refined volumes share the budget's kept boxes: the box of one, kept after the camera looked away,
+// is given up for the other's new box (the frame lists both: one loaded, the other's box evicted), and
+// the frame still equals the volumes' finest levels in memory.
+TEST(ViewRefinement, OneVolumesNewBoxTakesTheRoomOfAnothersKeptBox) {
+  ScratchDir dir;
+  const std::string left_store = write_ball_pyramid(dir, 64), right_store = write_ball_pyramid(dir, 64, 0.8f, "right.zarr");
+  auto two_volumes = [&](std::uint64_t budget) {
+    nlohmann::json j = ball_scene(left_store, budget, true);
+    nlohmann::json right = j["volumes"][0];
+    right["file"] = right_store;
+    right["origin"] = {1.5, -0.5, -0.5};  // 2 to the right of the left one
+    j["volumes"].push_back(right);
+    j["camera"]["fov_deg"] = 5;
+    return build_scene(j, "");
+  };
+  Scene scene = two_volumes(1u << 20);
+  ASSERT_TRUE(scene.volumes[0].pyramid && scene.volumes[1].pyramid) << "both opened coarser than their finest levels";
+  auto view = [&](float dx) {
+    Camera c = scene.camera;
+    c.eye = c.eye + Vec3{dx, 0, 0};
+    c.target = c.target + Vec3{dx, 0, 0};
+    return c;
+  };
+  Camera away = scene.camera;  // looking from between them out into nothing
+  away.eye = Vec3{1.0f, 0.0f, 3.0f};
+  away.target = Vec3{1.0f, 0.0f, 10.0f};
+  const std::uint64_t box = Renderer(scene).render(view(2.0f), scene.lights).refinement.at(0).held_bytes;
+  ASSERT_GT(box, 0u);
+  scene.refinement_bytes = box * 3 / 2;  // one box, not two
+  Renderer renderer(scene);
+  const FrameResult right = renderer.render(view(2.0f), scene.lights);
+  ASSERT_EQ(right.refinement.size(), 1u);
+  EXPECT_EQ(right.refinement[0].volume, 1u);
+  EXPECT_GT(right.refinement[0].loaded_bytes, 0u);
+  const FrameResult nothing = renderer.render(away, scene.lights);
+  ASSERT_EQ(nothing.refinement.size(), 1u);
+  EXPECT_EQ(nothing.refinement[0].kept_bytes, right.refinement[0].held_bytes) << "the right volume's box is kept";
+  // the left volume's box is read after the right one's kept box is given up for it
+  const FrameResult left = renderer.render(view(0.0f), scene.lights);
+  auto entry = [&](std::size_t volume) -> const RefinementStats& {
+    const auto it = std::find_if(left.refinement.begin(), left.refinement.end(), [&](const RefinementStats& s) { return s.volume == volume; });
+    EXPECT_NE(it, left.refinement.end()) << "volume " << volume << " listed";
+    return it == left.refinement.end() ? left.refinement.front() : *it;
+  };
+  ASSERT_EQ(left.refinement.size(), 2u);
+  EXPECT_GT(entry(0).loaded_bytes, 0u);
+  EXPECT_EQ(entry(0).held_bytes, entry(0).loaded_bytes);
+  EXPECT_EQ(entry(1).evicted_bytes, right.refinement[0].held_bytes);
+  EXPECT_EQ(entry(1).kept_bytes, 0u);
+  EXPECT_LE(renderer.refined_memory_bytes(), scene.refinement_bytes);
+  const Scene whole = two_volumes(0);
+  EXPECT_LT(compare_images(left.image, Renderer(whole).render(view(0.0f), whole.lights).image).max_abs, 1e-4);
+}
