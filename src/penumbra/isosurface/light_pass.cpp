@@ -177,13 +177,23 @@ void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool v
     options.normals = false;
     options.start = &pass.holes;
     options.clip = &iso.clip;
+    // a refined box: its surface from its own hierarchy, the opened level's kept out of it (as in the eye pass)
+    if (iso.finer_tree) options.exclude = &iso.finer_box;
     pass.light_points = extract_points(*iso.tree, iso.isovalue, pass.view, options);
+    if (iso.finer_tree) {
+      options.exclude = nullptr;
+      const Extraction inside = extract_points(*iso.finer_tree, iso.isovalue, pass.view, options);
+      pass.light_points.points.insert(pass.light_points.points.end(), inside.points.begin(), inside.points.end());
+      pass.light_points.stats.add(inside.stats);
+      pass.light_points.stats.ms += inside.stats.ms;
+    }
     pass.depth.assign(static_cast<std::size_t>(pass.view.width) * static_cast<std::size_t>(pass.view.height), kInfinity);
     pass.depth_error.assign(pass.depth.size(), 0);
-    for (const IsoPoint& p : pass.light_points.points) {  // one point per pixel
-      pass.depth[p.pixel] = p.distance;
-      pass.depth_error[p.pixel] = p.error;
-    }
+    for (const IsoPoint& p : pass.light_points.points)  // one point per pixel and pass: the nearer
+      if (p.distance < pass.depth[p.pixel]) {
+        pass.depth[p.pixel] = p.distance;
+        pass.depth_error[p.pixel] = p.error;
+      }
     if (reduction) {  // per light pixel the nearest of the bricks' points, with that point's error
       std::vector<float> nearest = pass.depth;
       reduction->minimum(nearest);

@@ -92,6 +92,10 @@ struct CastingIsosurface {
   float offset;          // shadow rays start this far off the surface (a twentieth of a voxel)
   Box3 bounds;
   ClipPlanes clip;       // the scene's clip planes when the isosurface is clipped, else none
+  // A refined box of the same surface (render/view_refinement.h): the light pass extracts its points
+  // inside `finer_box` from `finer_tree` and outside it from `tree`. Null when the surface has none.
+  const GridTree* finer_tree = nullptr;
+  Box3 finer_box;
 };
 
 class ShadowCasters {
@@ -106,8 +110,9 @@ public:
   };
   ShadowCasters(const Scene& scene, std::span<const MacrocellGrid* const> grids, std::span<const FinerBox> finer = {});
   void set_spheres(const CastingSpheres& spheres);
+  // `finer`: the hierarchy over a refined box of the same volume (CastingIsosurface::finer_tree), if any.
   void add_isosurface(const IsosurfaceRaycaster& raycaster, const GridTree& tree, std::uint32_t object,
-                      const ClipPlanes& clip = ClipPlanes());
+                      const ClipPlanes& clip = ClipPlanes(), const GridTree* finer = nullptr);
 
   // A copy holding only the casters of the given kinds (what one technique covers).
   ShadowCasters restricted_to(KindMask kinds) const;

@@ -301,7 +301,7 @@ void Renderer::prepare_isosurfaces(FrameResult& frame) {
   }
 }
 
-std::unique_ptr<ShadowCasters> Renderer::make_casters(std::span<const ShadowCasters::FinerBox> finer) const {
+std::unique_ptr<ShadowCasters> Renderer::make_casters(std::span<const ShadowCasters::FinerBox> finer, bool refined_surfaces) const {
   std::vector<const MacrocellGrid*> grids(scene_.volumes.size(), nullptr);
   for (std::size_t k = 0; k < volumes_.size(); ++k) grids[static_cast<std::size_t>(volume_index_[k])] = &volumes_[k]->grid;
   auto casters = std::make_unique<ShadowCasters>(settings_, grids, finer);
@@ -315,10 +315,14 @@ std::unique_ptr<ShadowCasters> Renderer::make_casters(std::span<const ShadowCast
     if (split) bounds = combined_bounds(bounds, *frame_brick_->reduction);
     casters->set_spheres(CastingSpheres{casting_particles_ ? casting_particles_.get() : &kNoSpheres, bvh, bounds});
   }
-  for (std::size_t i = 0; i < isosurfaces_.size(); ++i)
-    if (scene_.isosurfaces[i].casts_shadows)
-      casters->add_isosurface(isosurfaces_[i]->raycaster, *isosurfaces_[i]->tree, static_cast<std::uint32_t>(i),
-                              scene_.clip_planes_for(scene_.isosurfaces[i].clip));
+  for (std::size_t i = 0; i < isosurfaces_.size(); ++i) {
+    if (!scene_.isosurfaces[i].casts_shadows) continue;
+    const GridTree* finer_tree = nullptr;  // the light pass extracts inside a refined box from it
+    const auto refined = refined_surfaces ? refined_surfaces_.find(scene_.isosurfaces[i].volume) : refined_surfaces_.end();
+    if (refined != refined_surfaces_.end() && refined->second.surfaces.count(i)) finer_tree = refined->second.tree.get();
+    casters->add_isosurface(isosurfaces_[i]->raycaster, *isosurfaces_[i]->tree, static_cast<std::uint32_t>(i),
+                            scene_.clip_planes_for(scene_.isosurfaces[i].clip), finer_tree);
+  }
   if (sat_) casters->attach_extinction_sat(sat_.get());
   return casters;
 }
@@ -336,13 +340,14 @@ bool Renderer::update_refined_casters() {
       finer[static_cast<std::size_t>(volume_index_[k])] = {&refined_[k]->object(), &refined_[k]->prepared().grid};
       any = true;
     }
+  for (const auto& entry : refined_surfaces_) any = any || !entry.second.surfaces.empty();
   if (!any) {
     const bool had = refined_casters_ != nullptr;
     refined_casters_.reset();
     return had;
   }
   if (refined_casters_ && !refined_changed_) return false;
-  refined_casters_ = make_casters(finer);
+  refined_casters_ = make_casters(finer, true);
   refined_changed_ = false;
   return true;
 }
@@ -531,6 +536,7 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
     stats.evicted_bytes = it->second.held_bytes();
     if (stats.evicted_bytes && it->second.own_voxels) frame.refinement.push_back(stats);
     it = refined_surfaces_.erase(it);
+    refined_changed_ = true;  // the light pass casts from it no more
   }
   for (const auto& entry : wanted) {
     const std::size_t i = entry.first;  // (a structured binding cannot be captured by clang 14's lambdas)
@@ -549,12 +555,14 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
       if (found->second.own_voxels) stats.evicted_bytes += found->second.held_bytes();
       refined_surfaces_.erase(found);
       found = refined_surfaces_.end();
+      refined_changed_ = true;
     };
     if (drawn) {  // the hierarchy over the box the eye pass draws the volume from
       if (found == refined_surfaces_.end() || found->second.voxels != drawn->object().volume) {
         evict();
         RefinedSurfaces r{drawn->box(), pyramid.key, drawn->object().volume, false, std::make_shared<const GridTree>(*drawn->object().volume), {}};
         found = refined_surfaces_.emplace(i, std::move(r)).first;
+        refined_changed_ = true;
         rebuilt(indexed("volumes", i, "refined_hierarchy"), Quality::Full, frame);
       }
     } else {
@@ -582,7 +590,10 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
             found = refined_surfaces_.emplace(i, std::move(r)).first;
             return found->second.held_bytes();
           }, stats, failed);
-          if (read) rebuilt(indexed("volumes", i, "refined_hierarchy"), Quality::Full, frame);  // (else the isosurfaces keep the opened level)
+          if (read) {  // (else the isosurfaces keep the opened level)
+            refined_changed_ = true;
+            rebuilt(indexed("volumes", i, "refined_hierarchy"), Quality::Full, frame);
+          }
         }
       }
     }
@@ -654,7 +665,7 @@ void Renderer::prepare(Quality quality, const Camera* refine_for, FrameResult& f
     stale_.erase("sat");
   }
   if (stale("casters") || !casters_) {
-    casters_ = make_casters({});
+    casters_ = make_casters({}, false);
     refined_casters_.reset();
     rebuilt("casters", quality, frame);
     light_structures_stale();

@@ -157,8 +157,9 @@ private:
   // Gives up kept boxes, least recently drawn first, until `room` more bytes fit the refinement budget
   // beside everything refined that is held; what each volume gave up goes to its refinement entry.
   void give_up_kept_boxes(std::uint64_t room, FrameResult& frame);
-  // The casters over the opened levels, or with `finer` the refined boxes where the volumes have them.
-  std::unique_ptr<ShadowCasters> make_casters(std::span<const ShadowCasters::FinerBox> finer) const;
+  // The casters over the opened levels, or with `finer` the refined boxes where the volumes have them,
+  // and with `refined_surfaces` the isosurfaces' refined boxes (their light pass extracts from them).
+  std::unique_ptr<ShadowCasters> make_casters(std::span<const ShadowCasters::FinerBox> finer, bool refined_surfaces) const;
   // A full frame's casters: refined_casters_ built (or dropped) for the boxes held; true when changed.
   bool update_refined_casters();
   // The ambient technique and every light's shadows, to be built again (the casters changed).
