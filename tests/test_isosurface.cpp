@@ -236,7 +236,7 @@ ShadowAgreement light_pass_agreement(const GridTree& tree, const Camera& cam, co
   }
   LightPass pass(s);
   pass.build(casters, light);
-  pass.fit_to_receivers(receivers, false);
+  pass.fit_to_receivers(receivers, false, false);
   RayTracedShadows exact;
   exact.build(casters, light);
   std::vector<Rgb> a_rgb(receivers.size()), b_rgb(receivers.size());

@@ -112,7 +112,7 @@ Run run_frames(const Scene& scene_in, const Camera& camera, PreparedIsosurface& 
     ShadowStats shadow_stats;
     for (const Light& light : scene.lights) {
       shadows.push_back(std::make_unique<LightShadows>(scene, casters, light));
-      shadows.back()->fit_to_receivers(run.surfaces.points, false);
+      shadows.back()->fit_to_receivers(run.surfaces.points, false, false);
       shadows.back()->add_stats(shadow_stats);
     }
     run.shadow_ms = shadow_timer.elapsed_ms();

@@ -131,7 +131,7 @@ void LightPass::build(const ShadowCasters& casters, const Light& light) {
   passes_.clear();
 }
 
-void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples) {
+void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples, bool refined) {
   Timer timer;
   // Only receivers facing the light need an answer (the others get no light whatever lies in front of
   // them): the frustum is fitted to them and only they punch holes.
@@ -178,11 +178,12 @@ void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool v
     options.start = &pass.holes;
     options.clip = &iso.clip;
     // a refined box: its surface from its own hierarchy, the opened level's kept out of it (as in the eye pass)
-    if (iso.finer_tree) options.exclude = &iso.finer_box;
+    const GridTree* finer = refined ? iso.finer_tree : nullptr;
+    if (finer) options.exclude = &iso.finer_box;
     pass.light_points = extract_points(*iso.tree, iso.isovalue, pass.view, options);
-    if (iso.finer_tree) {
+    if (finer) {
       options.exclude = nullptr;
-      const Extraction inside = extract_points(*iso.finer_tree, iso.isovalue, pass.view, options);
+      const Extraction inside = extract_points(*finer, iso.isovalue, pass.view, options);
       pass.light_points.points.insert(pass.light_points.points.end(), inside.points.begin(), inside.points.end());
       pass.light_points.stats.add(inside.stats);
       pass.light_points.stats.ms += inside.stats.ms;

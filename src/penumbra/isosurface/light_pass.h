@@ -64,7 +64,9 @@ public:
   using ShadowTechnique::transmittance;
   explicit LightPass(LightPassSettings settings) : settings_(settings) {}
   void build(const ShadowCasters& casters, const Light& light) override;
-  void fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples) override;
+  // With `refined`, an isosurface with a refined box (CastingIsosurface::finer_tree) is extracted from it
+  // inside the box, as the eye pass drew it; a preview's receivers meet the opened level's surface only.
+  void fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples, bool refined) override;
   bool view_dependent() const override { return true; }
   // On a brick (accel/brick_reduction.h): its share of the receivers and its isosurface cells; the fit,
   // the holes (a hole of any brick) and each light pixel's nearest depth combine over the bricks.

@@ -33,9 +33,11 @@ public:
   // `casters` (the kinds this technique covers) must outlive the technique's queries.
   virtual void build(const ShadowCasters& casters, const Light& light) = 0;
   // Called every frame, before any query, with the frame's visible surface points; `volume_samples`
-  // says whether volume samples will query too. View-dependent work happens here (paper 002 §4: the
-  // light pass answers only for the eye's points; paper 003 §4: ISSM's automatic rings).
-  virtual void fit_to_receivers(std::span<const SurfacePoint> /*receivers*/, bool /*volume_samples*/) {}
+  // says whether volume samples will query too; `refined`, whether the receivers were drawn from refined
+  // boxes (a full frame, render/view_refinement.h), whose casters may then serve too, or from the opened
+  // levels (a preview). View-dependent work happens here (paper 002 §4: the light pass answers only for
+  // the eye's points; paper 003 §4: ISSM's automatic rings).
+  virtual void fit_to_receivers(std::span<const SurfacePoint> /*receivers*/, bool /*volume_samples*/, bool /*refined*/) {}
   // Whether fit_to_receivers rebuilds the structure (then every frame reports "shadows" rebuilt).
   virtual bool view_dependent() const { return false; }
   // True when build() from casters restricted to a brick (ShadowCasters::brick) builds the brick's

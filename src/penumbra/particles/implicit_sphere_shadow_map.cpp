@@ -182,7 +182,7 @@ void ImplicitSphereShadowMap::transmittance(std::span<const SurfacePoint> points
     out[i] = Rgb(light_at(points[i].position, points[i].self));
 }
 
-void ImplicitSphereShadowMap::fit_to_receivers(std::span<const SurfacePoint> receivers, bool) {
+void ImplicitSphereShadowMap::fit_to_receivers(std::span<const SurfacePoint> receivers, bool, bool) {
   if (automatic_rings_) choose_rings(receivers);
 }
 

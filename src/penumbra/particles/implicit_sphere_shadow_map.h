@@ -61,7 +61,7 @@ public:
   void build(const ShadowCasters& casters, const Light& light) override;
   // Built from one brick's spheres, combined with the other bricks' (a particle scene split by space).
   bool combines_over_bricks() const override { return true; }
-  void fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples) override;
+  void fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples, bool refined) override;
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
   void transmittance(std::span<const SurfacePoint> points, std::span<Rgb> out) const override;
   Vec3 surface_receiver(const Vec3& p, const Vec3&) const override { return p; }  // self by identity

@@ -18,8 +18,8 @@ LightShadows::LightShadows(const Scene& scene, const ShadowCasters& all, const L
   }
 }
 
-void LightShadows::fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples) {
-  for (auto& t : techniques_) t->fit_to_receivers(receivers, volume_samples);
+void LightShadows::fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples, bool refined) {
+  for (auto& t : techniques_) t->fit_to_receivers(receivers, volume_samples, refined);
 }
 
 namespace {

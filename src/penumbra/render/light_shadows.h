@@ -19,7 +19,7 @@ public:
   // bricks' (shadow_brick.h); the others build from `all`, which then holds the whole scene.
   LightShadows(const Scene& scene, const ShadowCasters& all, const Light& light, const ShadowBrick* brick = nullptr);
 
-  void fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples);
+  void fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples, bool refined);
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const;
   void transmittance(std::span<const SurfacePoint> points, std::span<Rgb> out) const;
   Rgb transmittance(const Vec3& p) const {

@@ -857,7 +857,7 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
     receivers = with_glass;
   }
   for (auto& s : shadows_) {
-    s->fit_to_receivers(receivers, volume_samples);
+    s->fit_to_receivers(receivers, volume_samples, refined_frame);
     s->add_stats(stats);
   }
   frame.isosurface.shadow_ms = fit.elapsed_ms();
