@@ -178,7 +178,7 @@ void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool v
     options.start = &pass.holes;
     options.clip = &iso.clip;
     // a refined box: its surface from its own hierarchy, the opened level's kept out of it (as in the eye pass)
-    const GridTree* finer = refined ? iso.finer_tree : nullptr;
+    const GridTree* finer = refined ? iso.finer.tree : nullptr;
     if (finer) options.exclude = &iso.finer_box;
     pass.light_points = extract_points(*iso.tree, iso.isovalue, pass.view, options);
     if (finer) {

@@ -64,7 +64,7 @@ public:
   using ShadowTechnique::transmittance;
   explicit LightPass(LightPassSettings settings) : settings_(settings) {}
   void build(const ShadowCasters& casters, const Light& light) override;
-  // With `refined`, an isosurface with a refined box (CastingIsosurface::finer_tree) is extracted from it
+  // With `refined`, an isosurface with a refined box (CastingIsosurface::finer) is extracted from it
   // inside the box, as the eye pass drew it; a preview's receivers meet the opened level's surface only.
   void fit_to_receivers(std::span<const SurfacePoint> receivers, bool volume_samples, bool refined) override;
   bool view_dependent() const override { return true; }

@@ -48,13 +48,13 @@ void ShadowCasters::set_spheres(const CastingSpheres& spheres) {
 }
 
 void ShadowCasters::add_isosurface(const IsosurfaceRaycaster& raycaster, const GridTree& tree, std::uint32_t object,
-                                   const ClipPlanes& clip, const GridTree* finer) {
+                                   const ClipPlanes& clip, CastingIsosurface::Finer finer) {
   const Volume& volume = tree.volume();
   const Vec3& s = volume.spacing();
   // Far enough off the surface that float rounding of a point at hundreds of voxels from the origin
   // cannot put the start behind its own surface; small against any feature.
   isosurfaces_.push_back(CastingIsosurface{&raycaster, &tree, raycaster.isovalue(), object, 0.05f * std::min({s.x, s.y, s.z}), volume.bounds(), clip,
-                                           finer, finer ? finer->volume().bounds() : Box3{}});
+                                           finer, finer.tree ? finer.tree->volume().bounds() : Box3{}});
   update_bounds();
 }
 
@@ -87,7 +87,7 @@ ShadowCasters ShadowCasters::restricted_to_brick(const ShadowBrick& brick) const
   return c;
 }
 
-float ShadowCasters::surface_hit(const Ray& r, float t0, float t1) const {
+float ShadowCasters::surface_hit(const Ray& r, float t0, float t1, bool finer_surfaces) const {
   float best = t1;
   for (const auto& p : planes_) best = std::min(best, p.intersect(r, t0, best));
   if (spheres_.set && !spheres_.set->spheres.empty()) {
@@ -104,7 +104,15 @@ float ShadowCasters::surface_hit(const Ray& r, float t0, float t1) const {
   for (const auto& iso : isosurfaces_) {
     float a = t0, b = best;  // the part of the ray the clip planes keep
     if (!iso.clip.keep(r, a, b)) continue;
-    const float t = iso.raycaster->first_hit(r, a, b);
+    float t = kInfinity, f0, f1;
+    if (finer_surfaces && iso.finer.raycaster && iso.finer_box.clip(r, f0, f1, a, b)) {
+      // the opened level's surface before the refined box, the box's in it, the opened level's behind it
+      t = iso.raycaster->first_hit(r, a, f0);
+      if (t == kInfinity) t = iso.finer.raycaster->first_hit(r, f0, f1);
+      if (t == kInfinity) t = iso.raycaster->first_hit(r, f1, b);
+    } else {
+      t = iso.raycaster->first_hit(r, a, b);
+    }
     if (t > t0) best = std::min(best, t);
   }
   return best < t1 ? best : kInfinity;

@@ -92,9 +92,13 @@ struct CastingIsosurface {
   float offset;          // shadow rays start this far off the surface (a twentieth of a voxel)
   Box3 bounds;
   ClipPlanes clip;       // the scene's clip planes when the isosurface is clipped, else none
-  // A refined box of the same surface (render/view_refinement.h): the light pass extracts its points
-  // inside `finer_box` from `finer_tree` and outside it from `tree`. Null when the surface has none.
-  const GridTree* finer_tree = nullptr;
+  // A refined box of the same surface (render/view_refinement.h): inside `finer_box` the light pass
+  // extracts its points from `finer.tree` and shadow rays find the surface with `finer.raycaster`,
+  // outside it from `tree` and with `raycaster`. Null when the surface has none.
+  struct Finer {
+    const IsosurfaceRaycaster* raycaster = nullptr;
+    const GridTree* tree = nullptr;
+  } finer;
   Box3 finer_box;
 };
 
@@ -110,9 +114,9 @@ public:
   };
   ShadowCasters(const Scene& scene, std::span<const MacrocellGrid* const> grids, std::span<const FinerBox> finer = {});
   void set_spheres(const CastingSpheres& spheres);
-  // `finer`: the hierarchy over a refined box of the same volume (CastingIsosurface::finer_tree), if any.
+  // `finer`: the surface over a refined box of the same volume (CastingIsosurface::finer), if any.
   void add_isosurface(const IsosurfaceRaycaster& raycaster, const GridTree& tree, std::uint32_t object,
-                      const ClipPlanes& clip = ClipPlanes(), const GridTree* finer = nullptr);
+                      const ClipPlanes& clip = ClipPlanes(), CastingIsosurface::Finer finer = {});
 
   // A copy holding only the casters of the given kinds (what one technique covers).
   ShadowCasters restricted_to(KindMask kinds) const;
@@ -126,7 +130,9 @@ public:
   const std::vector<CastingIsosurface>& isosurfaces() const { return isosurfaces_; }
 
   // Ray parameter of the nearest opaque caster (plane, sphere, isosurface) in (t0, t1), or infinity.
-  float surface_hit(const Ray& r, float t0, float t1) const;
+  // `finer_surfaces`: isosurfaces with a refined box are hit there on its surface (CastingIsosurface::finer;
+  // false: on the opened level's everywhere, as a preview draws them).
+  float surface_hit(const Ray& r, float t0, float t1, bool finer_surfaces = true) const;
 
   // Visits the volume segments of r inside [t_begin, t_end] in order (lattice k·Δ from the ray
   // origin), skipping space that is empty in every volume; visit(segment) returns false to stop.
@@ -155,8 +161,8 @@ public:
 
   // Exact transmittance along r over [t_begin, t_end] (the product of the colour model over all
   // segments, zero if an opaque caster is hit), stopping early below kShadowOpaque.
-  Rgb transmittance(const Ray& r, float t_begin, float t_end) const {
-    if (surface_hit(r, t_begin, t_end) < kInfinity) return Rgb(0.0f);
+  Rgb transmittance(const Ray& r, float t_begin, float t_end, bool finer_surfaces = true) const {
+    if (surface_hit(r, t_begin, t_end, finer_surfaces) < kInfinity) return Rgb(0.0f);
     Rgb T(1.0f);
     march(r, t_begin, t_end, [&](const MediumSegment& s) {
       T *= Rgb(1.0f) - (Rgb(1.0f) - s.transmission) * s.alpha;

@@ -317,11 +317,12 @@ std::unique_ptr<ShadowCasters> Renderer::make_casters(std::span<const ShadowCast
   }
   for (std::size_t i = 0; i < isosurfaces_.size(); ++i) {
     if (!scene_.isosurfaces[i].casts_shadows) continue;
-    const GridTree* finer_tree = nullptr;  // the light pass extracts inside a refined box from it
+    CastingIsosurface::Finer finer_surface;  // the light pass and shadow rays meet it inside a refined box
     const auto refined = refined_surfaces ? refined_surfaces_.find(scene_.isosurfaces[i].volume) : refined_surfaces_.end();
-    if (refined != refined_surfaces_.end() && refined->second.surfaces.count(i)) finer_tree = refined->second.tree.get();
+    if (refined != refined_surfaces_.end() && refined->second.surfaces.count(i))
+      finer_surface = {&refined->second.surfaces.at(i)->raycaster, refined->second.tree.get()};
     casters->add_isosurface(isosurfaces_[i]->raycaster, *isosurfaces_[i]->tree, static_cast<std::uint32_t>(i),
-                            scene_.clip_planes_for(scene_.isosurfaces[i].clip), finer_tree);
+                            scene_.clip_planes_for(scene_.isosurfaces[i].clip), finer_surface);
   }
   if (sat_) casters->attach_extinction_sat(sat_.get());
   return casters;
@@ -599,8 +600,19 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
     }
     if (found != refined_surfaces_.end()) {
       RefinedSurfaces& r = found->second;
-      r.surfaces.clear();  // cheap: the hierarchy is shared; the objects may have been edited
-      for (std::size_t s : surfaces) r.surfaces[s] = std::make_unique<PreparedIsosurface>(r.tree, scene_.isosurfaces[s]);
+      // the box's surfaces, made again for an isovalue edited or an isosurface new here (the refined
+      // casters point at their ray casters)
+      const auto before = r.surfaces.size();
+      std::erase_if(r.surfaces, [&](const auto& e) { return std::find(surfaces.begin(), surfaces.end(), e.first) == surfaces.end(); });
+      refined_changed_ = refined_changed_ || r.surfaces.size() != before;
+      for (std::size_t s : surfaces) {
+        std::unique_ptr<PreparedIsosurface>& fine = r.surfaces[s];
+        if (!fine || fine->raycaster.isovalue() != scene_.isosurfaces[s].value) {
+          fine = std::make_unique<PreparedIsosurface>(r.tree, scene_.isosurfaces[s]);
+          refined_changed_ = true;
+        }
+        fine->object = &scene_.isosurfaces[s];
+      }
       if (r.own_voxels) {
         stats.level = r.box.level;
         stats.dims = r.box.dims();

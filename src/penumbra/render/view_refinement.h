@@ -17,7 +17,7 @@
 // elsewhere (ShadowCasters' CastingVolume::finer), on a lattice as fine as the box's voxel; what reads
 // the extinction SAT (cone shadows, volume ambient occlusion, the light cache) keeps the opened level.
 // An isosurface (`points`) is extracted, in full frames, from the box where it lies and from the opened
-// level around it, in the eye pass and in the light pass (ShadowCasters' CastingIsosurface::finer_tree).
+// level around it, in the eye pass, the light pass and exact shadow rays (CastingIsosurface::finer).
 // The box is kept while the view stays inside it (a camera move inside a zoomed region reads nothing);
 // a view outside it reads a new box and evicts the old one — taking from the old one the chunks both
 // hold when the two fit the budget together, else after giving it up — and FrameResult::refinement

@@ -16,7 +16,7 @@ Rgb RayTracedShadows::exact(const Vec3& origin, const Vec3& key) const {
   Vec3 to_light;
   float distance;
   light_.towards(origin, to_light, distance);
-  if (light_angle_deg_ <= 0 || area_rays_ <= 1) return casters_->transmittance(Ray{origin, to_light}, 0, distance);
+  if (light_angle_deg_ <= 0 || area_rays_ <= 1) return casters_->transmittance(Ray{origin, to_light}, 0, distance, refined_);
   // A round light: its angular radius is fixed for directional lights; point and spot lights are balls
   // whose radius subtends light_angle at the casters' centre.
   float tan_radius = tan_light_radius_;
@@ -30,7 +30,7 @@ Rgb RayTracedShadows::exact(const Vec3& origin, const Vec3& key) const {
   for (int i = 0; i < area_rays_; ++i) {
     float u1, u2;
     lattice_sample(i, area_rays_, r1, r2, u1, u2);
-    sum += casters_->transmittance(Ray{origin, frame.to_world(cone_direction(u1, u2, cos_max))}, 0, distance);
+    sum += casters_->transmittance(Ray{origin, frame.to_world(cone_direction(u1, u2, cos_max))}, 0, distance, refined_);
   }
   return sum * (1.0f / static_cast<float>(area_rays_));
 }

@@ -28,6 +28,8 @@ public:
   using ShadowTechnique::transmittance;  // keep the one-point overload visible
   explicit RayTracedShadows(float light_angle_deg = 0, int area_rays = 64) : light_angle_deg_(light_angle_deg), area_rays_(area_rays) {}
   void build(const ShadowCasters& casters, const Light& light) override;
+  // A preview's receivers lie on the opened levels' isosurfaces: its rays meet those, not a refined box's.
+  void fit_to_receivers(std::span<const SurfacePoint>, bool, bool refined) override { refined_ = refined; }
   void transmittance(std::span<const Vec3> points, std::span<Rgb> out) const override;
   void transmittance(std::span<const SurfacePoint> points, std::span<Rgb> out) const override;
   Vec3 surface_receiver(const Vec3& p, const Vec3& n) const override {
@@ -46,6 +48,7 @@ private:
   Light light_;
   float tan_light_radius_ = 0;
   Vec3 centre_;
+  bool refined_ = true;  // the frame's receivers were drawn from refined boxes (fit_to_receivers)
 };
 
 // No shadows: every point receives the full light.
