@@ -26,6 +26,7 @@
 #include "penumbra/isosurface/visibility_buffer.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene_io/scene_file.h"
+#include "ball_volumes.h"
 #include "image_check.h"
 #include "isosurface_test_util.h"
 #include "test_scenes.h"
@@ -285,6 +286,30 @@ TEST(LightPass, AgreesWithExactShadowRaysOnAKnownOccluder) {
   Light sun;
   sun.direction = normalize(Vec3{-0.3f, -1, -0.2f});
   EXPECT_GE(light_pass_agreement(tree, cam, sun, {cam.width, LightFrustum::Tight, -1}).agreement, 0.97);
+}
+
+// A close view of a voxelised ball (a binary field: its trilinear surface is terraced, with creases
+// between the terraces): the point of a light pixel may lie on a steeper facet than the receivers
+// under it, farther from the light than the receiver's own slope allows. Without the bias's crease
+// share (a tenth of a voxel) those receivers were shadowed in dotted rows (1.6–2.0 % of the lit
+// receivers here, at either light resolution); with it the light pass agrees with exact shadow rays.
+TEST(LightPass, NoAcneOnTheCreasesOfAVoxelisedSurface) {
+  Volume ball = test::ball_volume(64);
+  for (std::size_t n = 0; n < ball.voxel_count(); ++n) ball.set_value(n, ball.value(n) - 0.75f);  // the surface at 0
+  ball.recompute_range();
+  const GridTree tree(ball);
+  Camera cam;
+  cam.eye = {-0.12f, 0.15f, 0.8f};
+  cam.target = {-0.22f, 0.12f, 0.1f};
+  cam.fov_deg = 15;
+  cam.width = cam.height = sanitize_scale() ? 64 : 128;
+  Light sun;
+  sun.direction = normalize(Vec3{0.6f, -1.0f, -0.3f});
+  for (int resolution : {256, 1024}) {
+    SCOPED_TRACE(resolution);
+    const ShadowAgreement a = light_pass_agreement(tree, cam, sun, {resolution, LightFrustum::Tight, -1});
+    EXPECT_GE(a.agreement, 0.999) << a.eye_points << " eye points, " << a.shadowed << " shadowed by the rays";
+  }
 }
 
 TEST(LightPass, TightFrustumHoldsEveryReceiver) {

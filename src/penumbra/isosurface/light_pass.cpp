@@ -172,6 +172,7 @@ void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool v
                                                    static_cast<int>(k / static_cast<std::size_t>(pass.view.width)));
     }
     pass.hole_count = pass.holes.visible_count();
+    pass.crease = 2 * iso.offset;  // (the offset: a twentieth of the voxel)
     ExtractionOptions options;
     options.collapse = false;  // §4.3: a far-subvolume point would shadow the receivers around it
     options.normals = false;
@@ -215,11 +216,11 @@ void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool v
 // tan(theta) — we allow a whole pixel (measured on the CT bone surfaces: 0.5 leaves 3 % of the lit
 // points in false shadow on the cranium, 1.0 0.3 %); and a point from a sub-pixel cell (or a collapsed node) is on the surface only to within
 // that cell, which each point carries as its `error`. The bias covers both.
-float LightPass::bias(const ViewProjection& view, float distance, float cos_theta, float error, float light_error) const {
+float LightPass::bias(const ViewProjection& view, float distance, float cos_theta, float error, float light_error, float crease) const {
   if (settings_.bias >= 0) return settings_.bias;
   const float c = std::max(std::abs(cos_theta), 0.1f);
   const float tan_theta = std::sqrt(std::max(0.0f, 1 - c * c)) / c;
-  return kErrorShare * (error + light_error) + view.pixel_size(distance) * tan_theta;
+  return kErrorShare * (error + light_error) + view.pixel_size(distance) * tan_theta + crease;
 }
 
 float LightPass::light_at(const Vec3& position, float cos_theta, float error) const {
@@ -231,7 +232,7 @@ float LightPass::light_at(const Vec3& position, float cos_theta, float error) co
     const std::size_t k = static_cast<std::size_t>(y) * static_cast<std::size_t>(pass.view.width) + static_cast<std::size_t>(x);
     if (pass.depth[k] == kInfinity) continue;
     const float d = pass.view.distance(position);
-    if (d > pass.depth[k] + bias(pass.view, d, cos_theta, error, pass.depth_error[k])) return 0;
+    if (d > pass.depth[k] + bias(pass.view, d, cos_theta, error, pass.depth_error[k], pass.crease)) return 0;
   }
   return 1;
 }

@@ -52,6 +52,7 @@ struct IsosurfaceLightPass {
   Extraction light_points;
   std::vector<float> depth;        // per light pixel: nearest light distance found; infinity: none
   std::vector<float> depth_error;  // per light pixel: that point's position error
+  float crease = 0;                // the bias's share for the surface's creases: a tenth of its voxel
   std::size_t hole_count = 0;
 };
 
@@ -81,8 +82,9 @@ public:
   const std::vector<IsosurfaceLightPass>& passes() const { return passes_; }  // one per isosurface
   double build_ms() const { return build_ms_; }
   // The bias for a receiver at light distance d, placed to within `error` of the surface, whose normal
-  // makes cos_theta with the light direction, against a light point placed to within `light_error`.
-  float bias(const ViewProjection& view, float distance, float cos_theta, float error, float light_error) const;
+  // makes cos_theta with the light direction, against a light point placed to within `light_error`, on
+  // a surface whose creases take `crease` (IsosurfaceLightPass::crease).
+  float bias(const ViewProjection& view, float distance, float cos_theta, float error, float light_error, float crease) const;
 
 private:
   // 1 when lit, 0 when an isosurface is in front (cos_theta: the receiver's normal against the light).
