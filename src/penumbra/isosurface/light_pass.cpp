@@ -214,8 +214,10 @@ void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool v
 // the light point sits on the pixel's central ray, the receiver anywhere in the pixel's footprint, so on
 // a surface tilted by theta to the light their distances differ by up to half a pixel's diagonal times
 // tan(theta) — we allow a whole pixel (measured on the CT bone surfaces: 0.5 leaves 3 % of the lit
-// points in false shadow on the cranium, 1.0 0.3 %); and a point from a sub-pixel cell (or a collapsed node) is on the surface only to within
-// that cell, which each point carries as its `error`. The bias covers both.
+// points in false shadow on the cranium, 1.0 0.3 %); a point from a sub-pixel cell (or a collapsed node) is on the surface only to within
+// that cell, which each point carries as its `error`; and across a crease of the trilinear surface the
+// light point may lie on a steeper facet than the receiver, which `crease` (a tenth of a voxel) allows
+// for (LightPass.NoAcneOnTheCreasesOfAVoxelisedSurface). The bias covers all three.
 float LightPass::bias(const ViewProjection& view, float distance, float cos_theta, float error, float light_error, float crease) const {
   if (settings_.bias >= 0) return settings_.bias;
   const float c = std::max(std::abs(cos_theta), 0.1f);
