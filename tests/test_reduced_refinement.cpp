@@ -350,7 +350,9 @@ TEST(ReducedRefinement, AnIsosurfacesShadowsAreCastFromTheRefinedBox) {
     const ImageDifference error = compare_images(full.image, in_memory);
     EXPECT_LT(error.rmse, 2e-3) << error.rmse;
     EXPECT_TRUE(non_trivial(full.image));
-    if (std::string(technique) == "light_pass") EXPECT_GT(full.isosurface.light_points, 0u);
+    if (std::string(technique) == "light_pass") {
+      EXPECT_GT(full.isosurface.light_points, 0u);
+    }
     // a preview draws the opened level's surface, and its shadows are cast by the opened level too
     // (the box's finer surface lies in front of the coarser one in places and would shadow it)
     FrameRequest preview;
