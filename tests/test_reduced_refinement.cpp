@@ -369,5 +369,20 @@ TEST(ReducedRefinement, AnIsosurfacesShadowsAreCastFromTheRefinedBox) {
     ASSERT_EQ(backed.refinement.size(), 1u);
     EXPECT_GT(backed.refinement.front().evicted_bytes, 0u);
     EXPECT_EQ(compare_images(backed.image, unrefined.render(far, unrefined.scene().lights).image).max_abs, 0.0);
+    // The view above casts no shadow (the big ball alone is above 0.75, lit from the side). At 0.4 the
+    // small ball joins the surface and, lit from behind it, shadows the big one in view: the refined frame
+    // is near the frame in memory and far from the frame without shadows.
+    auto shadowed = [&](std::uint64_t budget, const char* shadows) {
+      nlohmann::json j = ball_isosurface_scene(file, budget, true);
+      j["isosurfaces"][0]["value"] = 0.4;
+      j["shadows"] = {{"technique", shadows}};
+      j["lights"][0]["direction"] = {0.35, -0.2, -0.1};
+      return Renderer(build_scene(j, "")).render().image;
+    };
+    const Image with_shadows = shadowed(0, technique), without = shadowed(0, "none");
+    const double shadow_rmse = compare_images(with_shadows, without).rmse;
+    EXPECT_GT(shadow_rmse, 0.05) << "the small ball's shadow in view";
+    const double cast_rmse = compare_images(shadowed(1u << 20, technique), with_shadows).rmse;
+    EXPECT_LT(cast_rmse, 0.1 * shadow_rmse) << cast_rmse << " against the shadow's own " << shadow_rmse;
   }
 }
