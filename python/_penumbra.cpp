@@ -79,6 +79,7 @@ nlohmann::json frame_stats(const EngineFrame& f, const Renderer& renderer) {
           {"refinement", refinement},
           {"counts", {{"volume_samples", r.volume_samples}, {"volume_shaded_samples", r.volume_shaded_samples}, {"sphere_pixels", r.sphere_pixels},
                       {"ambient_kept", r.ambient_kept}}},
+          {"surfaces_kept", r.surfaces_kept},
           {"throughput",
            {{"samples_per_second", static_cast<double>(r.volume_samples) / (std::max(r.render_ms, 1e-3) / 1000.0)},
             {"sphere_pixels_per_second", static_cast<double>(r.sphere_pixels) / (std::max(r.render_ms, 1e-3) / 1000.0)}}},

@@ -234,6 +234,49 @@ TEST(Engine, VisibleSpheresAreKeptUntilTheCameraOrTheSpheresChange) {
   after("lights.0.direction", {0.1, -1, 0.3}, false);
 }
 
+// The surfaces the camera sees (each pixel's point, normal, colour) are listed again only when they can
+// change: a light, shadow or shading edit shades the last frame's list, any other edit lists them anew,
+// and every frame equals a fresh render's.
+TEST(Engine, VisibleSurfacesAreKeptWhileOnlyTheLightingChanges) {
+  json j;
+  j["particles"] = json::array({{{"procedural", {{"name", "random-spheres"}, {"count", 60}, {"radius", 0.08}, {"seed", 2}}}}});
+  j["planes"] = json::array({{{"point", {0, -0.6, 0}}, {"normal", {0, 1, 0}}, {"size", 3}}});
+  j["lights"] = json::array({{{"type", "directional"}, {"direction", {-0.3, -1, -0.2}}}});
+  j["shadows"] = {{"technique", "issm"}, {"resolution", 64}};
+  j["camera"] = {{"width", 48}, {"height", 40}};
+  Engine engine(j, "");
+  EXPECT_FALSE(engine.render().frame.surfaces_kept);
+  auto after = [&](const std::string& path, const json& value, bool kept) {
+    SCOPED_TRACE(path);
+    engine.set(path, value);
+    const EngineFrame f = engine.render();
+    EXPECT_EQ(f.frame.surfaces_kept, kept);
+    const Image fresh = Renderer(build_scene(engine.document(), "")).render().image;
+    ASSERT_EQ(f.image.pixels().size(), fresh.pixels().size());
+    EXPECT_EQ(std::memcmp(f.image.pixels().data(), fresh.pixels().data(), fresh.pixels().size() * sizeof(Rgb)), 0);
+  };
+  after("lights.0.direction", {0.4, -1, 0.1}, true);
+  after("shadows.technique", "ray_traced", true);
+  after("shading.ambient", 0.3, true);
+  after("planes.0.color", {0.2, 0.9, 0.3}, false);
+  after("lights.0.direction", {0.1, -1, 0.3}, true);
+  after("particles.0.color_by", "uniform", false);
+  after("planes.0.receives_shadows", false, false);
+  after("camera.eye", {1.8, 1.2, 2.2}, false);
+  after("lights.0.direction", {-0.2, -1, 0.3}, true);
+  // a frame drawn from a renderer's own lights (penumbra render --light-orbit) keeps them too
+  Renderer r(build_scene(engine.document(), ""));
+  r.render();
+  std::vector<Light> turned = r.scene().lights;
+  turned[0].direction = normalize(Vec3{0.3f, -1, -0.4f});
+  const FrameResult moved = r.render(r.scene().camera, turned);
+  EXPECT_TRUE(moved.surfaces_kept);
+  Scene lit = build_scene(engine.document(), "");
+  lit.lights = turned;
+  const Image fresh = Renderer(lit).render().image;
+  EXPECT_EQ(std::memcmp(moved.image.pixels().data(), fresh.pixels().data(), fresh.pixels().size() * sizeof(Rgb)), 0);
+}
+
 // A refused edit names the path and what was expected, and leaves the engine's scene, document and
 // image as they were.
 TEST(Engine, RefusedEditsChangeNothing) {

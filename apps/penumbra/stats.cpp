@@ -21,6 +21,7 @@ nlohmann::json frame_stats(const FrameResult& frame) {
           {"rebuilt", frame.rebuilt},
           {"issm_rings", frame.issm_rings},
           {"ambient_kept", frame.ambient_kept},
+          {"surfaces_kept", frame.surfaces_kept},
           {"sphere_pixels", frame.sphere_pixels},
           {"points", iso.points},
           {"light_points", iso.light_points},

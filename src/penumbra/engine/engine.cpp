@@ -178,7 +178,7 @@ void Engine::apply(nlohmann::json edited, const std::vector<std::string>& paths)
     causes_.clear();
     causes_["scene"] = paths.empty() ? "" : paths.front();
   } else {
-    renderer_->apply_edit(scene, stale);
+    renderer_->apply_edit(scene, stale, lighting_only(paths));
   }
   document_ = std::move(edited);
   defaults_ = std::move(defaults);

@@ -181,6 +181,11 @@ std::vector<std::string> with_dependents(const std::vector<std::string>& names, 
   return {out.begin(), out.end()};
 }
 
+bool lighting_only(const std::vector<std::string>& paths) {
+  static const std::set<std::string> kLighting = {"lights", "shadows", "ambient", "light_cache", "shading", "background"};
+  return std::all_of(paths.begin(), paths.end(), [](const std::string& path) { return kLighting.count(split(path).front()) > 0; });
+}
+
 std::vector<std::string> invalidated_by(const std::string& path, const Scene& scene) {
   const InvalidationRule* row = invalidation_rule(path);
   if (!row) throw Error(path + ": not a scene path (docs/scene-file.md lists the keys; docs/engine.md what each edit rebuilds)");

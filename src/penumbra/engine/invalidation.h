@@ -37,6 +37,10 @@ const InvalidationRule* invalidation_rule(const std::string& path);
 // the path when no row covers it.
 std::vector<std::string> invalidated_by(const std::string& path, const Scene& scene);
 
+// True when every path edits how the scene is lit or shaded (lights, shadows, ambient, light_cache,
+// shading, background), not what the camera sees: the renderer keeps the surfaces it listed.
+bool lighting_only(const std::vector<std::string>& paths);
+
 // `names` and every structure built from them (the dependency table's closure), for `scene`.
 std::vector<std::string> with_dependents(const std::vector<std::string>& names, const Scene& scene);
 

@@ -137,11 +137,14 @@ float ImplicitSphereShadowMap::light_at(const Vec3& position, std::uint32_t self
   const int t = rings();
   const bool soft = params_.soft_radius > 0;
   float light = 1.0f;
+  // a sphere covers several texels in a row: testing it again gives the same answer
+  std::uint32_t tested = kNoSphere;
   for (int j = std::max(0, cj - t); j <= std::min(n - 1, cj + t); ++j) {
     for (int i = std::max(0, ci - t); i <= std::min(n - 1, ci + t); ++i) {
       const std::size_t texel_index = static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(i);
       const std::uint32_t id = map_[texel_index];
-      if (id == kNoSphere || id == self) continue;
+      if (id == kNoSphere || id == self || (id == tested && id != kOtherBrickSphere)) continue;
+      tested = id;
       const Sphere& s = map_spheres_[texel_index];
       // Fig. 4: k is the distance along the shadow ray to the plane through the centre normal to it,
       // d the distance from that point to the centre, s' = d − r the ray's clearance of the surface.

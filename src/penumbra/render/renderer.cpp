@@ -69,7 +69,7 @@ void Renderer::mark_all_stale() {
   for (std::size_t i = 0; i < scene_.lights.size(); ++i) stale_.insert(indexed("lights", i, "shadows"));
 }
 
-void Renderer::apply_edit(const Scene& edited, const std::vector<std::string>& stale) {
+void Renderer::apply_edit(const Scene& edited, const std::vector<std::string>& stale, bool lighting_only) {
   if (edited.volumes.size() != scene_.volumes.size() || edited.particles.size() != scene_.particles.size() ||
       edited.isosurfaces.size() != scene_.isosurfaces.size() || edited.planes.size() != scene_.planes.size())
     throw Error("Renderer::apply_edit: the edit changes the number of objects (make a new renderer)");
@@ -91,6 +91,7 @@ void Renderer::apply_edit(const Scene& edited, const std::vector<std::string>& s
   scene_.unread_keys = edited.unread_keys;
   scene_.time = edited.time;
   stale_.insert(stale.begin(), stale.end());
+  if (!lighting_only) surfaces_for_.reset();
 }
 
 void Renderer::set_transfer_function(const TransferFunction& tf) {
@@ -235,6 +236,7 @@ void Renderer::prepare_particles(FrameResult& frame) {
         std::copy(set.colors.begin(), set.colors.end(), casting_particles_->colors.begin() + particle_offsets_[s]);
     }
     rebuilt("spheres.colors", Quality::Full, frame);
+    surfaces_for_.reset();
   }
   if (stale("spheres.clip")) {  // which spheres the clip planes cut or remove
     std::vector<bool> clipped;
@@ -807,6 +809,7 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
       Timer t;
       hits_ = scene_.sphere_rasterizer == SphereRasterizer::Embree ? trace_spheres(*bvh_, camera) : splat_spheres(*particles_, camera);
       hits_for_ = hits_key;
+      surfaces_for_.reset();
       frame.hits_ms = t.elapsed_ms();
     }
     frame.sphere_pixels = hits_.covered();
@@ -840,7 +843,12 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
   Timer shade;
   const SurfaceInputs surface_in{&scene_, &camera, particles_.get(), particle_offsets_, particle_objects_,
                                  particles_ ? &hits_ : nullptr, eye};
-  visible_surfaces(surface_in, surfaces_);
+  frame.surfaces_kept = surfaces_for_ == camera;
+  if (!frame.surfaces_kept) {
+    visible_surfaces(surface_in, surfaces_);
+    const bool listed_anew_each_frame = !isosurfaces_.empty() || scene_.first_slice < scene_.planes.size();
+    surfaces_for_ = listed_anew_each_frame ? std::nullopt : std::optional<Camera>(camera);
+  }
   const VisibleSurfaces& surfaces = surfaces_;
   // Translucent planes (slices with opacity below 1) in front of them: receivers too, drawn over what
   // lies behind them. A brick of a data-parallel frame cannot order them with the other bricks' volumes.

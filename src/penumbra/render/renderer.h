@@ -81,6 +81,7 @@ struct FrameResult {
   double render_ms = 0;   // surfaces and ray casting
   double bvh_ms = 0;      // spheres: Embree BVH, when built this frame
   double hits_ms = 0;     // spheres: each pixel's nearest sphere (splatting or Embree rays); 0 when the last frame's were kept
+  bool surfaces_kept = false;  // the surfaces the camera sees were the last frame's (only lighting changed)
   int issm_rings = -1;    // spheres: the rings t the ISSM used (chosen this frame when automatic)
   std::size_t sphere_pixels = 0;  // pixels showing a sphere
   std::size_t volume_samples = 0;         // volume lattice samples classified (VolumeFrame::samples)
@@ -108,8 +109,9 @@ public:
 
   // Takes the edited scene (same number of objects of each kind) and marks `stale` (Structures names)
   // for rebuilding on the next frame. The caller (Engine) says what is stale; the renderer keeps every
-  // other structure as it is.
-  void apply_edit(const Scene& edited, const std::vector<std::string>& stale);
+  // other structure as it is. `lighting_only`: the edit changed nothing but lights, shadows, ambient,
+  // light_cache, shading and background, so the surfaces the camera sees stay listed.
+  void apply_edit(const Scene& edited, const std::vector<std::string>& stale, bool lighting_only = false);
 
   // Replaces the first visible volume's transfer function (its shadow transfer function too, unless it
   // has a separate one): the next frame rebuilds what depends on it.
@@ -252,6 +254,10 @@ private:
   std::vector<std::unique_ptr<PreparedIsosurface>> isosurfaces_;  // sharing one GridTree per volume
   IsoPoints isosurface_eye_points_;  // the last frame's eye passes
   VisibleSurfaces surfaces_;         // the last frame's opaque surfaces (buffers reused)
+  // The camera surfaces_ were listed for, while nothing they list has changed since (a frame whose
+  // light alone moved shades them again without listing them): scenes of spheres and planes without
+  // slices; isosurface points and slices' colours are listed anew in every frame.
+  std::optional<Camera> surfaces_for_;
   // Each pixel's nearest sphere, kept while the camera, the spheres and the rasterizer stay: a light,
   // shadow, colour or transfer-function edit does not move what the eye sees.
   SphereHits hits_;

@@ -25,7 +25,7 @@ public:
     const float ndotl = dot(normal, to_light);
     if (ndotl <= 0) return Rgb(0.0f);
     float spec = 0;
-    if (specular) {
+    if (specular && k_.specular > 0) {  // (no highlight to add: skip its pow)
       const float ndoth = dot(normal, normalize(to_light + normalize(eye - position)));
       if (ndoth > specular_cutoff_) spec = std::pow(ndoth, k_.shininess);
     }

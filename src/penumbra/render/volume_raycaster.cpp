@@ -88,7 +88,7 @@ struct Shader {
         const float ndotl = dot(b.normal[i], to_light);
         const float diffuse = (1 - b.shaded[i]) + b.shaded[i] * std::max(ndotl, 0.0f);
         float spec = 0;
-        if (ndotl > 0 && b.shaded[i] > 0) {
+        if (ndotl > 0 && b.shaded[i] > 0 && k.specular > 0) {
           const float ndoth = dot(b.normal[i], directional ? half : normalize(to_light + view));
           // below this cosine the highlight is under 1e-4 for shininess >= 8: skip the pow
           if (ndoth > kSpecularCutoff) spec = b.shaded[i] * std::pow(ndoth, k.shininess);
