@@ -222,7 +222,7 @@ public:
   // Trilinear interpolation at a world point; positions outside are clamped to the border voxels.
   float sample(const Vec3& p) const { return sample_voxel(to_voxel(p)); }
   float sample_voxel(const Vec3& v) const;
-  TrilinearCell trilinear_cell(const Vec3& v) const {
+  [[gnu::always_inline]] TrilinearCell trilinear_cell(const Vec3& v) const {  // (inlined: once per volume sample)
     const float fx = clamp(v.x, 0.0f, static_cast<float>(dims_[0] - 1));
     const float fy = clamp(v.y, 0.0f, static_cast<float>(dims_[1] - 1));
     const float fz = clamp(v.z, 0.0f, static_cast<float>(dims_[2] - 1));

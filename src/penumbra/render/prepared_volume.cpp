@@ -2,6 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "penumbra/core/parallel.h"
 
@@ -185,11 +190,28 @@ void PreparedVolume::normal_at(const TrilinearCell& cell, Vec3& direction, float
   const std::size_t offs[8] = {0, cell.sx, cell.sy, cell.sx + cell.sy, cell.sz, cell.sz + cell.sx, cell.sz + cell.sy,
                                cell.sz + cell.sx + cell.sy};
   const float wx[2] = {1 - cell.tx, cell.tx}, wy[2] = {1 - cell.ty, cell.ty}, wz[2] = {1 - cell.tz, cell.tz};
+#if defined(__SSE2__)
+  // the four signed bytes of a corner widened and converted in one register: the same products and sums
+  // per component as the loop below, a quarter of the instructions
+  __m128 sum = _mm_setzero_ps();
+  for (int c = 0; c < 8; ++c) {
+    const float w = wx[c & 1] * wy[(c >> 1) & 1] * wz[(c >> 2) & 1];
+    std::int32_t packed;
+    std::memcpy(&packed, gradients[cell.base + offs[c]].data(), sizeof packed);
+    __m128i g = _mm_cvtsi32_si128(packed);
+    g = _mm_unpacklo_epi8(g, g);   // each byte in the top of its 32-bit lane …
+    g = _mm_unpacklo_epi16(g, g);
+    g = _mm_srai_epi32(g, 24);     // … shifted down with its sign
+    sum = _mm_add_ps(sum, _mm_mul_ps(_mm_set1_ps(w), _mm_cvtepi32_ps(g)));
+  }
+  _mm_storeu_ps(acc, sum);
+#else
   for (int c = 0; c < 8; ++c) {
     const float w = wx[c & 1] * wy[(c >> 1) & 1] * wz[(c >> 2) & 1];
     const auto& g = gradients[cell.base + offs[c]];
     for (int a = 0; a < 4; ++a) acc[a] += w * static_cast<float>(g[a]);
   }
+#endif
   direction = {acc[0], acc[1], acc[2]};
   weight = acc[3] * (1.0f / 127.0f);
 }
