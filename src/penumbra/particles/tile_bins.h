@@ -82,6 +82,11 @@ public:
       float depth[kRasterTile * kRasterTile];
       std::uint32_t ids[kRasterTile * kRasterTile];
       std::fill(std::begin(depth), std::end(depth), kInf);
+      // an edge tile's places beyond the raster hold −∞: no item reaches them, and the blocks' farthest
+      // depths below pass over them
+      for (int y = 0; y < kRasterTile; ++y)
+        for (int x = 0; x < kRasterTile; ++x)
+          if (x > x1 - x0 || y > y1 - y0) depth[y * kRasterTile + x] = -kInf;
       std::fill(std::begin(ids), std::end(ids), kNone);
       // the farthest depth of each 8×8 block of the tile, as of the last refresh (depths only shrink, so
       // a stale value is a safe upper bound): an item behind every block it touches is skipped whole
@@ -132,13 +137,21 @@ public:
           // every bound in bucket b is at least lo + b / scale, up to rounding: test the smallest
           float smallest = kInf;
           for (std::uint32_t n = start[b]; n < start[b + 1]; ++n) smallest = std::min(smallest, nearest[order[n]]);
-          std::fill(std::begin(block_far), std::end(block_far), -kInf);
-          for (int y = y0; y <= y1; ++y)
-            for (int x = x0; x <= x1; ++x) {
-              float& f = block_far[((y - y0) / kBlock) * kBlocks + (x - x0) / kBlock];
-              f = std::max(f, depth[(y - y0) * kRasterTile + (x - x0)]);
+          // per block row the farthest depth of each column (whole rows, which the compiler vectorises),
+          // then of each block's eight columns
+          float farthest = -kInf;
+          for (int by = 0; by < kBlocks; ++by) {
+            float column_far[kRasterTile];
+            std::copy(depth + by * kBlock * kRasterTile, depth + (by * kBlock + 1) * kRasterTile, column_far);
+            for (int y = by * kBlock + 1; y < (by + 1) * kBlock; ++y)
+              for (int x = 0; x < kRasterTile; ++x) column_far[x] = column_far[x] < depth[y * kRasterTile + x] ? depth[y * kRasterTile + x] : column_far[x];
+            for (int bx = 0; bx < kBlocks; ++bx) {
+              float f = column_far[bx * kBlock];
+              for (int x = bx * kBlock + 1; x < (bx + 1) * kBlock; ++x) f = f < column_far[x] ? column_far[x] : f;
+              block_far[by * kBlocks + bx] = f;
+              farthest = farthest < f ? f : farthest;
             }
-          const float farthest = *std::max_element(std::begin(block_far), std::end(block_far));
+          }
           if (smallest > farthest) break;  // this bucket and every later one lie behind the tile
           for (std::uint32_t n = start[b]; n < start[b + 1]; ++n) take(order[n], nearest[order[n]]);
         }
