@@ -332,6 +332,25 @@ def test_a_camera_move_in_a_mixed_scene_rebuilds_nothing():
         assert r.stats["rebuilt"] == [], r.stats["rebuilt"]
 
 
+def test_a_light_move_shades_the_last_frames_surfaces_and_draws_a_fresh_frames_image():
+    """A light or shading edit keeps the list of visible surface points (stats["surfaces_kept"]); a colour
+    or camera edit lists them again; each image is the one a new renderer draws."""
+    rng = np.random.default_rng(4)
+    centres = rng.uniform(-0.4, 0.4, size=(200, 3))
+    doc = {"shadows": {"technique": "issm", "resolution": 128}, "camera": {"width": 48, "height": 40}}
+    scene = penumbra.Scene(doc)
+    scene.add_particles(centres, radii=0.06)
+    r = penumbra.Renderer(scene)
+    r.render()
+    assert r.stats["surfaces_kept"] is False
+    for path, value, kept in (("lights.0.direction", [0.3, -1, 0.2], True), ("shading.ambient", 0.3, True),
+                              ("camera.direction", [0.2, 0.5, 1], False), ("lights.0.direction", [-0.4, -1, 0.1], True)):
+        r.set(path, value)
+        image = r.render()
+        assert r.stats["surfaces_kept"] is kept, path
+        np.testing.assert_array_equal(np.asarray(image), np.asarray(penumbra.Renderer(r.scene).render()), err_msg=path)
+
+
 # ------------------------------------------------------------------------------------------ throughput
 
 def test_the_frame_counts_its_volume_samples_the_same_for_any_thread_count():
