@@ -845,6 +845,7 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
                                  particles_ ? &hits_ : nullptr, eye};
   frame.surfaces_kept = surfaces_for_ == camera;
   if (!frame.surfaces_kept) {
+    surfaces_for_.reset();  // (a list left half-written by an exception is never taken for a whole one)
     visible_surfaces(surface_in, surfaces_);
     const bool listed_anew_each_frame = !isosurfaces_.empty() || scene_.first_slice < scene_.planes.size();
     surfaces_for_ = listed_anew_each_frame ? std::nullopt : std::optional<Camera>(camera);
