@@ -81,12 +81,10 @@ public:
       const auto state = begin_tile(x0, y0, x1, y1);
       float depth[kRasterTile * kRasterTile];
       std::uint32_t ids[kRasterTile * kRasterTile];
-      std::fill(std::begin(depth), std::end(depth), kInf);
-      // an edge tile's places beyond the raster hold −∞: no item reaches them, and the blocks' farthest
-      // depths below pass over them
+      // nothing hit yet; an edge tile's places beyond the raster hold −∞: no item reaches them, and the
+      // blocks' farthest depths below pass over them
       for (int y = 0; y < kRasterTile; ++y)
-        for (int x = 0; x < kRasterTile; ++x)
-          if (x > x1 - x0 || y > y1 - y0) depth[y * kRasterTile + x] = -kInf;
+        for (int x = 0; x < kRasterTile; ++x) depth[y * kRasterTile + x] = x <= x1 - x0 && y <= y1 - y0 ? kInf : -kInf;
       std::fill(std::begin(ids), std::end(ids), kNone);
       // the farthest depth of each 8×8 block of the tile, as of the last refresh (depths only shrink, so
       // a stale value is a safe upper bound): an item behind every block it touches is skipped whole

@@ -11,9 +11,13 @@
 
 namespace penumbra {
 
+// The n·h below which the Blinn–Phong highlight adds under 1e-4 of the light (its pow is skipped
+// there); above every cosine when the shading has no highlight (`specular` 0).
+inline float highlight_cutoff(const ShadingParams& k) { return k.specular > 0 ? std::pow(1e-4f, 1.0f / k.shininess) : 2.0f; }
+
 class SurfaceShading {
 public:
-  explicit SurfaceShading(const ShadingParams& k) : k_(k), specular_cutoff_(std::pow(1e-4f, 1.0f / k.shininess)) {}
+  explicit SurfaceShading(const ShadingParams& k) : k_(k), specular_cutoff_(highlight_cutoff(k)) {}
 
   // Diffuse (scaled by `diffuse_scale`, e.g. ambient occlusion) plus, when `specular`, the highlight
   // seen from `eye`; zero where the light is behind the surface.
@@ -25,7 +29,7 @@ public:
     const float ndotl = dot(normal, to_light);
     if (ndotl <= 0) return Rgb(0.0f);
     float spec = 0;
-    if (specular && k_.specular > 0) {  // (no highlight to add: skip its pow)
+    if (specular && specular_cutoff_ <= 1) {  // (no highlight at all: not even its half vector)
       const float ndoth = dot(normal, normalize(to_light + normalize(eye - position)));
       if (ndoth > specular_cutoff_) spec = std::pow(ndoth, k_.shininess);
     }

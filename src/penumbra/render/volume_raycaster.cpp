@@ -9,6 +9,7 @@
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/progress.h"
 #include "penumbra/core/rng.h"
+#include "penumbra/render/surface_shading.h"
 
 namespace penumbra {
 namespace {
@@ -32,7 +33,7 @@ struct Shader {
   const RayCastInputs& in;
   const ShadingParams& k;
   Vec3 view;  // towards the eye
-  float kSpecularCutoff;  // cos below which (cos)^shininess < 1e-4
+  float kSpecularCutoff;  // highlight_cutoff(): cos below which (cos)^shininess < 1e-4, or none
 
   // Adds the shaded batch to `accum` and empties it.
   void flush(SampleBatch& b, Rgb& accum) const {
@@ -88,7 +89,7 @@ struct Shader {
         const float ndotl = dot(b.normal[i], to_light);
         const float diffuse = (1 - b.shaded[i]) + b.shaded[i] * std::max(ndotl, 0.0f);
         float spec = 0;
-        if (ndotl > 0 && b.shaded[i] > 0 && k.specular > 0) {
+        if (ndotl > 0 && b.shaded[i] > 0) {
           const float ndoth = dot(b.normal[i], directional ? half : normalize(to_light + view));
           // below this cosine the highlight is under 1e-4 for shininess >= 8: skip the pow
           if (ndoth > kSpecularCutoff) spec = b.shaded[i] * std::pow(ndoth, k.shininess);
@@ -265,7 +266,7 @@ VolumeFrame render_volume_frame(const RayCastInputs& in) {
   Progress progress("render", static_cast<std::size_t>(cam.height));
   bool jittered = false;
   for (const PreparedVolume* pv : in.volumes) jittered = jittered || pv->object->jitter;
-  const float specular_cutoff = std::pow(1e-4f, 1.0f / in.scene->shading.shininess);
+  const float specular_cutoff = highlight_cutoff(in.scene->shading);
   const PrimaryRays rays(cam);
   const std::uint64_t jitter_key = 0x6a177e5 + static_cast<std::uint64_t>(in.sample) * 0x9e3779b97f4a7c15ull;
   std::atomic<std::size_t> classified{0}, shaded{0};
