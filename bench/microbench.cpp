@@ -12,6 +12,7 @@
 
 #include "penumbra/core/parallel.h"
 #include "penumbra/core/rng.h"
+#include "penumbra/geometry/sphere_order.h"
 #include "penumbra/render/renderer.h"
 #include "penumbra/scene_io/demo_scenes.h"
 #include "penumbra/scene_io/scene_file.h"
@@ -89,16 +90,31 @@ BENCHMARK_CAPTURE(BM_ShadowQuery, cssm, "cssm");
 // The ISSM's generation (paper 003 §3) for a million spheres scattered in id order, as shuffled atoms or
 // particles are: a parallel light, a 1024² map. Binning, the nearest-first fill of each tile, the map
 // written; what a light drag rebuilds every frame (docs/BENCHMARKS.md, issue 42).
-void BM_IssmBuild(benchmark::State& state) {
+// A million spheres of radius 0.004 uniform in the unit cube, in the order they were drawn (neighbours
+// scattered over the set, as in a shuffled or generated file).
+const ParticleSet& million_spheres() {
   static const ParticleSet spheres = [] {
     ParticleSet ps;
     for (std::uint64_t i = 0; i < 1000000; ++i)
       ps.spheres.push_back({{uniform_float(11, i, 0) - 0.5f, uniform_float(11, i, 1) - 0.5f, uniform_float(11, i, 2) - 0.5f}, 0.004f});
     return ps;
   }();
+  return spheres;
+}
+
+// The spheres' spatial order (the renderer builds it once per set; a trajectory, once per frame).
+void BM_SphereSpatialOrder(benchmark::State& state) {
+  for (auto _ : state) benchmark::DoNotOptimize(spatial_order(million_spheres()).ids.data());
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(million_spheres().size()));
+}
+BENCHMARK(BM_SphereSpatialOrder)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_IssmBuild(benchmark::State& state) {
+  const ParticleSet& spheres = million_spheres();
+  static const SphereOrder order = spatial_order(spheres);
   static const Scene empty;
   ShadowCasters casters(empty, {});
-  casters.set_spheres(CastingSpheres{&spheres, nullptr, spheres.bounds()});
+  casters.set_spheres(CastingSpheres{&spheres, nullptr, spheres.bounds(), &order});
   ShadowSettings s;
   s.technique = "issm";
   s.params.set("resolution", 1024);

@@ -144,30 +144,43 @@ TEST(TileBins, HiddenItemsAreSkippedWithoutChangingTheNearest) {
     pixel_span(d.y - d.r, d.y + d.r, kSize, rects[i].y0, rects[i].y1);
     nearest[i] = std::floor(d.z - d.r);  // below every rounded distance hit() returns
   }
-  auto nearest_items = [&](std::span<const float> bounds, std::atomic<std::size_t>& calls) {
+  // items[k] is the disc discs[disc_of[k]] (identity when disc_of is empty)
+  auto nearest_items = [&](std::span<const float> bounds, std::atomic<std::size_t>& calls, std::span<const std::uint32_t> disc_of = {}) {
+    std::vector<PixelRect> item_rects = rects;
+    std::vector<float> item_bounds(bounds.begin(), bounds.end());
+    for (std::size_t k = 0; k < disc_of.size(); ++k) {
+      item_rects[k] = rects[disc_of[k]];
+      if (!bounds.empty()) item_bounds[k] = bounds[disc_of[k]];
+    }
     std::vector<std::uint32_t> ids(kSize * kSize, 7);
     std::vector<float> t(kSize * kSize, -1);
-    TileBins(rects, kSize, kSize).nearest_per_pixel(
-        rects, bounds, [](int, int, int, int) { return 0; },
-        [&](int, std::uint32_t id, int x, int y, float) {
+    TileBins(item_rects, kSize, kSize).nearest_per_pixel(
+        item_rects, item_bounds, disc_of, [](int, int, int, int) { return 0; },
+        [&](int, std::uint32_t item, int x, int y, float) {
           calls.fetch_add(1, std::memory_order_relaxed);
-          const Disc& d = discs[id];
+          const Disc& d = discs[disc_of.empty() ? item : disc_of[item]];
           const float dx = static_cast<float>(x) + 0.5f - d.x, dy = static_cast<float>(y) + 0.5f - d.y;
           const float h2 = d.r * d.r - dx * dx - dy * dy;
           return h2 >= 0 ? std::round(d.z - std::sqrt(h2)) : kInfinity;  // rounded: many ties
         },
-        [&](int x, int y, float depth_here, std::uint32_t id) {
-          ids[static_cast<std::size_t>(y * kSize + x)] = id;
+        [&](int x, int y, float depth_here, std::uint32_t item) {
+          ids[static_cast<std::size_t>(y * kSize + x)] = item == TileBins::kNone || disc_of.empty() ? item : disc_of[item];
           t[static_cast<std::size_t>(y * kSize + x)] = depth_here;
         });
     return std::make_pair(ids, t);
   };
-  std::atomic<std::size_t> all_calls{0}, bounded_calls{0};
+  std::atomic<std::size_t> all_calls{0}, bounded_calls{0}, reversed_calls{0};
   const auto all = nearest_items({}, all_calls);
   const auto bounded = nearest_items(nearest, bounded_calls);
   EXPECT_EQ(all.first, bounded.first);
   EXPECT_EQ(all.second, bounded.second);
   EXPECT_LT(bounded_calls.load(), all_calls.load() / 4) << "the bounds skipped too few items";
+  // the items in reverse order, each with its disc's id: ties still go to the lower disc
+  std::vector<std::uint32_t> reversed(discs.size());
+  for (std::size_t k = 0; k < discs.size(); ++k) reversed[k] = static_cast<std::uint32_t>(discs.size() - 1 - k);
+  const auto in_reverse = nearest_items(nearest, reversed_calls, reversed);
+  EXPECT_EQ(all.first, in_reverse.first);
+  EXPECT_EQ(all.second, in_reverse.second);
 }
 
 // centre_span holds exactly the pixels whose centres lie within [c − r, c + r] (a hundredth of a pixel
@@ -205,6 +218,57 @@ TEST(SphereHits, SplattingIsTheSameForAnyThreadCount) {
   }
   EXPECT_EQ(one.id, two.id);
   EXPECT_EQ(one.t, two.t);
+}
+
+// Each sphere twice (the copies' ids after the originals', so every covered pixel is a tie): the
+// splat gives the same ids and distances in the set's spatial order, in the set's own order and in the
+// reverse of it, and every pixel goes to the original.
+TEST(SphereHits, SplattingDoesNotDependOnTheOrderOfTheSpheres) {
+  ParticleSet set = random_spheres(3000, 0.04f, 11);
+  const std::size_t n = set.size();
+  set.spheres.insert(set.spheres.end(), set.spheres.begin(), set.spheres.end());
+  set.colors.insert(set.colors.end(), set.colors.begin(), set.colors.end());
+  const Camera cam = looking_at(set.bounds(), 160);
+  SphereOrder own, reverse;
+  for (std::uint32_t i = 0; i < set.size(); ++i) {
+    own.ids.push_back(i);
+    own.spheres.push_back(set.spheres[i]);
+  }
+  reverse.ids.assign(own.ids.rbegin(), own.ids.rend());
+  reverse.spheres.assign(own.spheres.rbegin(), own.spheres.rend());
+  const SphereHits spatial = splat_spheres(set, cam), in_order = splat_spheres(set, own, cam), reversed = splat_spheres(set, reverse, cam);
+  EXPECT_EQ(spatial.id, in_order.id);
+  EXPECT_EQ(spatial.t, in_order.t);
+  EXPECT_EQ(reversed.id, in_order.id);
+  EXPECT_EQ(reversed.t, in_order.t);
+  EXPECT_GT(spatial.covered(), spatial.id.size() / 4);
+  for (const std::uint32_t id : spatial.id) ASSERT_TRUE(id == kNoSphere || id < n) << "a copy won a tie";
+  // the implicit sphere shadow map's splat, under a parallel and a point light: the same texels
+  Light point;
+  point.type = LightType::Point;
+  point.position = {2, 3, 1};
+  for (const Light& light : {directional({-0.3f, -1, -0.2f}), point}) {
+    SCOPED_TRACE(light.type == LightType::Point ? "point light" : "directional light");
+    auto texels = [&](const SphereOrder* order) {
+      ShadowCasters view{Scene{}, {}};
+      view.set_spheres(CastingSpheres{&set, nullptr, set.bounds(), order});
+      ImplicitSphereShadowMap map(IssmParams{256, 1, 0, 1, 1});
+      map.build(view, light);
+      std::vector<std::uint32_t> ids;
+      for (int j = 0; j < map.resolution(); ++j)
+        for (int i = 0; i < map.resolution(); ++i) ids.push_back(map.texel(i, j));
+      return ids;
+    };
+    const auto spatial_texels = texels(nullptr), own_texels = texels(&own), reversed_texels = texels(&reverse);
+    EXPECT_EQ(spatial_texels, own_texels);
+    EXPECT_EQ(reversed_texels, own_texels);
+    std::size_t covered = 0;
+    for (const std::uint32_t id : spatial_texels) {
+      ASSERT_TRUE(id == kNoSphere || id < n) << "a copy won a tie";
+      covered += id != kNoSphere;
+    }
+    EXPECT_GT(covered, spatial_texels.size() / 8);
+  }
 }
 
 TEST(Issm, NoSphereShadowsItself) {

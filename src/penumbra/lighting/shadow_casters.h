@@ -37,6 +37,7 @@
 #include "penumbra/data/transfer_function.h"
 #include "penumbra/geometry/isosurface_raycaster.h"
 #include "penumbra/geometry/sphere_bvh.h"
+#include "penumbra/geometry/sphere_order.h"
 #include "penumbra/scene/scene.h"
 #include "penumbra/accel/brick_reduction.h"
 #include "penumbra/lighting/surface_point.h"
@@ -82,6 +83,7 @@ struct CastingSpheres {
   const ParticleSet* set = nullptr;
   const SphereBvh* bvh = nullptr;  // null when no technique traces rays through spheres
   Box3 bounds;
+  const SphereOrder* order = nullptr;  // the set's spatial order (null: a splat computes its own)
 };
 
 struct CastingIsosurface {

@@ -73,6 +73,7 @@ ParamSpec choice_param(std::string key, std::string default_choice, std::vector<
 struct TechniqueNeeds {
   bool extinction_sat = false;  // reads the extinction SAT (and `light_cache.resolution`)
   bool sphere_rays = false;     // traces rays through spheres (the renderer builds the Embree BVH)
+  bool sphere_order = false;    // splats the spheres (the renderer keeps their spatial order, sphere_order.h)
 };
 
 struct TechniqueInfo {

@@ -26,26 +26,32 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
 
   // §3 generation: every sphere covers the texels whose centre ray hits it; the texel keeps the
   // sphere nearest to the light. Footprints (in texel units) are binned into map tiles.
+  // Everything per sphere is kept in the set's spatial order (geometry/sphere_order.h): item i is the sphere
+  // order.ids[i], so that a map tile reads its spheres from nearby memory.
   const ParticleSet& ps = *particles_;
-  std::vector<PixelRect> rects(ps.size());
+  SphereOrder own_order;
+  if (!casters.spheres().order) own_order = spatial_order(ps);
+  const SphereOrder& order = casters.spheres().order ? *casters.spheres().order : own_order;
+  std::vector<PixelRect> rects(order.size());
   std::vector<Vec3> centre_uvd;  // parallel light: each centre's map position (texels) and depth
   std::vector<float> nearest;    // parallel light: no texel ray enters a sphere before depth − r
   if (!projection_.perspective()) {
-    centre_uvd.resize(ps.size());
-    nearest.resize(ps.size());
+    centre_uvd.resize(order.size());
+    nearest.resize(order.size());
   }
   const float texels_per_world = projection_.perspective() ? 0.0f : projection_.map_scale() * fn;
-  parallel_for(ps.size(), [&](std::size_t begin, std::size_t end) {
+  parallel_for(order.size(), [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
-      const Sphere& s = ps.spheres[i];
-      if (ps.clip_of(i) == kSphereRemoved) continue;  // clipped away: rects[i] stays empty
+      const Sphere& s = order.spheres[i];
+      const SphereClip clip = ps.clip_of(order.ids[i]);
+      if (clip == kSphereRemoved) continue;  // clipped away: rects[i] stays empty
       if (!projection_.perspective()) {  // parallel light: the disc of radius r around the centre
         float u, v, depth;
         projection_.project(s.center, u, v, depth);
         centre_uvd[i] = {u * fn, v * fn, depth};
         nearest[i] = lower_bound_with_margin(depth - s.radius, std::abs(depth) + s.radius);
         const float r = s.radius * texels_per_world;
-        if (ps.clip_of(i) == kSphereWhole) {  // the texels whose centre lies in the disc (hit() tests just that)
+        if (clip == kSphereWhole) {  // the texels whose centre lies in the disc (hit() tests just that)
           centre_span(u * fn, r, n, rects[i].x0, rects[i].x1);
           centre_span(v * fn, r, n, rects[i].y0, rects[i].y1);
         } else {  // a cut sphere is met by texel rays, whose grazing hits rounding may put just outside
@@ -77,18 +83,19 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
   map_spheres_.resize(map_.size());
   std::vector<float> depth_of(reduction_ ? map_.size() : 0);
   const float world_per_texel = projection_.perspective() ? 0.0f : 1.0f / texels_per_world;
+  const bool whole = ps.clip_state.empty();  // no sphere cut
   TileBins(rects, n, n).nearest_per_pixel(
-      rects, nearest, [](int, int, int, int) { return 0; },
-      [&](int, std::uint32_t id, int k, int j, float) {
-        const Sphere& s = ps.spheres[id];
-        if (ps.clip_of(id) != kSphereWhole) {  // a cut sphere: where the texel ray enters its kept part
+      rects, nearest, order.ids, [](int, int, int, int) { return 0; },
+      [&](int, std::uint32_t item, int k, int j, float) {
+        const Sphere& s = order.spheres[item];
+        if (!whole && ps.clip_of(order.ids[item]) != kSphereWhole) {  // a cut sphere: where the texel ray enters its kept part
           const Ray ray = projection_.texel_ray((static_cast<float>(k) + 0.5f) / fn, (static_cast<float>(j) + 0.5f) / fn);
-          return intersect_particle(ps, id, ray, -kInfinity, kInfinity);
+          return intersect_particle(ps, order.ids[item], ray, -kInfinity, kInfinity);
         }
         if (!projection_.perspective()) {
           // parallel rays: the texel ray at map distance ρ from the centre enters the sphere at
           // depth(centre) − sqrt(r² − ρ²)
-          const Vec3& c = centre_uvd[id];
+          const Vec3& c = centre_uvd[item];
           const float du = (static_cast<float>(k) + 0.5f - c.x) * world_per_texel;
           const float dv = (static_cast<float>(j) + 0.5f - c.y) * world_per_texel;
           const float h2 = s.radius * s.radius - du * du - dv * dv;
@@ -97,11 +104,12 @@ void ImplicitSphereShadowMap::build(const ShadowCasters& casters, const Light& l
         const Ray ray = projection_.texel_ray((static_cast<float>(k) + 0.5f) / fn, (static_cast<float>(j) + 0.5f) / fn);
         return intersect_sphere(ray, s, -kInfinity, kInfinity);
       },
-      [&](int k, int j, float depth, std::uint32_t id) {
+      [&](int k, int j, float depth, std::uint32_t item) {
         const std::size_t texel_index = static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(k);
-        map_[texel_index] = id;
-        map_spheres_[texel_index] = id == kNoSphere ? Sphere{} : ps.spheres[id];
-        if (reduction_) depth_of[texel_index] = id == kNoSphere ? kInfinity : depth;
+        const bool none = item == TileBins::kNone;
+        map_[texel_index] = none ? kNoSphere : order.ids[item];
+        map_spheres_[texel_index] = none ? Sphere{} : order.spheres[item];
+        if (reduction_) depth_of[texel_index] = none ? kInfinity : depth;
       });
   if (reduction_) keep_nearest_over_bricks(depth_of);
 }
@@ -227,7 +235,7 @@ const TechniqueInfo& issm_technique() {
       "issm", TechniqueFamily::Shadow, kind_bit(ObjectKind::Spheres),
       "implicit sphere shadow map: per texel the nearest sphere, intersected exactly at look-up (Krone et al.)",
       {kMapResolution, kRings, kSoftRadius, kSoftExponent, kSoftDistance},
-      {},
+      {.sphere_order = true},
       [](const TechniqueParams& p) -> std::unique_ptr<ShadowTechnique> {
         return std::make_unique<ImplicitSphereShadowMap>(IssmParams{static_cast<int>(kMapResolution.integer(p)), static_cast<int>(kRings.integer(p)),
                                                                     static_cast<float>(kSoftRadius.number(p)), static_cast<float>(kSoftExponent.number(p)),

@@ -56,18 +56,22 @@ std::size_t SphereHits::covered() const {
   return n;
 }
 
-SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera) {
+SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera) { return splat_spheres(particles, spatial_order(particles), camera); }
+
+SphereHits splat_spheres(const ParticleSet& particles, const SphereOrder& order, const Camera& camera) {
   const PrimaryRays m(camera);
-  std::vector<PixelRect> rects(particles.size());
-  std::vector<float> near_bound(particles.size());  // no hit along a unit ray is nearer than |c − eye| − r
-  parallel_for(particles.size(), [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      const Sphere& s = particles.spheres[i];
-      rects[i] = particles.clip_of(i) == kSphereRemoved ? PixelRect{} : pixel_rect(m, s);
+  // everything per sphere is kept in the spatial order: item k is the sphere order.ids[k]
+  std::vector<PixelRect> rects(order.size());
+  std::vector<float> near_bound(order.size());  // no hit along a unit ray is nearer than |c − eye| − r
+  parallel_for(order.size(), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t k = begin; k < end; ++k) {
+      const Sphere& s = order.spheres[k];
+      rects[k] = particles.clip_of(order.ids[k]) == kSphereRemoved ? PixelRect{} : pixel_rect(m, s);
       const float distance = length(s.center - m.eye);
-      near_bound[i] = lower_bound_with_margin(distance - s.radius, distance + s.radius);
+      near_bound[k] = lower_bound_with_margin(distance - s.radius, distance + s.radius);
     }
   }, 4096);
+  const bool whole = particles.clip_state.empty();  // no sphere cut: each is met where its copy is
   SphereHits hits = no_hits(camera);
   // each tile's primary-ray directions, computed once rather than once per sphere
   struct TileRays {
@@ -75,7 +79,7 @@ SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera) {
     std::array<Vec3, kRasterTile * kRasterTile> dir;
   };
   TileBins(rects, m.width, m.height).nearest_per_pixel(
-      rects, near_bound,
+      rects, near_bound, order.ids,
       [&](int x0, int y0, int x1, int y1) {
         auto rays = std::make_unique<TileRays>();
         rays->x0 = x0;
@@ -84,14 +88,15 @@ SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera) {
           for (int x = x0; x <= x1; ++x) rays->dir[static_cast<std::size_t>((y - y0) * kRasterTile + (x - x0))] = m.direction(x, y);
         return rays;
       },
-      [&](const std::unique_ptr<TileRays>& rays, std::uint32_t id, int x, int y, float nearest) {
-        const Vec3& d = rays->dir[static_cast<std::size_t>((y - rays->y0) * kRasterTile + (x - rays->x0))];
-        return intersect_particle(particles, id, Ray{m.eye, d}, 0, nearest);
+      [&](const std::unique_ptr<TileRays>& rays, std::uint32_t k, int x, int y, float nearest) {
+        const Ray ray{m.eye, rays->dir[static_cast<std::size_t>((y - rays->y0) * kRasterTile + (x - rays->x0))]};
+        const float tmax = just_above(nearest);  // a tie is returned: it goes to the lower id
+        return whole ? intersect_sphere(ray, order.spheres[k], 0, tmax) : intersect_particle(particles, order.ids[k], ray, 0, tmax);
       },
-      [&](int x, int y, float t, std::uint32_t id) {
+      [&](int x, int y, float t, std::uint32_t k) {
         const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(m.width) + static_cast<std::size_t>(x);
         hits.t[i] = t;
-        hits.id[i] = id;
+        hits.id[i] = k == TileBins::kNone ? kNoSphere : order.ids[k];
       });
   return hits;
 }

@@ -11,6 +11,7 @@
 
 #include "penumbra/data/particles.h"
 #include "penumbra/geometry/sphere_bvh.h"
+#include "penumbra/geometry/sphere_order.h"
 #include "penumbra/scene/camera.h"
 #include "penumbra/scene/scene.h"
 
@@ -29,6 +30,9 @@ struct SphereHits {
 // front of the camera) is binned into 32×32-pixel screen tiles; each tile then walks its spheres, and
 // each pixel of a rectangle intersects its primary ray with the sphere, keeping the nearest hit (ties
 // to the lower id, so the result does not depend on the order of the bins).
+// The spheres are walked in `order` (geometry/sphere_order.h; the result does not depend on it); without one,
+// the set's spatial order is computed first.
+SphereHits splat_spheres(const ParticleSet& particles, const SphereOrder& order, const Camera& camera);
 SphereHits splat_spheres(const ParticleSet& particles, const Camera& camera);
 
 // One Embree ray per pixel.

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <algorithm>
+#include <bit>
 #include <cstdint>
 #include <functional>
 #include <iterator>
@@ -47,6 +48,12 @@ inline void centre_range(float lo, float hi, float spare, int n, int& i0, int& i
 // test is the same arithmetic: a hundredth of a pixel to spare.
 inline void centre_span(float c, float r, int n, int& i0, int& i1) { centre_range(c - r, c + r, 0.01f, n, i0, i1); }
 
+// The float just above x ≥ 0 (infinity stays): the `tmax` of a hit() that must still return a tie
+// with the nearest distance so far, rather than lose it to the strict `t < tmax` of a ray query.
+inline float just_above(float x) {
+  return x < std::numeric_limits<float>::infinity() ? std::bit_cast<float>(std::bit_cast<std::uint32_t>(x) + 1u) : x;
+}
+
 // A lower bound `d` for TileBins::nearest_per_pixel's `nearest`, lowered by a relative margin so that
 // it stays below the float-rounded distances it bounds (`scale`: the magnitude of those distances).
 inline float lower_bound_with_margin(float d, float scale) { return d - 1e-4f * scale; }
@@ -62,9 +69,12 @@ public:
 
   // The nearest item per pixel: for every tile with items, begin_tile(x0, y0, x1, y1) makes the tile's
   // state (e.g. its pixels' ray directions), every pixel of every item's rectangle calls
-  // hit(state, id, x, y, nearest_so_far) for the item's distance there (infinity: missed), and the
+  // hit(state, id, x, y, nearest_so_far) for the item's distance there (infinity: missed, or farther
+  // than nearest_so_far — a distance equal to it is a tie and must be returned), and the
   // tile's pixels are then handed to store(x, y, t, id) (t infinity, id kNone where nothing was hit).
-  // Ties go to the lower id, so the result is the same for any thread count and bin order.
+  // `id` is always the item's index in `rects`; ties go to the item with the lower `ids_of[id]` (the
+  // lower index when `ids_of` is empty: the items are then their own ids), so the
+  // result is the same for any thread count, bin order and order of the items.
   //
   // Hidden items are skipped: `nearest[id]` (empty: none known) is a lower bound of every distance
   // hit() can return for the item. A tile takes its items nearest first (in 64 depth buckets); a pixel
@@ -74,8 +84,8 @@ public:
   // then costs about what its visible layer costs rather than its depth complexity.
   static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
   template <class BeginTile, class Hit, class Store>
-  void nearest_per_pixel(std::span<const PixelRect> rects, std::span<const float> nearest, BeginTile&& begin_tile, Hit&& hit,
-                         Store&& store) const {
+  void nearest_per_pixel(std::span<const PixelRect> rects, std::span<const float> nearest, std::span<const std::uint32_t> ids_of,
+                         BeginTile&& begin_tile, Hit&& hit, Store&& store) const {
     constexpr float kInf = std::numeric_limits<float>::infinity();
     for_each_tile([&](int x0, int y0, int x1, int y1, std::span<const std::uint32_t> items) {
       const auto state = begin_tile(x0, y0, x1, y1);
@@ -91,6 +101,7 @@ public:
       constexpr int kBlock = 8, kBlocks = kRasterTile / kBlock;
       float block_far[kBlocks * kBlocks];
       std::fill(std::begin(block_far), std::end(block_far), kInf);
+      auto lower_id = [&](std::uint32_t a, std::uint32_t b) { return ids_of.empty() ? a < b : ids_of[a] < ids_of[b]; };
       auto take = [&](std::uint32_t id, float bound) {
         const PixelRect& r = rects[id];
         const int rx0 = std::max(r.x0, x0), rx1 = std::min(r.x1, x1), ry0 = std::max(r.y0, y0), ry1 = std::min(r.y1, y1);
@@ -103,7 +114,7 @@ public:
             const int k = (y - y0) * kRasterTile + (x - x0);
             if (bound > depth[k]) continue;
             const float t = hit(state, id, x, y, depth[k]);
-            if (t < depth[k] || (t == depth[k] && t != kInf && id < ids[k])) {
+            if (t < depth[k] || (t == depth[k] && t != kInf && lower_id(id, ids[k]))) {
               depth[k] = t;
               ids[k] = id;
             }

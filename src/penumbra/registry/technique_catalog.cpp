@@ -176,4 +176,14 @@ bool needs_sphere_bvh(const Scene& scene) {
   return ambient && ambient->needs.sphere_rays && (ambient_occluders(scene) & kSpheres);
 }
 
+bool needs_sphere_order(const Scene& scene) {
+  if (!scene.has_particles()) return false;
+  if (scene.sphere_rasterizer == SphereRasterizer::Splat) return true;
+  for (const auto& a : shadow_assignments(scene)) {
+    const TechniqueInfo* t = find_technique(TechniqueFamily::Shadow, a.technique);
+    if (t && t->needs.sphere_order && (a.casters & kSpheres)) return true;
+  }
+  return false;
+}
+
 }  // namespace penumbra

@@ -58,5 +58,7 @@ KindMask ambient_occluders(const Scene& scene);
 bool needs_extinction_sat(const Scene& scene);
 bool needs_extinction_colour(const Scene& scene);
 bool needs_sphere_bvh(const Scene& scene);
+// Whether the spheres are splatted (the splat rasterizer, or a technique that needs their order).
+bool needs_sphere_order(const Scene& scene);
 
 }  // namespace penumbra

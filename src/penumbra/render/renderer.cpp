@@ -193,6 +193,7 @@ void Renderer::prepare_particles(FrameResult& frame) {
   for (int pass = 0; pass < 2; ++pass)
     for (std::size_t i = 0; i < scene_.particles.size(); ++i)
       if (scene_.particles[i].visible && scene_.particles[i].casts_shadows == (pass == 0)) order.push_back(static_cast<std::uint32_t>(i));
+  std::unique_ptr<SphereOrder> carried;  // the last set's order, for a new set of its size
   if (stale("spheres") || !particles_) {
     std::size_t casting = 0;
     for (const auto& p : scene_.particles)
@@ -204,6 +205,9 @@ void Renderer::prepare_particles(FrameResult& frame) {
       merged->colors.insert(merged->colors.end(), s.colors.begin(), s.colors.end());
     }
     particles_ = std::move(merged);
+    // the same objects with as many spheres (a trajectory's next frame): the last order is carried over
+    if (sphere_order_ && sphere_order_->size() == particles_->size() && particle_objects_ == order)
+      carried = std::move(sphere_order_);
     particle_offsets_.clear();
     particle_objects_.clear();
     std::uint32_t offset = 0;
@@ -214,6 +218,8 @@ void Renderer::prepare_particles(FrameResult& frame) {
     }
     particle_offsets_.push_back(offset);
     casting_particles_.reset();
+    sphere_order_.reset();
+    casting_sphere_order_.reset();
     if (casting == particles_->size()) {
       casting_particles_ = particles_;
     } else if (casting > 0) {
@@ -251,6 +257,16 @@ void Renderer::prepare_particles(FrameResult& frame) {
     hits_for_.reset();
     stale_.insert("bvh");      // cut spheres are intersected apart
     stale_.insert("casters");
+  }
+  if (!needs_sphere_order(scene_)) {
+    sphere_order_.reset();
+    casting_sphere_order_.reset();
+  } else if (!sphere_order_) {  // the splats walk the spheres in this order (of the set, so clipping keeps it)
+    if (carried) carry_order(*carried, *particles_);
+    sphere_order_ = carried ? std::move(carried) : std::make_unique<SphereOrder>(spatial_order(*particles_));
+    if (casting_particles_ && casting_particles_ != particles_)
+      casting_sphere_order_ = std::make_unique<SphereOrder>(prefix_order(*sphere_order_, casting_particles_->size()));
+    stale_.insert("casters");  // they take the order
   }
   const bool wants_bvh = needs_sphere_bvh(scene_);
   if (wants_bvh && (stale("bvh") || !bvh_)) {
@@ -315,7 +331,8 @@ std::unique_ptr<ShadowCasters> Renderer::make_casters(std::span<const ShadowCast
     const SphereBvh* bvh = casting_particles_ == particles_ ? bvh_.get() : casting_bvh_.get();
     Box3 bounds = casting_particles_ ? casting_particles_->bounds() : Box3{};
     if (split) bounds = combined_bounds(bounds, *frame_brick_->reduction);
-    casters->set_spheres(CastingSpheres{casting_particles_ ? casting_particles_.get() : &kNoSpheres, bvh, bounds});
+    const SphereOrder* order = casting_particles_ == particles_ ? sphere_order_.get() : casting_sphere_order_.get();
+    casters->set_spheres(CastingSpheres{casting_particles_ ? casting_particles_.get() : &kNoSpheres, bvh, bounds, order});
   }
   for (std::size_t i = 0; i < isosurfaces_.size(); ++i) {
     if (!scene_.isosurfaces[i].casts_shadows) continue;
@@ -807,7 +824,7 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
     const auto hits_key = std::make_pair(camera, scene_.sphere_rasterizer);
     if (hits_for_ != hits_key) {
       Timer t;
-      hits_ = scene_.sphere_rasterizer == SphereRasterizer::Embree ? trace_spheres(*bvh_, camera) : splat_spheres(*particles_, camera);
+      hits_ = scene_.sphere_rasterizer == SphereRasterizer::Embree ? trace_spheres(*bvh_, camera) : splat_spheres(*particles_, *sphere_order_, camera);
       hits_for_ = hits_key;
       surfaces_for_.reset();
       frame.hits_ms = t.elapsed_ms();

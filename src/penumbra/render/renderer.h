@@ -128,7 +128,10 @@ public:
   std::size_t light_cache_memory_bytes() const { return light_cache_ ? light_cache_->memory_bytes() : 0; }
   std::size_t voxel_count() const;
   std::size_t sphere_count() const { return particles_ ? particles_->size() : 0; }
-  std::size_t particle_memory_bytes() const { return particles_ ? particles_->memory_bytes() : 0; }
+  std::size_t particle_memory_bytes() const {
+    return (particles_ ? particles_->memory_bytes() : 0) + (sphere_order_ ? sphere_order_->memory_bytes() : 0) +
+           (casting_sphere_order_ ? casting_sphere_order_->memory_bytes() : 0);
+  }
   std::size_t bvh_memory_bytes() const;
   // The visible volumes' own structures: gradients (when stored), min/max grids and empty-cell marks.
   std::size_t volume_structure_memory_bytes() const;
@@ -248,6 +251,8 @@ private:
   std::shared_ptr<ParticleSet> casting_particles_;        // the casting prefix (particles_ when all cast)
   std::vector<std::uint32_t> particle_offsets_;           // first sphere of each segment of particles_, then the total
   std::vector<std::uint32_t> particle_objects_;           // the scene's particle object of each segment
+  std::unique_ptr<SphereOrder> sphere_order_;             // particles_ in spatial order (the splats)
+  std::unique_ptr<SphereOrder> casting_sphere_order_;     // the same of casting_particles_ when it differs
   std::unique_ptr<SphereBvh> bvh_;                        // over particles_ (Embree rasterizer, rays)
   std::unique_ptr<SphereBvh> casting_bvh_;                // over casting_particles_ when it differs
   std::map<std::size_t, std::shared_ptr<const GridTree>> trees_;  // min/max hierarchy per scene volume
