@@ -112,6 +112,37 @@ TEST(Trajectory, FrameKEqualsAStaticRenderOfItsPositions) {
   EXPECT_FALSE(contains(engine.render().rebuilt, "spheres"));
 }
 
+// The same beside a still set that casts no shadow (so the casting spheres are a prefix of the drawn
+// ones, each with its own spatial order carried from frame to frame): frame k equals a static render.
+TEST(Trajectory, FrameKEqualsAStaticRenderBesideSpheresThatCastNoShadow) {
+  ScratchDir dir;
+  {
+    std::ofstream topology(dir.file("top.xyz")), trajectory(dir.file("traj.xyz")), still(dir.file("still.xyz"));
+    write_xyz_frame(topology, 0);
+    for (int k = 0; k < 5; ++k) write_xyz_frame(trajectory, k);
+    write_xyz_frame(still, 2);
+  }
+  auto scene_with = [](const nlohmann::json& moving) {
+    nlohmann::json j = particle_scene(moving);
+    j["particles"].push_back({{"file", "still.xyz"}, {"casts_shadows", false}, {"origin", {1, 1, 1}}});
+    return j;
+  };
+  Engine engine(scene_with({{"file", "top.xyz"}, {"trajectory", "traj.xyz"}}), dir.path().string());
+  (void)engine.render();
+  FailureImages keep;
+  for (const int k : {3, 1, 4}) {
+    engine.set("time", k);
+    const EngineFrame f = engine.render();
+    {
+      std::ofstream one(dir.file("frame.xyz"));
+      write_xyz_frame(one, k);
+    }
+    const Image fresh = Renderer(build_scene(scene_with({{"file", "frame.xyz"}}), dir.path().string())).render().image;
+    keep.add("beside_time" + std::to_string(k), f.image, fresh);
+    EXPECT_EQ(compare_images(f.image, fresh).max_abs, 0.0) << "time " << k;
+  }
+}
+
 // Proves a trajectory given as a list of files plays their frames in order, and that the default
 // camera frames the topology, so the view holds still while the atoms move.
 // ambient.reuse through the engine: a time edit builds the same particle_ao again, keeping the cones of

@@ -193,7 +193,7 @@ void Renderer::prepare_particles(FrameResult& frame) {
   for (int pass = 0; pass < 2; ++pass)
     for (std::size_t i = 0; i < scene_.particles.size(); ++i)
       if (scene_.particles[i].visible && scene_.particles[i].casts_shadows == (pass == 0)) order.push_back(static_cast<std::uint32_t>(i));
-  std::unique_ptr<SphereOrder> carried;  // the last set's order, for a new set of its size
+  std::unique_ptr<SphereOrder> carried, carried_casting;  // the last set's orders, for a new set of its size
   if (stale("spheres") || !particles_) {
     std::size_t casting = 0;
     for (const auto& p : scene_.particles)
@@ -206,8 +206,10 @@ void Renderer::prepare_particles(FrameResult& frame) {
     }
     particles_ = std::move(merged);
     // the same objects with as many spheres (a trajectory's next frame): the last order is carried over
-    if (sphere_order_ && sphere_order_->size() == particles_->size() && particle_objects_ == order)
+    if (sphere_order_ && sphere_order_->size() == particles_->size() && particle_objects_ == order) {
       carried = std::move(sphere_order_);
+      carried_casting = std::move(casting_sphere_order_);
+    }
     particle_offsets_.clear();
     particle_objects_.clear();
     std::uint32_t offset = 0;
@@ -264,8 +266,14 @@ void Renderer::prepare_particles(FrameResult& frame) {
   } else if (!sphere_order_) {  // the splats walk the spheres in this order (of the set, so clipping keeps it)
     if (carried) carry_order(*carried, *particles_);
     sphere_order_ = carried ? std::move(carried) : std::make_unique<SphereOrder>(spatial_order(*particles_));
-    if (casting_particles_ && casting_particles_ != particles_)
-      casting_sphere_order_ = std::make_unique<SphereOrder>(prefix_order(*sphere_order_, casting_particles_->size()));
+    if (casting_particles_ && casting_particles_ != particles_) {
+      if (carried_casting && carried_casting->size() == casting_particles_->size()) {
+        carry_order(*carried_casting, *casting_particles_);
+        casting_sphere_order_ = std::move(carried_casting);
+      } else {
+        casting_sphere_order_ = std::make_unique<SphereOrder>(prefix_order(*sphere_order_, casting_particles_->size()));
+      }
+    }
     stale_.insert("casters");  // they take the order
   }
   const bool wants_bvh = needs_sphere_bvh(scene_);
