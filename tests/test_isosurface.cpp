@@ -312,6 +312,76 @@ TEST(LightPass, NoAcneOnTheCreasesOfAVoxelisedSurface) {
   }
 }
 
+// A refined box's surface (CastingIsosurface::finer): a receiver inside the box, against a light pixel
+// whose point lies on the box's finer surface, is biased for creases by a tenth of the box's voxel,
+// not of the opened level's (which would lose contact shadows up to 2^levels finer there); a receiver
+// outside the box keeps the opened level's.
+TEST(LightPass, ARefinedBoxIsBiasedForCreasesByItsOwnVoxel) {
+  // the ball |p| < 0.3 as the field 0.3 − |p|, sampled at 16³ over the cube and at 4× as fine over its upper half
+  auto ball = [](std::array<int, 3> dims, Vec3 spacing, Vec3 origin) {
+    Volume v(ScalarType::Float32, dims, spacing, origin);
+    std::size_t n = 0;
+    for (int k = 0; k < dims[2]; ++k)
+      for (int j = 0; j < dims[1]; ++j)
+        for (int i = 0; i < dims[0]; ++i)
+          v.set_value(n++, 0.3f - length(origin + spacing * Vec3{static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)}));
+    v.recompute_range();
+    return v;
+  };
+  const float h = 1.0f / 15.0f;
+  const Volume coarse = ball({16, 16, 16}, {h, h, h}, {-0.5f, -0.5f, -0.5f});
+  const Volume fine = ball({61, 61, 31}, {h / 4, h / 4, h / 4}, {-0.5f, -0.5f, 0.0f});
+  const GridTree coarse_tree(coarse), fine_tree(fine);
+  const IsosurfaceRaycaster coarse_rays(coarse_tree, 0.0f), fine_rays(fine_tree, 0.0f);
+  ShadowCasters casters(Scene{}, {});
+  casters.add_isosurface(coarse_rays, coarse_tree, 0, ClipPlanes(), CastingIsosurface::Finer{&fine_rays, &fine_tree});
+  Light light;  // from +x: the lit side lies on both sides of the box's face z = 0
+  light.direction = normalize(Vec3{-1.0f, -0.2f, -0.15f});
+  std::vector<SurfacePoint> receivers;  // the lit side of the ball, on both sides of z = 0
+  for (int a = 0; a < 40; ++a)
+    for (int b = 0; b < 80; ++b) {
+      const float theta = 3.1416f * (static_cast<float>(a) + 0.5f) / 40.0f, phi = 6.2832f * static_cast<float>(b) / 80.0f;
+      const Vec3 n{std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
+      if (dot(n, -light.direction) < 0.3f) continue;
+      SurfacePoint sp;
+      sp.position = n * 0.3f;
+      sp.normal = n;
+      sp.kind = ObjectKind::Isosurface;
+      receivers.push_back(sp);
+    }
+  LightPass pass({256, LightFrustum::Tight, -1});
+  pass.build(casters, light);
+  pass.fit_to_receivers(receivers, false, true);
+  ASSERT_EQ(pass.passes().size(), 1u);
+  const IsosurfaceLightPass& lp = pass.passes().front();
+  EXPECT_FLOAT_EQ(lp.crease, 2 * isosurface_offset(coarse.spacing()));
+  EXPECT_FLOAT_EQ(lp.finer_crease, 2 * isosurface_offset(fine.spacing()));
+  std::size_t inside = 0, outside = 0;
+  for (const SurfacePoint& r : receivers) {
+    float px, py;
+    ASSERT_TRUE(lp.view.project(r.position, px, py));
+    const std::size_t k = static_cast<std::size_t>(std::floor(py)) * static_cast<std::size_t>(lp.view.width) + static_cast<std::size_t>(std::floor(px));
+    if (lp.depth[k] == kInfinity) continue;
+    if (r.position.z > 0.05f) {
+      ++inside;
+      EXPECT_FLOAT_EQ(lp.crease_at(k, r.position), lp.finer_crease) << "inside the box at z " << r.position.z;
+    } else if (r.position.z < -0.05f) {
+      ++outside;
+      EXPECT_FLOAT_EQ(lp.crease_at(k, r.position), lp.crease) << "outside the box at z " << r.position.z;
+    }
+  }
+  EXPECT_GT(inside, 100u);
+  EXPECT_GT(outside, 20u);
+  // and the box's receivers are all lit, as exact rays find them (the ball shadows none of its lit side)
+  std::vector<Rgb> light_of(receivers.size());
+  pass.transmittance(std::span<const SurfacePoint>(receivers), std::span<Rgb>(light_of));
+  for (std::size_t i = 0; i < receivers.size(); ++i) {
+    if (receivers[i].position.z > 0.05f) {
+      EXPECT_EQ(light_of[i].r, 1.0f) << "acne at z " << receivers[i].position.z;
+    }
+  }
+}
+
 TEST(LightPass, TightFrustumHoldsEveryReceiver) {
   const Volume v = field_volume(41, shell_over_slab);
   const GridTree tree(v);

@@ -182,6 +182,7 @@ void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool v
     const GridTree* finer = refined ? iso.finer.tree : nullptr;
     if (finer) options.exclude = &iso.finer_box;
     pass.light_points = extract_points(*iso.tree, iso.isovalue, pass.view, options);
+    const std::size_t opened_points = pass.light_points.points.size();  // the box's points follow
     if (finer) {
       options.exclude = nullptr;
       const Extraction inside = extract_points(*finer, iso.isovalue, pass.view, options);
@@ -191,11 +192,21 @@ void LightPass::fit_to_receivers(std::span<const SurfacePoint> receivers, bool v
     }
     pass.depth.assign(static_cast<std::size_t>(pass.view.width) * static_cast<std::size_t>(pass.view.height), kInfinity);
     pass.depth_error.assign(pass.depth.size(), 0);
-    for (const IsoPoint& p : pass.light_points.points)  // one point per pixel and pass: the nearer
+    // the box's own crease where its points are the nearest (not over bricks: a brick's nearest point
+    // may be another's, so the opened level's crease, the larger, stays there)
+    if (finer && !reduction) {
+      pass.finer_point.assign(pass.depth.size(), 0);
+      pass.finer_box = iso.finer_box;
+      pass.finer_crease = 2 * isosurface_offset(finer->volume().spacing());
+    }
+    for (std::size_t i = 0; i < pass.light_points.points.size(); ++i) {  // one point per pixel and pass: the nearer
+      const IsoPoint& p = pass.light_points.points[i];
       if (p.distance < pass.depth[p.pixel]) {
         pass.depth[p.pixel] = p.distance;
         pass.depth_error[p.pixel] = p.error;
+        if (!pass.finer_point.empty()) pass.finer_point[p.pixel] = i >= opened_points;
       }
+    }
     if (reduction) {  // per light pixel the nearest of the bricks' points, with that point's error
       std::vector<float> nearest = pass.depth;
       reduction->minimum(nearest);
@@ -234,7 +245,7 @@ float LightPass::light_at(const Vec3& position, float cos_theta, float error) co
     const std::size_t k = static_cast<std::size_t>(y) * static_cast<std::size_t>(pass.view.width) + static_cast<std::size_t>(x);
     if (pass.depth[k] == kInfinity) continue;
     const float d = pass.view.distance(position);
-    if (d > pass.depth[k] + bias(pass.view, d, cos_theta, error, pass.depth_error[k], pass.crease)) return 0;
+    if (d > pass.depth[k] + bias(pass.view, d, cos_theta, error, pass.depth_error[k], pass.crease_at(k, position))) return 0;
   }
   return 1;
 }
@@ -263,7 +274,7 @@ void LightPass::add_stats(ShadowStats& stats) const {
 std::size_t LightPass::memory_bytes() const {
   std::size_t bytes = 0;
   for (const IsosurfaceLightPass& pass : passes_)
-    bytes += pass.depth.size() * 2 * sizeof(float) + pass.light_points.points.size() * sizeof(IsoPoint) +
+    bytes += pass.depth.size() * 2 * sizeof(float) + pass.finer_point.size() + pass.light_points.points.size() * sizeof(IsoPoint) +
              static_cast<std::size_t>(pass.view.width) * static_cast<std::size_t>(pass.view.height) / 8;
   return bytes;
 }

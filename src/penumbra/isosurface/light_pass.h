@@ -53,7 +53,18 @@ struct IsosurfaceLightPass {
   std::vector<float> depth;        // per light pixel: nearest light distance found; infinity: none
   std::vector<float> depth_error;  // per light pixel: that point's position error
   float crease = 0;                // the bias's share for the surface's creases: a tenth of its voxel
+  // A refined box (CastingIsosurface::finer): per light pixel 1 when its point lies on the box's finer
+  // surface (empty when there is no box), the box and a tenth of its voxel. A receiver inside the box
+  // against such a point is biased by the finer crease; every other pair by the opened level's.
+  std::vector<std::uint8_t> finer_point;
+  Box3 finer_box;
+  float finer_crease = 0;
   std::size_t hole_count = 0;
+
+  // The crease share of the bias for a receiver at `p` against light pixel k.
+  float crease_at(std::size_t k, const Vec3& p) const {
+    return !finer_point.empty() && finer_point[k] && finer_box.contains(p) ? finer_crease : crease;
+  }
 };
 
 // Takes isosurfaces only (the catalogue): one light pass per isosurface, a receiver's light the

@@ -50,10 +50,7 @@ void ShadowCasters::set_spheres(const CastingSpheres& spheres) {
 void ShadowCasters::add_isosurface(const IsosurfaceRaycaster& raycaster, const GridTree& tree, std::uint32_t object,
                                    const ClipPlanes& clip, CastingIsosurface::Finer finer) {
   const Volume& volume = tree.volume();
-  const Vec3& s = volume.spacing();
-  // Far enough off the surface that float rounding of a point at hundreds of voxels from the origin
-  // cannot put the start behind its own surface; small against any feature.
-  isosurfaces_.push_back(CastingIsosurface{&raycaster, &tree, raycaster.isovalue(), object, 0.05f * std::min({s.x, s.y, s.z}), volume.bounds(), clip,
+  isosurfaces_.push_back(CastingIsosurface{&raycaster, &tree, raycaster.isovalue(), object, isosurface_offset(volume.spacing()), volume.bounds(), clip,
                                            finer, finer.tree ? finer.tree->volume().bounds() : Box3{}});
   update_bounds();
 }

@@ -22,6 +22,7 @@
 // reads the extinction SAT keeps the opened level.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <optional>
@@ -85,6 +86,11 @@ struct CastingSpheres {
   Box3 bounds;
   const SphereOrder* order = nullptr;  // the set's spatial order (null: a splat computes its own)
 };
+
+// How far off an isosurface of voxels `spacing` its shadow rays start (a twentieth of the smallest
+// side): far enough that float rounding of a point at hundreds of voxels from the origin cannot put the
+// start behind its own surface; small against any feature. The light pass's crease bias is twice it.
+inline float isosurface_offset(const Vec3& spacing) { return 0.05f * std::min({spacing.x, spacing.y, spacing.z}); }
 
 struct CastingIsosurface {
   const IsosurfaceRaycaster* raycaster;
