@@ -165,25 +165,27 @@ bool needs_extinction_colour(const Scene& scene) {
   return bleeding && bleeding->number(scene.ambient.params) > 0;
 }
 
-bool needs_sphere_bvh(const Scene& scene) {
-  if (!scene.has_particles()) return false;
-  if (scene.sphere_rasterizer == SphereRasterizer::Embree) return true;
+namespace {
+// Whether a shadow technique that casts the spheres has the need `need`.
+bool sphere_shadows_need(const Scene& scene, bool TechniqueNeeds::*need) {
   for (const auto& a : shadow_assignments(scene)) {
     const TechniqueInfo* t = find_technique(TechniqueFamily::Shadow, a.technique);
-    if (t && t->needs.sphere_rays && (a.casters & kSpheres)) return true;
+    if (t && t->needs.*need && (a.casters & kSpheres)) return true;
   }
+  return false;
+}
+}  // namespace
+
+bool needs_sphere_bvh(const Scene& scene) {
+  if (!scene.has_particles()) return false;
+  if (scene.sphere_rasterizer == SphereRasterizer::Embree || sphere_shadows_need(scene, &TechniqueNeeds::sphere_rays)) return true;
   const TechniqueInfo* ambient = find_technique(TechniqueFamily::Ambient, scene.ambient.technique);
   return ambient && ambient->needs.sphere_rays && (ambient_occluders(scene) & kSpheres);
 }
 
 bool needs_sphere_order(const Scene& scene) {
   if (!scene.has_particles()) return false;
-  if (scene.sphere_rasterizer == SphereRasterizer::Splat) return true;
-  for (const auto& a : shadow_assignments(scene)) {
-    const TechniqueInfo* t = find_technique(TechniqueFamily::Shadow, a.technique);
-    if (t && t->needs.sphere_order && (a.casters & kSpheres)) return true;
-  }
-  return false;
+  return scene.sphere_rasterizer == SphereRasterizer::Splat || sphere_shadows_need(scene, &TechniqueNeeds::sphere_order);
 }
 
 }  // namespace penumbra
