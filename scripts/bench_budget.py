@@ -225,11 +225,12 @@ def iso(o, cli, out):
 
 
 def session_steps(cli, scene, out, args, target, distance):
-    """--edits: a small pan, backing away, coming back: each step's preview and full-frame latency and what
-    the refinement loaded, read and evicted."""
+    """--edits: a small pan, a longer one, backing away, coming back: each step's preview and full-frame
+    latency and what the refinement loaded, read, reused and evicted."""
     edits = [{"set": {"camera.target": [target[0] + distance * 0.02, target[1], target[2]]}},
+             {"set": {"camera.target": [target[0] + distance * 0.12, target[1], target[2]]}},
              {"set": {"camera.distance": distance * 8}},
-             {"set": {"camera.distance": distance}}]
+             {"set": {"camera.distance": distance, "camera.target": list(target)}}]
     edits_file = os.path.join(out, "session_edits.json")
     json.dump(edits, open(edits_file, "w"))
     stats_file = os.path.join(out, "session.json")
@@ -237,16 +238,17 @@ def session_steps(cli, scene, out, args, target, distance):
     stats = json.load(open(stats_file))
     steps = [{"step": "the close view (first frame)", "preview_ms": None, "full_ms": stats["timings_ms"]["total"],
               "refinement": stats["refinement"]}]
-    for name, e in zip(["a pan of 2 % of the distance", "backing away 8×", "coming back"], stats["edits"]):
+    for name, e in zip(["a pan of 2 % of the distance", "a pan of 10 % more", "backing away 8×", "coming back"], stats["edits"]):
         steps.append({"step": name, "preview_ms": e["preview_ms"], "full_ms": e["full_ms"], "refinement": e["refinement"]})
-    print("\n| step | preview (ms) | full frame (ms) | drawn from | loaded (MiB) | read (MiB) | evicted (MiB) |")
-    print("|---|---|---|---|---|---|---|")
+    print("\n| step | preview (ms) | full frame (ms) | drawn from | loaded (MiB) | read (MiB) | reused (MiB) | box load (ms) | evicted (MiB) |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for s in steps:
         r = (s["refinement"] or [{}])[0]
         drawn = f"level {r['level']}" if r.get("held_bytes") else "the opened level"
         pv = f"{s['preview_ms']:.0f}" if s["preview_ms"] is not None else "–"
         print(f"| {s['step']} | {pv} | {s['full_ms']:.0f} | {drawn} | {r.get('loaded_bytes', 0) / 2**20:.1f} | "
-              f"{r.get('read_bytes', 0) / 2**20:.1f} | {r.get('evicted_bytes', 0) / 2**20:.1f} |")
+              f"{r.get('read_bytes', 0) / 2**20:.1f} | {r.get('reused_bytes', 0) / 2**20:.1f} | {r.get('load_ms', 0):.0f} | "
+              f"{r.get('evicted_bytes', 0) / 2**20:.1f} |")
     return steps
 
 

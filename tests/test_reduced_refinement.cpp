@@ -114,6 +114,30 @@ TEST(ReducedRefinement, ABoxOfAReductionIsThatPartOfTheWholeReduction) {
     WindowRead narrow_read;
     (void)load_reduced_box(file, budget, levels[0], 0, lo, hi, &narrow_read, &narrow_held);
     EXPECT_EQ(narrow_read.bytes_reused, 0u);
+    // a box held that gives its voxels up to a new box of its size: moved in place, the slices both hold
+    // (when x and y stay) not read; moved across in x, every slice read into the same memory
+    for (const std::array<std::int64_t, 3>& by : std::vector<std::array<std::int64_t, 3>>{{0, 0, 5}, {0, 0, -3}, {2, -1, 4}}) {
+      const std::array<std::int64_t, 3> held_lo{4, 3, 6}, held_hi{30, 25, 18};
+      const std::array<std::int64_t, 3> to_lo{held_lo[0] + by[0], held_lo[1] + by[1], held_lo[2] + by[2]};
+      const std::array<std::int64_t, 3> to_hi{held_hi[0] + by[0], held_hi[1] + by[1], held_hi[2] + by[2]};
+      Volume storage = load_reduced_box(file, budget, levels[0], 0, held_lo, held_hi);
+      const std::byte* memory = storage.data();
+      HeldBox moving{held_lo, held_hi, &storage, &storage};
+      WindowRead to_read, again_read;
+      const Volume again = load_reduced_box(file, budget, levels[0], 0, to_lo, to_hi, &again_read);
+      const Volume moved = load_reduced_box(file, budget, levels[0], 0, to_lo, to_hi, &to_read, &moving);
+      EXPECT_EQ(moved.data(), memory);
+      for (std::size_t n = 0; n < again.voxel_count(); ++n) ASSERT_EQ(moved.value(n), again.value(n)) << "voxel " << n;
+      for (int a = 0; a < 3; ++a) EXPECT_EQ(moved.origin()[a], again.origin()[a]);
+      EXPECT_EQ(moved.min_value(), again.min_value());
+      EXPECT_EQ(moved.max_value(), again.max_value());
+      if (by[0] == 0 && by[1] == 0) {
+        EXPECT_EQ(to_read.bytes_reused, std::uint64_t(12 - std::abs(by[2])) * 26 * 22 * scalar_size(whole.type()));
+        if (file.find("gzip") == std::string::npos) EXPECT_LT(to_read.bytes_read, again_read.bytes_read);
+      } else {
+        EXPECT_EQ(to_read.bytes_reused, 0u);
+      }
+    }
     EXPECT_THROW(load_reduced_box(file, budget, levels[0], 0, {0, 0, 0}, {dims[0] + 1, 4, 4}), Error);
     EXPECT_THROW(load_reduced_box(file, budget, levels[0], 0, {4, 0, 0}, {4, 4, 4}), Error);
   }

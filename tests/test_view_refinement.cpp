@@ -251,6 +251,35 @@ TEST(ViewRefinement, ABoxOfALevelIsThatLevelsVoxels) {
       EXPECT_LT(lent_read.bytes_read, fresh_read.bytes_read);
     }
   }
+  // a box held that gives its voxels up to a new box of its size moves them in place: the same voxels as
+  // a fresh read, the chunks inside it not read, and no second box allocated
+  for (const std::array<std::int64_t, 3>& by : std::vector<std::array<std::int64_t, 3>>{{3, 0, 0}, {-2, 4, 1}, {0, 0, -5}, {-8, -6, -7}}) {
+    const std::array<std::int64_t, 3> held_lo{8, 6, 7}, held_hi{25, 20, 19};
+    const std::array<std::int64_t, 3> lo3{held_lo[0] + by[0], held_lo[1] + by[1], held_lo[2] + by[2]};
+    const std::array<std::int64_t, 3> hi3{held_hi[0] + by[0], held_hi[1] + by[1], held_hi[2] + by[2]};
+    Volume storage = load_zarr_box(dir.file("v.zarr"), 0, -1, held_lo, held_hi);
+    const std::byte* memory = storage.data();
+    HeldBox held{held_lo, held_hi, &storage, &storage};
+    WindowRead fresh_read, moved_read;
+    const Volume fresh = load_zarr_box(dir.file("v.zarr"), 0, -1, lo3, hi3, &fresh_read);
+    const Volume moved = load_zarr_box(dir.file("v.zarr"), 0, -1, lo3, hi3, &moved_read, &held);
+    EXPECT_EQ(moved.data(), memory) << "the held box's own voxels";
+    ASSERT_EQ(moved.dims(), fresh.dims());
+    for (std::size_t n = 0; n < fresh.voxel_count(); ++n) ASSERT_EQ(moved.value(n), fresh.value(n)) << "voxel " << n;
+    for (int a = 0; a < 3; ++a) EXPECT_EQ(moved.origin()[a], fresh.origin()[a]);
+    EXPECT_EQ(moved.min_value(), fresh.min_value());
+    EXPECT_EQ(moved.max_value(), fresh.max_value());
+    EXPECT_EQ(moved.opacity_length(), fresh.opacity_length());
+    EXPECT_GT(moved_read.bytes_reused, 0u);
+    EXPECT_LT(moved_read.bytes_read, fresh_read.bytes_read);
+  }
+  {  // a held box of another size lends its voxels as before and keeps them
+    Volume storage = load_zarr_box(dir.file("v.zarr"), 0, -1, {0, 0, 0}, {24, 22, 17});
+    HeldBox held{{0, 0, 0}, {24, 22, 17}, &storage, &storage};
+    const Volume lent = load_zarr_box(dir.file("v.zarr"), 0, -1, {6, 4, 3}, {33, 27, 24}, nullptr, &held);
+    EXPECT_EQ(storage.dims(), (std::array<int, 3>{24, 22, 17}));
+    EXPECT_EQ(lent.value(0), load_zarr_box(dir.file("v.zarr"), 0, -1, {6, 4, 3}, {7, 5, 4}).value(0));
+  }
   EXPECT_THROW(load_zarr_box(dir.file("v.zarr"), 0, -1, {0, 0, 0}, {38, 4, 4}), Error);
   EXPECT_THROW(load_zarr_box(dir.file("v.zarr"), 0, -1, {4, 0, 0}, {4, 4, 4}), Error);
 }
@@ -662,7 +691,7 @@ TEST(ViewRefinement, ANewBoxTakesTheOverlapFromTheBoxHeld) {
   const std::string store = write_ball_pyramid(dir, 64);
   auto narrow = [&](std::uint64_t budget) {  // a narrow view: a box of a fifth of what the budget leaves
     nlohmann::json j = ball_scene(store, budget, true);
-    j["camera"]["fov_deg"] = 7;
+    j["camera"]["fov_deg"] = 6;
     return build_scene(j, "");
   };
   const Scene scene = narrow(1u << 20);
@@ -693,6 +722,53 @@ TEST(ViewRefinement, ANewBoxTakesTheOverlapFromTheBoxHeld) {
   const FrameResult back = renderer.render(scene.camera, scene.lights);
   EXPECT_EQ(back.refinement.at(0).loaded_bytes, 0u);
   EXPECT_LT(compare_images(back.image, Renderer(narrow(0)).render().image).max_abs, 1e-4);
+}
+
+// The same pan with a budget that holds one box only: the box moves — it keeps its size and memory,
+// shifted to cover the new view, and reads only what it did not hold (before, it was given up and the
+// new box read whole); the frame is still the finest level's in memory, and the budget holds.
+TEST(ViewRefinement, ABoxThatMovesReadsOnlyWhatItDidNotHold) {
+  ScratchDir dir;
+  const std::string store = write_ball_pyramid(dir, 64);
+  auto narrow = [&](std::uint64_t budget) {
+    nlohmann::json j = ball_scene(store, budget, true);
+    j["camera"]["fov_deg"] = 7;
+    return build_scene(j, "");
+  };
+  Scene scene = narrow(1u << 20);
+  const std::uint64_t box = Renderer(scene).render().refinement.at(0).held_bytes;
+  ASSERT_GT(box, 0u);
+  scene.refinement_bytes = box * 3 / 2;  // one box, not two
+  Renderer renderer(scene);
+  const FrameResult first = renderer.render();
+  ASSERT_EQ(first.refinement.at(0).held_bytes, box);
+  Camera moved = scene.camera;
+  const Vec3 shift{0.16f, 0.0f, 0.0f};
+  moved.eye = moved.eye + shift;
+  moved.target = moved.target + shift;
+  const FrameResult f = renderer.render(moved, scene.lights);
+  ASSERT_EQ(f.refinement.size(), 1u);
+  const RefinementStats& r = f.refinement.front();
+  EXPECT_TRUE(r.error.empty()) << r.error;
+  EXPECT_GT(r.loaded_bytes, 0u) << "the pan must leave the box";
+  EXPECT_EQ(r.held_bytes, box) << "the box keeps its size";
+  EXPECT_EQ(r.dims, first.refinement.at(0).dims);
+  EXPECT_GT(r.reused_bytes, 0u);
+  EXPECT_EQ(r.kept_bytes, 0u);
+  EXPECT_LE(renderer.refined_memory_bytes(), scene.refinement_bytes);
+  Scene one_box = scene;
+  Renderer fresh(one_box);
+  const FrameResult alone = fresh.render(moved, scene.lights);
+  EXPECT_EQ(alone.refinement.at(0).reused_bytes, 0u);
+  EXPECT_LT(r.read_bytes, alone.refinement.at(0).read_bytes);
+  const Image in_memory = Renderer(narrow(0)).render(moved, scene.lights).image;
+  EXPECT_LT(compare_images(f.image, in_memory).max_abs, 1e-4);
+  EXPECT_LT(compare_images(f.image, alone.image).max_abs, 1e-4);
+  // and back: it moves again, from the same memory
+  const FrameResult back = renderer.render(scene.camera, scene.lights);
+  EXPECT_GT(back.refinement.at(0).reused_bytes, 0u);
+  EXPECT_LT(compare_images(back.image, Renderer(narrow(0)).render().image).max_abs, 1e-4);
+  EXPECT_LE(renderer.refined_memory_bytes(), scene.refinement_bytes);
 }
 
 // Views that move on past the boxes a budget can keep: the least recently drawn box is given up first

@@ -273,6 +273,20 @@ void Volume::set_value(std::size_t idx, float v) {
   }
 }
 
+void Volume::shift_voxels(const std::array<std::int64_t, 3>& by) {
+  if (is_bricked() || is_view()) throw Error("shifting the voxels of a bricked or viewed volume");
+  // voxel v's index plus the offset is voxel v + by's: one move of the whole storage takes every voxel
+  // whose v + by lies in the grid where it belongs (and leaves the others holding what they may)
+  const std::int64_t offset = by[0] + by[1] * dims_[0] + by[2] * std::int64_t{dims_[0]} * dims_[1];
+  const auto n = static_cast<std::int64_t>(voxel_count());
+  if (offset == 0 || offset >= n || -offset >= n) return;
+  const std::size_t size = scalar_size(type_);
+  const auto moved = static_cast<std::size_t>(n - (offset > 0 ? offset : -offset)) * size;
+  const auto step = static_cast<std::size_t>(offset > 0 ? offset : -offset) * size;
+  if (offset > 0) std::memmove(data_, data_ + step, moved);
+  else std::memmove(data_ + step, data_, moved);
+}
+
 float Volume::sample_cell(const TrilinearCell& c) const {
   return with_voxel_type([&](auto type) { return sample_cell_as<decltype(type)>(c); });
 }

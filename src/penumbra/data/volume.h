@@ -211,6 +211,10 @@ public:
   }
   float value(int i, int j, int k) const { return value(index(i, j, k)); }
   void set_value(std::size_t idx, float v);  // dense volumes (a bricked voxel may be stored twice)
+  // Dense volumes that own their voxels: voxel v takes the value of voxel v + by where that lies in the
+  // grid, in place (one move of the storage; the voxels whose v + by lies outside are left undefined).
+  // What a box of a level that moves by `by` keeps of itself (render/view_refinement.h).
+  void shift_voxels(const std::array<std::int64_t, 3>& by);
 
   // Continuous voxel coordinates of a world point.
   // A window's z is the whole grid's less its first slice (exact for its samples: both are integers'

@@ -501,15 +501,40 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
       if (choice) stats.error = failed->error;
     } else {
       // the box drawn is set aside; boxes kept give way, least recently drawn first, until the new one
-      // fits the budget; the most recent one of the same level that overlaps it lends its voxels there
+      // fits the budget; the most recent one of the same level that overlaps it lends its voxels there,
+      // or, when the budget cannot hold it beside the new one, moves: it keeps its size, shifted to
+      // cover the view, and only what it did not hold is read
       set_aside();
-      give_up_kept_boxes(refined_bytes(choice->box, o.volume->type(), choice->stored_gradients), frame);
+      RefinementChoice wanted = *choice;
+      std::unique_ptr<RefinedVolume> moving;
       const auto lender = std::find_if(kept.begin(), kept.end(), [&](const KeptBox& b) {
         return b.box->box().level == choice->box.level && overlaps(b.box->box(), choice->box);
       });
-      const RefinedVolume* lends = lender == kept.end() ? nullptr : lender->box.get();
-      const bool read = read_refinement_box(*choice, pyramid.key, [&](WindowRead& window) {
-        held = std::make_unique<RefinedVolume>(o, *choice, &window, lends);
+      if (lender != kept.end()) {
+        std::uint64_t all_kept = 0;
+        for (const auto& boxes : kept_)
+          for (const KeptBox& b : boxes) all_kept += b.box->held_bytes();
+        const std::uint64_t others = refined_memory_bytes() - all_kept;  // boxes drawn for other volumes, surfaces' boxes
+        const std::optional<RefinementChoice> moved =
+            moved_refinement(*choice, lender->box->box(), pyramid, scene_.refinement_bytes - std::min(others, scene_.refinement_bytes));
+        if (moved && others + refined_bytes(choice->box, o.volume->type(), choice->stored_gradients) + lender->box->held_bytes() >
+                         scene_.refinement_bytes) {
+          wanted = *moved;
+          moving = std::move(lender->box);
+          kept.erase(lender);
+          // an isosurface hierarchy over it lets its voxels go (refine_isosurfaces makes one over the new box)
+          if (std::erase_if(refined_surfaces_, [&](const auto& r) { return r.second.voxels == moving->object().volume; }))
+            refined_changed_ = true;
+        }
+      }
+      if (!moving) wanted = with_room_to_move(*choice, pyramid, left);
+      give_up_kept_boxes(refined_bytes(wanted.box, o.volume->type(), wanted.stored_gradients), frame);
+      const auto still = moving ? kept.end() : std::find_if(kept.begin(), kept.end(), [&](const KeptBox& b) {
+        return b.box->box().level == choice->box.level && overlaps(b.box->box(), choice->box);
+      });
+      const RefinedVolume* lends = still == kept.end() ? nullptr : still->box.get();
+      const bool read = read_refinement_box(wanted, pyramid.key, [&](WindowRead& window) {
+        held = std::make_unique<RefinedVolume>(o, wanted, &window, lends, std::move(moving));
         return held->held_bytes();
       }, stats, failed);
       if (read) {  // (else the frame draws the opened level)

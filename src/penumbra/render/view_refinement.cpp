@@ -164,6 +164,44 @@ std::optional<RefinementChoice> choose_refinement(const Camera& camera, const Py
   return best;
 }
 
+RefinementChoice with_room_to_move(const RefinementChoice& choice, const PyramidSource& pyramid, std::uint64_t room) {
+  const std::array<int, 3>& n = pyramid.levels.at(static_cast<std::size_t>(choice.box.level)).dims;
+  RefinementChoice grown = choice;
+  for (std::size_t a = 0; a < 3; ++a) {
+    const std::int64_t size = choice.box.hi[a] - choice.box.lo[a];
+    const std::int64_t step = std::max<std::int64_t>(kRefinementStep, (size + 15) / 16);
+    const std::int64_t longer = std::min<std::int64_t>(n[a], (size + step - 1) / step * step);
+    const std::int64_t lo = std::clamp<std::int64_t>(choice.box.lo[a] - (longer - size) / 2, 0, n[a] - longer);
+    grown.box.lo[a] = lo;
+    grown.box.hi[a] = lo + longer;
+  }
+  const auto d = grown.box.dims();
+  const std::uint64_t voxels = static_cast<std::uint64_t>(d[0]) * static_cast<std::uint64_t>(d[1]) * static_cast<std::uint64_t>(d[2]);
+  if (choice.stored_gradients && voxels * kGradientBytesPerVoxel > kStoredGradientBytes) return choice;
+  return refined_bytes(grown.box, pyramid.type, choice.stored_gradients) <= room ? grown : choice;
+}
+
+std::optional<RefinementChoice> moved_refinement(const RefinementChoice& choice, const LevelBox& held, const PyramidSource& pyramid,
+                                                 std::uint64_t room) {
+  if (held.level != choice.box.level) return std::nullopt;
+  const std::array<int, 3>& n = pyramid.levels.at(static_cast<std::size_t>(held.level)).dims;
+  RefinementChoice moved = choice;
+  for (std::size_t a = 0; a < 3; ++a) {
+    const std::int64_t size = held.hi[a] - held.lo[a];
+    if (size < choice.box.hi[a] - choice.box.lo[a] || size > n[a]) return std::nullopt;
+    // as near the held place as covers the wanted voxels
+    const std::int64_t lo = std::clamp(held.lo[a], std::max<std::int64_t>(0, choice.box.hi[a] - size), std::min<std::int64_t>(choice.box.lo[a], n[a] - size));
+    moved.box.lo[a] = lo;
+    moved.box.hi[a] = lo + size;
+  }
+  const auto d = moved.box.dims();
+  const std::uint64_t voxels = static_cast<std::uint64_t>(d[0]) * static_cast<std::uint64_t>(d[1]) * static_cast<std::uint64_t>(d[2]);
+  moved.stored_gradients = choice.stored_gradients && refined_bytes(moved.box, pyramid.type, true) <= room &&
+                           voxels * kGradientBytesPerVoxel <= kStoredGradientBytes;
+  if (refined_bytes(moved.box, pyramid.type, moved.stored_gradients) > room) return std::nullopt;
+  return moved;
+}
+
 Box3 pyramid_bounds(const PyramidSource& pyramid, const Volume& opened) {
   Box3 b = opened.bounds();
   const PyramidSource::Level& finest = pyramid.levels.front();
@@ -217,15 +255,24 @@ bool read_refinement_box(const RefinementChoice& choice, const std::string& key,
   return true;
 }
 
-RefinedVolume::RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read, const RefinedVolume* previous)
+RefinedVolume::RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read, const RefinedVolume* previous,
+                             std::unique_ptr<RefinedVolume> moving)
     : box_(choice.box), key_(coarse.pyramid->key), object_(coarse) {
   const PyramidSource& pyramid = *coarse.pyramid;
+  if (moving) previous = moving.get();
   std::optional<HeldBox> held;
-  if (previous && previous->reads(pyramid) && previous->box_.level == box_.level)
-    held = HeldBox{previous->box_.lo, previous->box_.hi, previous->object_.volume.get()};
+  if (previous && previous->reads(pyramid) && previous->box_.level == box_.level) {
+    held = HeldBox{previous->box_.lo, previous->box_.hi, previous->voxels_.get()};
+    if (moving && moving->voxels_.use_count() == 2 && moving->voxels_->dims() == box_.dims()) {  // its own and its object's
+      moving->prepared_.reset();  // its gradients and cells go before this box's are made
+      held->storage = moving->voxels_.get();
+    }
+  }
   Volume box = pyramid.read_box(box_.level, box_.lo, box_.hi, read, held ? &*held : nullptr);
+  moving.reset();
   box.set_value_range(std::min(box.min_value(), coarse.volume->min_value()), std::max(box.max_value(), coarse.volume->max_value()));
-  object_.volume = std::make_shared<const Volume>(std::move(box));
+  voxels_ = std::make_shared<Volume>(std::move(box));
+  object_.volume = voxels_;
   object_.pyramid = nullptr;
   object_.gradients = choice.stored_gradients ? VolumeObject::Gradients::Stored : VolumeObject::Gradients::OnTheFly;
   prepared_ = std::make_unique<PreparedVolume>(object_);
@@ -233,10 +280,9 @@ RefinedVolume::RefinedVolume(const VolumeObject& coarse, const RefinementChoice&
 
 bool RefinedVolume::follow(const VolumeObject& coarse) {
   const bool table = !(coarse.transfer_function == object_.transfer_function) || coarse.compositing != object_.compositing;
-  const std::shared_ptr<const Volume> box = object_.volume;
   const VolumeObject::Gradients gradients = object_.gradients;
   object_ = coarse;
-  object_.volume = box;
+  object_.volume = voxels_;
   object_.pyramid = nullptr;
   object_.gradients = gradients;
   return table;

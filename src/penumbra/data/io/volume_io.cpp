@@ -163,6 +163,17 @@ Volume load_volume_window(const std::vector<std::string>& paths, const VolumeLoa
   return window;
 }
 
+std::optional<Volume> take_held_storage(const HeldBox* held, ScalarType type, const std::array<std::int64_t, 3>& lo,
+                                        const std::array<std::int64_t, 3>& hi) {
+  if (!held || !held->storage || held->storage->type() != type || held->storage->is_bricked() || held->storage->is_view()) return std::nullopt;
+  const std::array<int, 3>& d = held->storage->dims();
+  for (std::size_t a = 0; a < 3; ++a)
+    if (held->hi[a] - held->lo[a] != d[a] || hi[a] - lo[a] != d[a]) return std::nullopt;
+  Volume taken = std::move(*held->storage);
+  taken.shift_voxels({lo[0] - held->lo[0], lo[1] - held->lo[1], lo[2] - held->lo[2]});
+  return taken;
+}
+
 Volume load_volume(const std::string& path, const VolumeLoadOptions& options, VolumeFileInfo* info) {
   return load_volume(std::vector<std::string>{path}, options, info);
 }

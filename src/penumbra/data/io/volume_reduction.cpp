@@ -188,19 +188,27 @@ Volume load_reduced_box(const std::string& path, const VolumeLoadOptions& option
                     std::to_string(r.dims[2]) + " voxels");
     const std::array<int, 3> d{static_cast<int>(hi[0] - lo[0]), static_cast<int>(hi[1] - lo[1]), static_cast<int>(hi[2] - lo[2])};
     const Vec3 origin = r.origin + r.spacing * Vec3(static_cast<float>(lo[0]), static_cast<float>(lo[1]), static_cast<float>(lo[2]));
-    Volume out(file_level.type, d, r.spacing, origin, VoxelFill::Uninitialized);
-    // slices of the box that a box held before covers in x and y are copied from it; the rest is read
+    // slices of the box that a box held before covers in x and y are copied from it (or, when it gives
+    // its voxels up, are in place already); the rest is read
     std::int64_t copy_lo = lo[2], copy_hi = lo[2];
-    if (held && held->voxels && held->voxels->type() == file_level.type && !held->voxels->is_bricked() && held->lo[0] <= lo[0] &&
-        held->hi[0] >= hi[0] && held->lo[1] <= lo[1] && held->hi[1] >= hi[1]) {
+    const bool covers = held && held->voxels && held->voxels->type() == file_level.type && !held->voxels->is_bricked() &&
+                        held->lo[0] <= lo[0] && held->hi[0] >= hi[0] && held->lo[1] <= lo[1] && held->hi[1] >= hi[1];
+    if (covers) {
       copy_lo = std::max(lo[2], held->lo[2]);
       copy_hi = std::min(hi[2], held->hi[2]);
       if (copy_lo >= copy_hi) copy_lo = copy_hi = lo[2];
     }
+    std::optional<Volume> taken = take_held_storage(held, file_level.type, lo, hi);
+    const bool in_place = taken.has_value();
+    Volume out = in_place ? std::move(*taken) : Volume(file_level.type, d, r.spacing, origin, VoxelFill::Uninitialized);
+    if (in_place) {
+      out.set_spacing(r.spacing);
+      out.set_origin(origin);
+    }
     std::uint64_t bytes_read = 0, bytes_reused = 0;
     if (copy_lo > lo[2]) bytes_read += read_block_means(path, unbudgeted, file_level, r, lo, hi, lo[2], copy_lo, out);
     if (copy_hi < hi[2]) bytes_read += read_block_means(path, unbudgeted, file_level, r, lo, hi, std::max(copy_hi, lo[2]), hi[2], out);
-    if (copy_hi > copy_lo) {
+    if (copy_hi > copy_lo && !in_place) {
       const std::size_t size = scalar_size(file_level.type);
       const std::int64_t hx = held->hi[0] - held->lo[0], hy = held->hi[1] - held->lo[1];
       const std::byte* src = held->voxels->data();
@@ -210,8 +218,10 @@ Volume load_reduced_box(const std::string& path, const VolumeLoadOptions& option
           std::memcpy(dst + static_cast<std::size_t>(((z - lo[2]) * d[1] + (y - lo[1])) * d[0]) * size,
                       src + static_cast<std::size_t>(((z - held->lo[2]) * hy + (y - held->lo[1])) * hx + (lo[0] - held->lo[0])) * size,
                       static_cast<std::size_t>(d[0]) * size);
-      bytes_reused = static_cast<std::uint64_t>(copy_hi - copy_lo) * static_cast<std::uint64_t>(d[0]) * static_cast<std::uint64_t>(d[1]) * size;
     }
+    if (copy_hi > copy_lo)
+      bytes_reused = static_cast<std::uint64_t>(copy_hi - copy_lo) * static_cast<std::uint64_t>(d[0]) * static_cast<std::uint64_t>(d[1]) *
+                     scalar_size(file_level.type);
     if (read) {
       read->bytes_read = bytes_read;
       read->bytes_reused = bytes_reused;

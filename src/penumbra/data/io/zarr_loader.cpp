@@ -319,8 +319,13 @@ Volume load_zarr(const std::string& path, int level_choice, int channel, VolumeF
   const std::array<std::int64_t, 3> want_dims{want.hi[0] - want.lo[0], want.hi[1] - want.lo[1], want.hi[2] - want.lo[2]};
   std::atomic<std::uint64_t> bytes_read{0}, bytes_reused{0};
   if (held && (!box || !held->voxels || held->voxels->type() != type || held->voxels->is_bricked())) held = nullptr;
-  Volume volume(type, {static_cast<int>(want_dims[0]), static_cast<int>(want_dims[1]), static_cast<int>(want_dims[2])}, {1, 1, 1}, {0, 0, 0},
-                VoxelFill::Uninitialized);
+  // the held box's own voxels when it gives them up (moved in place: the chunks inside it are there already)
+  std::optional<Volume> taken = box ? take_held_storage(held, type, want.lo, want.hi) : std::nullopt;
+  const bool in_place = taken.has_value();
+  Volume volume = in_place ? std::move(*taken)
+                           : Volume(type, {static_cast<int>(want_dims[0]), static_cast<int>(want_dims[1]), static_cast<int>(want_dims[2])}, {1, 1, 1},
+                                    {0, 0, 0}, VoxelFill::Uninitialized);
+  if (in_place) volume.set_opacity_length(0);
   // the chunk grid over the spatial axes (x, y, z), the leading axes fixed to the chunk holding the index
   std::array<std::int64_t, 3> chunk{}, grid{};
   for (int a3 = 0; a3 < 3; ++a3) {
@@ -380,10 +385,10 @@ Volume load_zarr(const std::string& path, int level_choice, int channel, VolumeF
         const std::array<std::int64_t, 3> part_hi{std::min(want.hi[0], (ci[0] + 1) * chunk[0]), std::min(want.hi[1], (ci[1] + 1) * chunk[1]),
                                                   std::min(want.hi[2], (ci[2] + 1) * chunk[2])};
         if (held && part_lo[0] >= held->lo[0] && part_lo[1] >= held->lo[1] && part_lo[2] >= held->lo[2] && part_hi[0] <= held->hi[0] &&
-            part_hi[1] <= held->hi[1] && part_hi[2] <= held->hi[2]) {  // in memory already: copied, not read
-          const T* src = held->voxels->data_as<T>();
+            part_hi[1] <= held->hi[1] && part_hi[2] <= held->hi[2]) {  // in memory already: copied (or in place), not read
+          const T* src = in_place ? nullptr : held->voxels->data_as<T>();
           const std::int64_t hx = held->hi[0] - held->lo[0], hy = held->hi[1] - held->lo[1];
-          for (std::int64_t z = part_lo[2]; z < part_hi[2]; ++z)
+          for (std::int64_t z = part_lo[2]; src && z < part_hi[2]; ++z)
             for (std::int64_t y = part_lo[1]; y < part_hi[1]; ++y)
               std::memcpy(dst + ((z - want.lo[2]) * want_dims[1] + (y - want.lo[1])) * want_dims[0] + (part_lo[0] - want.lo[0]),
                           src + ((z - held->lo[2]) * hy + (y - held->lo[1])) * hx + (part_lo[0] - held->lo[0]),
