@@ -58,29 +58,39 @@ TEST(VolumeCore, RejectsBadDimensionsAndNaN) {
   EXPECT_THROW(v.recompute_range(), Error);
 }
 
-// A box that moves keeps in place the voxels both places hold: each voxel v in the grid whose v + by lies
-// in it takes that voxel's value, for shifts along every axis and both directions (brute force).
-TEST(VolumeCore, ShiftedVoxelsKeepEveryVoxelBothPlacesHold) {
+// A box that moves keeps in place the voxels both places hold: each voxel v of the new grid (any
+// dimensions with no more voxels) whose v + by lies in the old grid holds that voxel's value, for shifts
+// along every axis and both directions (brute force against a copy).
+TEST(VolumeCore, MovedVoxelsKeepEveryVoxelBothGridsHold) {
   const std::array<int, 3> d{7, 5, 4};
-  for (int bz = -4; bz <= 4; ++bz)
-    for (int by = -5; by <= 5; by += 2)
-      for (int bx = -7; bx <= 7; bx += 3) {
-        Volume v(ScalarType::UInt16, d);
-        for (std::size_t n = 0; n < v.voxel_count(); ++n) v.set_value(n, static_cast<float>(n + 1));
-        const Volume before = v;
-        v.shift_voxels({bx, by, bz});
-        for (int k = 0; k < d[2]; ++k)
-          for (int j = 0; j < d[1]; ++j)
-            for (int i = 0; i < d[0]; ++i) {
-              const int si = i + bx, sj = j + by, sk = k + bz;
-              if (si < 0 || sj < 0 || sk < 0 || si >= d[0] || sj >= d[1] || sk >= d[2]) continue;
-              ASSERT_EQ(v.value(i, j, k), before.value(si, sj, sk)) << bx << "," << by << "," << bz << " at " << i << "," << j << "," << k;
-            }
-      }
-  const Volume bricked = Volume::bricked({9, 9, 9}, {1, 1, 1}, {0, 0, 0}, [](const std::array<int, 3>&) { return 0.0f; },
-                                         [](const std::array<int, 3>&, float*) {});
-  Volume b = bricked;
-  EXPECT_THROW(b.shift_voxels({1, 0, 0}), Error);
+  int checked = 0;
+  for (const std::array<int, 3>& to : std::vector<std::array<int, 3>>{{7, 5, 4}, {9, 5, 3}, {4, 7, 4}, {7, 2, 10}, {3, 3, 3}, {140, 1, 1}})
+    for (int bz = -4; bz <= 4; bz += 2)
+      for (int by = -5; by <= 5; by += 2)
+        for (int bx = -7; bx <= 7; bx += 3) {
+          Volume v(ScalarType::UInt16, d);
+          for (std::size_t n = 0; n < v.voxel_count(); ++n) v.set_value(n, static_cast<float>(n + 1));
+          const Volume before = v;
+          const std::byte* storage = v.data();
+          v.move_voxels(to, {bx, by, bz});
+          ASSERT_EQ(v.dims(), to);
+          EXPECT_EQ(v.data(), storage);
+          for (int k = 0; k < to[2]; ++k)
+            for (int j = 0; j < to[1]; ++j)
+              for (int i = 0; i < to[0]; ++i) {
+                const int si = i + bx, sj = j + by, sk = k + bz;
+                if (si < 0 || sj < 0 || sk < 0 || si >= d[0] || sj >= d[1] || sk >= d[2]) continue;
+                ++checked;
+                ASSERT_EQ(v.value(i, j, k), before.value(si, sj, sk))
+                    << to[0] << "x" << to[1] << "x" << to[2] << " by " << bx << "," << by << "," << bz << " at " << i << "," << j << "," << k;
+              }
+        }
+  EXPECT_GT(checked, 5000);
+  Volume small(ScalarType::UInt8, {4, 4, 4});
+  EXPECT_THROW(small.move_voxels({5, 4, 4}, {0, 0, 0}), Error);
+  Volume bricked = Volume::bricked({9, 9, 9}, {1, 1, 1}, {0, 0, 0}, [](const std::array<int, 3>&) { return 0.0f; },
+                                   [](const std::array<int, 3>&, float*) {});
+  EXPECT_THROW(bricked.move_voxels({9, 9, 9}, {1, 0, 0}), Error);
 }
 
 // The counter-based generator: same keys, same number; different keys, different numbers; roughly

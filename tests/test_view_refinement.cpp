@@ -253,10 +253,13 @@ TEST(ViewRefinement, ABoxOfALevelIsThatLevelsVoxels) {
   }
   // a box held that gives its voxels up to a new box of its size moves them in place: the same voxels as
   // a fresh read, the chunks inside it not read, and no second box allocated
-  for (const std::array<std::int64_t, 3>& by : std::vector<std::array<std::int64_t, 3>>{{3, 0, 0}, {-2, 4, 1}, {0, 0, -5}, {-8, -6, -7}}) {
+  // (or no larger: a box of other dimensions in the same memory)
+  for (const auto& [by, grow] : std::vector<std::pair<std::array<std::int64_t, 3>, std::array<std::int64_t, 3>>>{
+           {{3, 0, 0}, {0, 0, 0}}, {{-2, 4, 1}, {0, 0, 0}}, {{0, 0, -5}, {0, 0, 0}}, {{-8, -6, -7}, {0, 0, 0}}, {{4, -3, 2}, {8, -4, -1}},
+           {{-5, 2, 0}, {-5, 4, 0}}}) {
     const std::array<std::int64_t, 3> held_lo{8, 6, 7}, held_hi{25, 20, 19};
     const std::array<std::int64_t, 3> lo3{held_lo[0] + by[0], held_lo[1] + by[1], held_lo[2] + by[2]};
-    const std::array<std::int64_t, 3> hi3{held_hi[0] + by[0], held_hi[1] + by[1], held_hi[2] + by[2]};
+    const std::array<std::int64_t, 3> hi3{held_hi[0] + by[0] + grow[0], held_hi[1] + by[1] + grow[1], held_hi[2] + by[2] + grow[2]};
     Volume storage = load_zarr_box(dir.file("v.zarr"), 0, -1, held_lo, held_hi);
     const std::byte* memory = storage.data();
     HeldBox held{held_lo, held_hi, &storage, &storage};
@@ -273,7 +276,7 @@ TEST(ViewRefinement, ABoxOfALevelIsThatLevelsVoxels) {
     EXPECT_GT(moved_read.bytes_reused, 0u);
     EXPECT_LT(moved_read.bytes_read, fresh_read.bytes_read);
   }
-  {  // a held box of another size lends its voxels as before and keeps them
+  {  // a held box with fewer voxels lends its voxels as before and keeps them
     Volume storage = load_zarr_box(dir.file("v.zarr"), 0, -1, {0, 0, 0}, {24, 22, 17});
     HeldBox held{{0, 0, 0}, {24, 22, 17}, &storage, &storage};
     const Volume lent = load_zarr_box(dir.file("v.zarr"), 0, -1, {6, 4, 3}, {33, 27, 24}, nullptr, &held);
@@ -724,8 +727,8 @@ TEST(ViewRefinement, ANewBoxTakesTheOverlapFromTheBoxHeld) {
   EXPECT_LT(compare_images(back.image, Renderer(narrow(0)).render().image).max_abs, 1e-4);
 }
 
-// The same pan with a budget that holds one box only: the box moves — it keeps its size and memory,
-// shifted to cover the new view, and reads only what it did not hold (before, it was given up and the
+// The same pan with a budget that holds one box only: the box moves — its memory takes the new box, the
+// voxels both hold moved in place — and reads only what it did not hold (before, it was given up and the
 // new box read whole); the frame is still the finest level's in memory, and the budget holds.
 TEST(ViewRefinement, ABoxThatMovesReadsOnlyWhatItDidNotHold) {
   ScratchDir dir;
@@ -751,9 +754,9 @@ TEST(ViewRefinement, ABoxThatMovesReadsOnlyWhatItDidNotHold) {
   const RefinementStats& r = f.refinement.front();
   EXPECT_TRUE(r.error.empty()) << r.error;
   EXPECT_GT(r.loaded_bytes, 0u) << "the pan must leave the box";
-  EXPECT_EQ(r.held_bytes, box) << "the box keeps its size";
-  EXPECT_EQ(r.dims, first.refinement.at(0).dims);
+  EXPECT_LE(r.held_bytes, box) << "in the first box's memory";
   EXPECT_GT(r.reused_bytes, 0u);
+  EXPECT_EQ(r.evicted_bytes, 0u);
   EXPECT_EQ(r.kept_bytes, 0u);
   EXPECT_LE(renderer.refined_memory_bytes(), scene.refinement_bytes);
   Scene one_box = scene;

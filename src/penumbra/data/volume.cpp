@@ -273,18 +273,39 @@ void Volume::set_value(std::size_t idx, float v) {
   }
 }
 
-void Volume::shift_voxels(const std::array<std::int64_t, 3>& by) {
-  if (is_bricked() || is_view()) throw Error("shifting the voxels of a bricked or viewed volume");
-  // voxel v's index plus the offset is voxel v + by's: one move of the whole storage takes every voxel
-  // whose v + by lies in the grid where it belongs (and leaves the others holding what they may)
-  const std::int64_t offset = by[0] + by[1] * dims_[0] + by[2] * std::int64_t{dims_[0]} * dims_[1];
-  const auto n = static_cast<std::int64_t>(voxel_count());
-  if (offset == 0 || offset >= n || -offset >= n) return;
-  const std::size_t size = scalar_size(type_);
-  const auto moved = static_cast<std::size_t>(n - (offset > 0 ? offset : -offset)) * size;
-  const auto step = static_cast<std::size_t>(offset > 0 ? offset : -offset) * size;
-  if (offset > 0) std::memmove(data_, data_ + step, moved);
-  else std::memmove(data_ + step, data_, moved);
+void Volume::move_voxels(const std::array<int, 3>& dims, const std::array<std::int64_t, 3>& by) {
+  if (is_bricked() || is_view()) throw Error("moving the voxels of a bricked or viewed volume");
+  const std::size_t count = checked_voxel_count({dims[0], dims[1], dims[2]});
+  if (count > voxel_count()) throw Error("moving " + std::to_string(voxel_count()) + " voxels into a grid of " + std::to_string(count));
+  const std::array<std::int64_t, 3> old{dims_[0], dims_[1], dims_[2]}, now{dims[0], dims[1], dims[2]};
+  std::array<std::int64_t, 3> lo{}, hi{};  // the voxels both grids hold, in the new grid's indices
+  for (std::size_t a = 0; a < 3; ++a) {
+    lo[a] = std::max<std::int64_t>(0, -by[a]);
+    hi[a] = std::min(now[a], old[a] - by[a]);
+  }
+  if (lo[0] < hi[0] && lo[1] < hi[1] && lo[2] < hi[2]) {
+    // Rows of both grids lie in increasing order, so a row moved towards the front never overwrites a row
+    // still to move after it, nor one moved towards the back before it (and the reverse): the rows moving
+    // to the front go first to last, those moving to the back last to first.
+    const std::size_t size = scalar_size(type_);
+    const auto row_bytes = static_cast<std::size_t>(hi[0] - lo[0]) * size;
+    const std::int64_t rows_y = hi[1] - lo[1], rows = (hi[2] - lo[2]) * rows_y;
+    auto from = [&](std::int64_t r) {
+      const std::int64_t z = lo[2] + r / rows_y, y = lo[1] + r % rows_y;
+      return static_cast<std::size_t>(((z + by[2]) * old[1] + (y + by[1])) * old[0] + lo[0] + by[0]) * size;
+    };
+    auto to = [&](std::int64_t r) {
+      const std::int64_t z = lo[2] + r / rows_y, y = lo[1] + r % rows_y;
+      return static_cast<std::size_t>((z * now[1] + y) * now[0] + lo[0]) * size;
+    };
+    for (std::int64_t r = 0; r < rows; ++r)
+      if (to(r) < from(r)) std::memmove(data_ + to(r), data_ + from(r), row_bytes);
+    for (std::int64_t r = rows; r-- > 0;)
+      if (to(r) > from(r)) std::memmove(data_ + to(r), data_ + from(r), row_bytes);
+  }
+  dims_ = dims;
+  owned_.resize(count * scalar_size(type_));  // no more than it holds: the storage stays where it is
+  data_ = owned_.data();
 }
 
 float Volume::sample_cell(const TrilinearCell& c) const {

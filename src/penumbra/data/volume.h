@@ -211,10 +211,12 @@ public:
   }
   float value(int i, int j, int k) const { return value(index(i, j, k)); }
   void set_value(std::size_t idx, float v);  // dense volumes (a bricked voxel may be stored twice)
-  // Dense volumes that own their voxels: voxel v takes the value of voxel v + by where that lies in the
-  // grid, in place (one move of the storage; the voxels whose v + by lies outside are left undefined).
-  // What a box of a level that moves by `by` keeps of itself (render/view_refinement.h).
-  void shift_voxels(const std::array<std::int64_t, 3>& by);
+  // Dense volumes that own their voxels: becomes a grid of `dims` (no more voxels than now) whose voxel v
+  // holds the value of the old voxel v + by where that lies in the old grid (the others are left
+  // undefined), in place: each row of voxels both grids hold is moved once, no second grid allocated.
+  // What a box of a level that moves keeps of itself (render/view_refinement.h). Error for a bricked or
+  // viewed volume or more voxels.
+  void move_voxels(const std::array<int, 3>& dims, const std::array<std::int64_t, 3>& by);
 
   // Continuous voxel coordinates of a world point.
   // A window's z is the whole grid's less its first slice (exact for its samples: both are integers'

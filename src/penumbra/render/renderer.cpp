@@ -502,8 +502,8 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
     } else {
       // the box drawn is set aside; boxes kept give way, least recently drawn first, until the new one
       // fits the budget; the most recent one of the same level that overlaps it lends its voxels there,
-      // or, when the budget cannot hold it beside the new one, moves: it keeps its size, shifted to
-      // cover the view, and only what it did not hold is read
+      // or, when the budget cannot hold it beside the new one, moves: its memory takes the new box,
+      // the voxels both hold moved in place, and only what it did not hold is read
       set_aside();
       RefinementChoice wanted = *choice;
       std::unique_ptr<RefinedVolume> moving;
@@ -527,7 +527,6 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
             refined_changed_ = true;
         }
       }
-      if (!moving) wanted = with_room_to_move(*choice, pyramid, left);
       give_up_kept_boxes(refined_bytes(wanted.box, o.volume->type(), wanted.stored_gradients), frame);
       const auto still = moving ? kept.end() : std::find_if(kept.begin(), kept.end(), [&](const KeptBox& b) {
         return b.box->box().level == choice->box.level && overlaps(b.box->box(), choice->box);

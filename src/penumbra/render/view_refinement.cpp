@@ -164,42 +164,22 @@ std::optional<RefinementChoice> choose_refinement(const Camera& camera, const Py
   return best;
 }
 
-RefinementChoice with_room_to_move(const RefinementChoice& choice, const PyramidSource& pyramid, std::uint64_t room) {
-  const std::array<int, 3>& n = pyramid.levels.at(static_cast<std::size_t>(choice.box.level)).dims;
-  RefinementChoice grown = choice;
-  for (std::size_t a = 0; a < 3; ++a) {
-    const std::int64_t size = choice.box.hi[a] - choice.box.lo[a];
-    const std::int64_t step = std::max<std::int64_t>(kRefinementStep, (size + 15) / 16);
-    const std::int64_t longer = std::min<std::int64_t>(n[a], (size + step - 1) / step * step);
-    const std::int64_t lo = std::clamp<std::int64_t>(choice.box.lo[a] - (longer - size) / 2, 0, n[a] - longer);
-    grown.box.lo[a] = lo;
-    grown.box.hi[a] = lo + longer;
-  }
-  const auto d = grown.box.dims();
-  const std::uint64_t voxels = static_cast<std::uint64_t>(d[0]) * static_cast<std::uint64_t>(d[1]) * static_cast<std::uint64_t>(d[2]);
-  if (choice.stored_gradients && voxels * kGradientBytesPerVoxel > kStoredGradientBytes) return choice;
-  return refined_bytes(grown.box, pyramid.type, choice.stored_gradients) <= room ? grown : choice;
-}
-
 std::optional<RefinementChoice> moved_refinement(const RefinementChoice& choice, const LevelBox& held, const PyramidSource& pyramid,
                                                  std::uint64_t room) {
   if (held.level != choice.box.level) return std::nullopt;
-  const std::array<int, 3>& n = pyramid.levels.at(static_cast<std::size_t>(held.level)).dims;
-  RefinementChoice moved = choice;
-  for (std::size_t a = 0; a < 3; ++a) {
-    const std::int64_t size = held.hi[a] - held.lo[a];
-    if (size < choice.box.hi[a] - choice.box.lo[a] || size > n[a]) return std::nullopt;
-    // as near the held place as covers the wanted voxels
-    const std::int64_t lo = std::clamp(held.lo[a], std::max<std::int64_t>(0, choice.box.hi[a] - size), std::min<std::int64_t>(choice.box.lo[a], n[a] - size));
-    moved.box.lo[a] = lo;
-    moved.box.hi[a] = lo + size;
+  auto voxels = [](const LevelBox& b) {
+    const auto d = b.dims();
+    return static_cast<std::uint64_t>(d[0]) * static_cast<std::uint64_t>(d[1]) * static_cast<std::uint64_t>(d[2]);
+  };
+  // the chosen box, else the seen part and its apron without the margin
+  for (const LevelBox& box : {choice.box, level_box(pyramid, choice.box.level, choice.seen)}) {
+    if (voxels(box) > voxels(held)) continue;
+    RefinementChoice moved = choice;
+    moved.box = box;
+    moved.stored_gradients = choice.stored_gradients && refined_bytes(box, pyramid.type, true) <= room;
+    if (refined_bytes(box, pyramid.type, moved.stored_gradients) <= room) return moved;
   }
-  const auto d = moved.box.dims();
-  const std::uint64_t voxels = static_cast<std::uint64_t>(d[0]) * static_cast<std::uint64_t>(d[1]) * static_cast<std::uint64_t>(d[2]);
-  moved.stored_gradients = choice.stored_gradients && refined_bytes(moved.box, pyramid.type, true) <= room &&
-                           voxels * kGradientBytesPerVoxel <= kStoredGradientBytes;
-  if (refined_bytes(moved.box, pyramid.type, moved.stored_gradients) > room) return std::nullopt;
-  return moved;
+  return std::nullopt;
 }
 
 Box3 pyramid_bounds(const PyramidSource& pyramid, const Volume& opened) {
@@ -263,7 +243,8 @@ RefinedVolume::RefinedVolume(const VolumeObject& coarse, const RefinementChoice&
   std::optional<HeldBox> held;
   if (previous && previous->reads(pyramid) && previous->box_.level == box_.level) {
     held = HeldBox{previous->box_.lo, previous->box_.hi, previous->voxels_.get()};
-    if (moving && moving->voxels_.use_count() == 2 && moving->voxels_->dims() == box_.dims()) {  // its own and its object's
+    if (moving && moving->voxels_.use_count() == 2 &&
+        moving->voxels_->voxel_count() >= static_cast<std::size_t>(box_.dims()[0]) * box_.dims()[1] * box_.dims()[2]) {  // its own and its object's
       moving->prepared_.reset();  // its gradients and cells go before this box's are made
       held->storage = moving->voxels_.get();
     }

@@ -20,10 +20,9 @@
 // level around it, in the eye pass, the light pass and exact shadow rays (CastingIsosurface::finer).
 // The box is kept while the view stays inside it (a camera move inside a zoomed region reads nothing);
 // a view outside it reads a new box — taking from the old one the chunks both hold when the two fit the
-// budget together; else the old box moves: it keeps its size and memory, its voxels shifted in place to
-// cover the new view, and only what it did not hold is read (a box is read a little longer than the view
-// needs, so that the next one fits in it) — and FrameResult::refinement says what was held, loaded, read
-// from disk, reused and evicted.
+// budget together; else the old box moves: its memory takes the new box (when it has no more voxels),
+// the voxels both hold moved in place, and only what it did not hold is read — and
+// FrameResult::refinement says what was held, loaded, read from disk, reused and evicted.
 //
 // | what                     | where                    | meaning                                          |
 // |--------------------------|--------------------------|--------------------------------------------------|
@@ -32,8 +31,6 @@
 // | kRefinementApron = 2     | here                     | voxels of the finer level around the seen part   |
 // | kRefinementMargin = 1/8  | here                     | of the seen part's extent, added on each side    |
 //                                                         where it fits: a small move stays inside the box
-// | kRefinementStep = 8      | here                     | voxels: a box read is a whole number of steps    |
-//                                                         long (at least 1/16 of it), room to move in place
 #pragma once
 
 #include <array>
@@ -54,7 +51,6 @@ namespace penumbra {
 
 constexpr int kRefinementApron = 2;
 constexpr float kRefinementMargin = 0.125f;
-constexpr int kRefinementStep = 8;
 
 // The world box of what `camera` sees of `box` no deeper than `far` (along the view direction): the
 // bounds of frustum ∩ box, exact — the vertices of the intersection of the two convex bodies: the eye
@@ -92,15 +88,11 @@ struct RefinementChoice {
 };
 std::optional<RefinementChoice> choose_refinement(const Camera& camera, const PyramidSource& pyramid, const Box3& volume_box,
                                                   std::uint64_t bytes, bool gradients, bool cut_depth);
-// `choice` with its box grown around it to a whole number of steps along each axis (a step a sixteenth
-// of its length, at least kRefinementStep voxels; within the level) when that fits `room`: a box read
-// with room to move, so that the next view's box, a voxel or two longer after a small move, is still
-// this one moved (moved_refinement).
-RefinementChoice with_room_to_move(const RefinementChoice& choice, const PyramidSource& pyramid, std::uint64_t room);
 // The box a view that chose `choice` draws when the box `held` of the same level moves to it (the budget
-// holds one of them): held's dimensions, shifted as little as covers choice's box, within the level; its
-// gradients stored when `choice` stores them and they fit `room`. Nothing when the levels differ, held is
-// shorter than choice's box along an axis or the box does not fit `room`.
+// holds one of them; its voxels then hold the new box, Volume::move_voxels): the chosen box when it has no
+// more voxels than held, else the seen part and its apron alone (without the margin) when that has not;
+// its gradients stored when `choice` stores them and they fit `room`. Nothing when the levels differ or
+// neither fits held's voxels and `room`.
 std::optional<RefinementChoice> moved_refinement(const RefinementChoice& choice, const LevelBox& held, const PyramidSource& pyramid,
                                                  std::uint64_t room);
 // The world box of a pyramid: its opened level's (`opened`, the volume held) and its finest's together.
@@ -155,8 +147,9 @@ public:
   // Its lattice step is the object's step in the box's voxels (the renderer then shares the finest).
   // `previous`: a box of the same level and store held until now, whose voxels the new box takes where
   // they overlap instead of reading their chunks. `moving`: such a box given up for this one (the budget
-  // holds one of them): when it has this box's dimensions and nothing else shares its voxels, they become
-  // this box's, moved in place (HeldBox::storage), else it lends them as `previous` does; it is gone after.
+  // holds one of them): when it has at least this box's voxels and nothing else shares them, its storage
+  // becomes this box's, the voxels both hold moved in place (HeldBox::storage), else it lends them as
+  // `previous` does; it is gone after.
   RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read, const RefinedVolume* previous = nullptr,
                 std::unique_ptr<RefinedVolume> moving = nullptr);
 
