@@ -133,7 +133,9 @@ TEST(ReducedRefinement, ABoxOfAReductionIsThatPartOfTheWholeReduction) {
       EXPECT_EQ(moved.max_value(), again.max_value());
       if (by[0] == 0 && by[1] == 0) {
         EXPECT_EQ(to_read.bytes_reused, std::uint64_t(12 - std::abs(by[2])) * 26 * 22 * scalar_size(whole.type()));
-        if (file.find("gzip") == std::string::npos) EXPECT_LT(to_read.bytes_read, again_read.bytes_read);
+        if (file.find("gzip") == std::string::npos) {
+          EXPECT_LT(to_read.bytes_read, again_read.bytes_read);
+        }
       } else {
         EXPECT_EQ(to_read.bytes_reused, 0u);
       }

@@ -163,7 +163,6 @@ public:
   std::uint64_t held_bytes() const;  // refined_bytes of its box: what the budget counts
   PreparedVolume& prepared() { return *prepared_; }
   const VolumeObject& object() const { return object_; }  // the coarse object with the box as its volume
-  const std::shared_ptr<Volume>& voxels() const { return voxels_; }  // the box's voxels (object().volume)
   float step_world() const { return object_.step_world(); }  // its own lattice step
 
 private:
