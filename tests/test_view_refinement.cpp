@@ -67,6 +67,14 @@ Box3 ray_segments_seen(const Camera& camera, const Box3& box, int n) {
   return seen;
 }
 
+// The camera moved sideways by `shift`, looking the same way.
+Camera panned(const Camera& camera, const Vec3& shift) {
+  Camera c = camera;
+  c.eye = c.eye + shift;
+  c.target = c.target + shift;
+  return c;
+}
+
 }  // namespace
 
 // The seen part is exact: it holds every point of the box the camera sees, and no lattice point of a
@@ -298,6 +306,13 @@ std::string write_ball_pyramid(const ScratchDir& dir, int size, float small_dens
 }
 
 nlohmann::json ball_scene(const std::string& store, std::uint64_t budget, bool refine) { return ball_view_scene(store, budget, refine, "none"); }
+
+// The balls' pyramid under `budget`, seen narrowly (a box of a fraction of what the budget leaves).
+Scene narrow_ball_scene(const std::string& store, std::uint64_t budget, float fov_deg) {
+  nlohmann::json j = ball_scene(store, budget, true);
+  j["camera"]["fov_deg"] = fov_deg;
+  return build_scene(j, "");
+}
 
 }  // namespace
 
@@ -692,20 +707,13 @@ TEST(ViewRefinement, AnotherStoreOfTheSameGridIsReadAnew) {
 TEST(ViewRefinement, ANewBoxTakesTheOverlapFromTheBoxHeld) {
   ScratchDir dir;
   const std::string store = write_ball_pyramid(dir, 64);
-  auto narrow = [&](std::uint64_t budget) {  // a narrow view: a box of a fifth of what the budget leaves
-    nlohmann::json j = ball_scene(store, budget, true);
-    j["camera"]["fov_deg"] = 6;
-    return build_scene(j, "");
-  };
+  auto narrow = [&](std::uint64_t budget) { return narrow_ball_scene(store, budget, 6); };
   const Scene scene = narrow(1u << 20);
   Renderer renderer(scene);
   const FrameResult first = renderer.render();
   ASSERT_EQ(first.refinement.size(), 1u);
   ASSERT_LE(2 * first.refinement.front().held_bytes, scene.refinement_bytes);  // room for two
-  Camera moved = scene.camera;
-  const Vec3 shift{0.04f, 0.0f, 0.0f};
-  moved.eye = moved.eye + shift;
-  moved.target = moved.target + shift;
+  const Camera moved = panned(scene.camera, {0.04f, 0.0f, 0.0f});
   const FrameResult f = renderer.render(moved, scene.lights);
   ASSERT_EQ(f.refinement.size(), 1u);
   const RefinementStats& r = f.refinement.front();
@@ -733,11 +741,7 @@ TEST(ViewRefinement, ANewBoxTakesTheOverlapFromTheBoxHeld) {
 TEST(ViewRefinement, ABoxThatMovesReadsOnlyWhatItDidNotHold) {
   ScratchDir dir;
   const std::string store = write_ball_pyramid(dir, 64);
-  auto narrow = [&](std::uint64_t budget) {
-    nlohmann::json j = ball_scene(store, budget, true);
-    j["camera"]["fov_deg"] = 7;
-    return build_scene(j, "");
-  };
+  auto narrow = [&](std::uint64_t budget) { return narrow_ball_scene(store, budget, 7); };
   Scene scene = narrow(1u << 20);
   const std::uint64_t box = Renderer(scene).render().refinement.at(0).held_bytes;
   ASSERT_GT(box, 0u);
@@ -745,10 +749,7 @@ TEST(ViewRefinement, ABoxThatMovesReadsOnlyWhatItDidNotHold) {
   Renderer renderer(scene);
   const FrameResult first = renderer.render();
   ASSERT_EQ(first.refinement.at(0).held_bytes, box);
-  Camera moved = scene.camera;
-  const Vec3 shift{0.16f, 0.0f, 0.0f};
-  moved.eye = moved.eye + shift;
-  moved.target = moved.target + shift;
+  const Camera moved = panned(scene.camera, {0.16f, 0.0f, 0.0f});
   const FrameResult f = renderer.render(moved, scene.lights);
   ASSERT_EQ(f.refinement.size(), 1u);
   const RefinementStats& r = f.refinement.front();
@@ -759,8 +760,7 @@ TEST(ViewRefinement, ABoxThatMovesReadsOnlyWhatItDidNotHold) {
   EXPECT_EQ(r.evicted_bytes, 0u);
   EXPECT_EQ(r.kept_bytes, 0u);
   EXPECT_LE(renderer.refined_memory_bytes(), scene.refinement_bytes);
-  Scene one_box = scene;
-  Renderer fresh(one_box);
+  Renderer fresh(scene);
   const FrameResult alone = fresh.render(moved, scene.lights);
   EXPECT_EQ(alone.refinement.at(0).reused_bytes, 0u);
   EXPECT_LT(r.read_bytes, alone.refinement.at(0).read_bytes);

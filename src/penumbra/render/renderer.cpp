@@ -507,9 +507,8 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
       set_aside();
       RefinementChoice wanted = *choice;
       std::unique_ptr<RefinedVolume> moving;
-      const auto lender = std::find_if(kept.begin(), kept.end(), [&](const KeptBox& b) {
-        return b.box->box().level == choice->box.level && overlaps(b.box->box(), choice->box);
-      });
+      auto overlapping = [&](const KeptBox& b) { return b.box->box().level == choice->box.level && overlaps(b.box->box(), choice->box); };
+      const auto lender = std::find_if(kept.begin(), kept.end(), overlapping);
       if (lender != kept.end()) {
         std::uint64_t all_kept = 0;
         for (const auto& boxes : kept_)
@@ -528,9 +527,7 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
         }
       }
       give_up_kept_boxes(refined_bytes(wanted.box, o.volume->type(), wanted.stored_gradients), frame);
-      const auto still = moving ? kept.end() : std::find_if(kept.begin(), kept.end(), [&](const KeptBox& b) {
-        return b.box->box().level == choice->box.level && overlaps(b.box->box(), choice->box);
-      });
+      const auto still = moving ? kept.end() : std::find_if(kept.begin(), kept.end(), overlapping);  // (if not given up)
       const RefinedVolume* lends = still == kept.end() ? nullptr : still->box.get();
       const bool read = read_refinement_box(wanted, pyramid.key, [&](WindowRead& window) {
         held = std::make_unique<RefinedVolume>(o, wanted, &window, lends, std::move(moving));
