@@ -204,7 +204,7 @@ def zoom(o, cli, out):
 def iso(o, cli, out):
     """The close view of the head as the bone isosurface of a hidden volume: the pyramid (or the file)
     opened coarse under 1/8 and 1/4 of its size, the surface extracted from the opened level alone and
-    refined from a box where the camera looks, against level 0 in memory."""
+    refined from a box where the camera looks, against level 0 in memory; then the session of `zoom` at 1/8."""
     scene, in_memory = head_close_view(o, cli, out, "iso")
     doc = json.load(open(scene))
     doc["volumes"][0] = {"file": doc["volumes"][0]["file"], "visible": False}
@@ -221,7 +221,10 @@ def iso(o, cli, out):
         extract = f"{r['extract_ms']:.0f}" if r["extract_ms"] is not None else "–"
         print(f"| {r['case']} | {'×'.join(map(str, r['dims']))} | {drawn} | {r['held_mib']:.0f} | {r['read_mib']:.1f} | {r['load_ms']:.0f} | "
               f"{r['first_image_s']:.1f} | {r['frame_ms']:.0f} | {extract} | {r['peak_mib']:.0f} | {r['rmse']:.4f} | {r['psnr']} |")
-    json.dump(rows, open(os.path.join(out, "budget_iso_file.json" if o.file else "budget_iso.json"), "w"), indent=2)
+    session = session_steps(cli, scene, out, ["--memory-budget", FULL_BYTES // 8, "--width", o.size, "--height", o.size],
+                            [0.0, 0.0, 650.0], 450.0)
+    json.dump({"cases": rows, "session": session}, open(os.path.join(out, "budget_iso_file.json" if o.file else "budget_iso.json"), "w"),
+              indent=2)
 
 
 def session_steps(cli, scene, out, args, target, distance):

@@ -320,6 +320,45 @@ TEST(ReducedRefinement, AnIsosurfaceIsExtractedFromTheRefinedBox) {
   EXPECT_EQ(refined.refined_memory_bytes(), 0u);
 }
 
+// The exact reference, `raycast`, is refined too: each eye ray meets the box's surface inside the box
+// and the reduced volume's before and behind it (exact shadow rays the same), so the frame is near the
+// file's in memory where the reduced surface alone is far from it; a preview casts the reduced volume's.
+// (Lit as in the test above: a shadow ray leaving the box meets the reduced surface beyond it.)
+TEST(ReducedRefinement, ARaycastIsosurfaceMeetsTheRefinedBox) {
+  ScratchDir dir;
+  const std::string file = write_ball_nrrd(dir, 64);
+  for (const char* technique : {"none", "ray_traced"}) {
+    SCOPED_TRACE(technique);
+    auto raycast_scene = [&](std::uint64_t budget, bool refine) {
+      nlohmann::json j = ball_isosurface_scene(file, budget, refine);
+      j["isosurfaces"][0]["method"] = "raycast";
+      j["shadows"] = {{"technique", technique}};
+      j["lights"][0]["direction"] = {0.6, -1.0, -0.3};
+      return build_scene(j, "");
+    };
+    const Scene scene = raycast_scene(1u << 20, true);
+    Renderer refined(scene);
+    const FrameResult full = refined.render();
+    ASSERT_EQ(full.refinement.size(), 1u);
+    EXPECT_EQ(full.refinement.front().level, 0);
+    EXPECT_GT(full.refinement.front().held_bytes, 0u);
+    const Image in_memory = Renderer(raycast_scene(0, true)).render().image;
+    Renderer unrefined(raycast_scene(1u << 20, false));
+    const Image opened_only = unrefined.render().image;
+    FailureImages keep;
+    keep.add(std::string(technique) + "_refined", full.image, in_memory);
+    keep.add(std::string(technique) + "_opened", opened_only, in_memory);
+    const ImageDifference refined_error = compare_images(full.image, in_memory), opened_error = compare_images(opened_only, in_memory);
+    EXPECT_LT(refined_error.rmse, 2e-3) << refined_error.rmse << " against the reduced surface's " << opened_error.rmse;
+    EXPECT_GT(opened_error.rmse, 0.01);
+    EXPECT_TRUE(non_trivial(full.image));
+    FrameRequest preview;
+    preview.quality = Quality::Preview;
+    preview.preview_divisor = 1;
+    EXPECT_EQ(compare_images(refined.render(preview).image, unrefined.render(preview).image).max_abs, 0.0);
+  }
+}
+
 // A visible volume and its isosurface: the isosurface takes the volume's refined box (one box read,
 // one refinement entry; the hierarchy over it, like the opened level's, is not counted in the budget).
 TEST(ReducedRefinement, AnIsosurfaceSharesTheVisibleVolumesBox) {

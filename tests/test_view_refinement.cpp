@@ -774,6 +774,55 @@ TEST(ViewRefinement, ABoxThatMovesReadsOnlyWhatItDidNotHold) {
   EXPECT_LE(renderer.refined_memory_bytes(), scene.refinement_bytes);
 }
 
+// The isosurface of a hidden volume is drawn from a box of its own; a pan past the box's margin moves
+// it when the budget holds one box (its memory takes the new box, and only what it did not hold is
+// read), and makes it lend the voxels both hold when the budget holds two (it is given up after). Either
+// way the frame is a fresh renderer's (which reads the new box whole) and near the finest level's.
+TEST(ViewRefinement, AnIsosurfacesOwnBoxMovesWithAPan) {
+  ScratchDir dir;
+  const std::string store = write_ball_pyramid(dir, 64);
+  auto surface_scene = [&](std::uint64_t budget) {
+    nlohmann::json j = ball_scene(store, budget, true);
+    j["camera"]["fov_deg"] = 7;
+    j["volumes"][0]["visible"] = false;
+    j["volumes"][0].erase("transfer_function");
+    j["isosurfaces"] = nlohmann::json::array({{{"volume", 0}, {"value", 0.75}, {"color", {0.9, 0.8, 0.6}}}});
+    return build_scene(j, "");
+  };
+  Scene scene = surface_scene(1u << 20);
+  const std::uint64_t box = Renderer(scene).render().refinement.at(0).held_bytes;
+  ASSERT_GT(box, 0u);
+  const Camera moved = panned(scene.camera, {0.16f, 0.0f, 0.0f});
+  const Image in_memory = Renderer(surface_scene(0)).render(moved, scene.lights).image;
+  for (const bool room_for_two : {false, true}) {
+    SCOPED_TRACE(room_for_two ? "room for two boxes" : "room for one box");
+    scene.refinement_bytes = room_for_two ? box * 5 / 2 : box * 3 / 2;
+    Renderer renderer(scene);
+    ASSERT_EQ(renderer.render().refinement.at(0).held_bytes, box);
+    const FrameResult f = renderer.render(moved, scene.lights);
+    ASSERT_EQ(f.refinement.size(), 1u);
+    const RefinementStats& r = f.refinement.front();
+    EXPECT_TRUE(r.error.empty()) << r.error;
+    EXPECT_GT(r.loaded_bytes, 0u) << "the pan must leave the box";
+    EXPECT_GT(r.reused_bytes, 0u);
+    EXPECT_EQ(r.evicted_bytes, room_for_two ? box : 0u);  // a box that moves is not given up
+    if (!room_for_two) {
+      EXPECT_LE(r.held_bytes, box) << "in the first box's memory";
+    }
+    EXPECT_EQ(renderer.refined_memory_bytes(), r.held_bytes);
+    EXPECT_LE(renderer.refined_memory_bytes(), scene.refinement_bytes);
+    Renderer fresh(scene);
+    const FrameResult alone = fresh.render(moved, scene.lights);
+    EXPECT_EQ(alone.refinement.at(0).reused_bytes, 0u);
+    EXPECT_LT(r.read_bytes, alone.refinement.at(0).read_bytes);
+    FailureImages keep;
+    keep.add(room_for_two ? "lent" : "moved", f.image, alone.image);
+    EXPECT_LT(compare_images(f.image, alone.image).max_abs, 1e-4);
+    EXPECT_LT(compare_images(f.image, in_memory).rmse, 2e-3);
+    EXPECT_TRUE(non_trivial(f.image));
+  }
+}
+
 // Views that move on past the boxes a budget can keep: the least recently drawn box is given up first
 // (never over the budget), a view back to a box still kept reads nothing, and one back to a box given
 // up reads it again.

@@ -157,22 +157,37 @@ float IsosurfaceRaycaster::first_hit(const Ray& ray, float tmin, float tmax) con
   return kInfinity;
 }
 
-IsoPoints IsosurfaceRaycaster::render(const Camera& camera, const ClipPlanes& clip) const {
+float IsosurfaceRaycaster::first_hit(const Ray& ray, float tmin, float tmax, const IsosurfaceRaycaster& finer,
+                                     const IsosurfaceRaycaster** met) const {
+  if (met) *met = this;
+  float f0, f1;
+  if (!finer.tree_->volume().bounds().clip(ray, f0, f1, tmin, tmax)) return first_hit(ray, tmin, tmax);
+  float t = first_hit(ray, tmin, f0);
+  if (t != kInfinity) return t;
+  t = finer.first_hit(ray, f0, f1);
+  if (t != kInfinity) {
+    if (met) *met = &finer;
+    return t;
+  }
+  return first_hit(ray, f1, tmax);
+}
+
+IsoPoints IsosurfaceRaycaster::render(const Camera& camera, const ClipPlanes& clip, const IsosurfaceRaycaster* finer) const {
   const PrimaryRays rays(camera);
   const std::size_t pixels = static_cast<std::size_t>(camera.width) * static_cast<std::size_t>(camera.height);
   std::vector<IsoPoint> at_pixel(pixels);
   std::vector<std::uint8_t> hit(pixels, 0);
-  const Volume& volume = tree_->volume();
   parallel_for_tiles(camera.width, camera.height, 16, [&](const Tile& tile) {
     for (int y = tile.y0; y < tile.y1; ++y)
       for (int x = tile.x0; x < tile.x1; ++x) {
         const Ray ray = rays.ray(x, y);
         float t0 = 0, t1 = kInfinity;  // the part the clip planes keep
         if (!clip.keep(ray, t0, t1)) continue;
-        const float t = first_hit(ray, t0, t1);
+        const IsosurfaceRaycaster* met = this;
+        const float t = finer ? first_hit(ray, t0, t1, *finer, &met) : first_hit(ray, t0, t1);
         if (t == kInfinity) continue;
         const Vec3 p = ray.at(t);
-        Vec3 n = normalize(volume.gradient(p));
+        Vec3 n = normalize(met->tree_->volume().gradient(p));
         if (n == Vec3{0, 0, 0}) n = -ray.direction;
         if (dot(n, ray.direction) > 0) n = -n;
         const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(camera.width) + static_cast<std::size_t>(x);

@@ -27,11 +27,16 @@ public:
   // The first crossing of the isosurface in (tmin, tmax] (the ray clipped to the volume's cells), or
   // kInfinity. An exact shadow ray: first_hit(Ray{p + n * eps, to_light}, 0, distance) < kInfinity.
   float first_hit(const Ray& ray, float tmin, float tmax) const;
+  // The same with `finer`, this surface over a box of finer voxels (a refined view of a volume opened
+  // coarse, render/view_refinement.h): this surface before the box's bounds, finer's inside them, this
+  // one behind them. `met`: the ray caster whose surface the crossing lies on.
+  float first_hit(const Ray& ray, float tmin, float tmax, const IsosurfaceRaycaster& finer, const IsosurfaceRaycaster** met = nullptr) const;
 
   // One point per pixel whose primary ray (PrimaryRays) hits, in pixel order (y, then x); the same for
   // any thread count. Normal: the normalized gradient turned to face the eye (-direction where the
-  // gradient vanishes); distance: the ray parameter, i.e. from the eye.
-  IsoPoints render(const Camera& camera, const ClipPlanes& clip = ClipPlanes()) const;  // clip: planes that cut it
+  // gradient vanishes); distance: the ray parameter, i.e. from the eye. `clip`: planes that cut it;
+  // `finer`: a refined box of the same surface, met inside its bounds (its voxels' gradient there).
+  IsoPoints render(const Camera& camera, const ClipPlanes& clip = ClipPlanes(), const IsosurfaceRaycaster* finer = nullptr) const;
 
   float isovalue() const { return isovalue_; }
 

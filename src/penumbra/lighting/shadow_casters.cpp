@@ -101,15 +101,9 @@ float ShadowCasters::surface_hit(const Ray& r, float t0, float t1, bool finer_su
   for (const auto& iso : isosurfaces_) {
     float a = t0, b = best;  // the part of the ray the clip planes keep
     if (!iso.clip.keep(r, a, b)) continue;
-    float t = kInfinity, f0, f1;
-    if (finer_surfaces && iso.finer.raycaster && iso.finer_box.clip(r, f0, f1, a, b)) {
-      // the opened level's surface before the refined box, the box's in it, the opened level's behind it
-      t = iso.raycaster->first_hit(r, a, f0);
-      if (t == kInfinity) t = iso.finer.raycaster->first_hit(r, f0, f1);
-      if (t == kInfinity) t = iso.raycaster->first_hit(r, f1, b);
-    } else {
-      t = iso.raycaster->first_hit(r, a, b);
-    }
+    // the opened level's surface before a refined box, the box's in it, the opened level's behind it
+    const float t = finer_surfaces && iso.finer.raycaster ? iso.raycaster->first_hit(r, a, b, *iso.finer.raycaster)
+                                                          : iso.raycaster->first_hit(r, a, b);
     if (t > t0) best = std::min(best, t);
   }
   return best < t1 ? best : kInfinity;

@@ -49,9 +49,12 @@ struct IsosurfaceFrameStats {
 };
 
 // The eye pass alone: the isosurface's visible points for `camera` by the object's method; `clip`: the
-// planes that cut it (what they remove is not drawn, and the surface behind shows); `exclude` (the
-// `points` method only): a box whose surface a refined pass draws (ExtractionOptions::exclude).
+// planes that cut it (what they remove is not drawn, and the surface behind shows). `finer`: the same
+// surface over a box of finer voxels (a full frame of a volume opened coarse, render/view_refinement.h),
+// drawn inside the box's bounds and `iso` around it — `points` extracts from both, the box kept out of
+// iso's pass (ExtractionOptions::exclude), and the frame keeps each pixel's nearer point; `raycast` meets
+// the box's surface inside it (IsosurfaceRaycaster::render). `mesh` takes none (not refined).
 IsoPoints isosurface_eye_points(const Camera& camera, PreparedIsosurface& iso, IsosurfaceFrameStats& stats,
-                                const ClipPlanes& clip = ClipPlanes(), const Box3* exclude = nullptr);
+                                const ClipPlanes& clip = ClipPlanes(), const PreparedIsosurface* finer = nullptr);
 
 }  // namespace penumbra

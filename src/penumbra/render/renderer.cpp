@@ -405,7 +405,7 @@ std::size_t Renderer::refined_memory_bytes() const {
 
 std::uint64_t Renderer::RefinedSurfaces::held_bytes() const {
   // over a visible volume's box the hierarchy is, like the opened level's, outside the budget
-  return own_voxels ? voxels->memory_bytes() + tree->memory_bytes() : 0;
+  return own ? voxels->memory_bytes() + tree->memory_bytes() : 0;
 }
 
 namespace {
@@ -573,7 +573,7 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
   for (std::size_t s = 0; s < scene_.isosurfaces.size(); ++s) {
     const IsosurfaceObject& o = scene_.isosurfaces[s];
     const VolumeObject& v = scene_.volumes[o.volume];
-    if (o.method == IsosurfaceMethod::Points && v.pyramid && !v.volume->is_window()) wanted[o.volume].push_back(s);
+    if (o.method != IsosurfaceMethod::Mesh && v.pyramid && !v.volume->is_window()) wanted[o.volume].push_back(s);
   }
   for (auto it = refined_surfaces_.begin(); it != refined_surfaces_.end();) {  // a volume no longer wanted gives its box up
     if (wanted.count(it->first)) {
@@ -583,7 +583,7 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
     RefinementStats stats;
     stats.volume = it->first;
     stats.evicted_bytes = it->second.held_bytes();
-    if (stats.evicted_bytes && it->second.own_voxels) frame.refinement.push_back(stats);
+    if (stats.evicted_bytes && it->second.own) frame.refinement.push_back(stats);
     it = refined_surfaces_.erase(it);
     refined_changed_ = true;  // the light pass casts from it no more
   }
@@ -599,9 +599,9 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
     stats.volume = i;
     stats.opened_level = stats.level = pyramid.opened;
     auto found = refined_surfaces_.find(i);
-    auto evict = [&] {
+    auto evict = [&](bool moves = false) {  // moves: its voxels go to the new box (not evicted)
       if (found == refined_surfaces_.end()) return;
-      if (found->second.own_voxels) stats.evicted_bytes += found->second.held_bytes();
+      if (found->second.own && !moves) stats.evicted_bytes += found->second.held_bytes();
       refined_surfaces_.erase(found);
       found = refined_surfaces_.end();
       refined_changed_ = true;
@@ -609,7 +609,7 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
     if (drawn) {  // the hierarchy over the box the eye pass draws the volume from
       if (found == refined_surfaces_.end() || found->second.voxels != drawn->object().volume) {
         evict();
-        RefinedSurfaces r{drawn->box(), pyramid.key, drawn->object().volume, false, std::make_shared<const GridTree>(*drawn->object().volume), {}};
+        RefinedSurfaces r{drawn->box(), pyramid.key, drawn->object().volume, nullptr, std::make_shared<const GridTree>(*drawn->object().volume), {}};
         found = refined_surfaces_.emplace(i, std::move(r)).first;
         refined_changed_ = true;
         rebuilt(indexed("volumes", i, "refined_hierarchy"), Quality::Full, frame);
@@ -620,7 +620,7 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
       const auto for_voxels = static_cast<std::uint64_t>(static_cast<double>(left) * voxel / (voxel + 0.15));
       const std::optional<RefinementChoice> choice =
           choose_refinement(camera, pyramid, pyramid_bounds(pyramid, *o.volume), for_voxels, false, true);
-      const bool keep = found != refined_surfaces_.end() && found->second.own_voxels && found->second.key == pyramid.key &&
+      const bool keep = found != refined_surfaces_.end() && found->second.own && found->second.key == pyramid.key &&
                         box_serves(found->second.box, found->second.held_bytes(), pyramid, choice, left);
       std::optional<FailedRefinement>& failed = surface_refine_failures_[i];
       if (keep) {
@@ -628,21 +628,46 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
       } else if (choice && failed && failed->covers(pyramid, *choice)) {
         evict();
         stats.error = failed->error;
-      } else {
+      } else if (!choice) {
         evict();
-        if (choice) {
-          give_up_kept_boxes(refined_bytes(choice->box, pyramid.type, false) * 6 / 5, frame);  // with the hierarchy
-          const bool read = read_refinement_box(*choice, pyramid.key, [&](WindowRead& window) {
-            auto voxels = std::make_shared<const Volume>(pyramid.read_box(choice->box.level, choice->box.lo, choice->box.hi, &window, nullptr));
-            auto tree = std::make_shared<const GridTree>(*voxels);
-            RefinedSurfaces r{choice->box, pyramid.key, std::move(voxels), true, std::move(tree), {}};
-            found = refined_surfaces_.emplace(i, std::move(r)).first;
-            return found->second.held_bytes();
-          }, stats, failed);
-          if (read) {  // (else the isosurfaces keep the opened level)
-            refined_changed_ = true;
-            rebuilt(indexed("volumes", i, "refined_hierarchy"), Quality::Full, frame);
+      } else {
+        // a box of the same store and level held until now gives the new one the voxels both hold: lent
+        // when the budget holds the two, else moved (its memory takes the new box, those voxels moved in
+        // place, Volume::move_voxels), else given up first and the new box read whole
+        RefinementChoice reading = *choice;
+        auto with_hierarchy = [&](const LevelBox& b) { return refined_bytes(b, pyramid.type, false) * 6 / 5; };
+        std::optional<HeldBox> held;
+        std::shared_ptr<Volume> moving;
+        if (found != refined_surfaces_.end() && found->second.own && found->second.key == pyramid.key &&
+            found->second.box.level == choice->box.level && overlaps(found->second.box, choice->box)) {
+          const RefinedSurfaces& old = found->second;
+          held = HeldBox{old.box.lo, old.box.hi, old.own.get()};
+          if (old.held_bytes() + with_hierarchy(choice->box) > left) {
+            const std::optional<RefinementChoice> moved = moved_refinement(*choice, old.box, pyramid, for_voxels);
+            if (moved) {
+              reading = *moved;
+              moving = old.own;
+              held->storage = moving.get();
+            } else {
+              held.reset();
+            }
           }
+        }
+        if (!held || moving) evict(moving != nullptr);  // (a box that lends is given up once the new one is read)
+        give_up_kept_boxes(with_hierarchy(reading.box), frame);
+        std::optional<RefinedSurfaces> made;
+        const bool read = read_refinement_box(reading, pyramid.key, [&](WindowRead& window) {
+          auto voxels = std::make_shared<Volume>(pyramid.read_box(reading.box.level, reading.box.lo, reading.box.hi, &window, held ? &*held : nullptr));
+          auto tree = std::make_shared<const GridTree>(*voxels);
+          made = RefinedSurfaces{reading.box, pyramid.key, voxels, voxels, std::move(tree), {}};
+          return made->held_bytes();
+        }, stats, failed);
+        moving.reset();
+        evict();
+        if (read) {  // (else the isosurfaces keep the opened level)
+          found = refined_surfaces_.emplace(i, std::move(*made)).first;
+          refined_changed_ = true;
+          rebuilt(indexed("volumes", i, "refined_hierarchy"), Quality::Full, frame);
         }
       }
     }
@@ -661,7 +686,7 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
         }
         fine->object = &scene_.isosurfaces[s];
       }
-      if (r.own_voxels) {
+      if (r.own) {
         stats.level = r.box.level;
         stats.dims = r.box.dims();
         stats.held_bytes = r.held_bytes();
@@ -867,20 +892,9 @@ FrameResult Renderer::render_at(const Camera& camera, const std::vector<Light>& 
     const ClipPlanes clip = scene_.clip_planes_for(scene_.isosurfaces[s].clip);
     // a full frame draws the surface inside a refined box from the box, and the opened level around it
     const auto refined = refined_frame ? refined_surfaces_.find(scene_.isosurfaces[s].volume) : refined_surfaces_.end();
-    PreparedIsosurface* finer = nullptr;
-    Box3 inside;
-    if (refined != refined_surfaces_.end() && refined->second.surfaces.count(s)) {
-      finer = refined->second.surfaces.at(s).get();
-      inside = refined->second.voxels->bounds();
-    }
-    eye[s] = penumbra::isosurface_eye_points(camera, *isosurfaces_[s], one, clip, finer ? &inside : nullptr);
-    if (finer) {
-      IsosurfaceFrameStats fine;
-      const IsoPoints more = penumbra::isosurface_eye_points(camera, *finer, fine, clip);
-      eye[s].insert(eye[s].end(), more.begin(), more.end());
-      one.extract_ms += fine.extract_ms;
-      one.extraction.add(fine.extraction);
-    }
+    const PreparedIsosurface* finer =
+        refined != refined_surfaces_.end() && refined->second.surfaces.count(s) ? refined->second.surfaces.at(s).get() : nullptr;
+    eye[s] = penumbra::isosurface_eye_points(camera, *isosurfaces_[s], one, clip, finer);
     if (!had_mesh && isosurfaces_[s]->mesh) rebuilt(indexed("isosurfaces", s, "mesh"), Quality::Full, frame);
     frame.isosurface.add(one);
     frame.isosurface.points += eye[s].size();

@@ -155,9 +155,10 @@ private:
   // eye pass's step made the finest of the boxes' and the volumes'.
   // Returns what the budget leaves after the boxes.
   std::uint64_t refine_volumes(const Camera& camera, FrameResult& frame);
-  // A full frame: for each volume opened coarse whose isosurfaces extract points, a box of a finer level
+  // A full frame: for each volume opened coarse whose isosurfaces extract points or ray cast, a box of a finer level
   // where the camera looks (the visible volume's box when it has one, else its own, from what `left`
-  // leaves), its min/max hierarchy and those isosurfaces prepared over it.
+  // leaves), its min/max hierarchy and those isosurfaces prepared over it. An own box that no longer
+  // serves gives the new one the voxels both hold: lent when `left` holds the two, else moved.
   void refine_isosurfaces(const Camera& camera, std::uint64_t left, FrameResult& frame);
   // Gives up kept boxes, least recently drawn first, until `room` more bytes fit the refinement budget
   // beside everything refined that is held; what each volume gave up goes to its refinement entry.
@@ -217,7 +218,9 @@ private:
     LevelBox box;
     std::string key;  // PyramidSource::key
     std::shared_ptr<const Volume> voxels;
-    bool own_voxels = false;  // read for the isosurfaces (else the refined volume's, counted there)
+    // voxels when read for the isosurfaces, which a box that moves takes over (null: the refined
+    // volume's, counted there)
+    std::shared_ptr<Volume> own;
     std::shared_ptr<const GridTree> tree;
     std::map<std::size_t, std::unique_ptr<PreparedIsosurface>> surfaces;  // by scene isosurface
     std::uint64_t held_bytes() const;  // what the budget counts: its own box's voxels and hierarchy

@@ -16,8 +16,9 @@
 // ray-traced shadows and ambient occlusion) cast from the box where it lies and from the opened level
 // elsewhere (ShadowCasters' CastingVolume::finer), on a lattice as fine as the box's voxel; what reads
 // the extinction SAT (cone shadows, volume ambient occlusion, the light cache) keeps the opened level.
-// An isosurface (`points`) is extracted, in full frames, from the box where it lies and from the opened
-// level around it, in the eye pass, the light pass and exact shadow rays (CastingIsosurface::finer).
+// An isosurface (`points`, `raycast`) is drawn, in full frames, from the box where it lies and from the
+// opened level around it, in the eye pass, the light pass and exact shadow rays (CastingIsosurface::finer); the
+// box is the visible volume's, or, for a hidden volume, one of its own, which lends or moves as below.
 // The box is kept while the view stays inside it (a camera move inside a zoomed region reads nothing);
 // a view outside it reads a new box — taking from the old one the chunks both hold when the two fit the
 // budget together; else the old box moves: its memory takes the new box (when it has no more voxels),
