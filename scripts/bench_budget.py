@@ -208,12 +208,13 @@ def iso(o, cli, out):
     scene, in_memory = head_close_view(o, cli, out, "iso")
     doc = json.load(open(scene))
     doc["volumes"][0] = {"file": doc["volumes"][0]["file"], "visible": False}
-    doc["isosurfaces"] = [{"value": 1400, "method": "points", "color": [0.93, 0.89, 0.80]}]
-    doc["shadows"] = {"technique": "light_pass", "resolution": 512}
+    doc["isosurfaces"] = [{"value": 1400, "method": o.method, "color": [0.93, 0.89, 0.80]}]
+    # the points' own shadows, or the exact rays of the exact reference
+    doc["shadows"] = {"technique": "light_pass", "resolution": 512} if o.method == "points" else {"technique": "ray_traced"}
     json.dump(doc, open(scene, "w"), indent=1)
     rows = budget_cases(o, cli, out, "iso", scene, in_memory)
     print(f"\nct-body 512×512×1734 uint16 ({FULL_BYTES / 2**20:.0f} MiB) {'as one NRRD' if o.file else 'as an OME-Zarr pyramid'}, "
-          f"bone isosurface (points, light-pass shadows), a close view of the head at {o.size}²")
+          f"bone isosurface ({'points, light-pass' if o.method == 'points' else 'raycast, ray-traced'} shadows), a close view of the head at {o.size}²")
     print("| case | level opened | extracted from | held (MiB) | box read (MiB) | box load (ms) | start to PNG (s) | frame (ms) | eye pass (ms) | peak RSS (MiB) | RMSE | PSNR (dB) |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
@@ -223,7 +224,7 @@ def iso(o, cli, out):
               f"{r['first_image_s']:.1f} | {r['frame_ms']:.0f} | {extract} | {r['peak_mib']:.0f} | {r['rmse']:.4f} | {r['psnr']} |")
     session = session_steps(cli, scene, out, ["--memory-budget", FULL_BYTES // 8, "--width", o.size, "--height", o.size],
                             [0.0, 0.0, 650.0], 450.0)
-    json.dump({"cases": rows, "session": session}, open(os.path.join(out, "budget_iso_file.json" if o.file else "budget_iso.json"), "w"),
+    json.dump({"cases": rows, "session": session}, open(os.path.join(out, f"budget_iso_{o.method}{'_file' if o.file else ''}.json"), "w"),
               indent=2)
 
 
@@ -419,6 +420,7 @@ def main():
     p.add_argument("--keep", action="store_true")
     p.add_argument("--zoom", action="store_true", help="big: also a close view of the head, refined (preview, refined frame, a session)")
     p.add_argument("--skip-orbit", action="store_true", help="big: no orbit")
+    p.add_argument("--method", choices=["points", "raycast"], default="points", help="iso: the isosurface's method")
     p.add_argument("--file", action="store_true", help="body, zoom: the ct-body as one NRRD file, not a pyramid")
     o = p.parse_args()
     cli = os.path.join(o.build, "penumbra")

@@ -276,7 +276,10 @@ void Volume::set_value(std::size_t idx, float v) {
 void Volume::move_voxels(const std::array<int, 3>& dims, const std::array<std::int64_t, 3>& by) {
   if (is_bricked() || is_view()) throw Error("moving the voxels of a bricked or viewed volume");
   const std::size_t count = checked_voxel_count({dims[0], dims[1], dims[2]});
-  if (count > voxel_count()) throw Error("moving " + std::to_string(voxel_count()) + " voxels into a grid of " + std::to_string(count));
+  if (count > voxel_count()) {  // grown first: the rows move within the larger storage
+    owned_.resize(count * scalar_size(type_));
+    data_ = owned_.data();
+  }
   const std::array<std::int64_t, 3> old{dims_[0], dims_[1], dims_[2]}, now{dims[0], dims[1], dims[2]};
   std::array<std::int64_t, 3> lo{}, hi{};  // the voxels both grids hold, in the new grid's indices
   for (std::size_t a = 0; a < 3; ++a) {
@@ -304,7 +307,7 @@ void Volume::move_voxels(const std::array<int, 3>& dims, const std::array<std::i
       if (to(r) > from(r)) std::memmove(data_ + to(r), data_ + from(r), row_bytes);
   }
   dims_ = dims;
-  owned_.resize(count * scalar_size(type_));  // no more than it holds: the storage stays where it is
+  owned_.resize(count * scalar_size(type_));  // (shrunk last: the pages past the new grid go back)
   data_ = owned_.data();
 }
 

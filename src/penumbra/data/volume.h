@@ -34,6 +34,7 @@
 #include <vector>
 
 #include "penumbra/core/math.h"
+#include "penumbra/data/voxel_bytes.h"
 
 namespace penumbra {
 
@@ -211,11 +212,11 @@ public:
   }
   float value(int i, int j, int k) const { return value(index(i, j, k)); }
   void set_value(std::size_t idx, float v);  // dense volumes (a bricked voxel may be stored twice)
-  // Dense volumes that own their voxels: becomes a grid of `dims` (no more voxels than now) whose voxel v
-  // holds the value of the old voxel v + by where that lies in the old grid (the others are left
-  // undefined), in place: each row of voxels both grids hold is moved once, no second grid allocated.
-  // What a box of a level that moves keeps of itself (render/view_refinement.h). Error for a bricked or
-  // viewed volume or more voxels.
+  // Dense volumes that own their voxels: becomes a grid of `dims` whose voxel v holds the value of the
+  // old voxel v + by where that lies in the old grid (the others are left undefined), in place: the
+  // storage grows or shrinks to the new grid (VoxelBytes: pages remapped, not copied) and each row of
+  // voxels both grids hold is moved once, no second grid allocated. What a box of a level that moves keeps
+  // of itself (render/view_refinement.h). Error for a bricked or viewed volume.
   void move_voxels(const std::array<int, 3>& dims, const std::array<std::int64_t, 3>& by);
 
   // Continuous voxel coordinates of a world point.
@@ -301,7 +302,7 @@ private:
   ScalarType type_ = ScalarType::Float32;
   std::array<int, 3> dims_{0, 0, 0};
   Vec3 spacing_{1, 1, 1}, inv_spacing_{1, 1, 1}, origin_{0, 0, 0};
-  std::vector<std::byte, DefaultInitAllocator<std::byte>> owned_;  // allocated voxels, or empty for a view
+  VoxelBytes owned_;                                                // allocated voxels, or empty for a view
   std::shared_ptr<const void> owner_;                               // a view's voxels stay alive through this
   std::byte* data_ = nullptr;                                       // owned_.data() or the viewed voxels
   std::array<float, 2> range_{0, 0};

@@ -502,10 +502,9 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
     } else {
       // the box drawn is set aside; boxes kept give way, least recently drawn first, until the new one
       // fits the budget; the most recent one of the same level that overlaps it lends its voxels there,
-      // or, when the budget cannot hold it beside the new one, moves: its memory takes the new box,
+      // or, when the budget cannot hold it beside the new one, moves: its memory becomes the new box's,
       // the voxels both hold moved in place, and only what it did not hold is read
       set_aside();
-      RefinementChoice wanted = *choice;
       std::unique_ptr<RefinedVolume> moving;
       auto overlapping = [&](const KeptBox& b) { return b.box->box().level == choice->box.level && overlaps(b.box->box(), choice->box); };
       const auto lender = std::find_if(kept.begin(), kept.end(), overlapping);
@@ -514,11 +513,7 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
         for (const auto& boxes : kept_)
           for (const KeptBox& b : boxes) all_kept += b.box->held_bytes();
         const std::uint64_t others = refined_memory_bytes() - all_kept;  // boxes drawn for other volumes, surfaces' boxes
-        const std::optional<RefinementChoice> moved =
-            moved_refinement(*choice, lender->box->box(), pyramid, scene_.refinement_bytes - std::min(others, scene_.refinement_bytes));
-        if (moved && others + refined_bytes(choice->box, o.volume->type(), choice->stored_gradients) + lender->box->held_bytes() >
-                         scene_.refinement_bytes) {
-          wanted = *moved;
+        if (others + refined_bytes(choice->box, o.volume->type(), choice->stored_gradients) + lender->box->held_bytes() > scene_.refinement_bytes) {
           moving = std::move(lender->box);
           kept.erase(lender);
           // an isosurface hierarchy over it lets its voxels go (refine_isosurfaces makes one over the new box)
@@ -526,16 +521,19 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
             refined_changed_ = true;
         }
       }
-      give_up_kept_boxes(refined_bytes(wanted.box, o.volume->type(), wanted.stored_gradients), frame);
+      give_up_kept_boxes(refined_bytes(choice->box, o.volume->type(), choice->stored_gradients), frame);
       const auto still = moving ? kept.end() : std::find_if(kept.begin(), kept.end(), overlapping);  // (if not given up)
       const RefinedVolume* lends = still == kept.end() ? nullptr : still->box.get();
-      const bool read = read_refinement_box(wanted, pyramid.key, [&](WindowRead& window) {
-        held = std::make_unique<RefinedVolume>(o, wanted, &window, lends, std::move(moving));
+      const std::uint64_t moving_bytes = moving ? moving->held_bytes() : 0;
+      const bool read = read_refinement_box(*choice, pyramid.key, [&](WindowRead& window) {
+        held = std::make_unique<RefinedVolume>(o, *choice, &window, lends, std::move(moving));
         return held->held_bytes();
       }, stats, failed);
       if (read) {  // (else the frame draws the opened level)
         refined_changed_ = true;
         rebuilt(indexed("volumes", i, "refined"), Quality::Full, frame);
+      } else {
+        stats.evicted_bytes += moving_bytes;  // a box that moved into a read that failed is gone
       }
     }
     if (follow && held->follow(o)) {  // the table and empty cells follow a transfer function edited meanwhile
@@ -632,9 +630,8 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
         evict();
       } else {
         // a box of the same store and level held until now gives the new one the voxels both hold: lent
-        // when the budget holds the two, else moved (its memory takes the new box, those voxels moved in
-        // place, Volume::move_voxels), else given up first and the new box read whole
-        RefinementChoice reading = *choice;
+        // when the budget holds the two (and given up after), else moved (its memory becomes the new
+        // box's, those voxels moved in place, Volume::move_voxels)
         auto with_hierarchy = [&](const LevelBox& b) { return refined_bytes(b, pyramid.type, false) * 6 / 5; };
         std::optional<HeldBox> held;
         std::shared_ptr<Volume> moving;
@@ -643,23 +640,18 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
           const RefinedSurfaces& old = found->second;
           held = HeldBox{old.box.lo, old.box.hi, old.own.get()};
           if (old.held_bytes() + with_hierarchy(choice->box) > left) {
-            const std::optional<RefinementChoice> moved = moved_refinement(*choice, old.box, pyramid, for_voxels);
-            if (moved) {
-              reading = *moved;
-              moving = old.own;
-              held->storage = moving.get();
-            } else {
-              held.reset();
-            }
+            moving = old.own;
+            held->storage = moving.get();
           }
         }
+        const std::uint64_t moving_bytes = moving ? found->second.held_bytes() : 0;
         if (!held || moving) evict(moving != nullptr);  // (a box that lends is given up once the new one is read)
-        give_up_kept_boxes(with_hierarchy(reading.box), frame);
+        give_up_kept_boxes(with_hierarchy(choice->box), frame);
         std::optional<RefinedSurfaces> made;
-        const bool read = read_refinement_box(reading, pyramid.key, [&](WindowRead& window) {
-          auto voxels = std::make_shared<Volume>(pyramid.read_box(reading.box.level, reading.box.lo, reading.box.hi, &window, held ? &*held : nullptr));
+        const bool read = read_refinement_box(*choice, pyramid.key, [&](WindowRead& window) {
+          auto voxels = std::make_shared<Volume>(pyramid.read_box(choice->box.level, choice->box.lo, choice->box.hi, &window, held ? &*held : nullptr));
           auto tree = std::make_shared<const GridTree>(*voxels);
-          made = RefinedSurfaces{reading.box, pyramid.key, voxels, voxels, std::move(tree), {}};
+          made = RefinedSurfaces{choice->box, pyramid.key, voxels, voxels, std::move(tree), {}};
           return made->held_bytes();
         }, stats, failed);
         moving.reset();
@@ -668,6 +660,8 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
           found = refined_surfaces_.emplace(i, std::move(*made)).first;
           refined_changed_ = true;
           rebuilt(indexed("volumes", i, "refined_hierarchy"), Quality::Full, frame);
+        } else {
+          stats.evicted_bytes += moving_bytes;  // a box that moved into a read that failed is gone
         }
       }
     }

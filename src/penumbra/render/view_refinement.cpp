@@ -164,24 +164,6 @@ std::optional<RefinementChoice> choose_refinement(const Camera& camera, const Py
   return best;
 }
 
-std::optional<RefinementChoice> moved_refinement(const RefinementChoice& choice, const LevelBox& held, const PyramidSource& pyramid,
-                                                 std::uint64_t room) {
-  if (held.level != choice.box.level) return std::nullopt;
-  auto voxels = [](const LevelBox& b) {
-    const auto d = b.dims();
-    return static_cast<std::uint64_t>(d[0]) * static_cast<std::uint64_t>(d[1]) * static_cast<std::uint64_t>(d[2]);
-  };
-  // the chosen box, else the seen part and its apron without the margin
-  for (const LevelBox& box : {choice.box, level_box(pyramid, choice.box.level, choice.seen)}) {
-    if (voxels(box) > voxels(held)) continue;
-    RefinementChoice moved = choice;
-    moved.box = box;
-    moved.stored_gradients = choice.stored_gradients && refined_bytes(box, pyramid.type, true) <= room;
-    if (refined_bytes(box, pyramid.type, moved.stored_gradients) <= room) return moved;
-  }
-  return std::nullopt;
-}
-
 Box3 pyramid_bounds(const PyramidSource& pyramid, const Volume& opened) {
   Box3 b = opened.bounds();
   const PyramidSource::Level& finest = pyramid.levels.front();
@@ -243,8 +225,7 @@ RefinedVolume::RefinedVolume(const VolumeObject& coarse, const RefinementChoice&
   std::optional<HeldBox> held;
   if (previous && previous->reads(pyramid) && previous->box_.level == box_.level) {
     held = HeldBox{previous->box_.lo, previous->box_.hi, previous->voxels_.get()};
-    if (moving && moving->voxels_.use_count() == 2 &&
-        moving->voxels_->voxel_count() >= static_cast<std::size_t>(box_.dims()[0]) * box_.dims()[1] * box_.dims()[2]) {  // its own and its object's
+    if (moving && moving->voxels_.use_count() == 2) {  // its own and its object's
       moving->prepared_.reset();  // its gradients and cells go before this box's are made
       held->storage = moving->voxels_.get();
     }

@@ -21,8 +21,8 @@
 // box is the visible volume's, or, for a hidden volume, one of its own, which lends or moves as below.
 // The box is kept while the view stays inside it (a camera move inside a zoomed region reads nothing);
 // a view outside it reads a new box — taking from the old one the chunks both hold when the two fit the
-// budget together; else the old box moves: its memory takes the new box (when it has no more voxels),
-// the voxels both hold moved in place, and only what it did not hold is read — and
+// budget together; else the old box moves: its memory becomes the new box's (grown or shrunk, its pages
+// remapped, not copied: VoxelBytes), the voxels both hold moved in place, and only what it did not hold is read — and
 // FrameResult::refinement says what was held, loaded, read from disk, reused and evicted.
 //
 // | what                     | where                    | meaning                                          |
@@ -89,13 +89,6 @@ struct RefinementChoice {
 };
 std::optional<RefinementChoice> choose_refinement(const Camera& camera, const PyramidSource& pyramid, const Box3& volume_box,
                                                   std::uint64_t bytes, bool gradients, bool cut_depth);
-// The box a view that chose `choice` draws when the box `held` of the same level moves to it (the budget
-// holds one of them; its voxels then hold the new box, Volume::move_voxels): the chosen box when it has no
-// more voxels than held, else the seen part and its apron alone (without the margin) when that has not;
-// its gradients stored when `choice` stores them and they fit `room`. Nothing when the levels differ or
-// neither fits held's voxels and `room`.
-std::optional<RefinementChoice> moved_refinement(const RefinementChoice& choice, const LevelBox& held, const PyramidSource& pyramid,
-                                                 std::uint64_t room);
 // The world box of a pyramid: its opened level's (`opened`, the volume held) and its finest's together.
 Box3 pyramid_bounds(const PyramidSource& pyramid, const Volume& opened);
 
@@ -148,8 +141,7 @@ public:
   // Its lattice step is the object's step in the box's voxels (the renderer then shares the finest).
   // `previous`: a box of the same level and store held until now, whose voxels the new box takes where
   // they overlap instead of reading their chunks. `moving`: such a box given up for this one (the budget
-  // holds one of them): when it has at least this box's voxels and nothing else shares them, its storage
-  // becomes this box's, the voxels both hold moved in place (HeldBox::storage), else it lends them as
+  // holds one of them): when nothing else shares its voxels, its storage becomes this box's, the voxels both hold moved in place (HeldBox::storage), else it lends them as
   // `previous` does; it is gone after.
   RefinedVolume(const VolumeObject& coarse, const RefinementChoice& choice, WindowRead* read, const RefinedVolume* previous = nullptr,
                 std::unique_ptr<RefinedVolume> moving = nullptr);

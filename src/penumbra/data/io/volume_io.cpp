@@ -170,7 +170,6 @@ std::optional<Volume> take_held_storage(const HeldBox* held, ScalarType type, co
   const std::array<int, 3> to{static_cast<int>(hi[0] - lo[0]), static_cast<int>(hi[1] - lo[1]), static_cast<int>(hi[2] - lo[2])};
   for (std::size_t a = 0; a < 3; ++a)
     if (held->hi[a] - held->lo[a] != d[a]) return std::nullopt;
-  if (checked_voxel_count({to[0], to[1], to[2]}) > held->storage->voxel_count()) return std::nullopt;
   Volume taken = std::move(*held->storage);
   taken.move_voxels(to, {lo[0] - held->lo[0], lo[1] - held->lo[1], lo[2] - held->lo[2]});
   return taken;

@@ -142,17 +142,17 @@ Volume load_zarr_volume(const std::string& path, int level, int channel, VolumeF
 // (render/view_refinement.h). Error for a box outside the level or a level whose scale reverses an axis.
 // `held`: a box of the same level already in memory (the one a refined view held before): the chunks
 // whose part of the new box lies inside it are copied from it instead of read (`read->bytes_reused`).
-// With `storage`, the held box gives its own voxels up to the new box when it has the new box's type
-// and at least as many voxels: they are moved in place (Volume::move_voxels) and only the rest is read,
-// so that a box that moves never holds two boxes at once (`storage` is then left empty).
+// With `storage`, the held box gives its own voxels up to the new box when it has the new box's type:
+// its storage grows or shrinks to the new box and they are moved in place (Volume::move_voxels), and
+// only the rest is read, so that a box that moves never holds two boxes at once (`storage` is then left
+// empty).
 struct HeldBox {
   std::array<std::int64_t, 3> lo{}, hi{};  // its voxels [lo, hi) of the level
   const Volume* voxels = nullptr;          // dense, of the level's type
   Volume* storage = nullptr;               // the held box's voxels (the same as `voxels`), to be taken over
 };
 // The storage of a new box [lo, hi) of `type` taken from held->storage as HeldBox says, the voxels both
-// boxes hold already in place; nothing when there is no storage to take, its type differs or it has
-// fewer voxels.
+// boxes hold already in place; nothing when there is no storage to take or its type differs.
 std::optional<Volume> take_held_storage(const HeldBox* held, ScalarType type, const std::array<std::int64_t, 3>& lo,
                                         const std::array<std::int64_t, 3>& hi);
 Volume load_zarr_box(const std::string& path, int level, int channel, const std::array<std::int64_t, 3>& lo,
