@@ -230,7 +230,7 @@ def iso(o, cli, out):
 
 def session_steps(cli, scene, out, args, target, distance):
     """--edits: a small pan, a longer one, backing away, coming back: each step's preview and full-frame
-    latency and what the refinement loaded, read, reused and evicted."""
+    latency and what the refinement loaded, read, reused and evicted, and the process's peak RSS."""
     edits = [{"set": {"camera.target": [target[0] + distance * 0.02, target[1], target[2]]}},
              {"set": {"camera.target": [target[0] + distance * 0.12, target[1], target[2]]}},
              {"set": {"camera.distance": distance * 8}},
@@ -238,7 +238,7 @@ def session_steps(cli, scene, out, args, target, distance):
     edits_file = os.path.join(out, "session_edits.json")
     json.dump(edits, open(edits_file, "w"))
     stats_file = os.path.join(out, "session.json")
-    timed([cli, "render", scene, *args, "-o", os.path.join(out, "session.png"), "--edits", edits_file, "--stats", stats_file])
+    _, peak, _, _ = timed([cli, "render", scene, *args, "-o", os.path.join(out, "session.png"), "--edits", edits_file, "--stats", stats_file])
     stats = json.load(open(stats_file))
     steps = [{"step": "the close view (first frame)", "preview_ms": None, "full_ms": stats["timings_ms"]["total"],
               "refinement": stats["refinement"]}]
@@ -253,7 +253,8 @@ def session_steps(cli, scene, out, args, target, distance):
         print(f"| {s['step']} | {pv} | {s['full_ms']:.0f} | {drawn} | {r.get('loaded_bytes', 0) / 2**20:.1f} | "
               f"{r.get('read_bytes', 0) / 2**20:.1f} | {r.get('reused_bytes', 0) / 2**20:.1f} | {r.get('load_ms', 0):.0f} | "
               f"{r.get('evicted_bytes', 0) / 2**20:.1f} |")
-    return steps
+    print(f"the session's peak RSS: {peak:.0f} MiB")
+    return {"steps": steps, "peak_mib": peak}
 
 
 def big(o, cli, out):

@@ -567,7 +567,7 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
 }
 
 void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, FrameResult& frame) {
-  std::map<std::size_t, std::vector<std::size_t>> wanted;  // volume → its isosurfaces that extract points
+  std::map<std::size_t, std::vector<std::size_t>> wanted;  // volume → its isosurfaces that extract points or ray cast
   for (std::size_t s = 0; s < scene_.isosurfaces.size(); ++s) {
     const IsosurfaceObject& o = scene_.isosurfaces[s];
     const VolumeObject& v = scene_.volumes[o.volume];
