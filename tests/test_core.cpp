@@ -61,8 +61,8 @@ TEST(VolumeCore, RejectsBadDimensionsAndNaN) {
 
 // A box that moves keeps in place the voxels both places hold: each voxel v of the new grid (any
 // dimensions, fewer or more voxels) whose v + by lies in the old grid holds that voxel's value, for
-// shifts along every axis and both directions (brute force against a copy); a grid of no more voxels
-// stays in the same memory.
+// shifts along every axis and both directions (brute force against a copy); a grid of as many voxels
+// stays in the same memory (a resize may move the buffer: AddressSanitizer's realloc always does).
 TEST(VolumeCore, MovedVoxelsKeepEveryVoxelBothGridsHold) {
   const std::array<int, 3> d{7, 5, 4};
   int checked = 0;
@@ -77,7 +77,7 @@ TEST(VolumeCore, MovedVoxelsKeepEveryVoxelBothGridsHold) {
           const std::byte* storage = v.data();
           v.move_voxels(to, {bx, by, bz});
           ASSERT_EQ(v.dims(), to);
-          if (v.voxel_count() <= before.voxel_count()) {
+          if (v.voxel_count() == before.voxel_count()) {
             EXPECT_EQ(v.data(), storage);
           }
           for (int k = 0; k < to[2]; ++k)

@@ -274,7 +274,10 @@ TEST(ViewRefinement, ABoxOfALevelIsThatLevelsVoxels) {
     WindowRead fresh_read, moved_read;
     const Volume fresh = load_zarr_box(dir.file("v.zarr"), 0, -1, lo3, hi3, &fresh_read);
     const Volume moved = load_zarr_box(dir.file("v.zarr"), 0, -1, lo3, hi3, &moved_read, &held);
-    EXPECT_EQ(moved.data(), memory) << "the held box's own voxels";
+    EXPECT_EQ(storage.voxel_count(), 0u) << "the held box's own voxels, taken";
+    if (grow == std::array<std::int64_t, 3>{0, 0, 0}) {  // (a resize may move them: AddressSanitizer's realloc always does)
+      EXPECT_EQ(moved.data(), memory);
+    }
     ASSERT_EQ(moved.dims(), fresh.dims());
     for (std::size_t n = 0; n < fresh.voxel_count(); ++n) ASSERT_EQ(moved.value(n), fresh.value(n)) << "voxel " << n;
     for (int a = 0; a < 3; ++a) EXPECT_EQ(moved.origin()[a], fresh.origin()[a]);
