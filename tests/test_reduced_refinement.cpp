@@ -272,6 +272,18 @@ nlohmann::json ball_isosurface_scene(const std::string& file, std::uint64_t budg
   return j;
 }
 
+// A refined frame near the frame in memory where the opened level alone is far from it (the images kept
+// under `label` when either fails).
+void expect_refined_near_memory(const Image& refined, const Image& in_memory, const Image& opened_only, const std::string& label) {
+  FailureImages keep;
+  keep.add(label + "_refined", refined, in_memory);
+  keep.add(label + "_opened", opened_only, in_memory);
+  const ImageDifference refined_error = compare_images(refined, in_memory), opened_error = compare_images(opened_only, in_memory);
+  EXPECT_LT(refined_error.rmse, 2e-3) << refined_error.rmse << " against the reduced surface's " << opened_error.rmse;
+  EXPECT_GT(opened_error.rmse, 0.01);
+  EXPECT_TRUE(non_trivial(refined));
+}
+
 }  // namespace
 
 // The isosurface of a hidden volume opened reduced is drawn, in full frames, from a box of the file
@@ -296,13 +308,7 @@ TEST(ReducedRefinement, AnIsosurfaceIsExtractedFromTheRefinedBox) {
   EXPECT_NE(std::find(full.rebuilt.begin(), full.rebuilt.end(), "volumes.0.refined_hierarchy"), full.rebuilt.end());
   const Image in_memory = Renderer(build_scene(ball_isosurface_scene(file, 0, true), "")).render().image;
   const Image opened_only = Renderer(build_scene(ball_isosurface_scene(file, budget, false), "")).render().image;
-  FailureImages keep;
-  keep.add("refined", full.image, in_memory);
-  keep.add("opened", opened_only, in_memory);
-  const ImageDifference refined_error = compare_images(full.image, in_memory), opened_error = compare_images(opened_only, in_memory);
-  EXPECT_LT(refined_error.rmse, 2e-3) << refined_error.rmse << " against the reduced surface's " << opened_error.rmse;
-  EXPECT_GT(opened_error.rmse, 0.01);
-  EXPECT_TRUE(non_trivial(full.image));
+  expect_refined_near_memory(full.image, in_memory, opened_only, "points");
   // a preview extracts from the reduced volume
   FrameRequest preview;
   preview.quality = Quality::Preview;
@@ -345,13 +351,7 @@ TEST(ReducedRefinement, ARaycastIsosurfaceMeetsTheRefinedBox) {
     const Image in_memory = Renderer(raycast_scene(0, true)).render().image;
     Renderer unrefined(raycast_scene(1u << 20, false));
     const Image opened_only = unrefined.render().image;
-    FailureImages keep;
-    keep.add(std::string(technique) + "_refined", full.image, in_memory);
-    keep.add(std::string(technique) + "_opened", opened_only, in_memory);
-    const ImageDifference refined_error = compare_images(full.image, in_memory), opened_error = compare_images(opened_only, in_memory);
-    EXPECT_LT(refined_error.rmse, 2e-3) << refined_error.rmse << " against the reduced surface's " << opened_error.rmse;
-    EXPECT_GT(opened_error.rmse, 0.01);
-    EXPECT_TRUE(non_trivial(full.image));
+    expect_refined_near_memory(full.image, in_memory, opened_only, technique);
     FrameRequest preview;
     preview.quality = Quality::Preview;
     preview.preview_divisor = 1;
