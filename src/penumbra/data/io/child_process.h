@@ -1,6 +1,7 @@
 // Readers that hand a file to a library not hardened against corrupt input (OpenVDB, libhdf5) run the
 // library in a forked child process with a memory budget and a time limit, and take its answer back;
-// a crash, a limit or a short answer becomes an Error in the parent. These are the child's limits.
+// a crash, a limit or a short answer becomes an Error in the parent (a child out of time is tried once
+// more: a fork of a threaded process can inherit a lock another thread held). These are the child's limits.
 #pragma once
 
 #include <cstdint>

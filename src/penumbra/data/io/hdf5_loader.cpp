@@ -15,6 +15,7 @@
 // answers with their description through a pipe; a crash or a limit there is an Error here.
 #include <hdf5.h>
 #include <sys/mman.h>
+#include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -26,6 +27,8 @@
 #include <cstring>
 #include <optional>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "penumbra/core/error.h"
@@ -334,12 +337,12 @@ private:
   int fd_;
 };
 
-// Runs read_in_child in a forked, limited process; its answer (an Error when it failed).
-nlohmann::json read_in_process(const std::string& path, const std::string& dataset_name, int channel, const ChildRead& request, int memfd) {
+// Runs read_in_child in a forked, limited process: its answer and wait status.
+std::pair<std::string, int> answer_of_child(const std::string& path, const std::string& dataset_name, int channel,
+                                            const ChildRead& request, int memfd, const io_detail::ChildLimits& limits) {
   int fds[2];
-  if (::pipe(fds) != 0) throw Error("cannot create a pipe for the HDF5 reader");
+  if (::pipe2(fds, O_CLOEXEC) != 0) throw Error("cannot create a pipe for the HDF5 reader");  // no other child keeps it open
   Fd from_child(fds[0]), to_parent(fds[1]);
-  const io_detail::ChildLimits limits = io_detail::child_limits(path);
   const pid_t child = ::fork();
   if (child < 0) throw Error("cannot start the HDF5 reader process");
   if (child == 0) {  // the child: libhdf5 only, then _exit (no destructors of the parent's state)
@@ -357,10 +360,21 @@ nlohmann::json read_in_process(const std::string& path, const std::string& datas
     ::_exit(0);
   }
   to_parent.close();
-  const std::string answer = read_all(from_child.get());
+  std::string answer = read_all(from_child.get());
   int status = 0;
   while (::waitpid(child, &status, 0) < 0 && errno == EINTR) {
   }
+  return {std::move(answer), status};
+}
+
+// read_in_child's answer (an Error when it failed). A child that runs out of time is asked once more:
+// one forked while another thread of this process held a lock it needs (or starved by a busy machine)
+// can stall where a second child does not.
+nlohmann::json read_in_process(const std::string& path, const std::string& dataset_name, int channel, const ChildRead& request, int memfd) {
+  const io_detail::ChildLimits limits = io_detail::child_limits(path);
+  auto [answer, status] = answer_of_child(path, dataset_name, channel, request, memfd, limits);
+  if (answer.empty() && WIFEXITED(status) && WEXITSTATUS(status) == 5)
+    std::tie(answer, status) = answer_of_child(path, dataset_name, channel, request, memfd, limits);
   if (!answer.empty() && answer[0] == 'E') throw Error(answer.substr(1));
   if (answer.empty() || answer[0] != 'V' || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
     throw Error("libhdf5 failed reading it: its reader process " + io_detail::child_exit_text(status, limits) + " (a corrupt file?)");

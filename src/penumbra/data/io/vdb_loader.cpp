@@ -20,6 +20,7 @@
 // else the first scalar grid. The notes list every grid in the file with its type, class and active
 // voxels, and how much memory the sparse volume takes against a dense one.
 #include <sys/wait.h>
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -410,6 +411,7 @@ struct ParsedGrid {
   std::vector<float> shared;           // per brick: its one value (a stored brick: unused)
   std::vector<std::size_t> stored_at;  // per brick: its first voxel in `stored`, or npos when shared
   std::vector<float> stored;
+  bool complete = false;  // the answer read to its end
 };
 
 // Reads the child's answer; false when it ends early or breaks a bound.
@@ -454,23 +456,12 @@ bool read_answer(PipeReader& in, ParsedGrid& g, std::string& error) {
   return !in.get(extra);  // nothing after the last brick
 }
 
-}  // namespace
-
-Volume load_vdb_volume(const std::string& path, const std::string& grid_choice, VolumeFileInfo* info) {
-  static std::once_flag initialised;
-  std::call_once(initialised, [] { openvdb::initialize(); });
-  VolumeFileInfo local;
-  VolumeFileInfo& out = info ? *info : local;
-  out.format = "vdb";
-  {
-    std::ifstream probe(path, std::ios::binary);
-    if (!probe) throw Error("cannot open the file");
-  }
-  check_layout(path);
-
+// Forks the limited child that parses the file and reads its answer into `parsed`; the child's wait
+// status. An Error the child reports, or an answer that breaks a bound, is thrown here.
+int read_in_child_process(const std::string& path, const std::string& grid_choice, const io_detail::ChildLimits& limits,
+                          ParsedGrid& parsed) {
   int fds[2];
-  if (::pipe(fds) != 0) throw Error("cannot create a pipe for the OpenVDB reader");
-  const io_detail::ChildLimits limits = io_detail::child_limits(path);
+  if (::pipe2(fds, O_CLOEXEC) != 0) throw Error("cannot create a pipe for the OpenVDB reader");  // no other child keeps it open
   const pid_t child = ::fork();
   if (child < 0) {
     ::close(fds[0]);
@@ -497,14 +488,11 @@ Volume load_vdb_volume(const std::string& path, const std::string& grid_choice, 
     ::_exit(0);
   }
   ::close(fds[1]);
-  ParsedGrid parsed;
-  std::string child_error;
-  bool complete = false;
-  std::string bound_error;
+  std::string child_error, bound_error;
   {
     PipeReader r(fds[0]);
     try {
-      complete = read_answer(r, parsed, child_error);
+      parsed.complete = read_answer(r, parsed, child_error);
     } catch (const Error& e) {
       bound_error = e.what();
     }
@@ -518,6 +506,33 @@ Volume load_vdb_volume(const std::string& path, const std::string& grid_choice, 
   }
   if (!child_error.empty()) throw Error(child_error);
   if (!bound_error.empty()) throw Error(bound_error);
+  return status;
+}
+
+}  // namespace
+
+Volume load_vdb_volume(const std::string& path, const std::string& grid_choice, VolumeFileInfo* info) {
+  static std::once_flag initialised;
+  std::call_once(initialised, [] { openvdb::initialize(); });
+  VolumeFileInfo local;
+  VolumeFileInfo& out = info ? *info : local;
+  out.format = "vdb";
+  {
+    std::ifstream probe(path, std::ios::binary);
+    if (!probe) throw Error("cannot open the file");
+  }
+  check_layout(path);
+
+  const io_detail::ChildLimits limits = io_detail::child_limits(path);
+  ParsedGrid parsed;
+  int status = 0;
+  // A child that runs out of time is asked once more: one forked while another thread of this process
+  // held a lock it needs (or starved by a busy machine) can stall where a second child does not.
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    parsed = ParsedGrid{};
+    status = read_in_child_process(path, grid_choice, limits, parsed);
+    if (!(WIFEXITED(status) && WEXITSTATUS(status) == 5)) break;
+  }
   if (WIFSIGNALED(status))
     throw Error("OpenVDB failed reading it (its reader process ended on signal " + std::to_string(WTERMSIG(status)) +
                 "): a corrupt or truncated file?");
@@ -525,8 +540,8 @@ Volume load_vdb_volume(const std::string& path, const std::string& grid_choice, 
     throw Error("OpenVDB needed more than " + mib(limits.memory_budget) +
                 " reading it (the budget for a file of this size, more than any compression gives back): a corrupt size?");
   if (WIFEXITED(status) && WEXITSTATUS(status) == 5)
-    throw Error("OpenVDB took more than " + std::to_string(static_cast<int>(limits.seconds)) + " s reading it: a corrupt file?");
-  if (!complete || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw Error("OpenVDB took more than " + std::to_string(static_cast<int>(limits.seconds)) + " s reading it, twice: a corrupt file?");
+  if (!parsed.complete || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
     throw Error("OpenVDB failed reading it (its reader process gave an incomplete answer)");
 
   const auto& dims = parsed.dims;
