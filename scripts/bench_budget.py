@@ -188,6 +188,11 @@ def zoom(o, cli, out):
     size, refined (the visible box from a finer level) and not, against level 0 in memory; then a
     session (--edits): zoom in, pan a little, back away, come back."""
     scene, in_memory = head_close_view(o, cli, out, "zoom")
+    if o.extinction:  # what reads the extinction SAT: cone shadows and the volume's ambient occlusion
+        doc = json.load(open(scene))
+        doc["shadows"] = {"technique": "sat_cone"}
+        doc["ambient"] = {"technique": "sat_shells"}
+        json.dump(doc, open(scene, "w"), indent=1)
     rows = budget_cases(o, cli, out, "zoom", scene, in_memory)
     print(f"\nct-body 512×512×1734 uint16 ({FULL_BYTES / 2**20:.0f} MiB), a close view of the head at {o.size}²")
     print("| case | level opened | drawn from | held (MiB) | box read (MiB on disk) | process start to PNG (s) | frame (ms) | peak RSS (MiB) | RMSE | PSNR (dB) |")
@@ -198,7 +203,8 @@ def zoom(o, cli, out):
               f"{r['frame_ms']:.0f} | {r['peak_mib']:.0f} | {r['rmse']:.4f} | {r['psnr']} |")
     session = session_steps(cli, scene, out, ["--memory-budget", FULL_BYTES // 8, "--width", o.size, "--height", o.size],
                             [0.0, 0.0, 650.0], 450.0)
-    json.dump({"cases": rows, "session": session}, open(os.path.join(out, "budget_zoom_file.json" if o.file else "budget_zoom.json"), "w"), indent=2)
+    name = "budget_zoom" + ("_extinction" if o.extinction else "") + ("_file" if o.file else "")
+    json.dump({"cases": rows, "session": session}, open(os.path.join(out, name + ".json"), "w"), indent=2)
 
 
 def iso(o, cli, out):
@@ -423,6 +429,8 @@ def main():
     p.add_argument("--skip-orbit", action="store_true", help="big: no orbit")
     p.add_argument("--method", choices=["points", "raycast"], default="points", help="iso: the isosurface's method")
     p.add_argument("--file", action="store_true", help="body, zoom: the ct-body as one NRRD file, not a pyramid")
+    p.add_argument("--extinction", action="store_true",
+                   help="zoom: sat_cone shadows and sat_shells ambient occlusion (what reads the extinction SAT) instead of the CSSM")
     o = p.parse_args()
     cli = os.path.join(o.build, "penumbra")
     out = o.out or tempfile.mkdtemp(prefix="bench_budget_")

@@ -1,6 +1,7 @@
 #include "penumbra/accel/extinction_sat.h"
 
 #include <cmath>
+#include <utility>
 
 #include "penumbra/core/cutoffs.h"
 #include "penumbra/core/error.h"
@@ -53,17 +54,19 @@ std::array<int, 3> sat_dims(const Vec3& extent, int resolution) {
 
 ExtinctionSat::ExtinctionSat(const Volume& volume, const TransferFunction& tf, Compositing compositing,
                              float reference_step, int resolution, bool with_colour, const ParticleSet* spheres,
-                             const ShadowBrick* brick, const ClipPlanes* clip) {
+                             const ShadowBrick* brick, const ClipPlanes* clip, const Volume* finer, const Box3* cells_over) {
   if (resolution < kMinSatResolution || resolution > kMaxSatResolution)
     throw Error("light_cache.resolution " + std::to_string(resolution) + " (expected " +
                 std::to_string(kMinSatResolution) + " to " + std::to_string(kMaxSatResolution) + ")");
   if (!(reference_step > 0)) throw Error("extinction SAT: reference step must be positive");
+  if ((finer || cells_over) && brick) throw Error("extinction SAT: a finer box or other cells for a distributed brick are not supported");
   const std::array<int, 3> vd = volume.whole_dims();  // a window (one brick's voxels) is cut from the whole grid
   const Vec3& sp = volume.spacing();
   // The box through the voxel centres; an axis one voxel thick gets that voxel's width.
-  bounds_ = volume.bounds();
+  const Box3 own = volume.bounds();
+  bounds_ = cells_over ? *cells_over : own;
   for (int a = 0; a < 3; ++a)
-    if (vd[a] == 1) {
+    if (vd[a] == 1 && bounds_.hi[a] - bounds_.lo[a] < 0.5f * sp[a]) {
       bounds_.lo[a] -= 0.5f * sp[a];
       bounds_.hi[a] += 0.5f * sp[a];
     }
@@ -78,15 +81,17 @@ ExtinctionSat::ExtinctionSat(const Volume& volume, const TransferFunction& tf, C
   for (int a = 0; a < 3; ++a) {
     auto& fv = first_voxel[a];
     fv.assign(static_cast<std::size_t>(dims_[a]) + 1, vd[a]);
+    const float offset = own.lo[a] - bounds_.lo[a];  // the first voxel's centre from the cells' corner
     for (int i = vd[a] - 1; i >= 0; --i) {
-      const float x = vd[a] == 1 ? 0.5f * sp[a] : static_cast<float>(i) * sp[a];
+      const float x = vd[a] == 1 ? 0.5f * (bounds_.hi[a] - bounds_.lo[a]) : offset + static_cast<float>(i) * sp[a];
       fv[static_cast<std::size_t>(std::clamp(static_cast<int>(std::floor(x / cell_[a])), 0, dims_[a] - 1))] = i;
     }
     for (int c = dims_[a] - 1; c >= 0; --c)  // a cell without voxels gets the empty run [next, next)
       fv[static_cast<std::size_t>(c)] = std::min(fv[static_cast<std::size_t>(c)], fv[static_cast<std::size_t>(c) + 1]);
   }
 
-  const ExtinctionTable table(tf, compositing, reference_step, volume.min_value(), volume.max_value());
+  const ExtinctionTable table(tf, compositing, reference_step, std::min(volume.min_value(), finer ? finer->min_value() : volume.min_value()),
+                              std::max(volume.max_value(), finer ? finer->max_value() : volume.max_value()));
   const std::size_t cells = cell_count();
   tau_.assign(cells, 0.0f);
   if (with_colour) tau_colour_.assign(cells * 3, 0.0f);
@@ -126,6 +131,7 @@ ExtinctionSat::ExtinctionSat(const Volume& volume, const TransferFunction& tf, C
     }
   });
 
+  if (finer) refined_cells_ = cell_means_of_finer(*finer, table, with_colour);
   if (clip && !clip->empty()) keep_unclipped(*clip);
   if (spheres) add_spheres(*spheres);
 
@@ -169,6 +175,64 @@ ExtinctionSat::ExtinctionSat(const Volume& volume, const TransferFunction& tf, C
   };
   build_table(tau_, 1, sat_);
   if (with_colour) build_table(tau_colour_, 3, sat_colour_);
+}
+
+template <class Table>
+std::int64_t ExtinctionSat::cell_means_of_finer(const Volume& finer, const Table& table, bool with_colour) {
+  // Per axis: the cells [c0, c1) whose extent lies within the box's voxel centres, and the box's voxels
+  // of each cell by the constructor's rule (a voxel belongs to the cell its centre falls in).
+  const std::array<int, 3> fd = finer.dims();
+  const Box3 fb = finer.bounds();
+  const Vec3& sp = finer.spacing();
+  std::array<int, 3> c0{}, c1{};
+  std::array<std::vector<int>, 3> first_voxel;
+  for (int a = 0; a < 3; ++a) {
+    const double lo = (static_cast<double>(fb.lo[a]) - bounds_.lo[a]) / cell_[a];
+    const double hi = (static_cast<double>(fb.hi[a]) - bounds_.lo[a]) / cell_[a];
+    constexpr double kSlack = 1e-4;  // of a cell: a box edge on a cell edge covers it despite rounding
+    c0[a] = std::max(0, static_cast<int>(std::ceil(lo - kSlack)));
+    c1[a] = std::min(dims_[a], static_cast<int>(std::floor(hi + kSlack)));
+    if (c1[a] <= c0[a] || fd[a] < 2) return 0;
+    auto& fv = first_voxel[a];
+    fv.assign(static_cast<std::size_t>(dims_[a]) + 1, fd[a]);
+    for (int i = fd[a] - 1; i >= 0; --i) {
+      const float x = fb.lo[a] + static_cast<float>(i) * sp[a] - bounds_.lo[a];
+      const int c = static_cast<int>(std::floor(x / cell_[a]));
+      if (c >= 0 && c < dims_[a]) fv[static_cast<std::size_t>(c)] = i;
+    }
+    for (int c = dims_[a] - 1; c >= 0; --c)
+      fv[static_cast<std::size_t>(c)] = std::min(fv[static_cast<std::size_t>(c)], fv[static_cast<std::size_t>(c) + 1]);
+  }
+  auto run = [&](int a, int c) {
+    return std::pair{first_voxel[a][static_cast<std::size_t>(c)], first_voxel[a][static_cast<std::size_t>(c) + 1]};
+  };
+  parallel_for(static_cast<std::size_t>(c1[2] - c0[2]), [&](std::size_t k0, std::size_t k1) {
+    for (int ck = c0[2] + static_cast<int>(k0); ck < c0[2] + static_cast<int>(k1); ++ck)
+      for (int cj = c0[1]; cj < c1[1]; ++cj)
+        for (int ci = c0[0]; ci < c1[0]; ++ci) {
+          const auto [i0, i1] = run(0, ci);
+          const auto [j0, j1] = run(1, cj);
+          const auto [z0, z1] = run(2, ck);
+          std::array<double, 4> acc{0, 0, 0, 0};
+          double n = static_cast<double>(i1 - i0) * (j1 - j0) * (z1 - z0);
+          if (n == 0) {  // a cell finer than the box's voxels: the box's trilinear sample at its centre
+            const auto e = table.lookup(finer.sample(cell_center(ci, cj, ck)));
+            for (int q = 0; q < 4; ++q) acc[q] = e[q];
+            n = 1;
+          }
+          for (int k = z0; k < z1; ++k)
+            for (int j = j0; j < j1; ++j)
+              for (int i = i0; i < i1; ++i) {
+                const auto e = table.lookup(finer.value(i, j, k));
+                for (int q = 0; q < 4; ++q) acc[q] += e[q];
+              }
+          const std::size_t idx = cell_index(ci, cj, ck);
+          tau_[idx] = static_cast<float>(acc[0] / n);
+          if (with_colour)
+            for (int q = 0; q < 3; ++q) tau_colour_[idx * 3 + static_cast<std::size_t>(q)] = static_cast<float>(acc[q + 1] / n);
+        }
+  });
+  return static_cast<std::int64_t>(c1[0] - c0[0]) * (c1[1] - c0[1]) * (c1[2] - c0[2]);
 }
 
 template <class Table>

@@ -56,15 +56,25 @@ public:
   // centres it owns), and the bricks' sums are added up before the means are taken, so that every
   // brick holds the whole volume's table (the same up to the order of the double sums).
   // `clip` (optional): the clip planes that cut the volume; each cell keeps the fraction of it they keep.
+  // `finer` (optional, not with `brick`): a box of a finer level of the same volume (a refined view's,
+  // render/view_refinement.h). The cells stay `volume`'s; each cell that lies wholly inside the box's
+  // voxel centres takes the mean of the box's voxels whose centres fall in it, as a table built from
+  // that level in memory would hold there; the others keep `volume`'s means. The extinction is
+  // tabulated over both value ranges.
+  // `cells_over` (optional, not with `brick`): the box the cells divide, when it is not the volume's own —
+  // a pyramid's finest level's voxel centres, which a coarser level's lie inside, so that every level
+  // (and a finer box) shares the cells a table of the finest level has.
   ExtinctionSat(const Volume& volume, const TransferFunction& tf, Compositing compositing, float reference_step,
                 int resolution, bool with_colour, const ParticleSet* spheres = nullptr, const ShadowBrick* brick = nullptr,
-                const ClipPlanes* clip = nullptr);
+                const ClipPlanes* clip = nullptr, const Volume* finer = nullptr, const Box3* cells_over = nullptr);
 
   const std::array<int, 3>& dims() const { return dims_; }
   const Box3& bounds() const { return bounds_; }
   const Vec3& cell_size() const { return cell_; }
   float cell_volume() const { return cell_.x * cell_.y * cell_.z; }
   bool has_colour() const { return !sat_colour_.empty(); }
+  // How many cells took their means from a finer box (the constructor's `finer`); 0 without one.
+  std::int64_t refined_cells() const { return refined_cells_; }
 
   // Continuous cell coordinates of a world point: cell i spans [i, i + 1).
   Vec3 to_cell(const Vec3& p) const {
@@ -109,6 +119,9 @@ private:
   void add_spheres(const ParticleSet& spheres);
   void keep_unclipped(const ClipPlanes& clip);
   // The cells' means from every brick's sums (see the constructor).
+  // The means of `finer`'s voxels in the cells wholly inside its box (see the constructor); the cells refined.
+  template <class Table>
+  std::int64_t cell_means_of_finer(const Volume& finer, const Table& table, bool with_colour);
   template <class Table>
   void cell_means_of_brick(const Volume& volume, const Table& table, const std::array<std::vector<int>, 3>& first_voxel,
                            const ShadowBrick& brick, bool with_colour);
@@ -135,6 +148,7 @@ private:
   Box3 bounds_;
   Vec3 cell_{1, 1, 1};
   int reach_ = 2;
+  std::int64_t refined_cells_ = 0;
   std::vector<float> tau_;          // per cell
   std::vector<float> tau_colour_;   // per cell, 3 channels
   std::vector<double> sat_;         // (dims + 1)³

@@ -133,6 +133,7 @@ std::vector<std::string> Renderer::structures() const {
   if (casters_) names.push_back("casters");
   if (refined_casters_) names.push_back("casters.refined");
   if (sat_) names.push_back("sat");
+  if (refined_sat_) names.push_back("sat.refined");
   if (ambient_) names.push_back("ambient");
   for (std::size_t i = 0; i < shadows_.size(); ++i)
     if (!shadow_assignments(scene_).empty()) names.push_back(indexed("lights", i, "shadows"));
@@ -327,7 +328,8 @@ void Renderer::prepare_isosurfaces(FrameResult& frame) {
   }
 }
 
-std::unique_ptr<ShadowCasters> Renderer::make_casters(std::span<const ShadowCasters::FinerBox> finer, bool refined_surfaces) const {
+std::unique_ptr<ShadowCasters> Renderer::make_casters(std::span<const ShadowCasters::FinerBox> finer, bool refined_surfaces,
+                                                      const ExtinctionSat* sat) const {
   std::vector<const MacrocellGrid*> grids(scene_.volumes.size(), nullptr);
   for (std::size_t k = 0; k < volumes_.size(); ++k) grids[static_cast<std::size_t>(volume_index_[k])] = &volumes_[k]->grid;
   auto casters = std::make_unique<ShadowCasters>(settings_, grids, finer);
@@ -351,7 +353,7 @@ std::unique_ptr<ShadowCasters> Renderer::make_casters(std::span<const ShadowCast
     casters->add_isosurface(isosurfaces_[i]->raycaster, *isosurfaces_[i]->tree, static_cast<std::uint32_t>(i),
                             scene_.clip_planes_for(scene_.isosurfaces[i].clip), finer_surface);
   }
-  if (sat_) casters->attach_extinction_sat(sat_.get());
+  if (sat) casters->attach_extinction_sat(sat);
   return casters;
 }
 
@@ -360,7 +362,7 @@ void Renderer::light_structures_stale() {
   for (std::size_t l = 0; l < scene_.lights.size(); ++l) stale_.insert(indexed("lights", l, "shadows"));
 }
 
-bool Renderer::update_refined_casters() {
+bool Renderer::update_refined_casters(FrameResult& frame) {
   std::vector<ShadowCasters::FinerBox> finer(scene_.volumes.size());
   bool any = false;
   for (std::size_t k = 0; k < refined_.size() && k < volumes_.size(); ++k)
@@ -372,12 +374,36 @@ bool Renderer::update_refined_casters() {
   if (!any) {
     const bool had = refined_casters_ != nullptr;
     refined_casters_.reset();
+    refined_sat_.reset();
     return had;
   }
   if (refined_casters_ && !refined_changed_) return false;
-  refined_casters_ = make_casters(finer, true);
+  Timer t;
+  refined_sat_ = refined_extinction_sat(finer);
+  if (refined_sat_) {
+    frame.sat_ms += t.elapsed_ms();
+    rebuilt("sat.refined", Quality::Full, frame);
+  }
+  refined_casters_ = make_casters(finer, true, refined_sat_ ? refined_sat_.get() : sat_.get());
   refined_changed_ = false;
   return true;
+}
+
+std::unique_ptr<ExtinctionSat> Renderer::refined_extinction_sat(std::span<const ShadowCasters::FinerBox> finer) const {
+  const VolumeObject* v = sat_ ? scene_.visible_volume() : nullptr;
+  if (!v || frame_brick_) return nullptr;
+  const auto i = static_cast<std::size_t>(v - scene_.volumes.data());
+  if (i >= finer.size() || !finer[i].object) return nullptr;
+  const std::optional<Box3> cells = sat_cells(*v);
+  return std::make_unique<ExtinctionSat>(*v->volume, v->shadow_tf(), v->compositing, v->reference_step(), settings_.light_cache.resolution,
+                                         needs_extinction_colour(scene_), casting_particles_.get(), nullptr,
+                                         &scene_.clip_planes_for(v->clip), finer[i].object->volume.get(), cells ? &*cells : nullptr);
+}
+
+std::optional<Box3> Renderer::sat_cells(const VolumeObject& v) const {
+  // a pyramid's levels share the cells of its finest level (a distributed brick keeps its own)
+  if (!v.pyramid || v.volume->is_window() || frame_brick_) return std::nullopt;
+  return pyramid_bounds(*v.pyramid, *v.volume);
 }
 
 std::size_t Renderer::voxel_count() const {
@@ -452,6 +478,7 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
     // next leaves no light structure pointing into it; a preview then builds them from the opened level)
     auto undraw = [&] {
       refined_casters_.reset();
+      refined_sat_.reset();
       light_structures_stale();
     };
     auto set_aside = [&] {  // kept, most recently drawn, for a view that comes back
@@ -734,9 +761,11 @@ void Renderer::prepare(Quality quality, const Camera* refine_for, FrameResult& f
       if (!v) throw Error("shadows.technique / ambient.technique: the extinction techniques need a visible volume");
       Timer t;
       // the casting spheres enter the table too (approximate ambient occlusion and cone shadows by spheres)
+      const std::optional<Box3> cells = sat_cells(*v);
       sat_ = std::make_unique<ExtinctionSat>(*v->volume, v->shadow_tf(), v->compositing, v->reference_step(),
                                              settings_.light_cache.resolution, needs_extinction_colour(scene_),
-                                             casting_particles_.get(), frame_brick_, &scene_.clip_planes_for(v->clip));
+                                             casting_particles_.get(), frame_brick_, &scene_.clip_planes_for(v->clip), nullptr,
+                                             cells ? &*cells : nullptr);
       sat_slab_ = sat_slab;
       frame.sat_ms = t.elapsed_ms();
       rebuilt("sat", quality, frame);
@@ -744,14 +773,15 @@ void Renderer::prepare(Quality quality, const Camera* refine_for, FrameResult& f
     stale_.erase("sat");
   }
   if (stale("casters") || !casters_) {
-    casters_ = make_casters({}, false);
+    casters_ = make_casters({}, false, sat_.get());
     refined_casters_.reset();
+    refined_sat_.reset();
     rebuilt("casters", quality, frame);
     light_structures_stale();
   }
   // a full frame casts from the refined boxes held (a preview from the opened levels, keeping what a
   // full frame built while nothing it casts changes)
-  if (quality == Quality::Full && update_refined_casters()) {
+  if (quality == Quality::Full && update_refined_casters(frame)) {
     if (refined_casters_) rebuilt("casters.refined", quality, frame);
     light_structures_stale();
   }

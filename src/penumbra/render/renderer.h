@@ -123,7 +123,9 @@ public:
   const Scene& scene() const { return scene_; }
   std::size_t shadow_memory_bytes() const;
   std::size_t ambient_memory_bytes() const { return ambient_ ? ambient_->memory_bytes() : 0; }
-  std::size_t sat_memory_bytes() const { return sat_ ? sat_->memory_bytes() : 0; }
+  std::size_t sat_memory_bytes() const {
+    return (sat_ ? sat_->memory_bytes() : 0) + (refined_sat_ ? refined_sat_->memory_bytes() : 0);
+  }
   // The packed light cache (a copy of the ambient and cached lights' terms), when the frame uses one.
   std::size_t light_cache_memory_bytes() const { return light_cache_ ? light_cache_->memory_bytes() : 0; }
   std::size_t voxel_count() const;
@@ -165,9 +167,16 @@ private:
   void give_up_kept_boxes(std::uint64_t room, FrameResult& frame);
   // The casters over the opened levels, or with `finer` the refined boxes where the volumes have them,
   // and with `refined_surfaces` the isosurfaces' refined boxes (their light pass extracts from them).
-  std::unique_ptr<ShadowCasters> make_casters(std::span<const ShadowCasters::FinerBox> finer, bool refined_surfaces) const;
+  std::unique_ptr<ShadowCasters> make_casters(std::span<const ShadowCasters::FinerBox> finer, bool refined_surfaces,
+                                              const ExtinctionSat* sat) const;
+  // The extinction SAT of a full frame whose visible volume is drawn from a refined box: the opened
+  // level's cells, those inside the box summed from its voxels (null when there is no SAT or no box).
+  std::unique_ptr<ExtinctionSat> refined_extinction_sat(std::span<const ShadowCasters::FinerBox> finer) const;
+  // The box the extinction SAT's cells divide for a volume: its pyramid's finest level's (none: its own).
+  std::optional<Box3> sat_cells(const VolumeObject& v) const;
   // A full frame's casters: refined_casters_ built (or dropped) for the boxes held; true when changed.
-  bool update_refined_casters();
+  // The extinction SAT is refined with them ("sat.refined" in `frame`'s rebuilt list, its time in sat_ms).
+  bool update_refined_casters(FrameResult& frame);
   // The ambient technique and every light's shadows, to be built again (the casters changed).
   void light_structures_stale();
   // The casters this frame's light structures are built from: a full frame's refined ones where held.
@@ -231,6 +240,7 @@ private:
   // casters_ with the refined boxes (full frames' light structures; null when no box is held or casters_
   // changed since; dropped with a box given up); refined_changed_: a box was loaded since they were built
   std::unique_ptr<ShadowCasters> refined_casters_;
+  std::unique_ptr<ExtinctionSat> refined_sat_;  // the SAT refined_casters_ carry when the visible volume has a box
   bool refined_changed_ = false;
   std::unique_ptr<ShadowCasters> occluders_;              // the ambient technique's kinds
   std::unique_ptr<ExtinctionSat> sat_;
