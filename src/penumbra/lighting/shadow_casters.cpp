@@ -8,6 +8,7 @@ namespace penumbra {
 CastingVolume::CastingVolume(const VolumeObject& o, const MacrocellGrid& g, float step, const ClipPlanes& clip_planes)
     : volume(o.volume.get()),
       box(o.volume->bounds()),
+      extent(o.pyramid && !o.volume->is_window() ? o.pyramid->bounds(*o.volume) : box),
       lut(o.shadow_tf(), o.volume->min_value(), o.volume->max_value(), step / o.reference_step(), 4096, o.compositing),
       grid(&g),
       empty(g.empty_cells(lut)),

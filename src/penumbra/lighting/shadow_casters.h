@@ -63,6 +63,9 @@ struct CastingVolume {
   CastingVolume(const VolumeObject& object, const MacrocellGrid& grid, float step, const ClipPlanes& clip);
   const Volume* volume;
   Box3 box;
+  // The box, and for a pyramid's opened level its finest level's too: what particle AO's density grid
+  // covers, so that its cells lie as they do over the finest level in memory.
+  Box3 extent;
   TransferLut lut;
   const MacrocellGrid* grid;
   std::vector<std::uint8_t> empty;

@@ -83,7 +83,10 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
   // spheres split over bricks: their densities add (the spheres' bounds are already every brick's)
   const ShadowBrick* brick = occluders.brick();
   BrickReduction* reduction = brick && brick->own_spheres ? brick->reduction : nullptr;
-  Box3 b = occluders.bounds();  // the spheres' and the volumes' box
+  // the spheres' and the volumes' box (a pyramid's finest level's too: its cells are those of the
+  // finest level in memory, whichever level is opened)
+  Box3 b = occluders.bounds();
+  for (const auto& cv : occluders.volumes()) b.extend(cv->extent);
   if (b.empty()) b = Box3{{-1, -1, -1}, {1, 1, 1}};
   const Vec3 e = b.extent();
   const float longest = std::max(e.x, std::max(e.y, e.z));
@@ -199,7 +202,8 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
     }
   }, 1 << 14);
   // The volumes' opacity across one cell, from their shadow transfer functions at the cell centre
-  // (opacity per shadow step Δ, so 1 − (1 − α)^(cell/Δ)), composed with the spheres'. Split over
+  // (opacity per shadow step Δ, so 1 − (1 − α)^(cell/Δ); in a full frame's refined box, the box's
+  // sample), composed with the spheres'. Split over
   // bricks, each brick composes the cells whose centres its slab owns (its voxels reach them) and
   // leaves 0 in the others; the sum over the bricks is then every cell's value, exactly.
   if (occluders.has_volume()) {
@@ -217,7 +221,8 @@ void ParticleAmbientOcclusion::build(const ShadowCasters& occluders) {
             float clear = 1.0f - value;
             for (const auto& cv : occluders.volumes()) {
               if (!cv->box.contains(p) || cv->clip.removes(p)) continue;
-              const float a = cv->lut.lookup(cv->volume->sample_voxel(cv->volume->to_voxel(p))).a;
+              const CastingVolume& at = cv->finer && cv->finer->box.contains(p) ? *cv->finer : *cv;  // a refined box where it lies
+              const float a = at.lut.lookup(at.volume->sample_voxel(at.volume->to_voxel(p))).a;
               if (a > 0) clear *= std::pow(1.0f - std::min(a, 0.9999f), steps_per_cell);
             }
             value = 1.0f - clear;

@@ -403,7 +403,7 @@ std::unique_ptr<ExtinctionSat> Renderer::refined_extinction_sat(std::span<const 
 std::optional<Box3> Renderer::sat_cells(const VolumeObject& v) const {
   // a pyramid's levels share the cells of its finest level (a distributed brick keeps its own)
   if (!v.pyramid || v.volume->is_window() || frame_brick_) return std::nullopt;
-  return pyramid_bounds(*v.pyramid, *v.volume);
+  return v.pyramid->bounds(*v.volume);
 }
 
 std::size_t Renderer::voxel_count() const {
@@ -503,7 +503,7 @@ std::uint64_t Renderer::refine_volumes(const Camera& camera, FrameResult& frame)
     stats.opened_level = stats.level = pyramid.opened;
     // one volume may be refined in its near part only (the ray caster draws the rest from the opened
     // level); beside others the box replaces the volume in the eye pass, so it must hold all it shows
-    const std::optional<RefinementChoice> choice = choose_refinement(camera, pyramid, pyramid_bounds(pyramid, *o.volume), left,
+    const std::optional<RefinementChoice> choice = choose_refinement(camera, pyramid, pyramid.bounds(*o.volume), left,
                                                                      volumes_[k]->gradients_stored(), volumes_.size() == 1);
     auto serves = [&](const RefinedVolume& box) { return box_serves(box.box(), box.held_bytes(), pyramid, choice, left); };
     const bool keep = held && serves(*held);
@@ -644,7 +644,7 @@ void Renderer::refine_isosurfaces(const Camera& camera, std::uint64_t left, Fram
       const double voxel = static_cast<double>(scalar_size(pyramid.type));
       const auto for_voxels = static_cast<std::uint64_t>(static_cast<double>(left) * voxel / (voxel + 0.15));
       const std::optional<RefinementChoice> choice =
-          choose_refinement(camera, pyramid, pyramid_bounds(pyramid, *o.volume), for_voxels, false, true);
+          choose_refinement(camera, pyramid, pyramid.bounds(*o.volume), for_voxels, false, true);
       const bool keep = found != refined_surfaces_.end() && found->second.own && found->second.key == pyramid.key &&
                         box_serves(found->second.box, found->second.held_bytes(), pyramid, choice, left);
       std::optional<FailedRefinement>& failed = surface_refine_failures_[i];

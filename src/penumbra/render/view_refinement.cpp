@@ -164,15 +164,6 @@ std::optional<RefinementChoice> choose_refinement(const Camera& camera, const Py
   return best;
 }
 
-Box3 pyramid_bounds(const PyramidSource& pyramid, const Volume& opened) {
-  Box3 b = opened.bounds();
-  const PyramidSource::Level& finest = pyramid.levels.front();
-  const Vec3 last{static_cast<float>(finest.dims[0] - 1), static_cast<float>(finest.dims[1] - 1), static_cast<float>(finest.dims[2] - 1)};
-  b.extend(finest.origin);
-  b.extend(finest.origin + finest.spacing * last);
-  return b;
-}
-
 nlohmann::json refinement_json(const std::vector<RefinementStats>& refinement) {
   nlohmann::json out = nlohmann::json::array();
   for (const RefinementStats& r : refinement) {

@@ -89,8 +89,6 @@ struct RefinementChoice {
 };
 std::optional<RefinementChoice> choose_refinement(const Camera& camera, const PyramidSource& pyramid, const Box3& volume_box,
                                                   std::uint64_t bytes, bool gradients, bool cut_depth);
-// The world box of a pyramid: its opened level's (`opened`, the volume held) and its finest's together.
-Box3 pyramid_bounds(const PyramidSource& pyramid, const Volume& opened);
 
 // What one full frame's refinement of one volume did (FrameResult::refinement, `--stats`).
 struct RefinementStats {

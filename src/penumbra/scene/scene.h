@@ -69,6 +69,10 @@ struct PyramidSource {
   std::function<Volume(int level, const std::array<std::int64_t, 3>& lo, const std::array<std::int64_t, 3>& hi, WindowRead* read,
                        const HeldBox* held)>
       read_box;
+
+  // The world box of the pyramid: its opened level's (`opened`, the volume held) and its finest's
+  // together (a coarser level's voxel centres reach half a voxel further than the finest's).
+  Box3 bounds(const Volume& opened) const;
 };
 
 struct VolumeObject : ShadowFlags {
