@@ -203,34 +203,42 @@ std::int64_t ExtinctionSat::cell_means_of_finer(const Volume& finer, const Table
     for (int c = dims_[a] - 1; c >= 0; --c)
       fv[static_cast<std::size_t>(c)] = std::min(fv[static_cast<std::size_t>(c)], fv[static_cast<std::size_t>(c) + 1]);
   }
-  auto run = [&](int a, int c) {
-    return std::pair{first_voxel[a][static_cast<std::size_t>(c)], first_voxel[a][static_cast<std::size_t>(c) + 1]};
-  };
+  // Per slab of cells along z, the box's rows in memory order (as the constructor sums the volume's),
+  // each voxel added to its cell's sums.
+  const int nx = c1[0] - c0[0], ny = c1[1] - c0[1];
   parallel_for(static_cast<std::size_t>(c1[2] - c0[2]), [&](std::size_t k0, std::size_t k1) {
-    for (int ck = c0[2] + static_cast<int>(k0); ck < c0[2] + static_cast<int>(k1); ++ck)
+    std::vector<double> acc(static_cast<std::size_t>(nx) * ny * 4);
+    for (int ck = c0[2] + static_cast<int>(k0); ck < c0[2] + static_cast<int>(k1); ++ck) {
+      std::fill(acc.begin(), acc.end(), 0.0);
+      const int z0 = first_voxel[2][static_cast<std::size_t>(ck)], z1 = first_voxel[2][static_cast<std::size_t>(ck) + 1];
+      for (int k = z0; k < z1; ++k)
+        for (int cj = c0[1]; cj < c1[1]; ++cj)
+          for (int j = first_voxel[1][static_cast<std::size_t>(cj)]; j < first_voxel[1][static_cast<std::size_t>(cj) + 1]; ++j)
+            for (int ci = c0[0]; ci < c1[0]; ++ci) {
+              double* a = &acc[(static_cast<std::size_t>(cj - c0[1]) * nx + static_cast<std::size_t>(ci - c0[0])) * 4];
+              for (int i = first_voxel[0][static_cast<std::size_t>(ci)]; i < first_voxel[0][static_cast<std::size_t>(ci) + 1]; ++i) {
+                const auto e = table.lookup(finer.value(i, j, k));
+                for (int q = 0; q < 4; ++q) a[q] += e[q];
+              }
+            }
       for (int cj = c0[1]; cj < c1[1]; ++cj)
         for (int ci = c0[0]; ci < c1[0]; ++ci) {
-          const auto [i0, i1] = run(0, ci);
-          const auto [j0, j1] = run(1, cj);
-          const auto [z0, z1] = run(2, ck);
-          std::array<double, 4> acc{0, 0, 0, 0};
-          double n = static_cast<double>(i1 - i0) * (j1 - j0) * (z1 - z0);
+          const double* a = &acc[(static_cast<std::size_t>(cj - c0[1]) * nx + static_cast<std::size_t>(ci - c0[0])) * 4];
+          const double n = static_cast<double>(first_voxel[0][static_cast<std::size_t>(ci) + 1] - first_voxel[0][static_cast<std::size_t>(ci)]) *
+                           (first_voxel[1][static_cast<std::size_t>(cj) + 1] - first_voxel[1][static_cast<std::size_t>(cj)]) * (z1 - z0);
+          std::array<double, 4> mean{};
           if (n == 0) {  // a cell finer than the box's voxels: the box's trilinear sample at its centre
             const auto e = table.lookup(finer.sample(cell_center(ci, cj, ck)));
-            for (int q = 0; q < 4; ++q) acc[q] = e[q];
-            n = 1;
+            for (int q = 0; q < 4; ++q) mean[q] = e[q];
+          } else {
+            for (int q = 0; q < 4; ++q) mean[q] = a[q] / n;
           }
-          for (int k = z0; k < z1; ++k)
-            for (int j = j0; j < j1; ++j)
-              for (int i = i0; i < i1; ++i) {
-                const auto e = table.lookup(finer.value(i, j, k));
-                for (int q = 0; q < 4; ++q) acc[q] += e[q];
-              }
           const std::size_t idx = cell_index(ci, cj, ck);
-          tau_[idx] = static_cast<float>(acc[0] / n);
+          tau_[idx] = static_cast<float>(mean[0]);
           if (with_colour)
-            for (int q = 0; q < 3; ++q) tau_colour_[idx * 3 + static_cast<std::size_t>(q)] = static_cast<float>(acc[q + 1] / n);
+            for (int q = 0; q < 3; ++q) tau_colour_[idx * 3 + static_cast<std::size_t>(q)] = static_cast<float>(mean[q + 1]);
         }
+    }
   });
   return static_cast<std::int64_t>(c1[0] - c0[0]) * (c1[1] - c0[1]) * (c1[2] - c0[2]);
 }
