@@ -330,6 +330,17 @@ Scene narrow_ball_scene(const std::string& store, std::uint64_t budget, float fo
   return build_scene(j, "");
 }
 
+// A full frame drawn from a refined box against the frame of the finest level in memory: equal within
+// `max_abs` and not blank (the images kept under `label` when it fails); the difference is printed.
+void expect_refined_equals_memory(const Image& refined, const Image& in_memory, double max_abs, const std::string& label) {
+  FailureImages keep;
+  keep.add(label, refined, in_memory);
+  const ImageDifference error = compare_images(refined, in_memory);
+  std::printf("[measure] %s: max %.4f, rmse %.5f against level 0 in memory\n", label.c_str(), error.max_abs, error.rmse);
+  EXPECT_LT(error.max_abs, max_abs) << "rmse " << error.rmse;
+  EXPECT_TRUE(non_trivial(refined));
+}
+
 }  // namespace
 
 // A pyramid opened at a coarse level under a budget draws a close view, in full frames, from the
@@ -634,13 +645,7 @@ TEST(ViewRefinement, TheExtinctionTableIsRefinedInTheBox) {
   ASSERT_EQ(full.refinement.size(), 1u);
   EXPECT_EQ(full.refinement.front().level, 0);
   EXPECT_NE(std::find(full.rebuilt.begin(), full.rebuilt.end(), "sat.refined"), full.rebuilt.end());
-  const Image in_memory = Renderer(scene(0)).render().image;
-  FailureImages keep;
-  keep.add("refined_sat", full.image, in_memory);
-  const ImageDifference error = compare_images(full.image, in_memory);
-  std::printf("[measure] sat_cone + sat_shells, refined box: max %.4f, rmse %.4f against level 0 in memory\n", error.max_abs, error.rmse);
-  EXPECT_LT(error.max_abs, 1e-3) << "rmse " << error.rmse;
-  EXPECT_TRUE(non_trivial(full.image));
+  expect_refined_equals_memory(full.image, Renderer(scene(0)).render().image, 1e-3, "refined_sat");
 
   FrameRequest preview;
   preview.quality = Quality::Preview;
@@ -684,13 +689,7 @@ TEST(ViewRefinement, ParticleAmbientOcclusionSamplesTheRefinedBox) {
   const FrameResult full = Renderer(coarse_scene).render();
   ASSERT_EQ(full.refinement.size(), 1u);
   EXPECT_EQ(full.refinement.front().level, 0);
-  const Image in_memory = Renderer(scene(0)).render().image;
-  FailureImages keep;
-  keep.add("refined_particle_ao", full.image, in_memory);
-  const ImageDifference error = compare_images(full.image, in_memory);
-  std::printf("[measure] particle_ao beside a refined box: max %.4f, rmse %.5f against level 0 in memory\n", error.max_abs, error.rmse);
-  EXPECT_LT(error.max_abs, 1e-4) << "rmse " << error.rmse;
-  EXPECT_TRUE(non_trivial(full.image));
+  expect_refined_equals_memory(full.image, Renderer(scene(0)).render().image, 1e-4, "refined_particle_ao");
 }
 
 // A full frame cancelled at any moment — before, while or after its box is read — leaves nothing half

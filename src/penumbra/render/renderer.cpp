@@ -394,16 +394,17 @@ std::unique_ptr<ExtinctionSat> Renderer::refined_extinction_sat(std::span<const 
   if (!v || frame_brick_) return nullptr;
   const auto i = static_cast<std::size_t>(v - scene_.volumes.data());
   if (i >= finer.size() || !finer[i].object) return nullptr;
-  const std::optional<Box3> cells = sat_cells(*v);
-  return std::make_unique<ExtinctionSat>(*v->volume, v->shadow_tf(), v->compositing, v->reference_step(), settings_.light_cache.resolution,
-                                         needs_extinction_colour(scene_), casting_particles_.get(), nullptr,
-                                         &scene_.clip_planes_for(v->clip), finer[i].object->volume.get(), cells ? &*cells : nullptr);
+  return make_extinction_sat(*v, finer[i].object->volume.get());
 }
 
-std::optional<Box3> Renderer::sat_cells(const VolumeObject& v) const {
-  // a pyramid's levels share the cells of its finest level (a distributed brick keeps its own)
-  if (!v.pyramid || v.volume->is_window() || frame_brick_) return std::nullopt;
-  return v.pyramid->bounds(*v.volume);
+std::unique_ptr<ExtinctionSat> Renderer::make_extinction_sat(const VolumeObject& v, const Volume* finer) const {
+  // a pyramid's levels share the cells of its finest level (a distributed brick keeps its own); the
+  // casting spheres enter the table too (approximate ambient occlusion and cone shadows by spheres)
+  std::optional<Box3> cells;
+  if (v.pyramid && !v.volume->is_window() && !frame_brick_) cells = v.pyramid->bounds(*v.volume);
+  return std::make_unique<ExtinctionSat>(*v.volume, v.shadow_tf(), v.compositing, v.reference_step(), settings_.light_cache.resolution,
+                                         needs_extinction_colour(scene_), casting_particles_.get(), frame_brick_,
+                                         &scene_.clip_planes_for(v.clip), finer, cells ? &*cells : nullptr);
 }
 
 std::size_t Renderer::voxel_count() const {
@@ -760,12 +761,7 @@ void Renderer::prepare(Quality quality, const Camera* refine_for, FrameResult& f
       const VolumeObject* v = scene_.visible_volume();
       if (!v) throw Error("shadows.technique / ambient.technique: the extinction techniques need a visible volume");
       Timer t;
-      // the casting spheres enter the table too (approximate ambient occlusion and cone shadows by spheres)
-      const std::optional<Box3> cells = sat_cells(*v);
-      sat_ = std::make_unique<ExtinctionSat>(*v->volume, v->shadow_tf(), v->compositing, v->reference_step(),
-                                             settings_.light_cache.resolution, needs_extinction_colour(scene_),
-                                             casting_particles_.get(), frame_brick_, &scene_.clip_planes_for(v->clip), nullptr,
-                                             cells ? &*cells : nullptr);
+      sat_ = make_extinction_sat(*v, nullptr);
       sat_slab_ = sat_slab;
       frame.sat_ms = t.elapsed_ms();
       rebuilt("sat", quality, frame);

@@ -172,8 +172,9 @@ private:
   // The extinction SAT of a full frame whose visible volume is drawn from a refined box: the opened
   // level's cells, those inside the box summed from its voxels (null when there is no SAT or no box).
   std::unique_ptr<ExtinctionSat> refined_extinction_sat(std::span<const ShadowCasters::FinerBox> finer) const;
-  // The box the extinction SAT's cells divide for a volume: its pyramid's finest level's (none: its own).
-  std::optional<Box3> sat_cells(const VolumeObject& v) const;
+  // The extinction SAT of volume `v` (with `finer`, a refined box's means in the cells inside it), its
+  // cells dividing a pyramid's finest level's box.
+  std::unique_ptr<ExtinctionSat> make_extinction_sat(const VolumeObject& v, const Volume* finer) const;
   // A full frame's casters: refined_casters_ built (or dropped) for the boxes held; true when changed.
   // The extinction SAT is refined with them ("sat.refined" in `frame`'s rebuilt list, its time in sat_ms).
   bool update_refined_casters(FrameResult& frame);
