@@ -98,8 +98,8 @@ const VolumeObject* Scene::visible_volume() const {
   return nullptr;
 }
 
-Box3 PyramidSource::bounds(const Volume& opened) const {
-  Box3 b = opened.bounds();
+Box3 PyramidSource::bounds(const Volume& held) const {
+  Box3 b = held.bounds();
   const Level& finest = levels.front();
   const Vec3 last{static_cast<float>(finest.dims[0] - 1), static_cast<float>(finest.dims[1] - 1), static_cast<float>(finest.dims[2] - 1)};
   b.extend(finest.origin);

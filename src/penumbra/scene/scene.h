@@ -70,9 +70,9 @@ struct PyramidSource {
                        const HeldBox* held)>
       read_box;
 
-  // The world box of the pyramid: its opened level's (`opened`, the volume held) and its finest's
-  // together (a coarser level's voxel centres reach half a voxel further than the finest's).
-  Box3 bounds(const Volume& opened) const;
+  // The world box of the pyramid: its opened level's (`held`, the volume the scene holds) and its
+  // finest's together (a coarser level's voxel centres reach half a voxel further than the finest's).
+  Box3 bounds(const Volume& held) const;
 };
 
 struct VolumeObject : ShadowFlags {
